@@ -1,0 +1,55 @@
+// fillInterior: any surface in, a filled VolumeCloud out (paper §4).
+//  - closed meshes: exact ray-parity inside test at every lattice point;
+//  - 3D Gaussians: the PhysGaussian density method (density_fill.h);
+//  - point clouds and open meshes: the same density method on isotropic splats of the points
+//    (or of samples on the triangles), with the leak check that refuses open surfaces.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+
+#include "topo_gaussian/geometry/density_fill.h"
+#include "topo_gaussian/geometry/mesh_fill.h"
+#include "topo_gaussian/geometry/surface_data.h"
+#include "topo_gaussian/physics/volume_cloud.h"
+
+namespace topo_gaussian::geometry {
+
+struct FillOptions {
+  double spacing_m = 0.0;            ///< lattice spacing [m]; 0 → chosen from target_count
+  std::size_t target_count = 50000;  ///< particles wanted when spacing_m is 0 (met within ~15 %)
+  double jitter = 0.0;               ///< random offset of each particle, fraction of the spacing (0..0.5)
+  unsigned seed = 1;                 ///< for the jitter
+  int grid_resolution = 0;           ///< density grid cells along the longest side; 0 = lattice spacing
+  DensityFillOptions density;        ///< PhysGaussian parameters (Gaussians, points, open meshes)
+  /// Largest fraction of the ray-filled interior allowed to leak to the outside through gaps in
+  /// the surface; above it the fill is refused with an error that says how open the surface is.
+  double max_open_fraction = 0.05;
+  double max_cells = 2.5e8;          ///< refuse lattices (and density grids) with more cells than this
+};
+
+struct FillReport {
+  std::string method;                ///< mesh-parity | gaussian-density | point-density | mesh-sample-density
+  std::size_t points_in = 0;
+  std::size_t triangles_in = 0;
+  std::size_t particles_out = 0;
+  std::size_t surface_particles = 0;
+  double spacing_m = 0.0;
+  double total_volume_m3 = 0.0;
+  Eigen::Vector3d bbox_min = Eigen::Vector3d::Zero(), bbox_max = Eigen::Vector3d::Zero();  ///< of the input
+  double open_fraction = 0.0;        ///< leaked / ray-filled cells (density methods), 0 for closed meshes
+  MeshTopology topology;             ///< meshes only
+  std::size_t dense_cells = 0, ray_filled_cells = 0, leaked_cells = 0;
+  int closing_cells = 0;             ///< closing radius used (density methods)
+  double seconds = 0.0;
+};
+
+/// Throws TopoError naming surface.source for: no points, fewer than 4 points, zero extent, a
+/// spacing that would exceed max_cells, an open surface beyond max_open_fraction, or a surface
+/// that encloses no volume at this spacing.
+VolumeCloud fillInterior(const SurfaceData& surface, const FillOptions& options, FillReport* report = nullptr);
+
+/// Checks the options alone (ranges, direction codes); throws TopoError naming `what`.
+void validateFillOptions(const FillOptions& options, const std::string& what);
+
+}  // namespace topo_gaussian::geometry

@@ -1,0 +1,29 @@
+// Exact inside test of a closed triangle mesh on a lattice (ray parity along z columns with
+// simulation-of-simplicity tie breaking), and the mesh's topology check (is it closed?).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "topo_gaussian/geometry/lattice.h"
+#include "topo_gaussian/geometry/surface_data.h"
+
+namespace topo_gaussian::geometry {
+
+struct MeshTopology {
+  std::size_t edges = 0;             ///< distinct undirected edges
+  std::size_t boundary_edges = 0;    ///< used by one triangle: the surface is open there
+  std::size_t nonmanifold_edges = 0; ///< used by three or more triangles
+  double boundary_length = 0.0;      ///< summed length of boundary edges [m]
+  bool closed() const { return boundary_edges == 0; }
+  double openFraction() const { return edges ? double(boundary_edges) / double(edges) : 0.0; }
+};
+
+MeshTopology analyseMesh(const SurfaceData& mesh);
+
+/// 1 for every lattice cell whose centre is inside the mesh (odd number of crossings of the
+/// upward ray). Exact for closed meshes: a centre on an edge or vertex in projection is assigned to
+/// exactly one triangle. Parallel over columns.
+std::vector<std::uint8_t> meshInsideParity(const SurfaceData& mesh, const Lattice& lattice);
+
+}  // namespace topo_gaussian::geometry

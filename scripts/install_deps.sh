@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages topo_gaussian needs (ROS 1 from Debian, PCL, OpenCV, Eigen, ...).
+# Idempotent: installs only what is missing; does nothing (and needs no network) when all is there.
+set -euo pipefail
+
+PACKAGES=(
+  build-essential cmake pkg-config
+  ros-core-dev catkin python3-catkin-pkg python3-rostest ros-message-generation
+  libroscpp-dev libactionlib-dev libactionlib-msgs-dev libtf2-ros-dev
+  libsensor-msgs-dev libvisualization-msgs-dev libgeometry-msgs-dev
+  libpcl-dev libpcl-ros-dev libpcl-conversions-dev libcv-bridge-dev libopencv-dev
+  libeigen3-dev libnlopt-cxx-dev libyaml-cpp-dev libgtest-dev
+  libopenmpi-dev
+  clang libclang-rt-14-dev
+  python3-numpy
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "[install_deps] all ${#PACKAGES[@]} packages already installed"
+  exit 0
+fi
+
+echo "[install_deps] installing ${#missing[@]} missing packages: ${missing[*]}"
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then
+  command -v sudo >/dev/null || { echo "[install_deps] not root and no sudo: install as root: ${missing[*]}" >&2; exit 1; }
+  SUDO="sudo"
+fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -q
+$SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
+echo "[install_deps] done"

@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# Builds and runs every unit test, rostest and the bounded fuzz run of a configured build dir,
+# then prints the verdict from the JUnit results: a line "N passed, N failed". Exit 1 if any failed.
+set -uo pipefail
+export PATH=/usr/bin:$PATH
+BUILD=${1:-build}
+JOBS=${JOBS:-$(nproc)}
+
+rm -rf "$BUILD/test_results"
+cmake --build "$BUILD" --target tests -j"$JOBS" || { echo "[run_tests] building the tests failed"; echo "0 passed, 1 failed"; exit 1; }
+# run_tests exits 0 even when tests fail: the verdict comes from catkin_test_results below.
+cmake --build "$BUILD" --target run_tests -j1 2>&1 | tee "$BUILD/run_tests.log" | grep -E "^\[( +OK|  FAILED|  PASSED|  SKIPPED|==========)|\[ROSTEST\]|FAILURE|\[fuzz\]|\[testcase\]" || true
+
+summary=$(catkin_test_results --verbose "$BUILD/test_results" 2>&1)
+echo "$summary" | grep -vE "^\s*$" | tail -n 40
+line=$(echo "$summary" | grep -E "^Summary:" | tail -n 1)
+tests=$(echo "$line" | sed -nE 's/.* ([0-9]+) tests.*/\1/p')
+errors=$(echo "$line" | sed -nE 's/.* ([0-9]+) errors.*/\1/p')
+failures=$(echo "$line" | sed -nE 's/.* ([0-9]+) failures.*/\1/p')
+skipped=$(echo "$line" | sed -nE 's/.* ([0-9]+) skipped.*/\1/p')
+tests=${tests:-0}; errors=${errors:-0}; failures=${failures:-0}; skipped=${skipped:-0}
+# A test binary that crashed writes no result file: count the missing ones as failures.
+missing=$(grep -cE "MISSING-RESULT|did not generate|Cannot find results" "$BUILD/run_tests.log" || true)
+failed=$((errors + failures + missing))
+passed=$((tests - errors - failures - skipped))
+if [ "$tests" -eq 0 ]; then failed=$((failed + 1)); echo "[run_tests] no test results were written"; fi
+echo "$passed passed, $failed failed, $skipped skipped"
+[ "$failed" -eq 0 ]

@@ -1,0 +1,234 @@
+#include "topo_gaussian/ros/cloud_ingest.h"
+
+#include <cmath>
+#include <exception>
+#include <limits>
+#include <sstream>
+
+#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/ros/conversions.h"
+
+namespace topo_gaussian::topo_ros {
+
+namespace {
+
+std::string num(double v) {
+  std::ostringstream s;
+  s.precision(6);
+  s << v;
+  return s.str();
+}
+
+/// "~name (/resolved/name)" for messages.
+std::string paramName(const ::ros::NodeHandle& pnh, const std::string& name) {
+  return "~" + name + " (" + pnh.resolveName(name) + ")";
+}
+
+std::string typeName(const XmlRpc::XmlRpcValue& v) {
+  switch (v.getType()) {
+    case XmlRpc::XmlRpcValue::TypeBoolean: return "a boolean";
+    case XmlRpc::XmlRpcValue::TypeInt: return "an integer";
+    case XmlRpc::XmlRpcValue::TypeDouble: return "a number";
+    case XmlRpc::XmlRpcValue::TypeString: return "a string";
+    case XmlRpc::XmlRpcValue::TypeArray: return "a list";
+    case XmlRpc::XmlRpcValue::TypeStruct: return "a dictionary";
+    default: return "of another type";
+  }
+}
+
+[[noreturn]] void wrongType(const ::ros::NodeHandle& pnh, const std::string& name, const std::string& want) {
+  XmlRpc::XmlRpcValue v;
+  pnh.getParam(name, v);
+  throw TopoError(paramName(pnh, name), "is " + typeName(v) + ", not " + want, "set it to " + want);
+}
+
+double getDouble(const ::ros::NodeHandle& pnh, const std::string& name, double fallback) {
+  if (!pnh.hasParam(name)) return fallback;
+  double v = fallback;
+  if (!pnh.getParam(name, v)) wrongType(pnh, name, "a number");  // ints are accepted as numbers
+  if (!std::isfinite(v)) throw TopoError(paramName(pnh, name), "is " + num(v), "give a finite number");
+  return v;
+}
+
+long getInt(const ::ros::NodeHandle& pnh, const std::string& name, long fallback) {
+  XmlRpc::XmlRpcValue v;
+  if (!pnh.getParam(name, v)) return fallback;
+  if (v.getType() == XmlRpc::XmlRpcValue::TypeInt) return static_cast<int>(v);
+  if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble) {  // YAML writes 5e4 as a double: accept whole numbers
+    const double d = static_cast<double>(v);
+    if (std::isfinite(d) && d == std::floor(d) && std::abs(d) < 2e9) return long(d);
+    throw TopoError(paramName(pnh, name), "is " + num(d) + ", not a whole number", "give a whole number");
+  }
+  wrongType(pnh, name, "a whole number");
+}
+
+bool getBool(const ::ros::NodeHandle& pnh, const std::string& name, bool fallback) {
+  if (!pnh.hasParam(name)) return fallback;
+  bool b = fallback;
+  if (!pnh.getParam(name, b)) wrongType(pnh, name, "true or false");
+  return b;
+}
+
+std::string getString(const ::ros::NodeHandle& pnh, const std::string& name, const std::string& fallback) {
+  if (!pnh.hasParam(name)) return fallback;
+  std::string s;
+  if (!pnh.getParam(name, s)) wrongType(pnh, name, "a string");
+  return s;
+}
+
+}  // namespace
+
+CloudIngestParams loadCloudIngestParams(const ::ros::NodeHandle& pnh) {
+  CloudIngestParams p;
+  auto& clean = p.options.clean;
+  auto& fill = p.options.fill;
+  auto bad = [&](const std::string& name, const std::string& problem, const std::string& fix) {
+    throw TopoError(paramName(pnh, name), problem, fix);
+  };
+
+  p.surface_file = getString(pnh, "surface_file", "");
+  p.frame_id = getString(pnh, "frame_id", p.frame_id);
+  if (p.frame_id.empty()) bad("frame_id", "is empty", "name the object's body frame, e.g. object");
+
+  fill.spacing_m = getDouble(pnh, "spacing_m", 0.0);
+  if (fill.spacing_m < 0.0) bad("spacing_m", "is " + num(fill.spacing_m) + " m, a negative spacing", "give a positive lattice spacing in metres, or 0 to use ~fill_count");
+  const long count = getInt(pnh, "fill_count", long(fill.target_count));
+  if (count < 8) bad("fill_count", "is " + std::to_string(count) + ": too few particles", "ask for at least 8 particles (default 50000)");
+  fill.target_count = std::size_t(count);
+  clean.scale = getDouble(pnh, "scale", 1.0);
+  if (!(clean.scale > 0.0)) bad("scale", "is " + num(clean.scale) + ", not a positive factor", "use 1 for metres, 0.001 for millimetres");
+  clean.recenter = getBool(pnh, "recenter", false);
+  clean.opacity_threshold = getDouble(pnh, "opacity_threshold", clean.opacity_threshold);
+  if (clean.opacity_threshold < 0.0 || clean.opacity_threshold >= 1.0)
+    bad("opacity_threshold", "is " + num(clean.opacity_threshold) + ", outside [0, 1)", "use the default 0.02, or 0 to keep every Gaussian");
+  const long k = getInt(pnh, "outlier_neighbours", clean.outlier_neighbours);
+  if (k < 0 || k > 1000) bad("outlier_neighbours", "is " + std::to_string(k) + ", outside [0, 1000]", "use 16, or 0 to turn outlier removal off");
+  clean.outlier_neighbours = int(k);
+  const long closing = getInt(pnh, "closing_cells", 0);
+  if (closing < 0 || closing > 64) bad("closing_cells", "is " + std::to_string(closing) + ", outside [0, 64]", "use 0 (off) or a few cells, e.g. 2");
+  fill.density.closing_cells = int(closing);
+  const long grid = getInt(pnh, "grid_resolution", 0);
+  if (grid < 0 || grid > 4096) bad("grid_resolution", "is " + std::to_string(grid) + ", outside [0, 4096]", "use 0 (the lattice spacing) or e.g. 100 cells");
+  fill.grid_resolution = int(grid);
+  fill.max_open_fraction = getDouble(pnh, "max_open_fraction", fill.max_open_fraction);
+  if (fill.max_open_fraction < 0.0 || fill.max_open_fraction > 1.0)
+    bad("max_open_fraction", "is " + num(fill.max_open_fraction) + ", outside [0, 1]", "use the default 0.02");
+  geometry::validateFillOptions(fill, pnh.getNamespace() + " parameters");  // the library's own checks too
+  return p;
+}
+
+geometry::IngestOptions requestOptions(const topo_gaussian::FillInterior::Request& req,
+                                       const geometry::IngestOptions& defaults, const std::string& service) {
+  geometry::IngestOptions o = defaults;
+  if (!std::isfinite(req.spacing_m) || req.spacing_m < 0.0)
+    throw TopoError(service, "spacing_m " + num(req.spacing_m) + " is negative or not finite",
+                    "give a positive spacing in metres, or 0 to use target_count");
+  if (req.spacing_m > 0.0) {
+    o.fill.spacing_m = req.spacing_m;
+  } else if (req.target_count > 0) {
+    o.fill.spacing_m = 0.0;
+    o.fill.target_count = req.target_count;
+  }
+  if (!std::isfinite(req.scale) || req.scale < 0.0)
+    throw TopoError(service, "scale " + num(req.scale) + " is negative or not finite", "use 1 for metres, 0.001 for millimetres, 0 for the node's ~scale");
+  if (req.scale > 0.0) o.clean.scale = req.scale;
+  if (req.recenter) o.clean.recenter = true;
+  if (req.closing_cells < 0 || req.closing_cells > 64)
+    throw TopoError(service, "closing_cells " + std::to_string(req.closing_cells) + " is outside [0, 64]", "use 0 (node default) or a few cells, e.g. 2");
+  if (req.closing_cells > 0) o.fill.density.closing_cells = req.closing_cells;
+  geometry::validateFillOptions(o.fill, service + " request");
+  return o;
+}
+
+std::string describe(const geometry::IngestResult& r) {
+  std::ostringstream s;
+  s.precision(6);
+  s << "filled " << r.input << " (" << geometry::toString(r.kind) << ", " << r.clean.points_in << " points): "
+    << r.cloud.size() << " particles (" << r.cloud.surfaceCount() << " on the surface), volume "
+    << r.cloud.totalVolume() << " m^3, spacing " << r.cloud.spacing << " m, " << r.seconds << " s, method "
+    << r.fill.method;
+  return s.str();
+}
+
+CloudIngestNode::CloudIngestNode(const ::ros::NodeHandle& nh, const ::ros::NodeHandle& pnh)
+    : nh_(nh), pnh_(pnh), params_(loadCloudIngestParams(pnh)) {
+  volume_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("volume", 1, /*latch=*/true);
+  surface_sub_ = nh_.subscribe("surface_cloud", 1, &CloudIngestNode::onSurfaceCloud, this);
+  fill_srv_ = pnh_.advertiseService("fill_interior", &CloudIngestNode::onFillInterior, this);
+  ROS_INFO("cloud_ingest: publishing %s (latched, frame %s), listening on %s, service %s",
+           volume_pub_.getTopic().c_str(), params_.frame_id.c_str(), surface_sub_.getTopic().c_str(),
+           fill_srv_.getService().c_str());
+  fillStartupFile();
+}
+
+void CloudIngestNode::fillStartupFile() {
+  if (params_.surface_file.empty()) {
+    ROS_INFO("cloud_ingest: no ~surface_file; waiting for clouds on %s or calls to %s",
+             surface_sub_.getTopic().c_str(), fill_srv_.getService().c_str());
+    return;
+  }
+  try {
+    const geometry::IngestResult r = geometry::ingestFile(params_.surface_file, params_.options);
+    publish(toPointCloud2(r.cloud, params_.frame_id, ::ros::Time::now()));
+    ROS_INFO("cloud_ingest: %s", describe(r).c_str());
+  } catch (const std::exception& e) {
+    ROS_ERROR("cloud_ingest: ~surface_file not filled: %s. The node keeps running: publish a cloud on %s or call %s",
+              e.what(), surface_sub_.getTopic().c_str(), fill_srv_.getService().c_str());
+  }
+}
+
+void CloudIngestNode::onSurfaceCloud(const sensor_msgs::PointCloud2ConstPtr& msg) {
+  const std::string topic = surface_sub_.getTopic();
+  try {
+    const geometry::IngestResult r = geometry::ingestSurface(toSurfaceData(*msg, topic), params_.options);
+    const std::string frame = msg->header.frame_id.empty() ? params_.frame_id : msg->header.frame_id;
+    const ::ros::Time stamp = msg->header.stamp.isZero() ? ::ros::Time::now() : msg->header.stamp;
+    publish(toPointCloud2(r.cloud, frame, stamp));
+    ROS_INFO("cloud_ingest: %s", describe(r).c_str());
+  } catch (const std::exception& e) {  // TopoError, and e.g. bad_alloc for an absurd cloud
+    ROS_ERROR("cloud_ingest: cloud on %s not filled (last good volume stays published): %s", topic.c_str(), e.what());
+  }
+}
+
+bool CloudIngestNode::onFillInterior(topo_gaussian::FillInterior::Request& req, topo_gaussian::FillInterior::Response& res) {
+  const std::string service = fill_srv_.getService();
+  res.success = false;
+  try {
+    const geometry::IngestOptions options = requestOptions(req, params_.options, service);
+    geometry::IngestResult r;
+    std::string frame = params_.frame_id;
+    ::ros::Time stamp = ::ros::Time::now();
+    if (!req.surface_file.empty()) {
+      r = geometry::ingestFile(req.surface_file, options);
+    } else {
+      if (std::size_t(req.surface.width) * req.surface.height == 0)
+        throw TopoError(service, "the request has neither a surface_file nor surface points",
+                        "set surface_file to a .ply/.pcd/.obj/.off/.stl file, or fill surface with x y z points");
+      r = geometry::ingestSurface(toSurfaceData(req.surface, service + " request surface"), options);
+      if (!req.surface.header.frame_id.empty()) frame = req.surface.header.frame_id;
+      if (!req.surface.header.stamp.isZero()) stamp = req.surface.header.stamp;
+    }
+    res.volume = toPointCloud2(r.cloud, frame, stamp);
+    res.count = std::uint32_t(r.cloud.size());
+    res.total_volume_m3 = r.cloud.totalVolume();
+    res.spacing_m = r.cloud.spacing;
+    res.method = r.fill.method;
+    res.message = describe(r);
+    res.success = true;
+    if (req.publish) publish(res.volume);
+    ROS_INFO("cloud_ingest: %s: %s%s", service.c_str(), res.message.c_str(), req.publish ? " (published)" : "");
+  } catch (const std::exception& e) {
+    res = topo_gaussian::FillInterior::Response();
+    res.success = false;
+    res.message = e.what();
+    ROS_ERROR("cloud_ingest: %s failed: %s", service.c_str(), e.what());
+  }
+  return true;  // errors travel in the response, never as a failed call
+}
+
+void CloudIngestNode::publish(const sensor_msgs::PointCloud2& volume) {
+  volume_pub_.publish(volume);
+  ++published_;
+}
+
+}  // namespace topo_gaussian::topo_ros

@@ -1,0 +1,213 @@
+#include "topo_gaussian/ros/conversions.h"
+
+#include <sensor_msgs/PointField.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <sstream>
+#include <vector>
+
+#include "topo_gaussian/physics/error.h"
+
+namespace topo_gaussian::topo_ros {
+
+namespace {
+
+using sensor_msgs::PointField;
+
+std::size_t datatypeSize(std::uint8_t datatype) {
+  switch (datatype) {
+    case PointField::INT8:
+    case PointField::UINT8: return 1;
+    case PointField::INT16:
+    case PointField::UINT16: return 2;
+    case PointField::INT32:
+    case PointField::UINT32:
+    case PointField::FLOAT32: return 4;
+    case PointField::FLOAT64: return 8;
+    default: return 0;
+  }
+}
+
+template <typename T>
+double load(const std::uint8_t* p) {
+  T v;
+  std::memcpy(&v, p, sizeof(T));  // fields need not be aligned
+  return static_cast<double>(v);
+}
+
+double loadAs(std::uint8_t datatype, const std::uint8_t* p) {
+  switch (datatype) {
+    case PointField::INT8: return load<std::int8_t>(p);
+    case PointField::UINT8: return load<std::uint8_t>(p);
+    case PointField::INT16: return load<std::int16_t>(p);
+    case PointField::UINT16: return load<std::uint16_t>(p);
+    case PointField::INT32: return load<std::int32_t>(p);
+    case PointField::UINT32: return load<std::uint32_t>(p);
+    case PointField::FLOAT32: return load<float>(p);
+    case PointField::FLOAT64: return load<double>(p);
+    default: return std::nan("");
+  }
+}
+
+std::string fieldList(const sensor_msgs::PointCloud2& msg) {
+  if (msg.fields.empty()) return "none";
+  std::string s;
+  for (const auto& f : msg.fields) s += (s.empty() ? "" : " ") + f.name;
+  return s;
+}
+
+/// Checked access to the points of a cloud: layout validated once, then read by (point, field).
+class CloudReader {
+ public:
+  CloudReader(const sensor_msgs::PointCloud2& msg, const std::string& source) : msg_(msg), source_(source) {
+    if (msg.is_bigendian)
+      throw TopoError(source, "the PointCloud2 is big-endian, which this node does not read",
+                      "publish a little-endian cloud (is_bigendian = false)");
+    count_ = std::size_t(msg.width) * std::size_t(msg.height);
+    if (count_ == 0) return;
+    if (msg.point_step == 0)
+      throw TopoError(source, "the PointCloud2 has point_step 0 for " + std::to_string(count_) + " points",
+                      "set point_step to the size of one point in bytes");
+    const std::size_t row = std::size_t(msg.row_step);
+    if (row < std::size_t(msg.width) * msg.point_step)
+      throw TopoError(source, "the PointCloud2 row_step " + std::to_string(row) + " is smaller than width × point_step (" +
+                                  std::to_string(std::size_t(msg.width) * msg.point_step) + ")",
+                      "set row_step = width * point_step");
+    const std::size_t needed = row * (msg.height - 1) + std::size_t(msg.width) * msg.point_step;
+    if (msg.data.size() < needed)
+      throw TopoError(source, "the PointCloud2 data holds " + std::to_string(msg.data.size()) + " bytes but " +
+                                  std::to_string(msg.width) + " × " + std::to_string(msg.height) + " points need " +
+                                  std::to_string(needed),
+                      "make width, height, row_step and point_step agree with the data");
+  }
+
+  std::size_t size() const { return count_; }
+
+  /// Index of field `name` in msg.fields, or -1. A field that does not fit in the point is an error.
+  int find(const std::string& name) const {
+    for (std::size_t i = 0; i < msg_.fields.size(); ++i) {
+      const auto& f = msg_.fields[i];
+      if (f.name != name) continue;
+      const std::size_t size = datatypeSize(f.datatype);
+      if (size == 0)
+        throw TopoError(source_, "field '" + name + "' has unknown datatype " + std::to_string(int(f.datatype)),
+                        "use one of the sensor_msgs/PointField types (FLOAT32 for coordinates)");
+      if (f.count < 1)
+        throw TopoError(source_, "field '" + name + "' has count 0", "set count = 1");
+      if (std::size_t(f.offset) + size > msg_.point_step)
+        throw TopoError(source_, "field '" + name + "' (offset " + std::to_string(f.offset) + ", " + std::to_string(size) +
+                                     " bytes) lies outside the " + std::to_string(msg_.point_step) + "-byte point",
+                        "fix the field offsets or point_step");
+      return int(i);
+    }
+    return -1;
+  }
+
+  int require(const std::string& name, const std::string& needed_for) const {
+    const int i = find(name);
+    if (i < 0)
+      throw TopoError(source_, "the PointCloud2 has no field '" + name + "' (fields: " + fieldList(msg_) + ")",
+                      "publish a cloud with " + needed_for);
+    return i;
+  }
+
+  double get(std::size_t point, int field) const {
+    const auto& f = msg_.fields[std::size_t(field)];
+    const std::size_t r = point / msg_.width, c = point % msg_.width;
+    const std::uint8_t* p = msg_.data.data() + r * msg_.row_step + c * msg_.point_step + f.offset;
+    return loadAs(f.datatype, p);
+  }
+
+ private:
+  const sensor_msgs::PointCloud2& msg_;
+  std::string source_;
+  std::size_t count_ = 0;
+};
+
+}  // namespace
+
+bool hasField(const sensor_msgs::PointCloud2& msg, const std::string& name) {
+  return std::any_of(msg.fields.begin(), msg.fields.end(), [&](const PointField& f) { return f.name == name; });
+}
+
+sensor_msgs::PointCloud2 toPointCloud2(const VolumeCloud& cloud, const std::string& frame_id, const ::ros::Time& stamp) {
+  const std::size_t n = cloud.size();
+  if (cloud.V.size() != n || (!cloud.surface.empty() && cloud.surface.size() != n))
+    throw TopoError("volume cloud", "has " + std::to_string(n) + " positions but " + std::to_string(cloud.V.size()) +
+                                        " volumes and " + std::to_string(cloud.surface.size()) + " surface flags",
+                    "give one volume (and one surface flag) per particle");
+  sensor_msgs::PointCloud2 msg;
+  msg.header.frame_id = frame_id;
+  msg.header.stamp = stamp;
+  msg.height = 1;
+  sensor_msgs::PointCloud2Modifier modifier(msg);
+  modifier.setPointCloud2Fields(5, "x", 1, PointField::FLOAT32, "y", 1, PointField::FLOAT32, "z", 1,
+                                PointField::FLOAT32, "volume", 1, PointField::FLOAT32, "surface", 1,
+                                PointField::UINT8);
+  msg.point_step = 20;  // 17 bytes of fields, padded so the floats of every point stay 4-byte aligned
+  modifier.resize(n);
+  msg.is_dense = true;
+  msg.is_bigendian = false;
+
+  sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z"), v(msg, "volume");
+  sensor_msgs::PointCloud2Iterator<std::uint8_t> s(msg, "surface");
+  for (std::size_t i = 0; i < n; ++i, ++x, ++y, ++z, ++v, ++s) {
+    *x = float(cloud.X[i].x());
+    *y = float(cloud.X[i].y());
+    *z = float(cloud.X[i].z());
+    *v = float(cloud.V[i]);
+    *s = cloud.surface.empty() ? 0 : cloud.surface[i];
+    if (!(std::isfinite(*x) && std::isfinite(*y) && std::isfinite(*z) && std::isfinite(*v))) msg.is_dense = false;
+  }
+  return msg;
+}
+
+geometry::SurfaceData toSurfaceData(const sensor_msgs::PointCloud2& msg, const std::string& source) {
+  const CloudReader in(msg, source);
+  const std::string xyz = "x y z fields (FLOAT32 coordinates in metres)";
+  const int fx = in.require("x", xyz), fy = in.require("y", xyz), fz = in.require("z", xyz);
+  const int nx = in.find("normal_x"), ny = in.find("normal_y"), nz = in.find("normal_z");
+  const bool normals = nx >= 0 && ny >= 0 && nz >= 0;
+
+  geometry::SurfaceData s;
+  s.kind = geometry::SurfaceKind::Points;
+  s.source = source;
+  s.points.reserve(in.size());
+  if (normals) s.normals.reserve(in.size());
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    s.points.emplace_back(in.get(i, fx), in.get(i, fy), in.get(i, fz));
+    if (normals) s.normals.emplace_back(in.get(i, nx), in.get(i, ny), in.get(i, nz));
+  }
+  return s;
+}
+
+VolumeCloud fromPointCloud2(const sensor_msgs::PointCloud2& msg, const std::string& source) {
+  const CloudReader in(msg, source);
+  const std::string layout = "the volume layout: x y z volume (FLOAT32) and surface (UINT8)";
+  const int fx = in.require("x", layout), fy = in.require("y", layout), fz = in.require("z", layout);
+  const int fv = in.require("volume", layout);
+  const int fs = in.find("surface");
+
+  VolumeCloud c;
+  c.X.reserve(in.size());
+  c.V.reserve(in.size());
+  c.surface.reserve(in.size());
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    c.X.emplace_back(in.get(i, fx), in.get(i, fy), in.get(i, fz));
+    c.V.push_back(in.get(i, fv));
+    c.surface.push_back(fs >= 0 && in.get(i, fs) != 0.0 ? 1 : 0);
+  }
+  if (!c.V.empty()) {
+    std::vector<double> v = c.V;
+    auto mid = v.begin() + std::ptrdiff_t(v.size() / 2);
+    std::nth_element(v.begin(), mid, v.end());
+    c.spacing = *mid > 0.0 && std::isfinite(*mid) ? std::cbrt(*mid) : 0.0;
+  }
+  return c;
+}
+
+}  // namespace topo_gaussian::topo_ros

@@ -1,0 +1,33 @@
+// A tiny command-line parser for the `topo` subcommands: --name value and --flag options,
+// with typed getters that report bad values by name.
+#pragma once
+
+#include <map>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace topo_gaussian::tools {
+
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+class Args {
+ public:
+  /// `flags` are options without a value; every other --name takes the next argument.
+  Args(const std::vector<std::string>& argv, const std::set<std::string>& flags,
+       const std::set<std::string>& valued);
+
+  bool has(const std::string& name) const;
+  std::string str(const std::string& name, const std::string& fallback = "") const;
+  double num(const std::string& name, double fallback) const;
+  long integer(const std::string& name, long fallback) const;
+
+ private:
+  std::map<std::string, std::string> values_;
+};
+
+}  // namespace topo_gaussian::tools

@@ -1,0 +1,12 @@
+// The `topo` subcommands; each returns the process exit code and throws UsageError/TopoError.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace topo_gaussian::tools {
+
+int fillCommand(const std::vector<std::string>& args);
+int generateCommand(const std::vector<std::string>& args);
+
+}  // namespace topo_gaussian::tools

@@ -1,0 +1,47 @@
+// `topo`: the command-line front end. Subcommands: fill, generate (later: track, infer, simulate, export).
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "args.h"
+#include "commands.h"
+#include "topo_gaussian/physics/error.h"
+
+namespace {
+
+const char* kUsage =
+    "usage: topo <command> [options]\n"
+    "\n"
+    "commands:\n"
+    "  fill       surface file in (3DGS .ply, .ply/.pcd points, .obj/.off/.stl/.ply mesh), volume .ply out\n"
+    "  generate   write a closed test mesh (sphere, torus, box) as .obj\n"
+    "\n"
+    "`topo <command> --help` describes each command's options.\n"
+    "exit codes: 0 success, 1 bad input or failed computation, 2 bad command line\n";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace topo_gaussian::tools;
+  if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h" || std::string(argv[1]) == "help") {
+    std::cout << kUsage;
+    return argc < 2 ? 2 : 0;
+  }
+  const std::string cmd = argv[1];
+  const std::vector<std::string> rest(argv + 2, argv + argc);
+  try {
+    if (cmd == "fill") return fillCommand(rest);
+    if (cmd == "generate") return generateCommand(rest);
+    std::cerr << "topo: unknown command '" << cmd << "'\n\n" << kUsage;
+    return 2;
+  } catch (const UsageError& e) {
+    std::cerr << "topo " << cmd << ": " << e.what() << " (see `topo " << cmd << " --help`)\n";
+    return 2;
+  } catch (const topo_gaussian::TopoError& e) {
+    std::cerr << "topo " << cmd << ": error: " << e.what() << "\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "topo " << cmd << ": unexpected error: " << e.what() << "\n";
+    return 1;
+  }
+}
