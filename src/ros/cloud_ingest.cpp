@@ -90,24 +90,25 @@ CloudIngestParams loadCloudIngestParams(const ::ros::NodeHandle& pnh) {
   p.frame_id = getString(pnh, "frame_id", p.frame_id);
   if (p.frame_id.empty()) bad("frame_id", "is empty", "name the object's body frame, e.g. object");
 
-  fill.spacing_m = getDouble(pnh, "spacing_m", 0.0);
+  fill.spacing_m = getDouble(pnh, "spacing_m", fill.spacing_m);
   if (fill.spacing_m < 0.0) bad("spacing_m", "is " + num(fill.spacing_m) + " m, a negative spacing", "give a positive lattice spacing in metres, or 0 to use ~fill_count");
   const long count = getInt(pnh, "fill_count", long(fill.target_count));
   if (count < 8) bad("fill_count", "is " + std::to_string(count) + ": too few particles", "ask for at least 8 particles (default 50000)");
   fill.target_count = std::size_t(count);
-  clean.scale = getDouble(pnh, "scale", 1.0);
+  clean.scale = getDouble(pnh, "scale", clean.scale);
   if (!(clean.scale > 0.0)) bad("scale", "is " + num(clean.scale) + ", not a positive factor", "use 1 for metres, 0.001 for millimetres");
-  clean.recenter = getBool(pnh, "recenter", false);
+  clean.recenter = getBool(pnh, "recenter", clean.recenter);
   clean.opacity_threshold = getDouble(pnh, "opacity_threshold", clean.opacity_threshold);
   if (clean.opacity_threshold < 0.0 || clean.opacity_threshold >= 1.0)
     bad("opacity_threshold", "is " + num(clean.opacity_threshold) + ", outside [0, 1)", "use the default 0.02, or 0 to keep every Gaussian");
   const long k = getInt(pnh, "outlier_neighbours", clean.outlier_neighbours);
   if (k < 0 || k > 1000) bad("outlier_neighbours", "is " + std::to_string(k) + ", outside [0, 1000]", "use 16, or 0 to turn outlier removal off");
   clean.outlier_neighbours = int(k);
-  const long closing = getInt(pnh, "closing_cells", 0);
-  if (closing < 0 || closing > 64) bad("closing_cells", "is " + std::to_string(closing) + ", outside [0, 64]", "use 0 (off) or a few cells, e.g. 2");
+  const long closing = getInt(pnh, "closing_cells", fill.density.closing_cells);
+  if (closing < -1 || closing > 64)
+    bad("closing_cells", "is " + std::to_string(closing) + ", outside [-1, 64]", "use -1 (automatic), 0 (off) or a few cells, e.g. 2");
   fill.density.closing_cells = int(closing);
-  const long grid = getInt(pnh, "grid_resolution", 0);
+  const long grid = getInt(pnh, "grid_resolution", fill.grid_resolution);
   if (grid < 0 || grid > 4096) bad("grid_resolution", "is " + std::to_string(grid) + ", outside [0, 4096]", "use 0 (the lattice spacing) or e.g. 100 cells");
   fill.grid_resolution = int(grid);
   fill.max_open_fraction = getDouble(pnh, "max_open_fraction", fill.max_open_fraction);
@@ -133,9 +134,10 @@ geometry::IngestOptions requestOptions(const topo_gaussian::FillInterior::Reques
     throw TopoError(service, "scale " + num(req.scale) + " is negative or not finite", "use 1 for metres, 0.001 for millimetres, 0 for the node's ~scale");
   if (req.scale > 0.0) o.clean.scale = req.scale;
   if (req.recenter) o.clean.recenter = true;
-  if (req.closing_cells < 0 || req.closing_cells > 64)
-    throw TopoError(service, "closing_cells " + std::to_string(req.closing_cells) + " is outside [0, 64]", "use 0 (node default) or a few cells, e.g. 2");
-  if (req.closing_cells > 0) o.fill.density.closing_cells = req.closing_cells;
+  if (req.closing_cells < -1 || req.closing_cells > 64)
+    throw TopoError(service, "closing_cells " + std::to_string(req.closing_cells) + " is outside [-1, 64]",
+                    "use 0 (node default), -1 (automatic) or a few cells, e.g. 2");
+  if (req.closing_cells != 0) o.fill.density.closing_cells = req.closing_cells;
   geometry::validateFillOptions(o.fill, service + " request");
   return o;
 }

@@ -208,19 +208,20 @@ std::string loadWith(const std::string& name, const T& value) {
 }
 
 TEST(Params, DefaultsMatchTheLibrary) {
+  // Unset parameters take the library's defaults (the same as `topo fill`), except the frame.
   const tr::CloudIngestParams p = tr::loadCloudIngestParams(ros::NodeHandle("/cloud_ingest_no_params"));
   const geo::IngestOptions d;
   EXPECT_EQ(p.frame_id, "object");
   EXPECT_TRUE(p.surface_file.empty());
   EXPECT_EQ(p.options.fill.spacing_m, 0.0);
-  EXPECT_EQ(p.options.fill.target_count, 50000u);
+  EXPECT_EQ(p.options.fill.target_count, d.fill.target_count);
   EXPECT_EQ(p.options.clean.scale, 1.0);
   EXPECT_FALSE(p.options.clean.recenter);
   EXPECT_EQ(p.options.clean.opacity_threshold, d.clean.opacity_threshold);
-  EXPECT_EQ(p.options.clean.outlier_neighbours, 16);
-  EXPECT_EQ(p.options.fill.density.closing_cells, 0);
-  EXPECT_EQ(p.options.fill.grid_resolution, 0);
-  EXPECT_EQ(p.options.fill.max_open_fraction, 0.02);
+  EXPECT_EQ(p.options.clean.outlier_neighbours, d.clean.outlier_neighbours);
+  EXPECT_EQ(p.options.fill.density.closing_cells, d.fill.density.closing_cells);
+  EXPECT_EQ(p.options.fill.grid_resolution, d.fill.grid_resolution);
+  EXPECT_EQ(p.options.fill.max_open_fraction, d.fill.max_open_fraction);
 }
 
 TEST(Params, InvalidValuesNameTheParameter) {
@@ -232,6 +233,7 @@ TEST(Params, InvalidValuesNameTheParameter) {
   EXPECT_NE(loadWith("opacity_threshold", 1.5).find("~opacity_threshold"), std::string::npos);
   EXPECT_NE(loadWith("outlier_neighbours", -1).find("~outlier_neighbours"), std::string::npos);
   EXPECT_NE(loadWith("closing_cells", 100).find("~closing_cells"), std::string::npos);
+  EXPECT_NE(loadWith("closing_cells", -2).find("~closing_cells"), std::string::npos);
   EXPECT_NE(loadWith("grid_resolution", -5).find("~grid_resolution"), std::string::npos);
   EXPECT_NE(loadWith("max_open_fraction", 2.0).find("~max_open_fraction"), std::string::npos);
   EXPECT_NE(loadWith("frame_id", std::string("")).find("~frame_id"), std::string::npos);
@@ -267,8 +269,10 @@ TEST(Params, RequestOptionsOverrideOnlyNonZeroFields) {
   req.scale = -1.0;
   EXPECT_THROW(tr::requestOptions(req, d, "svc"), TopoError);
   req.scale = 0.0;
-  req.closing_cells = -1;
+  req.closing_cells = -2;
   EXPECT_THROW(tr::requestOptions(req, d, "svc"), TopoError);
+  req.closing_cells = -1;  // automatic
+  EXPECT_EQ(tr::requestOptions(req, d, "svc").fill.density.closing_cells, -1);
   req.closing_cells = 0;
   req.spacing_m = std::nan("");
   EXPECT_THROW(tr::requestOptions(req, d, "svc"), TopoError);

@@ -22,11 +22,12 @@ struct CloudIngestParams {
   std::string surface_file;        ///< ~surface_file: filled once at start when not empty
   std::string frame_id = "object"; ///< ~frame_id: frame of volumes from files (clouds keep their own)
   /// ~spacing_m, ~fill_count, ~scale, ~recenter, ~opacity_threshold, ~outlier_neighbours,
-  /// ~closing_cells, ~grid_resolution, ~max_open_fraction
+  /// ~closing_cells, ~grid_resolution, ~max_open_fraction; unset ones keep the library's defaults
+  /// (IngestOptions{}), so the node and `topo fill` agree.
   geometry::IngestOptions options;
 };
 
-/// Reads the private parameters from `pnh` (defaults as in CloudIngestParams / IngestOptions) and
+/// Reads the private parameters from `pnh` (unset: the defaults of CloudIngestParams) and
 /// validates them. Throws TopoError naming the parameter, its value and the fix.
 CloudIngestParams loadCloudIngestParams(const ::ros::NodeHandle& pnh);
 
