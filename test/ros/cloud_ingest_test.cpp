@@ -135,6 +135,8 @@ TEST(Conversions, VolumeCloudRoundTrip) {
   EXPECT_DOUBLE_EQ(msg.header.stamp.toSec(), 12.5);
   EXPECT_EQ(msg.width * msg.height, 27u);
   EXPECT_EQ(msg.point_step % 4, 0u) << "floats of every point must stay aligned";
+  EXPECT_TRUE(tr::hasField(msg, "surface"));
+  EXPECT_FALSE(tr::hasField(msg, "rgb"));
   const VolumeCloud back = tr::fromPointCloud2(msg, "round trip");
   ASSERT_EQ(back.size(), 27u);
   EXPECT_NEAR(back.totalVolume(), 27e-6, 27e-6 * 1e-6);
@@ -419,7 +421,10 @@ TEST(CloudIngest, SurfaceCloudTopicFillsSphere) {
   const VolumeCloud c = tr::fromPointCloud2(*msg, "/volume");
   ASSERT_NO_THROW(c.validate("/volume"));
   const double exact = 4.0 / 3.0 * kPi * r * r * r;
-  EXPECT_NEAR(c.totalVolume(), exact, 0.10 * exact);
+  // Point clouds are filled by splats whose shell reaches ~one splat radius past the surface
+  // (README, "The density method"): the volume may exceed the sphere's by up to 15 %, never fall short.
+  EXPECT_GT(c.totalVolume(), 0.99 * exact);
+  EXPECT_LT(c.totalVolume(), 1.15 * exact);
   const double target = double(g_setup->node_params.options.fill.target_count);
   EXPECT_NEAR(double(c.size()), target, 0.15 * target);
   EXPECT_LT(c.centroid().norm(), c.spacing);
