@@ -10,6 +10,7 @@ PACKAGES=(
   libsensor-msgs-dev libvisualization-msgs-dev libgeometry-msgs-dev
   libpcl-dev libpcl-ros-dev libpcl-conversions-dev libcv-bridge-dev libopencv-dev
   libeigen3-dev libnlopt-cxx-dev libyaml-cpp-dev libgtest-dev
+  libbullet-dev
   libopenmpi-dev
   clang libclang-rt-14-dev
   python3-numpy

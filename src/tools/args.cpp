@@ -7,7 +7,7 @@
 namespace topo_gaussian::tools {
 
 Args::Args(const std::vector<std::string>& argv, const std::set<std::string>& flags,
-           const std::set<std::string>& valued) {
+           const std::set<std::string>& valued, const std::set<std::string>& repeated) {
   for (std::size_t i = 0; i < argv.size(); ++i) {
     const std::string& a = argv[i];
     if (a.rfind("--", 0) != 0) throw UsageError("unexpected argument '" + a + "' (options start with --)");
@@ -19,16 +19,22 @@ Args::Args(const std::vector<std::string>& argv, const std::set<std::string>& fl
     }
     if (flags.count(name)) {
       values_[name] = "1";
-    } else if (valued.count(name)) {
+    } else if (valued.count(name) || repeated.count(name)) {
       if (eq == std::string::npos) {
         if (i + 1 >= argv.size()) throw UsageError("option --" + name + " needs a value");
         value = argv[++i];
       }
       values_[name] = value;
+      if (repeated.count(name)) repeated_[name].push_back(value);
     } else {
       throw UsageError("unknown option --" + name);
     }
   }
+}
+
+std::vector<std::string> Args::all(const std::string& name) const {
+  auto it = repeated_.find(name);
+  return it == repeated_.end() ? std::vector<std::string>() : it->second;
 }
 
 bool Args::has(const std::string& name) const { return values_.count(name) > 0; }

@@ -18,16 +18,19 @@ class UsageError : public std::runtime_error {
 class Args {
  public:
   /// `flags` are options without a value; every other --name takes the next argument.
+  /// `repeated` options may be given several times (all() returns every value in order).
   Args(const std::vector<std::string>& argv, const std::set<std::string>& flags,
-       const std::set<std::string>& valued);
+       const std::set<std::string>& valued, const std::set<std::string>& repeated = {});
 
   bool has(const std::string& name) const;
   std::string str(const std::string& name, const std::string& fallback = "") const;
   double num(const std::string& name, double fallback) const;
   long integer(const std::string& name, long fallback) const;
+  std::vector<std::string> all(const std::string& name) const;
 
  private:
   std::map<std::string, std::string> values_;
+  std::map<std::string, std::vector<std::string>> repeated_;
 };
 
 }  // namespace topo_gaussian::tools

@@ -8,5 +8,7 @@ namespace topo_gaussian::tools {
 
 int fillCommand(const std::vector<std::string>& args);
 int generateCommand(const std::vector<std::string>& args);
+int inferCommand(const std::vector<std::string>& args);
+int simulateCommand(const std::vector<std::string>& args);
 
 }  // namespace topo_gaussian::tools

@@ -1,4 +1,4 @@
-// `topo`: the command-line front end. Subcommands: fill, generate (later: track, infer, simulate, export).
+// `topo`: the command-line front end. Subcommands: fill, generate, infer, simulate (later: track, export).
 #include <iostream>
 #include <string>
 #include <vector>
@@ -15,6 +15,8 @@ const char* kUsage =
     "commands:\n"
     "  fill       surface file in (3DGS .ply, .ply/.pcd points, .obj/.off/.stl/.ply mesh), volume .ply out\n"
     "  generate   write a closed test mesh (sphere, torus, box) as .obj\n"
+    "  infer      find an interior whose simulated behaviour matches observed targets\n"
+    "  simulate   print the simulated features of a given interior\n"
     "\n"
     "`topo <command> --help` describes each command's options.\n"
     "exit codes: 0 success, 1 bad input or failed computation, 2 bad command line\n";
@@ -32,6 +34,8 @@ int main(int argc, char** argv) {
   try {
     if (cmd == "fill") return fillCommand(rest);
     if (cmd == "generate") return generateCommand(rest);
+    if (cmd == "infer") return inferCommand(rest);
+    if (cmd == "simulate") return simulateCommand(rest);
     std::cerr << "topo: unknown command '" << cmd << "'\n\n" << kUsage;
     return 2;
   } catch (const UsageError& e) {

@@ -1,0 +1,55 @@
+// Optimisers (paper §7): NLopt LD_LBFGS with box bounds, and Adam (written here). Both report
+// progress every iteration (iteration, loss, gradient norm, elapsed), can be cancelled from the
+// progress callback (returning false), and always return the best design seen.
+#pragma once
+
+#include <Eigen/Core>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace topo_gaussian {
+namespace inference {
+
+struct OptimizerOptions {
+  std::string method = "lbfgs";     ///< lbfgs | adam
+  int max_iterations = 200;
+  double learning_rate = 0.02;      ///< Adam
+  double beta1 = 0.9, beta2 = 0.999, adam_eps = 1e-8;
+  double loss_tolerance = 1e-12;    ///< stop when loss ≤ this
+  double relative_tolerance = 1e-10;///< stop when the relative loss change ≤ this (L-BFGS)
+  double gradient_tolerance = 1e-14;///< stop when ‖g‖ ≤ this
+};
+
+struct IterationInfo {
+  int iteration = 0;
+  double loss = 0.0;
+  double gradient_norm = 0.0;
+  double elapsed_s = 0.0;
+  double best_loss = 0.0;
+};
+
+struct OptimizerResult {
+  Eigen::VectorXd theta;            ///< the best design seen
+  double loss = 0.0;
+  int iterations = 0;               ///< objective evaluations with gradient
+  bool converged = false;           ///< a stopping criterion was met (not the iteration limit)
+  bool cancelled = false;
+  std::string message;              ///< why it stopped
+  std::vector<IterationInfo> history;
+};
+
+/// f(θ, grad) returns the loss and fills grad (same size as θ).
+using Objective = std::function<double(const Eigen::VectorXd&, Eigen::VectorXd*)>;
+/// Return false to cancel; the best design so far is returned.
+using ProgressCallback = std::function<bool(const IterationInfo&)>;
+
+/// Throws TopoError for an unknown method or mismatched bounds. Exceptions from the objective
+/// (e.g. a diverging simulation at a trial design) end the run with the best design so far and
+/// the reason in message, unless it happens at the very first evaluation (then it is rethrown).
+OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, const Eigen::VectorXd& lower,
+                         const Eigen::VectorXd& upper, const OptimizerOptions& options,
+                         const ProgressCallback& progress = nullptr);
+
+}  // namespace inference
+}  // namespace topo_gaussian

@@ -1,0 +1,53 @@
+// Pipeline: one inference run (task + volume → optimised interior) and its report, plus the
+// forward "simulate a given interior" used by `topo simulate`, the action server and the tests.
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "topo_gaussian/inference/interior_problem.h"
+#include "topo_gaussian/inference/optimizer.h"
+#include "topo_gaussian/inference/task_config.h"
+#include "topo_gaussian/physics/volume_cloud.h"
+
+namespace topo_gaussian {
+namespace inference {
+
+struct InferenceResult {
+  std::string task, representation;
+  Eigen::VectorXd theta;
+  std::vector<double> r;          ///< indicator of the best design
+  std::vector<double> density;    ///< [kg/m³]
+  ProblemEvaluation initial;      ///< the starting design (fully solid unless configured otherwise)
+  ProblemEvaluation final;        ///< the best design
+  OptimizerResult optimizer;
+  bool converged = false;         ///< optimiser converged AND every target feature reached
+  bool targets_reached = false;
+  std::string message;            ///< one paragraph for a person: what happened, how close, what to do
+  double setup_s = 0, optimize_s = 0, evaluation_s = 0;  ///< timings; evaluation_s = per loss+gradient
+};
+
+/// Runs the optimisation. progress is called once per iteration; returning false cancels (the best
+/// design so far is returned). Throws TopoError for bad input before the optimisation starts.
+InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
+                             const ProgressCallback& progress = nullptr);
+
+/// Features of a given interior (r per particle; empty = fully solid).
+ProblemEvaluation simulateInterior(const TaskConfig& config, const VolumeCloud& cloud, const std::vector<double>& r);
+
+/// interior.ply: x y z solid density (binary little-endian PLY, float32 + uint8 solid).
+void writeInteriorPly(const std::string& path, const VolumeCloud& cloud, const std::vector<double>& r,
+                      const std::vector<double>& density, bool continuous);
+/// Reads the `solid` (or an `r`) property of an interior .ply back as r per particle, matched by
+/// index; throws TopoError naming the file when the count differs from the volume cloud.
+std::vector<double> readInteriorPly(const std::string& path, std::size_t expected_count);
+
+/// report.json of a run (task, targets, achieved features, loss history, timings, geometry).
+std::string reportJson(const InferenceResult& result, const TaskConfig& config, const Task& task);
+/// JSON of a simulated design (features, mass properties, geometry).
+std::string simulationJson(const ProblemEvaluation& ev, const TaskConfig& config, const Task& task);
+
+}  // namespace inference
+}  // namespace topo_gaussian

@@ -1,0 +1,86 @@
+// Task: the physics of one inference problem (paper §6–7). Given the indicator r_i of every
+// particle it returns the loss (features vs observed targets), dLoss/dr_i, and the simulated
+// features. Rigid tasks (hanging, balance, stand, tumbler, ball) depend on r only through the mass
+// properties (m, c, I) and chain their gradient through them; qiqi (the tilting vessel) also moves
+// water into the cavity, so it differentiates its equilibrium directly (implicit function theorem).
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "topo_gaussian/inference/task_config.h"
+#include "topo_gaussian/physics/mass_properties.h"
+#include "topo_gaussian/physics/volume_cloud.h"
+#include "topo_gaussian/topology/materials.h"
+
+namespace topo_gaussian {
+namespace inference {
+
+struct Feature {
+  std::string name;
+  double value = 0.0;
+  std::string unit;
+  bool has_target = false;
+  double target = 0.0;
+  /// |value − target| relative to max(|target|, scale); ≤ tolerance counts as reached.
+  double scale = 1.0;
+  double tolerance = 0.01;
+  bool reached() const;
+};
+
+/// Geometry a task reports for pictures and report.json (world frame of the target pose).
+struct TaskGeometry {
+  bool has_point = false;
+  std::string point_name;                         ///< "hanging_point", "support_point", "pivot_point"
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();///< body frame [m]
+  Eigen::Vector3d gravity = Eigen::Vector3d(0, 0, -9.81);
+};
+
+struct TaskEvaluation {
+  double loss = 0.0;
+  std::vector<Feature> features;
+  MassProperties mass;                            ///< of the vessel/object material
+  std::vector<double> signal_time_s, signal;      ///< simulated signal (tilt [deg], ...) when dynamic
+  std::string signal_name;
+  /// Tracked points over time (ball): rows of t, then x y z per tracked point — the format of
+  /// target_trajectory_file, so a simulated design can serve as an observation.
+  std::vector<std::vector<double>> trajectory_rows;
+};
+
+class Task {
+ public:
+  virtual ~Task() = default;
+  const std::string& name() const { return name_; }
+  /// Loss and features for indicator r (size N). dL_dr (optional) is overwritten.
+  virtual TaskEvaluation evaluate(const std::vector<double>& r, std::vector<double>* dL_dr) const = 0;
+  /// Throws TopoError when a target the loss needs is missing (names the --target to give).
+  virtual void requireTargets() const {}
+  virtual TaskGeometry geometry() const { return geometry_; }
+  /// The per-particle density model (solid ↔ hollow).
+  const MaterialInterpolation& density() const { return density_; }
+  /// Particle masses m_i = ρ(r_i) V_i and dm_i/dr_i.
+  void masses(const std::vector<double>& r, std::vector<double>* m, std::vector<double>* dm_dr) const;
+  /// Object size used to make losses dimensionless: bounding-box diagonal [m].
+  double size() const { return size_; }
+
+ protected:
+  Task(const TaskConfig& config, const VolumeCloud& cloud);
+  std::string name_;
+  const VolumeCloud& cloud_;
+  MaterialInterpolation density_;
+  double size_ = 1.0;
+  Eigen::Vector3d lo_, hi_;
+  TaskGeometry geometry_;
+};
+
+/// Builds the task named by config.task(). The cloud must outlive the task.
+/// Throws TopoError for an empty/invalid cloud or inconsistent parameters.
+std::unique_ptr<Task> makeTask(const TaskConfig& config, const VolumeCloud& cloud);
+
+/// Rotation of the target pose: roll about world x, then pitch about world y (degrees).
+Eigen::Matrix3d targetRotation(double roll_deg, double pitch_deg);
+
+}  // namespace inference
+}  // namespace topo_gaussian

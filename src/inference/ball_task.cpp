@@ -1,0 +1,173 @@
+// Ball (paper appendix, "type of simulation"): a rigid ball with an unknown interior is dropped on
+// the floor, bounces and spins; the simulated trajectories of a few tracked body points (pivot
+// points; the spin shows in the surface points) must match the observed ones. Loss: mean squared
+// distance over samples and points, over the object size². Forward mode through the rigid
+// simulation (Dual10), as for the tumbler.
+#include <Eigen/Geometry>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "rigid_options.h"
+#include "task_factories.h"
+#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/physics/rigid_body.h"
+
+namespace topo_gaussian {
+namespace inference {
+namespace {
+
+class BallTask : public Task {
+ public:
+  BallTask(const TaskConfig& c, const VolumeCloud& cloud) : Task(c, cloud) {
+    options_ = rigidOptionsFromConfig(c, geometry_.gravity);
+    height_ = c.number("initial_height_m");
+    v0_ = c.vector3("initial_velocity");
+    w0_ = c.vector3("initial_angular_velocity");
+    centroid_ = cloud.centroid();
+    for (std::size_t i = 0; i < cloud.size(); ++i)
+      if (cloud.surface[i]) contact_.push_back(cloud.X[i]);
+    if (contact_.empty()) throw TopoError("volume cloud", "has no surface particles for ground contact", "fill it with `topo fill`");
+    const auto& pp = c.list("pivot_points");
+    if (!pp.empty()) {
+      if (pp.size() % 3 != 0) throw TopoError("pivot_points", "needs x,y,z triples", "give 3 numbers per point");
+      for (std::size_t k = 0; k < pp.size(); k += 3) pivots_.emplace_back(pp[k], pp[k + 1], pp[k + 2]);
+    } else {
+      // Default: the centroid and the surface particles furthest along +x and +y (they show the spin).
+      pivots_.push_back(centroid_);
+      Eigen::Vector3d bx = contact_[0], by = contact_[0];
+      for (const auto& p : contact_) {
+        if (p.x() > bx.x()) bx = p;
+        if (p.y() > by.y()) by = p;
+      }
+      pivots_.push_back(bx);
+      pivots_.push_back(by);
+    }
+    zmin_ = 1e300;
+    for (const auto& p : contact_) zmin_ = std::min(zmin_, p.z());
+    if (c.has("target_trajectory_file")) readTrajectory(c.text("target_trajectory_file"));
+  }
+
+  const std::vector<Eigen::Vector3d>& pivots() const { return pivots_; }
+
+  void requireTargets() const override {
+    if (obs_t_.empty())
+      throw TopoError("ball targets", "target_trajectory_file is not given",
+                      "give a CSV of t and x y z per pivot point: --target target_trajectory_file=FILE.csv");
+  }
+
+  void readTrajectory(const std::string& path) {
+    std::ifstream in(path);
+    if (!in) throw TopoError(path, "cannot open the trajectory file", "check the path");
+    std::string line;
+    int row = 0;
+    while (std::getline(in, line)) {
+      ++row;
+      if (line.empty() || line[0] == '#' || std::isalpha(static_cast<unsigned char>(line[0]))) continue;
+      for (char& ch : line)
+        if (ch == ',' || ch == ';') ch = ' ';
+      std::istringstream ls(line);
+      std::vector<double> v;
+      double x;
+      while (ls >> x) v.push_back(x);
+      if (v.size() != 1 + 3 * pivots_.size())
+        throw TopoError(path + " row " + std::to_string(row),
+                        "has " + std::to_string(v.size()) + " numbers, expected 1 + 3 x " + std::to_string(pivots_.size()),
+                        "write t then x y z for each pivot point (see pivot_points)");
+      obs_t_.push_back(v[0]);
+      std::vector<Eigen::Vector3d> pts;
+      for (std::size_t k = 0; k < pivots_.size(); ++k) pts.emplace_back(v[1 + 3 * k], v[2 + 3 * k], v[3 + 3 * k]);
+      obs_.push_back(pts);
+    }
+    if (obs_t_.empty()) throw TopoError(path, "holds no samples", "write one row per observed frame");
+  }
+
+  TaskEvaluation evaluate(const std::vector<double>& r, std::vector<double>* dL_dr) const override {
+    std::vector<double> m, dm;
+    masses(r, &m, dL_dr ? &dm : nullptr);
+    const MassMoments mom = computeMassMoments(cloud_.X, m);
+    TaskEvaluation ev;
+    ev.mass = massPropertiesFromMoments(mom);
+    const RigidInertia<Dual10> I = seedInertia(ev.mass);
+    // The body frame is placed in the world by a fixed shift (the shape does not move when c does):
+    // body point b is at b + shift, so the centre of mass starts at c + shift.
+    const Eigen::Vector3d shift(0, 0, height_ - zmin_);
+    RigidState<Dual10> s0;
+    s0.orientation = Eigen::Quaternion<Dual10>(Dual10(1), Dual10(0), Dual10(0), Dual10(0));
+    s0.position = I.com + shift.cast<Dual10>();
+    const Vec3<Dual10> w0 = w0_.cast<Dual10>();
+    // initial_velocity is the velocity of the centroid: v_c = v0 + ω × (c − centroid).
+    s0.velocity = v0_.cast<Dual10>() + w0.cross(I.com - centroid_.cast<Dual10>());
+    s0.angular_velocity = w0;
+    const RigidTrajectory<Dual10> traj = simulateRigid(I, s0, contact_, options_);
+    auto pointAt = [&](std::size_t k, const Eigen::Vector3d& b) -> Vec3<Dual10> {
+      const auto& s = traj.states[k];
+      return s.position + s.orientation * (b.cast<Dual10>() - I.com);
+    };
+    ev.signal_name = "centroid_height_m";
+    ev.signal_time_s = traj.time_s;
+    double apex = -1e300, first_contact = -1;
+    for (std::size_t k = 0; k < traj.states.size(); ++k) {
+      std::vector<double> row{traj.time_s[k]};
+      for (const auto& b : pivots_) {
+        const Vec3<Dual10> x = pointAt(k, b);
+        row.insert(row.end(), {x[0].value(), x[1].value(), x[2].value()});
+      }
+      ev.trajectory_rows.push_back(row);
+      const double z = pointAt(k, centroid_)[2].value();
+      ev.signal.push_back(z);
+      if (first_contact < 0 && z - (centroid_.z() - zmin_) <= 1e-3 * size_) first_contact = traj.time_s[k];
+      if (first_contact >= 0 && traj.time_s[k] > first_contact + 0.02) apex = std::max(apex, z);
+    }
+    Eigen::Matrix<double, 10, 1> dL = Eigen::Matrix<double, 10, 1>::Zero();
+    if (!obs_t_.empty()) {
+      const double dt = traj.time_s[1] - traj.time_s[0];
+      Dual10 sum(0);
+      int count = 0;
+      for (std::size_t j = 0; j < obs_t_.size(); ++j) {
+        const double u = obs_t_[j] / dt;
+        std::size_t k = static_cast<std::size_t>(std::floor(u));
+        if (u < 0 || k + 1 >= traj.states.size()) continue;
+        const double a = u - k;
+        for (std::size_t p = 0; p < pivots_.size(); ++p) {
+          const Vec3<Dual10> x = (1 - a) * pointAt(k, pivots_[p]) + a * pointAt(k + 1, pivots_[p]);
+          sum += (x - obs_[j][p].cast<Dual10>()).squaredNorm();
+          ++count;
+        }
+      }
+      if (count == 0)
+        throw TopoError("target_trajectory_file", "has no samples inside the simulated time", "raise duration_s");
+      const Dual10 loss = sum / (count * size_ * size_);
+      ev.loss = loss.value();
+      dL = loss.derivatives();
+      ev.features.push_back(Feature{"rms_error_m", std::sqrt(sum.value() / count), "m", true, 0.0, 1e-3 * size_, 1.0});
+    }
+    ev.features.push_back(Feature{"apex_height_m", apex, "m"});
+    ev.features.push_back(Feature{"final_spin_rad_s", traj.states.back().angular_velocity.norm().value(), "rad/s"});
+    ev.features.push_back(Feature{"mass_kg", ev.mass.mass, "kg"});
+    if (dL_dr) {
+      std::vector<double> dL_dm;
+      massPropertiesGradientToParticles(cloud_.X, mom, dL, &dL_dm);
+      dL_dr->resize(r.size());
+      for (std::size_t i = 0; i < r.size(); ++i) (*dL_dr)[i] = dL_dm[i] * dm[i];
+    }
+    return ev;
+  }
+
+ private:
+  RigidSimOptions options_;
+  double height_ = 0, zmin_ = 0;
+  Eigen::Vector3d v0_, w0_, centroid_;
+  std::vector<Eigen::Vector3d> contact_, pivots_;
+  std::vector<double> obs_t_;
+  std::vector<std::vector<Eigen::Vector3d>> obs_;
+};
+
+}  // namespace
+
+std::unique_ptr<Task> makeBallTask(const TaskConfig& config, const VolumeCloud& cloud) {
+  return std::make_unique<BallTask>(config, cloud);
+}
+
+}  // namespace inference
+}  // namespace topo_gaussian

@@ -1,0 +1,98 @@
+#include "topo_gaussian/inference/interior_problem.h"
+
+#include <cmath>
+
+#include "topo_gaussian/physics/error.h"
+
+namespace topo_gaussian {
+namespace inference {
+
+InteriorProblem::InteriorProblem(const TaskConfig& config, const VolumeCloud& cloud)
+    : config_(config), cloud_(cloud) {
+  task_ = makeTask(config_, cloud_);
+  RepresentationOptions ro;
+  ro.kind = config_.text("representation");
+  ro.initial_field = config_.number("initial_field");
+  ro.point_bound = config_.number("point_bound");
+  ro.neural.depth = config_.integer("neural_depth");
+  ro.neural.width = config_.integer("neural_width");
+  ro.neural.seed = static_cast<unsigned>(config_.integer("neural_seed"));
+  ro.neural.initial_field = ro.initial_field;
+  representation_ = makeRepresentation(ro, cloud_.X);
+  indicator_.epsilon = config_.number("epsilon");
+  if (config_.boolean("pin_shell")) indicator_.pinned = boundaryShell(cloud_.X, cloud_.surface, config_.number("shell_thickness_m"));
+  w_volume_ = config_.number("weight_volume");
+  target_fraction_ = config_.number("target_solid_fraction");
+  w_smooth_ = config_.number("weight_smoothness");
+  total_volume_ = cloud_.totalVolume();
+  if (w_smooth_ > 0) {
+    double radius = config_.number("smoothness_radius_m");
+    if (radius <= 0) radius = 1.5 * (cloud_.spacing > 0 ? cloud_.spacing : 0.01 * task_->size());
+    neighbors_ = buildNeighborList(cloud_.X, radius);
+  }
+}
+
+void InteriorProblem::indicator(const Eigen::VectorXd& theta, std::vector<double>* r) const {
+  ::topo_gaussian::evaluateIndicator(*representation_, theta, indicator_, r);
+}
+
+ProblemEvaluation InteriorProblem::evaluateIndicator(const std::vector<double>& r, std::vector<double>* dL_dr) const {
+  ProblemEvaluation ev;
+  ev.task = task_->evaluate(r, dL_dr);
+  ev.task_loss = ev.task.loss;
+  double solid = 0;
+  for (std::size_t i = 0; i < r.size(); ++i) solid += cloud_.V[i] * r[i];
+  ev.solid_fraction = solid / total_volume_;
+  if (w_volume_ > 0) {
+    // Minimise material (fraction), or pull it to the target fraction.
+    double dterm;
+    if (target_fraction_ < 0) {
+      ev.volume_term = w_volume_ * ev.solid_fraction;
+      dterm = w_volume_;
+    } else {
+      const double e = ev.solid_fraction - target_fraction_;
+      ev.volume_term = w_volume_ * e * e;
+      dterm = 2 * w_volume_ * e;
+    }
+    if (dL_dr)
+      for (std::size_t i = 0; i < r.size(); ++i) (*dL_dr)[i] += dterm * cloud_.V[i] / total_volume_;
+  }
+  if (w_smooth_ > 0 && neighbors_.size() == r.size()) {
+    double sum = 0;
+    long pairs = 0;
+    for (std::size_t i = 0; i < r.size(); ++i)
+      for (int k = neighbors_.offsets[i]; k < neighbors_.offsets[i + 1]; ++k) {
+        const double d = r[i] - r[neighbors_.indices[k]];
+        sum += d * d;
+        ++pairs;
+      }
+    if (pairs > 0) {
+      ev.smoothness_term = w_smooth_ * sum / pairs;
+      if (dL_dr)
+        for (std::size_t i = 0; i < r.size(); ++i)
+          for (int k = neighbors_.offsets[i]; k < neighbors_.offsets[i + 1]; ++k) {
+            // each unordered pair appears twice (i→j and j→i): d/dr_i of both terms is 4 (r_i − r_j)
+            (*dL_dr)[i] += w_smooth_ * 4.0 * (r[i] - r[neighbors_.indices[k]]) / pairs;
+          }
+    }
+  }
+  ev.loss = ev.task_loss + ev.volume_term + ev.smoothness_term;
+  return ev;
+}
+
+double InteriorProblem::evaluate(const Eigen::VectorXd& theta, Eigen::VectorXd* grad, ProblemEvaluation* details) const {
+  if (!theta.allFinite())
+    throw TopoError("design parameters", "contain NaN or infinity", "restart from the initial design (the optimiser diverged)");
+  std::vector<double> r;
+  indicator(theta, &r);
+  std::vector<double> dL_dr;
+  ProblemEvaluation ev = evaluateIndicator(r, grad ? &dL_dr : nullptr);
+  if (!std::isfinite(ev.loss))
+    throw TopoError("loss of task '" + task_->name() + "'", "is not finite", "check the task parameters and targets");
+  if (grad) indicatorBackward(*representation_, theta, indicator_, dL_dr, grad);
+  if (details) *details = std::move(ev);
+  return ev.loss;
+}
+
+}  // namespace inference
+}  // namespace topo_gaussian

@@ -1,0 +1,153 @@
+#include "topo_gaussian/inference/optimizer.h"
+
+#include <nlopt.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "topo_gaussian/physics/error.h"
+
+namespace topo_gaussian {
+namespace inference {
+namespace {
+
+struct Tracker {
+  Tracker(const Objective& fn, const ProgressCallback& pr, const OptimizerOptions& o) : f(fn), progress(pr), options(o) {}
+  const Objective& f;
+  const ProgressCallback& progress;
+  const OptimizerOptions& options;
+  std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
+  OptimizerResult result;
+  bool have_best = false;
+  bool stop = false;
+  std::string error;
+
+  double call(const Eigen::VectorXd& x, Eigen::VectorXd* g) {
+    double loss;
+    try {
+      loss = f(x, g);
+    } catch (const std::exception& e) {
+      if (!have_best) throw;
+      error = e.what();
+      stop = true;
+      return std::numeric_limits<double>::infinity();
+    }
+    ++result.iterations;
+    if (!have_best || loss < result.loss) {
+      result.loss = loss;
+      result.theta = x;
+      have_best = true;
+    }
+    IterationInfo info;
+    info.iteration = result.iterations;
+    info.loss = loss;
+    info.gradient_norm = g ? g->norm() : 0.0;
+    info.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    info.best_loss = result.loss;
+    result.history.push_back(info);
+    if (progress && !progress(info)) {
+      result.cancelled = true;
+      stop = true;
+    }
+    if (result.loss <= options.loss_tolerance) stop = true;
+    return loss;
+  }
+};
+
+OptimizerResult runAdam(Tracker& t, Eigen::VectorXd x, const Eigen::VectorXd& lo, const Eigen::VectorXd& hi) {
+  const OptimizerOptions& o = t.options;
+  Eigen::VectorXd m = Eigen::VectorXd::Zero(x.size()), v = m, g(x.size());
+  for (int k = 1; k <= o.max_iterations && !t.stop; ++k) {
+    const double loss = t.call(x, &g);
+    if (t.stop) break;
+    if (!std::isfinite(loss) || !g.allFinite()) {
+      t.error = "the gradient is not finite at iteration " + std::to_string(k);
+      break;
+    }
+    if (g.norm() <= o.gradient_tolerance) {
+      t.result.converged = true;
+      t.result.message = "gradient norm below gradient_tolerance";
+      break;
+    }
+    m = o.beta1 * m + (1 - o.beta1) * g;
+    v = o.beta2 * v + (1 - o.beta2) * g.cwiseProduct(g);
+    const Eigen::VectorXd mh = m / (1 - std::pow(o.beta1, k));
+    const Eigen::VectorXd vh = v / (1 - std::pow(o.beta2, k));
+    x -= o.learning_rate * (mh.array() / (vh.array().sqrt() + o.adam_eps)).matrix();
+    x = x.cwiseMax(lo).cwiseMin(hi);
+  }
+  return t.result;
+}
+
+}  // namespace
+
+OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, const Eigen::VectorXd& lower_in,
+                         const Eigen::VectorXd& upper_in, const OptimizerOptions& options,
+                         const ProgressCallback& progress) {
+  const long n = theta0.size();
+  const double inf = std::numeric_limits<double>::infinity();
+  const Eigen::VectorXd lower = lower_in.size() ? lower_in : Eigen::VectorXd::Constant(n, -inf);
+  const Eigen::VectorXd upper = upper_in.size() ? upper_in : Eigen::VectorXd::Constant(n, inf);
+  if (lower.size() != n || upper.size() != n)
+    throw TopoError("optimiser bounds", "sizes differ from the number of parameters", "give one bound per parameter");
+  if (!theta0.allFinite()) throw TopoError("initial design", "contains NaN or infinity", "start from finite parameters");
+  if (options.max_iterations < 1) throw TopoError("max_iterations", "is below 1", "give at least 1 iteration");
+  Tracker t(f, progress, options);
+  const Eigen::VectorXd x0 = theta0.cwiseMax(lower).cwiseMin(upper);
+  if (options.method == "adam") {
+    if (!(options.learning_rate > 0)) throw TopoError("learning_rate", "must be positive", "e.g. 0.02");
+    runAdam(t, x0, lower, upper);
+  } else if (options.method == "lbfgs") {
+    nlopt::opt opt(nlopt::LD_LBFGS, static_cast<unsigned>(n));
+    std::vector<double> lb(lower.data(), lower.data() + n), ub(upper.data(), upper.data() + n);
+    opt.set_lower_bounds(lb);
+    opt.set_upper_bounds(ub);
+    opt.set_maxeval(options.max_iterations);
+    opt.set_ftol_rel(options.relative_tolerance);
+    opt.set_stopval(options.loss_tolerance);
+    auto fn = [](unsigned nn, const double* x, double* grad, void* data) -> double {
+      Tracker* tr = static_cast<Tracker*>(data);
+      if (tr->stop) throw nlopt::forced_stop();
+      Eigen::Map<const Eigen::VectorXd> xv(x, nn);
+      Eigen::VectorXd g(nn);
+      const double loss = tr->call(xv, grad ? &g : nullptr);
+      if (grad) Eigen::Map<Eigen::VectorXd>(grad, nn) = g;
+      if (grad && g.norm() <= tr->options.gradient_tolerance) tr->stop = true;
+      return loss;
+    };
+    opt.set_min_objective(fn, &t);
+    std::vector<double> x(x0.data(), x0.data() + n);
+    double fx = 0;
+    try {
+      const nlopt::result r = opt.optimize(x, fx);
+      switch (r) {
+        case nlopt::STOPVAL_REACHED: t.result.converged = true; t.result.message = "loss below loss_tolerance"; break;
+        case nlopt::FTOL_REACHED: case nlopt::XTOL_REACHED:
+          t.result.converged = true; t.result.message = "relative loss change below relative_tolerance"; break;
+        case nlopt::MAXEVAL_REACHED: t.result.message = "iteration limit reached"; break;
+        default: t.result.converged = true; t.result.message = "L-BFGS finished (code " + std::to_string(int(r)) + ")";
+      }
+    } catch (const nlopt::forced_stop&) {
+    } catch (const nlopt::roundoff_limited&) {
+      t.result.converged = true;
+      t.result.message = "L-BFGS stopped at round-off: no further progress possible";
+    } catch (const std::runtime_error& e) {
+      if (!t.have_best) throw;
+      if (t.error.empty()) t.error = e.what();
+    }
+  } else {
+    throw TopoError("optimizer '" + options.method + "'", "unknown", "use lbfgs or adam");
+  }
+  OptimizerResult& r = t.result;
+  if (r.cancelled) r.message = "cancelled: returning the best design so far";
+  else if (!t.error.empty()) r.message = "stopped early: " + t.error + " (returning the best design so far)";
+  else if (r.loss <= options.loss_tolerance) { r.converged = true; r.message = "loss below loss_tolerance"; }
+  else if (r.message.empty() && !r.history.empty() && r.history.back().gradient_norm <= options.gradient_tolerance) {
+    r.converged = true; r.message = "gradient norm below gradient_tolerance";
+  } else if (r.message.empty()) r.message = options.method == "adam" ? "iteration limit reached" : "stopped";
+  return r;
+}
+
+}  // namespace inference
+}  // namespace topo_gaussian

@@ -1,0 +1,236 @@
+#include "topo_gaussian/inference/pipeline.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+
+#include "topo_gaussian/physics/error.h"
+
+namespace topo_gaussian {
+namespace inference {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+std::string num(double v) {
+  if (!std::isfinite(v)) return "null";
+  std::ostringstream os;
+  os << std::setprecision(10) << v;
+  return os.str();
+}
+
+std::string quote(const std::string& s) {
+  std::string o = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') o += '\\', o += c;
+    else if (c == '\n') o += "\\n";
+    else if (static_cast<unsigned char>(c) < 0x20) o += ' ';
+    else o += c;
+  }
+  return o + "\"";
+}
+
+std::string vec3(const Eigen::Vector3d& v) { return "[" + num(v[0]) + ", " + num(v[1]) + ", " + num(v[2]) + "]"; }
+
+std::string featuresJson(const std::vector<Feature>& fs) {
+  std::string s = "{";
+  for (std::size_t i = 0; i < fs.size(); ++i) {
+    const Feature& f = fs[i];
+    s += (i ? ", " : "") + quote(f.name) + ": {\"value\": " + num(f.value) + ", \"unit\": " + quote(f.unit);
+    if (f.has_target) s += ", \"target\": " + num(f.target) + ", \"reached\": " + (f.reached() ? "true" : "false");
+    s += "}";
+  }
+  return s + "}";
+}
+
+std::string geometryJson(const ProblemEvaluation& ev, const Task& task) {
+  const TaskGeometry g = task.geometry();
+  std::string s = "\"gravity\": " + vec3(g.gravity) + ", \"center_of_mass\": " + vec3(ev.task.mass.com) +
+                  ", \"mass_kg\": " + num(ev.task.mass.mass) + ", \"inertia\": [";
+  for (int a = 0; a < 3; ++a) s += std::string(a ? ", " : "") + vec3(ev.task.mass.inertia.row(a).transpose());
+  s += "]";
+  if (g.has_point) s += ", " + quote(g.point_name) + ": " + vec3(g.point);
+  s += ", \"solid_fraction\": " + num(ev.solid_fraction);
+  return s;
+}
+
+std::string targetsJson(const TaskConfig& c) {
+  std::string s = "{";
+  bool first = true;
+  for (const auto& sp : c.specs())
+    if (sp.is_target && c.has(sp.name)) {
+      s += (first ? "" : ", ") + quote(sp.name) + ": ";
+      if (sp.type == ParamType::Text) s += quote(c.text(sp.name));
+      else if (sp.type == ParamType::List) {
+        s += "[";
+        const auto& l = c.list(sp.name);
+        for (std::size_t i = 0; i < l.size(); ++i) s += (i ? ", " : "") + num(l[i]);
+        s += "]";
+      } else s += num(c.number(sp.name));
+      first = false;
+    }
+  return s + "}";
+}
+
+}  // namespace
+
+ProblemEvaluation simulateInterior(const TaskConfig& config, const VolumeCloud& cloud, const std::vector<double>& r_in) {
+  InteriorProblem problem(config, cloud);
+  std::vector<double> r = r_in.empty() ? std::vector<double>(cloud.size(), 1.0) : r_in;
+  if (r.size() != cloud.size())
+    throw TopoError("interior", "has " + std::to_string(r.size()) + " values for " + std::to_string(cloud.size()) + " particles",
+                    "use the interior written for this volume");
+  return problem.evaluateIndicator(r, nullptr);
+}
+
+InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud, const ProgressCallback& progress) {
+  const auto t0 = Clock::now();
+  InteriorProblem problem(config, cloud);
+  problem.task().requireTargets();
+  InferenceResult res;
+  res.task = config.task();
+  res.representation = problem.representation().name();
+  const Eigen::VectorXd theta0 = problem.initialParameters();
+  Eigen::VectorXd lo, hi, g;
+  problem.bounds(&lo, &hi);
+  const auto te = Clock::now();
+  problem.evaluate(theta0, &g, &res.initial);
+  res.evaluation_s = since(te);
+  res.setup_s = since(t0) - res.evaluation_s;
+  OptimizerOptions oo;
+  oo.method = config.text("optimizer");
+  oo.max_iterations = config.integer("max_iterations");
+  oo.learning_rate = config.number("learning_rate");
+  oo.loss_tolerance = config.number("loss_tolerance");
+  oo.relative_tolerance = config.number("relative_tolerance");
+  oo.gradient_tolerance = config.number("gradient_tolerance");
+  const auto to = Clock::now();
+  res.optimizer = minimize([&](const Eigen::VectorXd& th, Eigen::VectorXd* gr) { return problem.evaluate(th, gr); },
+                           theta0, lo, hi, oo, progress);
+  res.optimize_s = since(to);
+  if (res.optimizer.iterations > 0) res.evaluation_s = res.optimize_s / res.optimizer.iterations;
+  res.theta = res.optimizer.theta;
+  problem.evaluate(res.theta, nullptr, &res.final);
+  problem.indicator(res.theta, &res.r);
+  problem.task().density().apply(res.r, &res.density, nullptr);
+
+  // How close are the features to their targets?
+  res.targets_reached = true;
+  std::ostringstream msg;
+  for (const auto& f : res.final.task.features) {
+    if (!f.has_target || f.reached()) continue;
+    res.targets_reached = false;
+    msg << "target " << f.name << " = " << f.target << " " << f.unit << " not reached: nearest value found " << f.value
+        << " " << f.unit << ". ";
+  }
+  res.converged = res.optimizer.converged && res.targets_reached;
+  std::ostringstream head;
+  head << "task " << res.task << " (" << res.representation << "): loss " << res.initial.loss << " -> " << res.final.loss
+       << " in " << res.optimizer.iterations << " evaluations; " << res.optimizer.message << ". ";
+  if (res.targets_reached) {
+    head << "All targets reached.";
+  } else if (res.optimizer.converged) {
+    head << msg.str() << "The optimiser converged, so no interior of this representation within the material bounds "
+         << "reaches the target: the value above is the nearest reachable one (check the target, the hanging/support "
+         << "point, or allow more material contrast).";
+  } else {
+    head << msg.str() << "Not converged: raise max_iterations or try another optimizer/representation.";
+  }
+  res.message = head.str();
+  return res;
+}
+
+void writeInteriorPly(const std::string& path, const VolumeCloud& cloud, const std::vector<double>& r,
+                      const std::vector<double>& density, bool continuous) {
+  std::ofstream out(path, std::ios::binary);
+  if (!out) throw TopoError(path, "cannot be written", "check the directory exists and is writable");
+  out << "ply\nformat binary_little_endian 1.0\ncomment topo_gaussian interior: solid = r >= 0.5"
+      << (continuous ? " (continuous material: r is the density fraction)" : "") << "\nelement vertex " << cloud.size()
+      << "\nproperty float x\nproperty float y\nproperty float z\nproperty float r\nproperty uchar solid\n"
+         "property float density\nend_header\n";
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const float v[4] = {float(cloud.X[i].x()), float(cloud.X[i].y()), float(cloud.X[i].z()), float(r[i])};
+    const unsigned char s = r[i] >= 0.5 ? 1 : 0;
+    const float d = float(density[i]);
+    out.write(reinterpret_cast<const char*>(v), sizeof v);
+    out.write(reinterpret_cast<const char*>(&s), 1);
+    out.write(reinterpret_cast<const char*>(&d), sizeof d);
+  }
+  if (!out) throw TopoError(path, "write failed", "check the free disk space");
+}
+
+std::vector<double> readInteriorPly(const std::string& path, std::size_t expected) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw TopoError(path, "cannot open the interior file", "check the path (an interior.ply written by topo infer)");
+  std::string line;
+  std::size_t count = 0;
+  bool header_ok = false;
+  std::getline(in, line);
+  if (line.rfind("ply", 0) != 0) throw TopoError(path, "is not a PLY file", "give an interior.ply written by topo infer");
+  std::vector<std::string> props;
+  while (std::getline(in, line)) {
+    if (line.rfind("element vertex", 0) == 0) count = std::stoul(line.substr(15));
+    else if (line.rfind("property", 0) == 0) props.push_back(line);
+    else if (line == "end_header") { header_ok = true; break; }
+  }
+  const std::vector<std::string> want = {"property float x", "property float y", "property float z", "property float r",
+                                         "property uchar solid", "property float density"};
+  if (!header_ok || props != want)
+    throw TopoError(path, "does not have the interior layout (x y z r solid density)", "write it with topo infer");
+  if (count != expected)
+    throw TopoError(path, "has " + std::to_string(count) + " particles, the volume has " + std::to_string(expected),
+                    "use the interior computed on this volume");
+  std::vector<double> r(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    char buf[21];
+    in.read(buf, sizeof buf);
+    if (!in) throw TopoError(path, "ends early at particle " + std::to_string(i), "the file is truncated: write it again");
+    float v;
+    std::memcpy(&v, buf + 12, 4);
+    r[i] = v;
+  }
+  return r;
+}
+
+std::string simulationJson(const ProblemEvaluation& ev, const TaskConfig& config, const Task& task) {
+  std::ostringstream s;
+  s << "{\"task\": " << quote(config.task()) << ", \"features\": " << featuresJson(ev.task.features)
+    << ", \"loss\": " << num(ev.loss) << ", " << geometryJson(ev, task) << "}";
+  return s.str();
+}
+
+std::string reportJson(const InferenceResult& r, const TaskConfig& config, const Task& task) {
+  std::ostringstream s;
+  s << "{\n  \"task\": " << quote(r.task) << ",\n  \"task_source\": " << quote(config.source())
+    << ",\n  \"representation\": " << quote(r.representation) << ",\n  \"parameters\": {";
+  bool first = true;
+  for (const auto& sp : config.specs()) {
+    if (sp.is_target || !config.has(sp.name)) continue;
+    s << (first ? "" : ", ") << quote(sp.name) << ": " << quote(config.valueText(sp.name));
+    first = false;
+  }
+  s << "},\n  \"targets\": " << targetsJson(config) << ",\n  \"initial_features\": " << featuresJson(r.initial.task.features)
+    << ",\n  \"achieved_features\": " << featuresJson(r.final.task.features) << ",\n  \"initial_loss\": " << num(r.initial.loss)
+    << ",\n  \"final_loss\": " << num(r.final.loss) << ",\n  \"converged\": " << (r.converged ? "true" : "false")
+    << ",\n  \"optimizer_converged\": " << (r.optimizer.converged ? "true" : "false")
+    << ",\n  \"targets_reached\": " << (r.targets_reached ? "true" : "false")
+    << ",\n  \"cancelled\": " << (r.optimizer.cancelled ? "true" : "false") << ",\n  \"message\": " << quote(r.message)
+    << ",\n  " << geometryJson(r.final, task) << ",\n  \"initial_center_of_mass\": " << vec3(r.initial.task.mass.com)
+    << ",\n  \"particles\": " << r.r.size() << ",\n  \"parameters_count\": " << r.theta.size()
+    << ",\n  \"timings_s\": {\"setup\": " << num(r.setup_s) << ", \"optimize\": " << num(r.optimize_s)
+    << ", \"per_evaluation\": " << num(r.evaluation_s) << "},\n  \"loss_history\": [";
+  for (std::size_t i = 0; i < r.optimizer.history.size(); ++i) {
+    const auto& h = r.optimizer.history[i];
+    s << (i ? ", " : "") << "{\"iteration\": " << h.iteration << ", \"loss\": " << num(h.loss)
+      << ", \"gradient_norm\": " << num(h.gradient_norm) << ", \"elapsed_s\": " << num(h.elapsed_s) << "}";
+  }
+  s << "]\n}\n";
+  return s.str();
+}
+
+}  // namespace inference
+}  // namespace topo_gaussian

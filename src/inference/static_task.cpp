@@ -1,0 +1,156 @@
+// Static rigid tasks (paper §7 rigid experiments, appendix "Hawk"): the object must hang from a
+// point (hanging), balance on a point (balance) or stand on its base (stand) in a target
+// orientation. Equilibrium needs the centre of mass on the vertical through the point, so the loss
+// is the squared offset of c from that vertical, perpendicular to gravity, over the object size².
+// No time stepping: the loss depends on c alone.
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+
+#include "task_factories.h"
+#include "topo_gaussian/physics/error.h"
+
+namespace topo_gaussian {
+namespace inference {
+namespace {
+
+// Convex hull (monotone chain) of 2D points, counter-clockwise.
+std::vector<Eigen::Vector2d> convexHull(std::vector<Eigen::Vector2d> p) {
+  std::sort(p.begin(), p.end(), [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+    return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
+  });
+  if (p.size() < 3) return p;
+  std::vector<Eigen::Vector2d> h(2 * p.size());
+  auto cross = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+    return (a - o).x() * (b - o).y() - (a - o).y() * (b - o).x();
+  };
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    while (k >= 2 && cross(h[k - 2], h[k - 1], p[i]) <= 0) --k;
+    h[k++] = p[i];
+  }
+  for (std::size_t i = p.size() - 1, t = k + 1; i > 0; --i) {
+    while (k >= t && cross(h[k - 2], h[k - 1], p[i - 1]) <= 0) --k;
+    h[k++] = p[i - 1];
+  }
+  h.resize(k - 1);
+  return h;
+}
+
+// Signed distance of q inside a CCW convex polygon (> 0 inside).
+double insideMargin(const std::vector<Eigen::Vector2d>& hull, const Eigen::Vector2d& q) {
+  if (hull.size() < 3) return -1e300;
+  double m = 1e300;
+  for (std::size_t i = 0; i < hull.size(); ++i) {
+    const Eigen::Vector2d a = hull[i], b = hull[(i + 1) % hull.size()];
+    const Eigen::Vector2d e = (b - a).normalized();
+    m = std::min(m, e.x() * (q - a).y() - e.y() * (q - a).x());
+  }
+  return m;
+}
+
+class StaticTask : public Task {
+ public:
+  StaticTask(const TaskConfig& c, const VolumeCloud& cloud) : Task(c, cloud) {
+    roll_ = c.has("target_roll_deg") ? c.number("target_roll_deg") : 0.0;
+    pitch_ = c.has("target_pitch_deg") ? c.number("target_pitch_deg") : 0.0;
+    R_ = targetRotation(roll_, pitch_);
+    g_hat_ = geometry_.gravity.normalized();
+    const Eigen::Vector3d top((lo_.x() + hi_.x()) / 2, (lo_.y() + hi_.y()) / 2, hi_.z());
+    if (name_ == "hanging") {
+      point_ = c.has("hanging_point") ? c.vector3("hanging_point") : top;
+      geometry_.point_name = "hanging_point";
+    } else if (name_ == "balance") {
+      point_ = c.has("support_point") ? c.vector3("support_point") : top;
+      geometry_.point_name = "support_point";
+      require_stable_ = c.boolean("require_stable");
+      margin_ = c.number("stability_margin_m");
+    } else {
+      // stand: the base is the set of particles within tolerance of the lowest point in the target pose.
+      double tol = c.number("base_tolerance_m");
+      if (tol <= 0) tol = 1.5 * cloud.spacing;
+      if (tol <= 0) tol = 0.01 * size_;
+      const Eigen::Vector3d up = -g_hat_;
+      double zmin = 1e300;
+      for (const auto& x : cloud.X) zmin = std::min(zmin, up.dot(R_ * x));
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      int n = 0;
+      // Plane coordinates perpendicular to gravity.
+      e1_ = up.unitOrthogonal();
+      e2_ = up.cross(e1_);
+      std::vector<Eigen::Vector2d> base;
+      for (const auto& x : cloud.X) {
+        const Eigen::Vector3d w = R_ * x;
+        if (up.dot(w) <= zmin + tol) {
+          sum += w;
+          ++n;
+          base.emplace_back(e1_.dot(w), e2_.dot(w));
+        }
+      }
+      hull_ = convexHull(base);
+      point_ = R_.transpose() * (sum / n);  // base centre, body frame
+      geometry_.point_name = "support_point";
+      base_count_ = n;
+    }
+    geometry_.has_point = true;
+    geometry_.point = point_;
+  }
+
+  TaskEvaluation evaluate(const std::vector<double>& r, std::vector<double>* dL_dr) const override {
+    std::vector<double> m, dm;
+    masses(r, &m, dL_dr ? &dm : nullptr);
+    const MassMoments mom = computeMassMoments(cloud_.X, m);
+    TaskEvaluation ev;
+    ev.mass = massPropertiesFromMoments(mom);
+    const Eigen::Matrix3d P = Eigen::Matrix3d::Identity() - g_hat_ * g_hat_.transpose();
+    const Eigen::Vector3d d = R_ * (ev.mass.com - point_);   // world offset of c from the point
+    const Eigen::Vector3d e = P * d;
+    const double L2 = size_ * size_;
+    ev.loss = e.squaredNorm() / L2;
+    Eigen::Vector3d dL_dc = 2.0 * R_.transpose() * e / L2;
+    const double depth = g_hat_.dot(d);   // > 0: c below the point
+    if (require_stable_ && depth < margin_) {
+      const double v = margin_ - depth;
+      ev.loss += v * v / L2;
+      dL_dc += -2.0 * v * R_.transpose() * g_hat_ / L2;
+    }
+    Feature off{"com_offset_m", e.norm(), "m", true, 0.0, 1e-3 * size_, 1.0};
+    ev.features.push_back(off);
+    ev.features.push_back(Feature{"tilt_deg", std::atan2(e.norm(), std::abs(depth)) * 180.0 / M_PI, "deg"});
+    if (name_ == "balance") ev.features.push_back(Feature{"com_depth_below_support_m", depth, "m"});
+    if (name_ == "stand") {
+      const Eigen::Vector3d cw = R_ * ev.mass.com;
+      const double mg = insideMargin(hull_, Eigen::Vector2d(e1_.dot(cw), e2_.dot(cw)));
+      ev.features.push_back(Feature{"support_margin_m", mg, "m"});
+      ev.features.push_back(Feature{"stands", mg > 0 ? 1.0 : 0.0, ""});
+    }
+    ev.features.push_back(Feature{"mass_kg", ev.mass.mass, "kg"});
+    if (dL_dr) {
+      Eigen::Matrix<double, 10, 1> g = Eigen::Matrix<double, 10, 1>::Zero();
+      g.segment<3>(1) = dL_dc;
+      std::vector<double> dL_dm;
+      massPropertiesGradientToParticles(cloud_.X, mom, g, &dL_dm);
+      dL_dr->resize(r.size());
+      for (std::size_t i = 0; i < r.size(); ++i) (*dL_dr)[i] = dL_dm[i] * dm[i];
+    }
+    return ev;
+  }
+
+ private:
+  double roll_ = 0, pitch_ = 0;
+  Eigen::Matrix3d R_;
+  Eigen::Vector3d g_hat_, point_, e1_, e2_;
+  bool require_stable_ = false;
+  double margin_ = 0.0;
+  std::vector<Eigen::Vector2d> hull_;
+  int base_count_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<Task> makeStaticTask(const TaskConfig& config, const VolumeCloud& cloud) {
+  return std::make_unique<StaticTask>(config, cloud);
+}
+
+}  // namespace inference
+}  // namespace topo_gaussian

@@ -1,0 +1,65 @@
+#include "topo_gaussian/inference/task.h"
+
+#include <Eigen/Geometry>
+#include <cmath>
+
+#include "task_factories.h"
+#include "topo_gaussian/physics/error.h"
+
+namespace topo_gaussian {
+namespace inference {
+
+bool Feature::reached() const {
+  if (!has_target) return true;
+  return std::abs(value - target) <= tolerance * std::max(std::abs(target), scale);
+}
+
+Eigen::Matrix3d targetRotation(double roll_deg, double pitch_deg) {
+  const double d = M_PI / 180.0;
+  return (Eigen::AngleAxisd(pitch_deg * d, Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(roll_deg * d, Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
+
+Task::Task(const TaskConfig& config, const VolumeCloud& cloud) : name_(config.task()), cloud_(cloud) {
+  cloud.validate("volume cloud for task '" + config.task() + "'");
+  density_.value_r0 = config.number("density_hollow");
+  density_.value_r1 = config.number("density_solid");
+  density_.power = config.number("density_power");
+  density_.floor = config.number("density_floor");
+  density_.continuous = config.boolean("continuous_material");
+  if (density_.value_r0 > density_.value_r1) {
+    throw TopoError("density_hollow", "is larger than density_solid (" + std::to_string(density_.value_r0) + " > " +
+                                          std::to_string(density_.value_r1) + " kg/m^3)",
+                    "the solid material (r = 1) must be the denser one");
+  }
+  density_.validate("density");
+  cloud.bounds(&lo_, &hi_);
+  size_ = std::max((hi_ - lo_).norm(), 1e-9);
+  geometry_.gravity = config.vector3("gravity");
+  if (geometry_.gravity.norm() <= 0.0) throw TopoError("gravity", "is zero", "give a gravity vector such as 0,0,-9.81");
+}
+
+void Task::masses(const std::vector<double>& r, std::vector<double>* m, std::vector<double>* dm_dr) const {
+  if (r.size() != cloud_.size()) {
+    throw TopoError("indicator r", "has " + std::to_string(r.size()) + " values for " + std::to_string(cloud_.size()) +
+                                       " particles", "evaluate the representation on the same volume cloud");
+  }
+  density_.apply(r, m, dm_dr);
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    (*m)[i] *= cloud_.V[i];
+    if (dm_dr) (*dm_dr)[i] *= cloud_.V[i];
+  }
+}
+
+std::unique_ptr<Task> makeTask(const TaskConfig& config, const VolumeCloud& cloud) {
+  const std::string& t = config.task();
+  if (t == "hanging" || t == "balance" || t == "stand") return makeStaticTask(config, cloud);
+  if (t == "tumbler") return makeTumblerTask(config, cloud);
+  if (t == "qiqi") return makeQiqiTask(config, cloud);
+  if (t == "ball") return makeBallTask(config, cloud);
+  throw TopoError("task '" + t + "'", "has no implementation", "use one of the task names of TaskConfig::taskNames()");
+}
+
+}  // namespace inference
+}  // namespace topo_gaussian

@@ -1,0 +1,116 @@
+// Tumbler (wobbly doll, paper §7 "Wobbly Doll"): the object rests on the ground, is released at a
+// tilt (or pushed), and rocks. Features: rocking period and maximum tilt from the simulated tilt
+// signal; loss w_T ((T − T*)/T*)² + w_θ ((θ − θ*)/θ*)². The rigid simulation runs in forward mode
+// (Dual10), so the features carry d/d(m, c, I); the chain to r goes through the mass moments.
+#include <Eigen/Geometry>
+#include <cmath>
+
+#include "rigid_options.h"
+#include "task_factories.h"
+#include "topo_gaussian/inference/oscillation.h"
+#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/physics/rigid_body.h"
+
+namespace topo_gaussian {
+namespace inference {
+namespace {
+
+constexpr double kDeg = 180.0 / M_PI;
+
+class TumblerTask : public Task {
+ public:
+  TumblerTask(const TaskConfig& c, const VolumeCloud& cloud) : Task(c, cloud) {
+    options_ = rigidOptionsFromConfig(c, geometry_.gravity);
+    axis_ = c.vector3("rocking_axis");
+    up_ = c.vector3("up_axis");
+    if (axis_.norm() == 0 || up_.norm() == 0) throw TopoError("rocking_axis/up_axis", "is zero", "give non-zero directions");
+    axis_.normalize();
+    up_.normalize();
+    tilt0_ = c.number("initial_tilt_deg") / kDeg;
+    omega0_ = c.number("initial_angular_velocity_rad_s");
+    w_period_ = c.number("weight_period");
+    w_tilt_ = c.number("weight_tilt");
+    if (c.has("period_s")) period_target_ = c.number("period_s");
+    if (c.has("max_tilt_deg")) tilt_target_ = c.number("max_tilt_deg");
+    for (std::size_t i = 0; i < cloud.size(); ++i)
+      if (cloud.surface[i]) contact_.push_back(cloud.X[i]);
+    if (contact_.empty()) throw TopoError("volume cloud", "has no surface particles for ground contact", "fill it with `topo fill` (it flags the surface)");
+    geometry_.has_point = false;
+  }
+
+  void requireTargets() const override {
+    if (period_target_ <= 0 && tilt_target_ <= 0)
+      throw TopoError("tumbler targets", "neither period_s nor max_tilt_deg is given",
+                      "give the observed values, e.g. --target period_s=0.25 --target max_tilt_deg=12");
+  }
+
+  TaskEvaluation evaluate(const std::vector<double>& r, std::vector<double>* dL_dr) const override {
+    std::vector<double> m, dm;
+    masses(r, &m, dL_dr ? &dm : nullptr);
+    const MassMoments mom = computeMassMoments(cloud_.X, m);
+    TaskEvaluation ev;
+    ev.mass = massPropertiesFromMoments(mom);
+    const RigidInertia<Dual10> inertia = seedInertia(ev.mass);
+    const Eigen::Quaterniond q0(Eigen::AngleAxisd(tilt0_, axis_));
+    RigidState<Dual10> s0 = restingState(inertia, q0, contact_, options_);
+    s0.angular_velocity = (omega0_ * axis_).cast<Dual10>();
+    const RigidTrajectory<Dual10> traj = simulateRigid(inertia, s0, contact_, options_);
+    // Signed tilt about the rocking axis: rotating ez by φ about a gives cos φ ez + sin φ (a × ez).
+    const Eigen::Vector3d ez(0, 0, 1), side = axis_.cross(ez);
+    std::vector<Dual10> phi(traj.states.size());
+    for (std::size_t k = 0; k < phi.size(); ++k) {
+      const Vec3<Dual10> u = traj.states[k].orientation * up_.cast<Dual10>();
+      using std::atan2;
+      phi[k] = atan2(u.dot(side.cast<Dual10>()), u.dot(ez.cast<Dual10>())) * kDeg;
+    }
+    const double dt = traj.time_s.size() > 1 ? traj.time_s[1] - traj.time_s[0] : options_.output_dt_s;
+    const OscillationFeatures<Dual10> f = analyseOscillation(phi, 0.0, dt);
+    ev.signal_name = "tilt_deg";
+    ev.signal_time_s = traj.time_s;
+    for (const auto& p : phi) ev.signal.push_back(p.value());
+    if (!f.valid) {
+      throw TopoError("tumbler simulation", f.message + " in " + std::to_string(options_.duration_s) + " s",
+                      "check that the object rests on a rounded bottom with its centre of mass low enough to "
+                      "right itself, or raise duration_s");
+    }
+    Eigen::Matrix<double, 10, 1> dL = Eigen::Matrix<double, 10, 1>::Zero();
+    if (period_target_ > 0) {
+      const Dual10 e = (f.period - period_target_) / period_target_;
+      ev.loss += w_period_ * e.value() * e.value();
+      dL += w_period_ * 2.0 * e.value() * e.derivatives();
+    }
+    if (tilt_target_ > 0) {
+      const Dual10 e = (f.max_abs - tilt_target_) / tilt_target_;
+      ev.loss += w_tilt_ * e.value() * e.value();
+      dL += w_tilt_ * 2.0 * e.value() * e.derivatives();
+    }
+    Feature fp{"period_s", f.period.value(), "s", period_target_ > 0, period_target_, 1e-9, 0.01};
+    Feature ft{"max_tilt_deg", f.max_abs.value(), "deg", tilt_target_ > 0, tilt_target_, 1e-9, 0.01};
+    ev.features = {fp, ft, Feature{"equilibrium_tilt_deg", f.equilibrium.value(), "deg"},
+                   Feature{"amplitude_deg", f.amplitude.value(), "deg"},
+                   Feature{"mass_kg", ev.mass.mass, "kg"}};
+    if (dL_dr) {
+      std::vector<double> dL_dm;
+      massPropertiesGradientToParticles(cloud_.X, mom, dL, &dL_dm);
+      dL_dr->resize(r.size());
+      for (std::size_t i = 0; i < r.size(); ++i) (*dL_dr)[i] = dL_dm[i] * dm[i];
+    }
+    return ev;
+  }
+
+ private:
+  RigidSimOptions options_;
+  Eigen::Vector3d axis_, up_;
+  double tilt0_ = 0, omega0_ = 0, w_period_ = 1, w_tilt_ = 1;
+  double period_target_ = -1, tilt_target_ = -1;
+  std::vector<Eigen::Vector3d> contact_;
+};
+
+}  // namespace
+
+std::unique_ptr<Task> makeTumblerTask(const TaskConfig& config, const VolumeCloud& cloud) {
+  return std::make_unique<TumblerTask>(config, cloud);
+}
+
+}  // namespace inference
+}  // namespace topo_gaussian

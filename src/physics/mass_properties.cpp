@@ -1,0 +1,157 @@
+#include "topo_gaussian/physics/mass_properties.h"
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+
+#include "topo_gaussian/physics/error.h"
+
+namespace topo_gaussian {
+namespace {
+
+using Vec10 = Eigen::Matrix<double, 10, 1>;
+
+// Index of the packed symmetric entries (xx, yy, zz, xy, xz, yz).
+constexpr int kSymRow[6] = {0, 1, 2, 0, 0, 1};
+constexpr int kSymCol[6] = {0, 1, 2, 1, 2, 2};
+
+}  // namespace
+
+Vec10 MassMoments::toVector() const {
+  Vec10 v;
+  v[0] = m0;
+  v.segment<3>(1) = m1;
+  for (int k = 0; k < 6; ++k) v[4 + k] = m2(kSymRow[k], kSymCol[k]);
+  return v;
+}
+
+MassMoments MassMoments::fromVector(const Vec10& v) {
+  MassMoments m;
+  m.m0 = v[0];
+  m.m1 = v.segment<3>(1);
+  for (int k = 0; k < 6; ++k) {
+    m.m2(kSymRow[k], kSymCol[k]) = v[4 + k];
+    m.m2(kSymCol[k], kSymRow[k]) = v[4 + k];
+  }
+  return m;
+}
+
+Vec10 MassProperties::toVector() const {
+  Vec10 v;
+  v[0] = mass;
+  v.segment<3>(1) = com;
+  for (int k = 0; k < 6; ++k) v[4 + k] = inertia(kSymRow[k], kSymCol[k]);
+  return v;
+}
+
+MassProperties MassProperties::fromVector(const Vec10& v) {
+  MassProperties p;
+  p.mass = v[0];
+  p.com = v.segment<3>(1);
+  for (int k = 0; k < 6; ++k) {
+    p.inertia(kSymRow[k], kSymCol[k]) = v[4 + k];
+    p.inertia(kSymCol[k], kSymRow[k]) = v[4 + k];
+  }
+  return p;
+}
+
+void MassProperties::principal(Eigen::Vector3d* moments, Eigen::Matrix3d* axes) const {
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(inertia);
+  if (moments) *moments = es.eigenvalues();
+  if (axes) *axes = es.eigenvectors();
+}
+
+MassMoments computeMassMoments(const std::vector<Eigen::Vector3d>& X, const std::vector<double>& masses) {
+  if (X.size() != masses.size()) {
+    throw TopoError("particle masses", "size " + std::to_string(masses.size()) + " differs from " +
+                                          std::to_string(X.size()) + " positions",
+                    "give one mass per particle");
+  }
+  const long n = static_cast<long>(X.size());
+  double m0 = 0.0;
+  double s[3] = {0, 0, 0};
+  double j[6] = {0, 0, 0, 0, 0, 0};
+#pragma omp parallel for reduction(+ : m0, s[:3], j[:6]) schedule(static)
+  for (long i = 0; i < n; ++i) {
+    const double mi = masses[i];
+    const Eigen::Vector3d& x = X[i];
+    m0 += mi;
+    for (int a = 0; a < 3; ++a) s[a] += mi * x[a];
+    for (int k = 0; k < 6; ++k) j[k] += mi * x[kSymRow[k]] * x[kSymCol[k]];
+  }
+  MassMoments m;
+  m.m0 = m0;
+  m.m1 = Eigen::Vector3d(s[0], s[1], s[2]);
+  for (int k = 0; k < 6; ++k) {
+    m.m2(kSymRow[k], kSymCol[k]) = j[k];
+    m.m2(kSymCol[k], kSymRow[k]) = j[k];
+  }
+  return m;
+}
+
+MassProperties massPropertiesFromMoments(const MassMoments& moments) {
+  if (!(moments.m0 > 0.0) || !std::isfinite(moments.m0) || !moments.m1.allFinite() || !moments.m2.allFinite()) {
+    throw TopoError("mass moments", "total mass " + std::to_string(moments.m0) + " kg is not positive and finite",
+                    "check the particle densities (a density floor above zero) and volumes");
+  }
+  MassProperties p;
+  p.mass = moments.m0;
+  p.com = moments.m1 / moments.m0;
+  const Eigen::Matrix3d C = moments.m2 - moments.m1 * moments.m1.transpose() / moments.m0;
+  p.inertia = C.trace() * Eigen::Matrix3d::Identity() - C;
+  p.inertia = 0.5 * (p.inertia + p.inertia.transpose()).eval();
+  return p;
+}
+
+MassProperties computeMassProperties(const std::vector<Eigen::Vector3d>& X, const std::vector<double>& masses) {
+  return massPropertiesFromMoments(computeMassMoments(X, masses));
+}
+
+Eigen::Matrix<double, 10, 10> massPropertiesJacobian(const MassMoments& moments) {
+  // props = f(M0, M1, M2):  m = M0,  c = M1/M0,  C = M2 − M1 M1ᵀ/M0,  I = tr(C) 1 − C.
+  Eigen::Matrix<double, 10, 10> J = Eigen::Matrix<double, 10, 10>::Zero();
+  const double M0 = moments.m0;
+  const Eigen::Vector3d& M1 = moments.m1;
+  J(0, 0) = 1.0;
+  for (int a = 0; a < 3; ++a) {
+    J(1 + a, 0) = -M1[a] / (M0 * M0);
+    J(1 + a, 1 + a) = 1.0 / M0;
+  }
+  // dC_ab: w.r.t. M0: +M1a M1b / M0²; w.r.t. M1c: −(δac M1b + δbc M1a)/M0; w.r.t. packed M2 entry k: 1 at (a,b).
+  auto dC = [&](int a, int b, int var) -> double {
+    if (var == 0) return M1[a] * M1[b] / (M0 * M0);
+    if (var <= 3) {
+      const int c = var - 1;
+      return -(((a == c) ? M1[b] : 0.0) + ((b == c) ? M1[a] : 0.0)) / M0;
+    }
+    const int k = var - 4;
+    return ((kSymRow[k] == a && kSymCol[k] == b) || (kSymRow[k] == b && kSymCol[k] == a)) ? 1.0 : 0.0;
+  };
+  for (int var = 0; var < 10; ++var) {
+    const double dtr = dC(0, 0, var) + dC(1, 1, var) + dC(2, 2, var);
+    for (int k = 0; k < 6; ++k) {
+      const int a = kSymRow[k], b = kSymCol[k];
+      J(4 + k, var) = (a == b ? dtr : 0.0) - dC(a, b, var);
+    }
+  }
+  return J;
+}
+
+void momentsGradientToParticles(const std::vector<Eigen::Vector3d>& X, const Vec10& g, std::vector<double>* dL_dm) {
+  const long n = static_cast<long>(X.size());
+  dL_dm->resize(X.size());
+#pragma omp parallel for schedule(static)
+  for (long i = 0; i < n; ++i) {
+    const Eigen::Vector3d& x = X[i];
+    double d = g[0] + g[1] * x[0] + g[2] * x[1] + g[3] * x[2];
+    for (int k = 0; k < 6; ++k) d += g[4 + k] * x[kSymRow[k]] * x[kSymCol[k]];
+    (*dL_dm)[i] = d;
+  }
+}
+
+void massPropertiesGradientToParticles(const std::vector<Eigen::Vector3d>& X, const MassMoments& moments,
+                                       const Vec10& dL_dprops, std::vector<double>* dL_dm) {
+  const Vec10 g = massPropertiesJacobian(moments).transpose() * dL_dprops;
+  momentsGradientToParticles(X, g, dL_dm);
+}
+
+}  // namespace topo_gaussian

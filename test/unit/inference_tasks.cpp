@@ -1,0 +1,228 @@
+// Task configuration, whole-task gradients (finite differences, issue: < 1e-4), optimisers, and
+// bad input for topo_inference.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <random>
+
+#include "test_clouds.h"
+#include "topo_gaussian/inference/interior_problem.h"
+#include "topo_gaussian/inference/optimizer.h"
+#include "topo_gaussian/inference/pipeline.h"
+#include "topo_gaussian/inference/task_config.h"
+#include "topo_gaussian/physics/error.h"
+
+using namespace topo_gaussian;
+using namespace topo_gaussian::inference;
+
+namespace {
+
+std::string errorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const TopoError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// Relative error of the analytic gradient against central differences, along each of `coords`
+// and along one random direction.
+double gradientError(const InteriorProblem& p, const Eigen::VectorXd& theta, const std::vector<int>& coords, double step) {
+  Eigen::VectorXd g;
+  p.evaluate(theta, &g);
+  double worst = 0;
+  auto check = [&](const Eigen::VectorXd& dir) {
+    const double fd = (p.evaluate(theta + step * dir, nullptr) - p.evaluate(theta - step * dir, nullptr)) / (2 * step);
+    const double an = g.dot(dir);
+    const double err = std::abs(fd - an) / std::max(std::abs(fd), 1e-3 * g.norm() * dir.norm());
+    worst = std::max(worst, err);
+    return err;
+  };
+  for (int c : coords) {
+    Eigen::VectorXd e = Eigen::VectorXd::Zero(theta.size());
+    e[c] = 1.0;
+    EXPECT_LT(check(e), 1e-4) << "parameter " << c;
+  }
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n;
+  Eigen::VectorXd d(theta.size());
+  for (int i = 0; i < d.size(); ++i) d[i] = n(rng);
+  EXPECT_LT(check(d.normalized()), 1e-4) << "random direction";
+  return worst;
+}
+
+// A design away from the fully solid start, so every gradient component is alive.
+Eigen::VectorXd quadricDesign() {
+  Eigen::VectorXd t(10);
+  t << 1.2, 0.8, 1.0, 0.1, -0.2, 0.05, 0.3, -0.2, 0.25, -0.35;
+  return t;
+}
+
+}  // namespace
+
+TEST(TaskConfig, DefaultsYamlFilesAndOverrides) {
+  for (const auto& name : TaskConfig::taskNames()) {
+    const TaskConfig c = TaskConfig::load(name, std::string(TOPO_SOURCE_DIR) + "/config/tasks");
+    EXPECT_EQ(c.task(), name);
+    EXPECT_NE(c.source(), "defaults") << name << " has no config/tasks/" << name << ".yaml";
+  }
+  TaskConfig c = TaskConfig::defaults("tumbler");
+  c.setAssignment("density_solid=1200");
+  EXPECT_EQ(c.number("density_solid"), 1200.0);
+  c.set("rocking_axis", "0, 1, 0");
+  EXPECT_EQ(c.vector3("rocking_axis"), Eigen::Vector3d(0, 1, 0));
+  EXPECT_FALSE(c.has("period_s"));
+  c.set("period_s", "0.25", "--target");
+  EXPECT_TRUE(c.has("period_s"));
+}
+
+TEST(TaskConfig, RefusesUnknownKeysAndImpossibleValues) {
+  TaskConfig c = TaskConfig::defaults("tumbler");
+  EXPECT_NE(errorOf([&] { c.set("densty_solid", "10"); }).find("did you mean 'density_solid'"), std::string::npos);
+  EXPECT_NE(errorOf([&] { c.set("density_solid", "-5"); }).find("density_solid"), std::string::npos);
+  EXPECT_NE(errorOf([&] { c.set("dt_s", "0"); }).find("outside"), std::string::npos);
+  EXPECT_NE(errorOf([&] { c.set("epsilon", "-1"); }).find("epsilon"), std::string::npos);
+  EXPECT_NE(errorOf([&] { c.set("representation", "voxel"); }).find("point, quadric, neural"), std::string::npos);
+  EXPECT_NE(errorOf([&] { c.set("rocking_axis", "1,0"); }).find("three numbers"), std::string::npos);
+  EXPECT_NE(errorOf([&] { c.set("duration_s", "nan"); }).find("not finite"), std::string::npos);
+  EXPECT_NE(errorOf([] { TaskConfig::defaults("juggle"); }).find("hanging, balance"), std::string::npos);
+  const std::string path = testing::TempDir() + "/bad_task.yaml";
+  std::ofstream(path) << "task: hanging\ndensity_solid: 1000\nspeed_of_light: 3\n";
+  EXPECT_NE(errorOf([&] { TaskConfig::fromYamlFile(path); }).find("speed_of_light"), std::string::npos);
+  EXPECT_NE(errorOf([&] { TaskConfig::fromYamlFile(path); }).find(path), std::string::npos);
+}
+
+TEST(TaskGradient, HangingAllRepresentations) {
+  const VolumeCloud cloud = topo_test::boxCloud(0.2, 0.1, 0.06, 0.01);
+  for (const std::string rep : {"quadric", "point", "neural"}) {
+    TaskConfig c = TaskConfig::defaults("hanging");
+    c.set("representation", rep);
+    c.set("hanging_point", "0.03,0.01,0.03");
+    c.set("neural_depth", "3");
+    c.set("neural_width", "16");
+    c.set("weight_smoothness", "0.1");
+    c.set("weight_volume", "0.01");
+    const InteriorProblem p(c, cloud);
+    Eigen::VectorXd theta = p.initialParameters();
+    if (rep == "quadric") theta = quadricDesign();
+    if (rep == "point") {
+      std::mt19937 rng(1);
+      std::uniform_real_distribution<double> u(-0.2, 0.2);
+      for (int i = 0; i < theta.size(); ++i) theta[i] = u(rng);
+    }
+    std::vector<int> coords = {0, 3, 7, theta.size() > 12 ? int(theta.size()) - 1 : 9};
+    SCOPED_TRACE(rep);
+    gradientError(p, theta, coords, rep == "neural" ? 1e-5 : 1e-6);
+  }
+}
+
+TEST(TaskGradient, QiqiThroughTheEquilibrium) {
+  // A hollow-capable box hanging on a hinge above its centre; water at three levels.
+  const VolumeCloud cloud = topo_test::boxCloud(0.1, 0.12, 0.15, 0.01);
+  TaskConfig c = TaskConfig::defaults("qiqi");
+  c.set("target_tilts_deg", "10, 5, -20");
+  const InteriorProblem p(c, cloud);
+  Eigen::VectorXd theta = quadricDesign();
+  theta[9] = 0.1;  // partly hollow
+  const ProblemEvaluation ev = [&] { ProblemEvaluation e; p.evaluate(theta, nullptr, &e); return e; }();
+  EXPECT_GT(ev.task.features.size(), 3u);
+  gradientError(p, theta, {0, 1, 4, 6, 8, 9}, 1e-6);
+}
+
+TEST(TaskGradient, TumblerThroughTheSimulation) {
+  const VolumeCloud cloud = topo_test::tumblerCloud(0.05, 0.5, 0.005);
+  TaskConfig c = TaskConfig::defaults("tumbler");
+  c.set("duration_s", "1.0");
+  c.set("initial_tilt_deg", "8");
+  c.set("period_s", "0.5");
+  c.set("max_tilt_deg", "9");
+  const InteriorProblem p(c, cloud);
+  gradientError(p, quadricDesign(), {0, 2, 6, 8, 9}, 1e-6);
+}
+
+TEST(Optimizer, LbfgsAndAdamMinimiseAQuadraticAndCancel) {
+  const Eigen::Vector3d target(0.3, -0.2, 0.5);
+  const Objective f = [&](const Eigen::VectorXd& x, Eigen::VectorXd* g) {
+    const Eigen::Vector3d d = x - target;
+    if (g) *g = 2 * Eigen::Vector3d(1, 4, 9).cwiseProduct(d);
+    return d.dot(Eigen::Vector3d(1, 4, 9).cwiseProduct(d));
+  };
+  OptimizerOptions o;
+  o.loss_tolerance = 1e-16;
+  const auto r1 = minimize(f, Eigen::Vector3d::Zero(), Eigen::VectorXd(), Eigen::VectorXd(), o);
+  EXPECT_TRUE(r1.converged) << r1.message;
+  EXPECT_LT((r1.theta - target).norm(), 1e-6);
+  o.method = "adam";
+  o.max_iterations = 3000;
+  o.learning_rate = 0.01;
+  o.loss_tolerance = 1e-10;
+  const auto r2 = minimize(f, Eigen::Vector3d::Zero(), Eigen::VectorXd(), Eigen::VectorXd(), o);
+  EXPECT_TRUE(r2.converged) << r2.message;
+  EXPECT_LT((r2.theta - target).norm(), 1e-4);
+  // Bounds hold; cancellation after 5 iterations returns the best so far.
+  o.method = "lbfgs";
+  const auto r3 = minimize(f, Eigen::Vector3d::Zero(), Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(1, 1, 0.2), o);
+  EXPECT_NEAR(r3.theta[2], 0.2, 1e-9);
+  int calls = 0;
+  const auto r4 = minimize(f, Eigen::Vector3d::Zero(), Eigen::VectorXd(), Eigen::VectorXd(), o,
+                           [&](const IterationInfo& it) { return ++calls < 2; });
+  EXPECT_TRUE(r4.cancelled);
+  EXPECT_EQ(r4.iterations, 2);
+  EXPECT_LE(r4.loss, f(Eigen::Vector3d::Zero(), nullptr));
+  EXPECT_NE(r4.message.find("best design so far"), std::string::npos);
+}
+
+TEST(Inference, HangingReachesItsTargetOnABox) {
+  const VolumeCloud cloud = topo_test::boxCloud(0.2, 0.1, 0.06, 0.008);
+  TaskConfig c = TaskConfig::defaults("hanging");
+  c.set("hanging_point", "0.04,0.01,0.03");
+  const InferenceResult r = runInference(c, cloud);
+  EXPECT_TRUE(r.targets_reached) << r.message;
+  const Feature& off = r.final.task.features[0];
+  EXPECT_EQ(off.name, "com_offset_m");
+  EXPECT_LT(off.value, 1e-3 * std::sqrt(0.2 * 0.2 + 0.1 * 0.1 + 0.06 * 0.06));
+}
+
+TEST(Inference, UnreachableTargetIsReportedWithTheNearestValue) {
+  // A hanging point far outside the object: no mass distribution puts c below it.
+  const VolumeCloud cloud = topo_test::boxCloud(0.2, 0.1, 0.06, 0.01);
+  TaskConfig c = TaskConfig::defaults("hanging");
+  c.set("hanging_point", "0.5,0,0.03");
+  c.set("max_iterations", "100");
+  const InferenceResult r = runInference(c, cloud);
+  EXPECT_FALSE(r.targets_reached);
+  EXPECT_FALSE(r.converged);
+  EXPECT_NE(r.message.find("nearest"), std::string::npos) << r.message;
+  // The nearest reachable offset: c can move at most to the +x end (≤ 0.1 m), so ≥ 0.4 m remains.
+  EXPECT_GT(r.final.task.features[0].value, 0.39);
+  EXPECT_LT(r.final.task.features[0].value, r.initial.task.features[0].value);
+}
+
+TEST(Inference, BadInputGivesClearErrors) {
+  VolumeCloud empty;
+  TaskConfig c = TaskConfig::defaults("hanging");
+  EXPECT_NE(errorOf([&] { InteriorProblem p(c, empty); }).find("empty"), std::string::npos);
+  const VolumeCloud cloud = topo_test::boxCloud(0.1, 0.1, 0.1, 0.01);
+  const InteriorProblem p(c, cloud);
+  Eigen::VectorXd theta = p.initialParameters();
+  theta[2] = std::nan("");
+  EXPECT_NE(errorOf([&] { p.evaluate(theta, nullptr); }).find("NaN"), std::string::npos);
+  TaskConfig t = TaskConfig::defaults("tumbler");
+  EXPECT_NE(errorOf([&] { runInference(t, topo_test::tumblerCloud(0.05, 0.5, 0.01)); }).find("--target period_s"),
+            std::string::npos);
+  TaskConfig d = TaskConfig::defaults("hanging");
+  d.set("density_hollow", "2000");
+  EXPECT_NE(errorOf([&] { InteriorProblem q(d, cloud); }).find("density_solid"), std::string::npos);
+}
+
+TEST(Inference, DivergingSimulationIsReportedWithTheStep) {
+  const VolumeCloud cloud = topo_test::tumblerCloud(0.05, 0.5, 0.01);
+  TaskConfig c = TaskConfig::defaults("tumbler");
+  c.set("contact_stiffness_n_per_m", "1e9");
+  c.set("max_substep_s", "0.005");
+  c.set("contact_damping_ratio", "0");
+  const std::string e = errorOf([&] { simulateInterior(c, cloud, {}); });
+  EXPECT_NE(e.find("step"), std::string::npos) << e;
+}

@@ -1,0 +1,46 @@
+// Test helper: lattice VolumeClouds of simple solids (cell-centred, surface = a 6-neighbour cell is
+// outside), so physics/inference tests need no files.
+#pragma once
+
+#include <Eigen/Core>
+#include <cmath>
+#include <functional>
+
+#include "topo_gaussian/physics/volume_cloud.h"
+
+namespace topo_test {
+
+inline topo_gaussian::VolumeCloud latticeCloud(const std::function<bool(const Eigen::Vector3d&)>& inside,
+                                               const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double h) {
+  topo_gaussian::VolumeCloud c;
+  c.spacing = h;
+  const Eigen::Vector3i n = ((hi - lo) / h).array().ceil().cast<int>();
+  auto centre = [&](int i, int j, int k) { return Eigen::Vector3d(lo + h * Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5)); };
+  for (int i = 0; i < n.x(); ++i)
+    for (int j = 0; j < n.y(); ++j)
+      for (int k = 0; k < n.z(); ++k) {
+        const Eigen::Vector3d x = centre(i, j, k);
+        if (!inside(x)) continue;
+        bool surf = false;
+        const int d[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+        for (const auto& o : d) surf = surf || !inside(centre(i + o[0], j + o[1], k + o[2]));
+        c.X.push_back(x);
+        c.V.push_back(h * h * h);
+        c.surface.push_back(surf ? 1 : 0);
+      }
+  return c;
+}
+
+/// A sphere of radius R cut flat at z = cut·R (a round-bottomed tumbler body), centre at the origin.
+inline topo_gaussian::VolumeCloud tumblerCloud(double R, double cut, double h) {
+  return latticeCloud([&](const Eigen::Vector3d& x) { return x.norm() <= R && x.z() <= cut * R; },
+                      Eigen::Vector3d(-R, -R, -R), Eigen::Vector3d(R, R, cut * R), h);
+}
+
+/// An axis-aligned box a×b×c centred at the origin.
+inline topo_gaussian::VolumeCloud boxCloud(double a, double b, double c, double h) {
+  const Eigen::Vector3d half(a / 2, b / 2, c / 2);
+  return latticeCloud([&](const Eigen::Vector3d& x) { return (x.cwiseAbs() - half).maxCoeff() <= 0; }, -half, half, h);
+}
+
+}  // namespace topo_test
