@@ -32,6 +32,7 @@ demo: build
 
 bench: build
 	@./bench/fill $(BUILD)
+	@./bench/infer $(BUILD)
 
 # The ROS-free physics/topology core alone (what the GPU machines build).
 core:

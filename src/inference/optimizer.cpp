@@ -23,16 +23,26 @@ struct Tracker {
   bool stop = false;
   std::string error;
 
+  int failures = 0;
+
   double call(const Eigen::VectorXd& x, Eigen::VectorXd* g) {
     double loss;
     try {
       loss = f(x, g);
+      failures = 0;
     } catch (const std::exception& e) {
       if (!have_best) throw;
+      // A trial design the task cannot evaluate (e.g. a tumbler that no longer rocks): report a loss
+      // far above the best so the line search steps back; give up after several in a row.
       error = e.what();
-      stop = true;
-      return std::numeric_limits<double>::infinity();
+      if (++failures >= 8) {
+        stop = true;
+        return std::numeric_limits<double>::infinity();
+      }
+      if (g) g->setZero(x.size());
+      return 1e3 * (1.0 + std::abs(result.loss));
     }
+    error.clear();
     ++result.iterations;
     if (!have_best || loss < result.loss) {
       result.loss = loss;
@@ -113,28 +123,43 @@ OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, cons
       Eigen::VectorXd g(nn);
       const double loss = tr->call(xv, grad ? &g : nullptr);
       if (grad) Eigen::Map<Eigen::VectorXd>(grad, nn) = g;
-      if (grad && g.norm() <= tr->options.gradient_tolerance) tr->stop = true;
+      if (grad && tr->failures == 0 && g.norm() <= tr->options.gradient_tolerance) tr->stop = true;
       return loss;
     };
     opt.set_min_objective(fn, &t);
-    std::vector<double> x(x0.data(), x0.data() + n);
-    double fx = 0;
-    try {
-      const nlopt::result r = opt.optimize(x, fx);
-      switch (r) {
-        case nlopt::STOPVAL_REACHED: t.result.converged = true; t.result.message = "loss below loss_tolerance"; break;
-        case nlopt::FTOL_REACHED: case nlopt::XTOL_REACHED:
-          t.result.converged = true; t.result.message = "relative loss change below relative_tolerance"; break;
-        case nlopt::MAXEVAL_REACHED: t.result.message = "iteration limit reached"; break;
-        default: t.result.converged = true; t.result.message = "L-BFGS finished (code " + std::to_string(int(r)) + ")";
+    // L-BFGS restarts from the best design (fresh curvature memory) when NLopt gives up on a rough
+    // stretch of the loss (line-search failure), while evaluations remain.
+    Eigen::VectorXd start = x0;
+    double best_at_start = std::numeric_limits<double>::infinity();
+    for (int attempt = 0; attempt < 50 && !t.stop; ++attempt) {
+      if (t.have_best && !(t.result.loss < best_at_start)) break;  // no progress since the last restart
+      best_at_start = t.have_best ? t.result.loss : best_at_start;
+      const int left = options.max_iterations - t.result.iterations;
+      if (left < 2) break;
+      opt.set_maxeval(left);
+      std::vector<double> x(start.data(), start.data() + n);
+      double fx = 0;
+      bool retry = false;
+      try {
+        const nlopt::result r = opt.optimize(x, fx);
+        switch (r) {
+          case nlopt::STOPVAL_REACHED: t.result.converged = true; t.result.message = "loss below loss_tolerance"; break;
+          case nlopt::FTOL_REACHED: case nlopt::XTOL_REACHED:
+            t.result.converged = true; t.result.message = "relative loss change below relative_tolerance"; break;
+          case nlopt::MAXEVAL_REACHED: t.result.message = "iteration limit reached"; break;
+          default: t.result.converged = true; t.result.message = "L-BFGS converged (NLopt code " + std::to_string(int(r)) + ")";
+        }
+      } catch (const nlopt::forced_stop&) {
+      } catch (const nlopt::roundoff_limited&) {
+        t.result.converged = true;
+        t.result.message = "L-BFGS stopped at round-off: no further progress possible";
+      } catch (const std::runtime_error& e) {
+        if (!t.have_best) throw;
+        retry = true;
+        t.result.message = std::string("L-BFGS line search failed (") + e.what() + "), restarted from the best design";
       }
-    } catch (const nlopt::forced_stop&) {
-    } catch (const nlopt::roundoff_limited&) {
-      t.result.converged = true;
-      t.result.message = "L-BFGS stopped at round-off: no further progress possible";
-    } catch (const std::runtime_error& e) {
-      if (!t.have_best) throw;
-      if (t.error.empty()) t.error = e.what();
+      if (!retry) break;
+      start = t.result.theta;
     }
   } else {
     throw TopoError("optimizer '" + options.method + "'", "unknown", "use lbfgs or adam");

@@ -192,6 +192,7 @@ TaskConfig TaskConfig::defaults(const std::string& task) {
     b.num("initial_angular_velocity_rad_s", 0.0, "initial angular velocity about rocking_axis [rad/s]");
     b.vec("rocking_axis", &ex, "rocking axis in the body frame (horizontal at rest)");
     b.vec("up_axis", &ez, "the body's up direction (the tilt is measured from it)");
+    b.integer("measured_cycles", 2, "period and equilibrium from the first N full cycles (0 = all in duration_s)", 0, 1000);
     b.num("weight_period", 1.0, "loss weight of ((T - T*)/T*)^2", 0);
     b.num("weight_tilt", 1.0, "loss weight of ((tilt - tilt*)/tilt*)^2", 0);
     b.target("period_s", ParamType::Number, "observed rocking period [s]", 0, 1e300, true);

@@ -30,6 +30,7 @@ class TumblerTask : public Task {
     omega0_ = c.number("initial_angular_velocity_rad_s");
     w_period_ = c.number("weight_period");
     w_tilt_ = c.number("weight_tilt");
+    cycles_ = c.integer("measured_cycles");
     if (c.has("period_s")) period_target_ = c.number("period_s");
     if (c.has("max_tilt_deg")) tilt_target_ = c.number("max_tilt_deg");
     for (std::size_t i = 0; i < cloud.size(); ++i)
@@ -64,7 +65,7 @@ class TumblerTask : public Task {
       phi[k] = atan2(u.dot(side.cast<Dual10>()), u.dot(ez.cast<Dual10>())) * kDeg;
     }
     const double dt = traj.time_s.size() > 1 ? traj.time_s[1] - traj.time_s[0] : options_.output_dt_s;
-    const OscillationFeatures<Dual10> f = analyseOscillation(phi, 0.0, dt);
+    const OscillationFeatures<Dual10> f = analyseOscillation(phi, 0.0, dt, cycles_, omega0_ == 0.0);
     ev.signal_name = "tilt_deg";
     ev.signal_time_s = traj.time_s;
     for (const auto& p : phi) ev.signal.push_back(p.value());
@@ -103,6 +104,7 @@ class TumblerTask : public Task {
   Eigen::Vector3d axis_, up_;
   double tilt0_ = 0, omega0_ = 0, w_period_ = 1, w_tilt_ = 1;
   double period_target_ = -1, tilt_target_ = -1;
+  int cycles_ = 2;
   std::vector<Eigen::Vector3d> contact_;
 };
 

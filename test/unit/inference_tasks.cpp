@@ -139,7 +139,9 @@ TEST(TaskGradient, TumblerThroughTheSimulation) {
   c.set("period_s", "0.5");
   c.set("max_tilt_deg", "9");
   const InteriorProblem p(c, cloud);
-  gradientError(p, quadricDesign(), {0, 2, 6, 8, 9}, 1e-6);
+  // The contact clamps make the motion piecewise smooth in the parameters: central differences agree
+  // with forward mode at small steps (1e-8 here; rounding is far below the tolerance at this loss).
+  gradientError(p, quadricDesign(), {0, 2, 6, 8, 9}, 1e-8);
 }
 
 TEST(Optimizer, LbfgsAndAdamMinimiseAQuadraticAndCancel) {
@@ -177,7 +179,8 @@ TEST(Optimizer, LbfgsAndAdamMinimiseAQuadraticAndCancel) {
 TEST(Inference, HangingReachesItsTargetOnABox) {
   const VolumeCloud cloud = topo_test::boxCloud(0.2, 0.1, 0.06, 0.008);
   TaskConfig c = TaskConfig::defaults("hanging");
-  c.set("hanging_point", "0.04,0.01,0.03");
+  // 1.5 cm off-centre in x, 0.5 cm in y: reachable with the shell pinned solid.
+  c.set("hanging_point", "0.015,0.005,0.03");
   const InferenceResult r = runInference(c, cloud);
   EXPECT_TRUE(r.targets_reached) << r.message;
   const Feature& off = r.final.task.features[0];
@@ -203,7 +206,7 @@ TEST(Inference, UnreachableTargetIsReportedWithTheNearestValue) {
 TEST(Inference, BadInputGivesClearErrors) {
   VolumeCloud empty;
   TaskConfig c = TaskConfig::defaults("hanging");
-  EXPECT_NE(errorOf([&] { InteriorProblem p(c, empty); }).find("empty"), std::string::npos);
+  EXPECT_NE(errorOf([&] { InteriorProblem p(c, empty); }).find("has no particles"), std::string::npos);
   const VolumeCloud cloud = topo_test::boxCloud(0.1, 0.1, 0.1, 0.01);
   const InteriorProblem p(c, cloud);
   Eigen::VectorXd theta = p.initialParameters();

@@ -86,7 +86,7 @@ template <typename S>
 struct RigidTrajectory {
   std::vector<double> time_s;
   std::vector<RigidState<S>> states;   ///< states[k] at time_s[k]; states[0] is the initial state
-  double substep_s = 0.0;              ///< the integration step used
+  double substep_s = 0.0;              ///< the integration step used (the smallest one when automatic)
   double stiffness_used = 0.0;         ///< the penalty stiffness used [N/m]
 };
 

@@ -1,0 +1,126 @@
+// Inference benchmark (issue 3 §7): per task and representation, one JSON line with particles,
+// iterations, end-to-end time, time per loss+gradient evaluation, and the ratio of one analytic
+// gradient to one finite-difference gradient (central differences, 2·P loss evaluations) measured
+// in the same run (projected from one loss evaluation when 2·P evaluations would take too long).
+// Usage: bench_infer [--quick]
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <string>
+
+#include "../test/unit/test_clouds.h"
+#include "topo_gaussian/inference/pipeline.h"
+
+using namespace topo_gaussian;
+using namespace topo_gaussian::inference;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+double seconds(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+std::vector<double> cavity(const VolumeCloud& c, const Eigen::Vector3d& centre, double radius) {
+  std::vector<double> r(c.size(), 1.0);
+  for (std::size_t i = 0; i < c.size(); ++i)
+    if (!c.surface[i] && (c.X[i] - centre).norm() < radius) r[i] = 0.0;
+  return r;
+}
+
+void runCase(const std::string& name, const TaskConfig& c, const VolumeCloud& cloud, bool run_inference,
+             int fd_limit) {
+  const InteriorProblem p(c, cloud);
+  const Eigen::VectorXd theta = p.initialParameters();
+  Eigen::VectorXd g;
+  auto t = Clock::now();
+  p.evaluate(theta, &g);
+  const double grad_s = seconds(t);
+  t = Clock::now();
+  p.evaluate(theta, nullptr);
+  const double loss_s = seconds(t);
+  const int P = p.numParameters();
+  double fd_s;
+  bool projected = false;
+  if (P <= fd_limit) {
+    t = Clock::now();
+    for (int k = 0; k < P; ++k) {
+      Eigen::VectorXd e = Eigen::VectorXd::Zero(P);
+      e[k] = 1e-6;
+      p.evaluate(theta + e, nullptr);
+      p.evaluate(theta - e, nullptr);
+    }
+    fd_s = seconds(t);
+  } else {
+    fd_s = 2.0 * P * loss_s;
+    projected = true;
+  }
+  double total_s = 0;
+  int iterations = 0;
+  double loss0 = 0, loss1 = 0;
+  bool reached = false;
+  if (run_inference) {
+    t = Clock::now();
+    const InferenceResult r = runInference(c, cloud);
+    total_s = seconds(t);
+    iterations = r.optimizer.iterations;
+    loss0 = r.initial.loss;
+    loss1 = r.final.loss;
+    reached = r.targets_reached;
+  }
+  std::printf("{\"case\": \"%s\", \"task\": \"%s\", \"representation\": \"%s\", \"particles\": %zu, \"parameters\": %d, "
+              "\"iterations\": %d, \"end_to_end_s\": %.4f, \"loss_gradient_s\": %.5f, \"loss_only_s\": %.5f, "
+              "\"fd_gradient_s\": %.4f, \"fd_projected\": %s, \"analytic_over_fd\": %.3g, \"loss_initial\": %.3e, "
+              "\"loss_final\": %.3e, \"targets_reached\": %s}\n",
+              name.c_str(), c.task().c_str(), c.text("representation").c_str(), cloud.size(), P, iterations, total_s,
+              grad_s, loss_s, fd_s, projected ? "true" : "false", grad_s / fd_s, loss0, loss1, reached ? "true" : "false");
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
+  // ~100k particles: a 0.4 × 0.2 × 0.12 m box at 4 mm spacing (quick: 8 mm).
+  const double h = quick ? 0.008 : 0.004;
+  const VolumeCloud box = topo_test::boxCloud(0.4, 0.2, 0.12, h);
+  const std::vector<double> box_gt = cavity(box, Eigen::Vector3d(0.08, 0.02, 0.0), 0.05);
+  {
+    TaskConfig c = TaskConfig::defaults("hanging");
+    const ProblemEvaluation gt = simulateInterior(c, box, box_gt);
+    c.setVector("hanging_point", Eigen::Vector3d(gt.task.mass.com.x(), gt.task.mass.com.y(), 0.06));
+    runCase("hanging_quadric", c, box, true, 1000);
+    TaskConfig cp = c;
+    cp.set("representation", "point");
+    cp.set("optimizer", "lbfgs");
+    runCase("hanging_point", cp, box, true, 0);
+    TaskConfig cn = c;
+    cn.set("representation", "neural");
+    cn.set("neural_depth", "4");
+    cn.set("neural_width", "32");
+    runCase("hanging_neural_4x32", cn, box, true, 0);
+    if (!quick) {
+      TaskConfig cd = c;
+      cd.set("representation", "neural");  // the paper's default 8 x 512: one evaluation only
+      runCase("hanging_neural_8x512_one_evaluation", cd, box, false, 0);
+    }
+  }
+  {
+    const VolumeCloud tumbler = topo_test::tumblerCloud(0.05, 0.6, quick ? 0.005 : 0.0033);
+    TaskConfig c = TaskConfig::defaults("tumbler");
+    c.set("density_solid", "5000");
+    c.set("duration_s", "2.0");
+    const ProblemEvaluation gt = simulateInterior(c, tumbler, cavity(tumbler, Eigen::Vector3d(0, 0.012, 0.008), 0.025));
+    c.setNumber("period_s", gt.task.features[0].value);
+    c.setNumber("max_tilt_deg", gt.task.features[1].value);
+    c.set("max_iterations", quick ? "10" : "60");
+    runCase("tumbler_quadric_2s", c, tumbler, true, 1000);
+  }
+  {
+    const VolumeCloud vessel = topo_test::boxCloud(0.1, 0.12, 0.15, quick ? 0.01 : 0.005);
+    TaskConfig c = TaskConfig::defaults("qiqi");
+    c.set("target_tilts_deg", "10, 5, -20");
+    c.set("max_iterations", quick ? "5" : "40");
+    runCase("qiqi_quadric", c, vessel, true, 1000);
+  }
+  return 0;
+}

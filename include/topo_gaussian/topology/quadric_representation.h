@@ -1,0 +1,38 @@
+// Quadric representation (paper §5, Hafner et al. 2024): s(u) = uᵀAu + bᵀu + c on normalised
+// coordinates u, A symmetric. θ = [a_xx, a_yy, a_zz, a_xy, a_xz, a_yz, b_x, b_y, b_z, c]; each
+// off-diagonal entry appears twice in uᵀAu (s contains 2 a_xy u_x u_y). Unbounded.
+#pragma once
+
+#include "topo_gaussian/topology/representation.h"
+
+namespace topo_gaussian {
+
+class QuadricRepresentation : public Representation {
+ public:
+  static constexpr int kNumParameters = 10;
+
+  /// Throws TopoError for an empty or non-finite particle set.
+  QuadricRepresentation(const std::vector<Eigen::Vector3d>& X, double initial_field);
+
+  std::string name() const override { return "quadric"; }
+  int numParameters() const override { return kNumParameters; }
+  /// Zeros except c = initial_field.
+  Eigen::VectorXd initialParameters() const override;
+  void field(const Eigen::VectorXd& theta, std::vector<double>* s) const override;
+  void fieldBackward(const Eigen::VectorXd& theta, const std::vector<double>& dL_ds,
+                     Eigen::VectorXd* dL_dtheta) const override;
+
+  /// s at arbitrary positions (same frame as the particles), e.g. to mesh the solid region.
+  void fieldAt(const Eigen::VectorXd& theta, const std::vector<Eigen::Vector3d>& points,
+               std::vector<double>* s) const;
+  const NormalisedFrame& frame() const { return frame_; }
+  /// ds/dθ at normalised coordinates u (the 10 monomials).
+  static Eigen::Matrix<double, 10, 1> basis(const Eigen::Vector3d& u);
+
+ private:
+  NormalisedFrame frame_;
+  std::vector<Eigen::Vector3d> U_;  ///< normalised particle coordinates
+  double initial_field_;
+};
+
+}  // namespace topo_gaussian

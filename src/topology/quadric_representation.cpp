@@ -1,0 +1,94 @@
+#include "topo_gaussian/topology/quadric_representation.h"
+
+#include <Eigen/StdVector>
+#include <cmath>
+#include <vector>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include "topo_gaussian/physics/error.h"
+
+namespace topo_gaussian {
+
+namespace {
+
+double evaluate(const Eigen::VectorXd& t, const Eigen::Vector3d& u) {
+  const double x = u.x(), y = u.y(), z = u.z();
+  return t[0] * x * x + t[1] * y * y + t[2] * z * z +
+         2.0 * (t[3] * x * y + t[4] * x * z + t[5] * y * z) + t[6] * x + t[7] * y + t[8] * z + t[9];
+}
+
+}  // namespace
+
+QuadricRepresentation::QuadricRepresentation(const std::vector<Eigen::Vector3d>& X, double initial_field)
+    : frame_(NormalisedFrame::fromPoints(X)), initial_field_(initial_field) {
+  if (!std::isfinite(initial_field))
+    throw TopoError("quadric representation initial_field", "is not finite", "use e.g. 0.3");
+  n_ = X.size();
+  U_.resize(n_);
+  const double inv = 1.0 / frame_.scale;
+  for (std::size_t i = 0; i < n_; ++i) U_[i] = (X[i] - frame_.centre) * inv;
+}
+
+Eigen::VectorXd QuadricRepresentation::initialParameters() const {
+  Eigen::VectorXd t = Eigen::VectorXd::Zero(kNumParameters);
+  t[9] = initial_field_;
+  return t;
+}
+
+Eigen::Matrix<double, 10, 1> QuadricRepresentation::basis(const Eigen::Vector3d& u) {
+  const double x = u.x(), y = u.y(), z = u.z();
+  Eigen::Matrix<double, 10, 1> m;
+  m << x * x, y * y, z * z, 2.0 * x * y, 2.0 * x * z, 2.0 * y * z, x, y, z, 1.0;
+  return m;
+}
+
+void QuadricRepresentation::field(const Eigen::VectorXd& theta, std::vector<double>* s) const {
+  checkParameters(theta);
+  s->resize(n_);
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(n_);
+#pragma omp parallel for schedule(static) if (n > 8192)
+  for (std::ptrdiff_t i = 0; i < n; ++i) (*s)[i] = evaluate(theta, U_[i]);
+}
+
+void QuadricRepresentation::fieldAt(const Eigen::VectorXd& theta, const std::vector<Eigen::Vector3d>& points,
+                                    std::vector<double>* s) const {
+  checkParameters(theta);
+  s->resize(points.size());
+  const double inv = 1.0 / frame_.scale;
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(points.size());
+#pragma omp parallel for schedule(static) if (n > 8192)
+  for (std::ptrdiff_t i = 0; i < n; ++i) (*s)[i] = evaluate(theta, (points[i] - frame_.centre) * inv);
+}
+
+void QuadricRepresentation::fieldBackward(const Eigen::VectorXd& theta, const std::vector<double>& dL_ds,
+                                          Eigen::VectorXd* dL_dtheta) const {
+  checkParameters(theta);
+  checkFieldGradient(dL_ds);
+  // s is linear in θ: dL/dθ = Σ_i dL/ds_i · basis(u_i). Per-thread partial sums, added in thread
+  // order so the result does not depend on scheduling.
+  using Vec10 = Eigen::Matrix<double, 10, 1>;
+  int threads = 1;
+#ifdef _OPENMP
+  threads = omp_get_max_threads();
+#endif
+  std::vector<Vec10, Eigen::aligned_allocator<Vec10>> partial(threads, Vec10::Zero());
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(n_);
+#pragma omp parallel num_threads(threads) if (n > 8192)
+  {
+    int t = 0;
+#ifdef _OPENMP
+    t = omp_get_thread_num();
+#endif
+    Vec10 local = Vec10::Zero();
+#pragma omp for schedule(static)
+    for (std::ptrdiff_t i = 0; i < n; ++i) local += dL_ds[i] * basis(U_[i]);
+    partial[t] = local;
+  }
+  Vec10 total = Vec10::Zero();
+  for (const Vec10& p : partial) total += p;
+  *dL_dtheta = total;
+}
+
+}  // namespace topo_gaussian
