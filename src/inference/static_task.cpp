@@ -114,7 +114,9 @@ class StaticTask : public Task {
       ev.loss += v * v / L2;
       dL_dc += -2.0 * v * R_.transpose() * g_hat_ / L2;
     }
-    Feature off{"com_offset_m", e.norm(), "m", true, 0.0, 1e-3 * size_, 1.0};
+    // stand succeeds once the centre of mass is over the base (the loss keeps pulling it to the
+    // base centre); hanging and balance need it on the vertical through the point.
+    Feature off{"com_offset_m", e.norm(), "m", name_ != "stand", 0.0, 1e-3 * size_, 1.0};
     ev.features.push_back(off);
     ev.features.push_back(Feature{"tilt_deg", std::atan2(e.norm(), std::abs(depth)) * 180.0 / M_PI, "deg"});
     if (name_ == "balance") ev.features.push_back(Feature{"com_depth_below_support_m", depth, "m"});
@@ -122,7 +124,7 @@ class StaticTask : public Task {
       const Eigen::Vector3d cw = R_ * ev.mass.com;
       const double mg = insideMargin(hull_, Eigen::Vector2d(e1_.dot(cw), e2_.dot(cw)));
       ev.features.push_back(Feature{"support_margin_m", mg, "m"});
-      ev.features.push_back(Feature{"stands", mg > 0 ? 1.0 : 0.0, ""});
+      ev.features.push_back(Feature{"stands", mg > 0 ? 1.0 : 0.0, "", true, 1.0, 1.0, 0.0});
     }
     ev.features.push_back(Feature{"mass_kg", ev.mass.mass, "kg"});
     if (dL_dr) {
