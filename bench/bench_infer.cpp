@@ -2,7 +2,7 @@
 // iterations, end-to-end time, time per loss+gradient evaluation, and the ratio of one analytic
 // gradient to one finite-difference gradient (central differences, 2·P loss evaluations) measured
 // in the same run (projected from one loss evaluation when 2·P evaluations would take too long).
-// Usage: bench_infer [--quick]
+// Usage: bench_infer [--quick] [CASE_SUBSTRING]
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -27,8 +27,11 @@ std::vector<double> cavity(const VolumeCloud& c, const Eigen::Vector3d& centre, 
   return r;
 }
 
+const char* g_only = nullptr;  // run only the cases whose name contains this
+
 void runCase(const std::string& name, const TaskConfig& c, const VolumeCloud& cloud, bool run_inference,
              int fd_limit) {
+  if (g_only && name.find(g_only) == std::string::npos) return;
   const InteriorProblem p(c, cloud);
   const Eigen::VectorXd theta = p.initialParameters();
   Eigen::VectorXd g;
@@ -58,6 +61,7 @@ void runCase(const std::string& name, const TaskConfig& c, const VolumeCloud& cl
   int iterations = 0;
   double loss0 = 0, loss1 = 0;
   bool reached = false;
+  std::string message;
   if (run_inference) {
     t = Clock::now();
     const InferenceResult r = runInference(c, cloud);
@@ -66,20 +70,27 @@ void runCase(const std::string& name, const TaskConfig& c, const VolumeCloud& cl
     loss0 = r.initial.loss;
     loss1 = r.final.loss;
     reached = r.targets_reached;
+    message = r.optimizer.message;
+    for (char& ch : message)
+      if (ch == '"' || ch == '\\') ch = '\'';
   }
   std::printf("{\"case\": \"%s\", \"task\": \"%s\", \"representation\": \"%s\", \"particles\": %zu, \"parameters\": %d, "
               "\"iterations\": %d, \"end_to_end_s\": %.4f, \"loss_gradient_s\": %.5f, \"loss_only_s\": %.5f, "
               "\"fd_gradient_s\": %.4f, \"fd_projected\": %s, \"analytic_over_fd\": %.3g, \"loss_initial\": %.3e, "
-              "\"loss_final\": %.3e, \"targets_reached\": %s}\n",
+              "\"loss_final\": %.3e, \"targets_reached\": %s, \"stopped\": \"%s\"}\n",
               name.c_str(), c.task().c_str(), c.text("representation").c_str(), cloud.size(), P, iterations, total_s,
-              grad_s, loss_s, fd_s, projected ? "true" : "false", grad_s / fd_s, loss0, loss1, reached ? "true" : "false");
+              grad_s, loss_s, fd_s, projected ? "true" : "false", grad_s / fd_s, loss0, loss1, reached ? "true" : "false", message.c_str());
   std::fflush(stdout);
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
+  bool quick = false;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--quick") == 0) quick = true;
+    else g_only = argv[i];
+  }
   // ~100k particles: a 0.4 × 0.2 × 0.12 m box at 4 mm spacing (quick: 8 mm).
   const double h = quick ? 0.008 : 0.004;
   const VolumeCloud box = topo_test::boxCloud(0.4, 0.2, 0.12, h);

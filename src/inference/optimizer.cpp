@@ -24,6 +24,7 @@ struct Tracker {
   std::string error;
 
   int failures = 0;
+  double scale = 1.0;  ///< L-BFGS sees scale × loss (NLopt's L-BFGS stops when every gradient entry is tiny)
 
   double call(const Eigen::VectorXd& x, Eigen::VectorXd* g) {
     double loss;
@@ -122,17 +123,32 @@ OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, cons
       Eigen::Map<const Eigen::VectorXd> xv(x, nn);
       Eigen::VectorXd g(nn);
       const double loss = tr->call(xv, grad ? &g : nullptr);
-      if (grad) Eigen::Map<Eigen::VectorXd>(grad, nn) = g;
+      if (grad) Eigen::Map<Eigen::VectorXd>(grad, nn) = tr->scale * g;
       if (grad && tr->failures == 0 && g.norm() <= tr->options.gradient_tolerance) tr->stop = true;
-      return loss;
+      return tr->scale * loss;
     };
+    // With very many parameters (the point representation: one per particle) every gradient entry
+    // is tiny and NLopt's L-BFGS reports success at once: scale the loss so the largest entry at the
+    // start is 1e-2. (Scaling the few-parameter representations made their line searches fail.)
+    if (n > 10000) {
+      Eigen::VectorXd g0(n);
+      t.call(x0, &g0);
+      const double gmax = g0.cwiseAbs().maxCoeff();
+      if (gmax > 0 && gmax < 1e-4 && std::isfinite(gmax)) t.scale = 1e-2 / gmax;
+      opt.set_stopval(options.loss_tolerance * t.scale);
+    }
     opt.set_min_objective(fn, &t);
     // L-BFGS restarts from the best design (fresh curvature memory) when NLopt gives up on a rough
     // stretch of the loss (line-search failure), while evaluations remain.
     Eigen::VectorXd start = x0;
     double best_at_start = std::numeric_limits<double>::infinity();
     for (int attempt = 0; attempt < 50 && !t.stop; ++attempt) {
-      if (t.have_best && !(t.result.loss < best_at_start)) break;  // no progress since the last restart
+      if (t.have_best && !(t.result.loss < best_at_start)) {
+        // No progress since the last restart: try once more without the loss scaling, then give up.
+        if (t.scale == 1.0) break;
+        t.scale = 1.0;
+        opt.set_stopval(options.loss_tolerance);
+      }
       best_at_start = t.have_best ? t.result.loss : best_at_start;
       const int left = options.max_iterations - t.result.iterations;
       if (left < 2) break;
