@@ -176,7 +176,7 @@ class QiqiTask : public Task {
       const double phi = equilibrium(m, w, f, reference, std::to_string(k));
       reference = phi;
       Feature feat{"tilt_deg_at_fill_" + std::to_string(k), phi * kDeg, "deg", !targets_.empty(),
-                   targets_.empty() ? 0.0 : targets_[k], 1.0, 0.5};
+                   targets_.empty() ? 0.0 : targets_[k], 10.0, 0.01};  // 0.1° near zero, 1 % beyond 10°
       if (targets_.empty()) {
         ev.features.push_back(feat);
         continue;

@@ -105,3 +105,28 @@ TEST(Recovery, TumblerPeriodAndTilt) {
   EXPECT_NEAR(T1, T, 0.01 * T) << res.message;
   EXPECT_NEAR(tilt1, tilt, 0.01 * tilt) << res.message;
 }
+
+TEST(Recovery, QiqiTiltsAtThreeFillLevels) {
+  // A vessel (box) on a horizontal hinge above its centre; the ground truth is a quadric cavity off
+  // to +y and low, so the empty vessel tilts one way and the filled one the other.
+  const VolumeCloud cloud = topo_test::boxCloud(0.1, 0.12, 0.15, 0.008);
+  TaskConfig c = TaskConfig::defaults("qiqi");
+  c.set("shell_thickness_m", "0.01");
+  const Eigen::Vector3d u0(0.0, 0.35, -0.2);
+  Eigen::VectorXd theta_gt(10);
+  theta_gt << 1, 1, 1, 0, 0, 0, -2 * u0.x(), -2 * u0.y(), -2 * u0.z(), u0.squaredNorm() - 0.3;
+  std::vector<double> gt;
+  InteriorProblem(c, cloud).indicator(theta_gt, &gt);
+  const ProblemEvaluation truth = simulateInterior(c, cloud, gt);
+  std::vector<double> tilts;
+  for (int k = 0; k < 3; ++k) tilts.push_back(featureValue(truth, "tilt_deg_at_fill_" + std::to_string(k)));
+  c.setList("target_tilts_deg", tilts);
+  const InferenceResult res = runInference(c, cloud);
+  std::printf("[recovery] qiqi truth tilts %.3f %.3f %.3f deg; start %.3f %.3f %.3f; inferred %.3f %.3f %.3f (%d evaluations, %.1f s)\n",
+              tilts[0], tilts[1], tilts[2], res.initial.task.features[0].value, res.initial.task.features[1].value,
+              res.initial.task.features[2].value, res.final.task.features[0].value, res.final.task.features[1].value,
+              res.final.task.features[2].value, res.optimizer.iterations, res.optimize_s);
+  EXPECT_GT(std::abs(res.initial.task.features[0].value - tilts[0]), 1.0) << "the start must differ";
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(res.final.task.features[k].value, tilts[k], 0.01 * std::max(10.0, std::abs(tilts[k])));
+  EXPECT_TRUE(res.targets_reached) << res.message;
+}
