@@ -8,7 +8,9 @@
 #include <cmath>
 
 #include "task_factories.h"
+#include "topo_gaussian/inference/oscillation.h"
 #include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/physics/rigid_body.h"
 
 namespace topo_gaussian {
 namespace inference {
@@ -60,6 +62,8 @@ class StaticTask : public Task {
     if (name_ == "hanging") {
       point_ = c.has("hanging_point") ? c.vector3("hanging_point") : top;
       geometry_.point_name = "hanging_point";
+      swing_duration_ = c.number("swing_duration_s");
+      swing_tilt_ = c.number("swing_tilt_deg");
     } else if (name_ == "balance") {
       point_ = c.has("support_point") ? c.vector3("support_point") : top;
       geometry_.point_name = "support_point";
@@ -127,6 +131,7 @@ class StaticTask : public Task {
       ev.features.push_back(Feature{"stands", mg > 0 ? 1.0 : 0.0, "", true, 1.0, 1.0, 0.0});
     }
     ev.features.push_back(Feature{"mass_kg", ev.mass.mass, "kg"});
+    if (swing_duration_ > 0) swing(ev);
     if (dL_dr) {
       Eigen::Matrix<double, 10, 1> g = Eigen::Matrix<double, 10, 1>::Zero();
       g.segment<3>(1) = dL_dc;
@@ -139,6 +144,40 @@ class StaticTask : public Task {
   }
 
  private:
+  // The design hung from the point (ball joint) and released swing_tilt_deg off the target pose about
+  // world x: it swings as a physical pendulum. Reports the simulated period and the small-amplitude
+  // closed form 2π √(I_p / (m g d)) about the same axis, for comparison.
+  void swing(TaskEvaluation& ev) const {
+    RigidSimOptions o;
+    o.duration_s = swing_duration_;
+    o.gravity = geometry_.gravity;
+    o.ground.enabled = false;
+    o.pivot = true;
+    o.pivot_body = point_;
+    o.pivot_world = R_ * point_;
+    const RigidInertia<double> I = toInertia(ev.mass);
+    const Eigen::Quaterniond q0(Eigen::AngleAxisd(swing_tilt_ * M_PI / 180.0, Eigen::Vector3d::UnitX()) *
+                                Eigen::Quaterniond(R_));
+    const RigidTrajectory<double> traj = simulateRigid(I, pivotState(I, q0, o), {}, o);
+    std::vector<double> angle;
+    for (const auto& st : traj.states) {
+      const Eigen::Vector3d d = st.position - o.pivot_world;   // pivot → centre of mass
+      angle.push_back(std::atan2(d.y(), -d.z()) * 180.0 / M_PI);
+    }
+    const double dt = traj.time_s.size() > 1 ? traj.time_s[1] - traj.time_s[0] : o.output_dt_s;
+    const OscillationFeatures<double> f = analyseOscillation(angle, 0.0, dt, 0, true);
+    ev.signal_name = "swing_angle_deg";
+    ev.signal_time_s = traj.time_s;
+    ev.signal = angle;
+    if (f.valid) ev.features.push_back(Feature{"swing_period_s", f.period, "s"});
+    const Eigen::Vector3d r = R_ * (ev.mass.com - point_);
+    const double d = r.norm();
+    const Eigen::Matrix3d Iw = R_ * ev.mass.inertia * R_.transpose();
+    const double Ip = Iw(0, 0) + ev.mass.mass * (r.y() * r.y() + r.z() * r.z());
+    if (d > 0) ev.features.push_back(Feature{"swing_period_closed_form_s", 2 * M_PI * std::sqrt(Ip / (ev.mass.mass * geometry_.gravity.norm() * d)), "s"});
+  }
+
+  double swing_duration_ = 0, swing_tilt_ = 3;
   double roll_ = 0, pitch_ = 0;
   Eigen::Matrix3d R_;
   Eigen::Vector3d g_hat_, point_, e1_, e2_;

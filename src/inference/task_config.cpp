@@ -166,7 +166,11 @@ TaskConfig TaskConfig::defaults(const std::string& task) {
   b.vec("gravity", &g, "gravity in the world frame [m/s^2]");
 
   if (task == "hanging" || task == "balance" || task == "stand") {
-    if (task == "hanging") b.vec("hanging_point", nullptr, "hanging point in the body frame [m]; default: top centre of the bounds");
+    if (task == "hanging") {
+      b.vec("hanging_point", nullptr, "hanging point in the body frame [m]; default: top centre of the bounds");
+      b.num("swing_duration_s", 0.0, "also simulate the design swinging on the hanging point for this long [s] (0 = off)", 0);
+      b.num("swing_tilt_deg", 3.0, "release angle of that swing about world x [deg]", -80, 80);
+    }
     if (task == "balance") {
       b.vec("support_point", nullptr, "support point in the body frame [m]; default: top centre of the bounds");
       b.flag("require_stable", true, "the centre of mass must lie below the support point");

@@ -301,3 +301,22 @@ TEST(Inference, BallTrajectoryWithSpinIsRecovered) {
   // particles hit the floor first), and L-BFGS stalls in that valley: the README states this limit.
   EXPECT_LT(rms, 0.4 * solid_rms) << r.message;
 }
+
+TEST(Inference, HangingDesignSwingsAsAPhysicalPendulum) {
+  // The hanging task can also swing the design on its hanging point (ball joint, no ground): the
+  // simulated small-amplitude period matches 2π √(I_p / (m g d)) within 0.5 %.
+  const VolumeCloud cloud = topo_test::boxCloud(0.2, 0.1, 0.06, 0.008);
+  TaskConfig c = TaskConfig::defaults("hanging");
+  c.set("hanging_point", "0,0,0.1");
+  c.set("swing_duration_s", "3");
+  c.set("swing_tilt_deg", "2");
+  const ProblemEvaluation ev = simulateInterior(c, cloud, {});
+  double sim = 0, closed = 0;
+  for (const auto& f : ev.task.features) {
+    if (f.name == "swing_period_s") sim = f.value;
+    if (f.name == "swing_period_closed_form_s") closed = f.value;
+  }
+  ASSERT_GT(closed, 0.0);
+  EXPECT_NEAR(sim, closed, 0.005 * closed);
+  EXPECT_EQ(ev.task.signal_name, "swing_angle_deg");
+}
