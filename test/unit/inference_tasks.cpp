@@ -261,7 +261,12 @@ TEST(Inference, BalanceAndStandReachTheirTargets) {
   EXPECT_LT(rs.final.loss, before.loss);
 }
 
-TEST(Inference, BallTrajectoryWithSpinIsRecovered) {
+// The ball: dropped spinning, it bounces; the tracked points (centroid and two surface points, so
+// the spin shows) must follow the ground truth's. With μ = 0.2 the contact slides through the bounce
+// and the trajectory is recovered exactly; with more friction the contact switches between sticking
+// and sliding, the loss gets rough in the design and L-BFGS stops earlier (measured: μ = 0.5 → 23x
+// lower error; μ = 1.0 → 3.2x; README, Limits).
+double ballRecovery(double mu, double* solid_rms) {
   const double R = 0.05;
   const VolumeCloud cloud = topo_test::latticeCloud([&](const Eigen::Vector3d& x) { return x.norm() <= R; },
                                                     Eigen::Vector3d::Constant(-R), Eigen::Vector3d::Constant(R), 0.005);
@@ -270,6 +275,7 @@ TEST(Inference, BallTrajectoryWithSpinIsRecovered) {
   c.set("initial_height_m", "0.05");
   c.set("initial_velocity", "0.6,0,0");
   c.set("initial_angular_velocity", "0,-10,0");
+  c.setNumber("friction_mu", mu);
   // Ground truth: a quadric cavity off-centre, so the ball wobbles and spins differently from a solid one.
   Eigen::VectorXd theta_gt(10);
   const Eigen::Vector3d u0(0.3, 0.0, 0.2);
@@ -277,7 +283,7 @@ TEST(Inference, BallTrajectoryWithSpinIsRecovered) {
   std::vector<double> gt;
   InteriorProblem(c, cloud).indicator(theta_gt, &gt);
   const ProblemEvaluation truth = simulateInterior(c, cloud, gt);
-  ASSERT_GT(truth.task.trajectory_rows.size(), 50u);
+  EXPECT_GT(truth.task.trajectory_rows.size(), 50u);
   const std::string csv = testing::TempDir() + "/ball_truth.csv";
   {
     std::ofstream out(csv);
@@ -290,16 +296,22 @@ TEST(Inference, BallTrajectoryWithSpinIsRecovered) {
     }
   }
   c.set("target_trajectory_file", csv, "--target");
-  const double solid_rms = simulateInterior(c, cloud, {}).task.features[0].value;
-  c.set("max_iterations", "200");
+  *solid_rms = simulateInterior(c, cloud, {}).task.features[0].value;
+  c.set("max_iterations", "150");
   const InferenceResult r = runInference(c, cloud);
   const double rms = r.final.task.features[0].value;
-  std::printf("[ball] rms error solid %.3e m -> inferred %.3e m (%d evaluations, %.1f s)\n", solid_rms, rms,
-              r.optimizer.iterations, r.optimize_s);
-  EXPECT_GT(solid_rms, 2e-3);
-  // Measured: 3.98 mm -> 1.25 mm. The bounce of a lattice ball is rough in the design (which
-  // particles hit the floor first), and L-BFGS stalls in that valley: the README states this limit.
-  EXPECT_LT(rms, 0.4 * solid_rms) << r.message;
+  std::printf("[ball] mu %.1f: rms error solid %.3e m -> inferred %.3e m (%d evaluations, %.1f s)\n", mu, *solid_rms,
+              rms, r.optimizer.iterations, r.optimize_s);
+  return rms;
+}
+
+TEST(Inference, BallTrajectoryWithSpinIsRecovered) {
+  double solid = 0;
+  const double rms = ballRecovery(0.2, &solid);
+  EXPECT_GT(solid, 1e-3);
+  EXPECT_LT(rms, 1e-3 * 0.1 * std::sqrt(3.0));  // < 1e-3 of the size (bounding-box diagonal)
+  const double rough = ballRecovery(0.5, &solid);
+  EXPECT_LT(rough, 0.1 * solid);  // measured 3.72 mm -> 0.16 mm
 }
 
 TEST(Inference, HangingDesignSwingsAsAPhysicalPendulum) {
