@@ -196,6 +196,7 @@ TaskConfig TaskConfig::defaults(const std::string& task) {
     b.num("initial_angular_velocity_rad_s", 0.0, "initial angular velocity about rocking_axis [rad/s]");
     b.vec("rocking_axis", &ex, "rocking axis in the body frame (horizontal at rest)");
     b.vec("up_axis", &ez, "the body's up direction (the tilt is measured from it)");
+    c.values_["loss_tolerance"].number = 1e-8;  // relative feature errors of 1e-4 are plenty
     b.integer("measured_cycles", 2, "period and equilibrium from the first N full cycles (0 = all in duration_s)", 0, 1000);
     b.num("weight_period", 1.0, "loss weight of ((T - T*)/T*)^2", 0);
     b.num("weight_tilt", 1.0, "loss weight of ((tilt - tilt*)/tilt*)^2", 0);

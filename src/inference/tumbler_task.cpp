@@ -34,8 +34,9 @@ class TumblerTask : public Task {
     if (c.has("period_s")) period_target_ = c.number("period_s");
     if (c.has("max_tilt_deg")) tilt_target_ = c.number("max_tilt_deg");
     for (std::size_t i = 0; i < cloud.size(); ++i)
-      if (cloud.surface[i]) contact_.push_back(cloud.X[i]);
-    if (contact_.empty()) throw TopoError("volume cloud", "has no surface particles for ground contact", "fill it with `topo fill` (it flags the surface)");
+      if (cloud.surface[i]) all_contact_.push_back(cloud.X[i]);
+    if (all_contact_.empty()) throw TopoError("volume cloud", "has no surface particles for ground contact", "fill it with `topo fill` (it flags the surface)");
+    selectContactCandidates(cloud.spacing > 0 ? cloud.spacing : 0.01 * size_);
     geometry_.has_point = false;
   }
 
@@ -55,7 +56,18 @@ class TumblerTask : public Task {
     const Eigen::Quaterniond q0(Eigen::AngleAxisd(tilt0_, axis_));
     RigidState<Dual10> s0 = restingState(inertia, q0, contact_, options_);
     s0.angular_velocity = (omega0_ * axis_).cast<Dual10>();
-    const RigidTrajectory<Dual10> traj = simulateRigid(inertia, s0, contact_, options_);
+    RigidTrajectory<Dual10> traj = simulateRigid(inertia, s0, contact_, options_);
+    // The candidate set covers tilts up to reach_deg_: if the motion went further, redo it with all
+    // surface particles (never silently miss a contact).
+    double max_tilt = 0;
+    for (const auto& st : traj.states) {
+      const auto& q = st.orientation;
+      const Eigen::Quaterniond qd(q.w().value(), q.x().value(), q.y().value(), q.z().value());
+      const Eigen::Vector3d u = qd.normalized() * up_;
+      max_tilt = std::max(max_tilt, std::acos(std::max(-1.0, std::min(1.0, u.z()))) * kDeg);
+    }
+    if (max_tilt > reach_deg_ - 5.0 && contact_.size() < all_contact_.size())
+      traj = simulateRigid(inertia, s0, all_contact_, options_);
     // Signed tilt about the rocking axis: rotating ez by φ about a gives cos φ ez + sin φ (a × ez).
     const Eigen::Vector3d ez(0, 0, 1), side = axis_.cross(ez);
     std::vector<Dual10> phi(traj.states.size());
@@ -100,7 +112,33 @@ class TumblerTask : public Task {
   }
 
  private:
+  // Surface particles that can touch the ground while the body tilts up to reach_deg_ about the
+  // rocking axis (and ±10° about the other horizontal axis): those within a few spacings of the
+  // lowest point in one of the sampled poses. The rest never touch; skipping them makes each step
+  // cheaper (every step scans every candidate).
+  void selectContactCandidates(double spacing) {
+    reach_deg_ = std::abs(tilt0_ * kDeg) + 30.0;
+    const double band = 4.0 * spacing;
+    std::vector<char> keep(all_contact_.size(), 0);
+    const Eigen::Vector3d other = up_.cross(axis_).normalized();
+    for (double a = -reach_deg_; a <= reach_deg_ + 1e-9; a += 2.0) {
+      for (double b : {-10.0, 0.0, 10.0}) {
+        const Eigen::Matrix3d R = (Eigen::AngleAxisd(a / kDeg, axis_) * Eigen::AngleAxisd(b / kDeg, other)).toRotationMatrix();
+        double zmin = 1e300;
+        std::vector<double> z(all_contact_.size());
+        for (std::size_t i = 0; i < z.size(); ++i) zmin = std::min(zmin, z[i] = (R * all_contact_[i]).z());
+        for (std::size_t i = 0; i < z.size(); ++i)
+          if (z[i] <= zmin + band) keep[i] = 1;
+      }
+    }
+    contact_.clear();
+    for (std::size_t i = 0; i < keep.size(); ++i)
+      if (keep[i]) contact_.push_back(all_contact_[i]);
+  }
+
   RigidSimOptions options_;
+  std::vector<Eigen::Vector3d> all_contact_;
+  double reach_deg_ = 90;
   Eigen::Vector3d axis_, up_;
   double tilt0_ = 0, omega0_ = 0, w_period_ = 1, w_tilt_ = 1;
   double period_target_ = -1, tilt_target_ = -1;
