@@ -10,5 +10,6 @@ int fillCommand(const std::vector<std::string>& args);
 int generateCommand(const std::vector<std::string>& args);
 int inferCommand(const std::vector<std::string>& args);
 int simulateCommand(const std::vector<std::string>& args);
+int trackCommand(const std::vector<std::string>& args);
 
 }  // namespace topo_gaussian::tools

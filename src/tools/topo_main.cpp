@@ -17,6 +17,7 @@ const char* kUsage =
     "  generate   write a closed test mesh (sphere, torus, box) as .obj\n"
     "  infer      find an interior whose simulated behaviour matches observed targets\n"
     "  simulate   print the simulated features of a given interior\n"
+    "  track      track an object in a video: period, amplitude, bounces, bending angle\n"
     "\n"
     "`topo <command> --help` describes each command's options.\n"
     "exit codes: 0 success, 1 bad input or failed computation, 2 bad command line\n";
@@ -36,6 +37,7 @@ int main(int argc, char** argv) {
     if (cmd == "generate") return generateCommand(rest);
     if (cmd == "infer") return inferCommand(rest);
     if (cmd == "simulate") return simulateCommand(rest);
+    if (cmd == "track") return trackCommand(rest);
     std::cerr << "topo: unknown command '" << cmd << "'\n\n" << kUsage;
     return 2;
   } catch (const UsageError& e) {

@@ -1,0 +1,65 @@
+// MotionTrackerNode: the ROS face of the vision stage (video or camera → MotionFeatures).
+//   in : topic `image` (sensor_msgs/Image: mono8, bgr8, rgb8, bgra8, rgba8, bayer_* are converted;
+//        other encodings are refused with a throttled error and the node keeps running),
+//        topic `camera_info` (kept for the trajectory rays), parameter ~video_file (tracked once at
+//        start), service ~extract_motion (ExtractMotion.srv: a file + options → features)
+//   out: topic `motion_features` (MotionFeatures, latched), topic ~debug_image (the tracker overlay)
+// The node owns handles and parameters; vision::MotionTracker / vision::trackVideo do the work.
+#pragma once
+
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+
+#include <memory>
+#include <string>
+
+#include "topo_gaussian/ExtractMotion.h"
+#include "topo_gaussian/MotionFeatures.h"
+#include "topo_gaussian/vision/motion_tracker.h"
+
+namespace topo_gaussian::topo_ros {
+
+struct MotionTrackerParams {
+  std::string video_file;          ///< ~video_file: tracked once at start when set
+  vision::TrackOptions options;    ///< ~method, ~kind, ~roi [x,y,w,h], ~start_s, ~end_s, ~stride, ~pivot [x,y]
+  double window_s = 20.0;          ///< ~window_s: live stream analysed over windows this long [s]
+  double publish_period_s = 1.0;   ///< ~publish_period_s: live features published this often [s]
+};
+
+/// Reads and validates the private parameters; throws TopoError naming the parameter and the fix.
+MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh);
+
+/// The message for a tracking result (series, trajectories, confidences, frame range).
+topo_gaussian::MotionFeatures toMotionFeaturesMsg(const vision::TrackResult& result);
+
+/// BGR copy of an Image message. Throws TopoError naming the topic and the encoding, with the fix,
+/// for encodings that are not images of light (e.g. 16UC1 depth, 32FC1).
+cv::Mat imageToBgr(const sensor_msgs::Image& msg, const std::string& topic);
+
+class MotionTrackerNode {
+ public:
+  MotionTrackerNode(const ::ros::NodeHandle& nh, const ::ros::NodeHandle& pnh);
+
+ private:
+  void onImage(const sensor_msgs::ImageConstPtr& msg);
+  void onCameraInfo(const sensor_msgs::CameraInfoConstPtr& msg);
+  void onTimer(const ::ros::TimerEvent&);
+  bool onExtractMotion(topo_gaussian::ExtractMotion::Request& req, topo_gaussian::ExtractMotion::Response& res);
+  void trackStartupFile();
+  void publish(const vision::TrackResult& result, const std::string& frame_id);
+
+  ::ros::NodeHandle nh_, pnh_;
+  MotionTrackerParams params_;
+  ::ros::Publisher features_pub_, debug_pub_;
+  ::ros::Subscriber image_sub_, info_sub_;
+  ::ros::ServiceServer service_;
+  ::ros::Timer timer_;
+  std::unique_ptr<vision::MotionTracker> live_;
+  double live_start_s_ = 0.0, last_t_s_ = -1.0;
+  std::string live_frame_id_;
+  bool live_dirty_ = false;
+  sensor_msgs::CameraInfo camera_info_;
+};
+
+}  // namespace topo_gaussian::topo_ros

@@ -1,0 +1,105 @@
+// The tracking pipeline (paper §7): frames → tracker (marker / silhouette / klt) → per-frame
+// measurements → an angle signal or point trajectories → features (analyseSignal / analyseStatic):
+//  - kind "pendulum":   angle of the marker/centroid about a pivot (given, or a Kåsa least-squares
+//                       circle fit to the trajectory); angle = atan2(dx, dy) in image coordinates,
+//                       0 = hanging straight down, + towards image-right, degrees;
+//  - kind "tilt":       silhouette principal axis from image vertical (tumbler / standing object);
+//  - kind "trajectory": point trajectories in pixels; bounces (local maxima of image y) and apexes
+//                       (local minima) with sub-frame parabolic refinement; apex height = floor_y − apex_y
+//                       with floor_y the mean y of the bounces;
+//  - kind "finger":     bending angle = direction of the tip segment − direction of the base segment
+//                       (image angles, atan2(dy, dx)), from lines fitted to the silhouette's medial band
+//                       in the base third and the tip third of its principal-axis extent; the base is
+//                       the end that moves least.
+// Use trackVideo() for a file, or MotionTracker (addFrame / overlay / finish) for live frames.
+#pragma once
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "topo_gaussian/vision/signal_analysis.h"
+#include "topo_gaussian/vision/trackers.h"
+#include "topo_gaussian/vision/video_source.h"
+
+namespace topo_gaussian {
+namespace vision {
+
+struct TrackOptions {
+  std::string kind = "pendulum";     ///< pendulum | tilt | trajectory | finger
+  TrackerOptions tracker;            ///< method (marker | silhouette | klt), ROI, HSV ranges, ...
+  VideoOptions video;                ///< start/end time, stride, image-sequence fps
+  bool pivot_given = false;
+  cv::Point2d pivot;                 ///< pendulum pivot in pixels (pivot_given)
+  SignalOptions signal;
+  double fps = 0.0;                  ///< nominal frame rate for MotionTracker (0: from the timestamps)
+  double lost_warn_fraction = 0.05;  ///< more lost frames than this → the message says where
+  double min_prominence_px = 0.0;    ///< trajectory: extremum prominence (0 = max(3 px, 5 % of the y range))
+};
+
+struct TrajectorySample {
+  double t, x, y;
+};
+
+struct TrackResult {
+  std::string source, method, kind;
+  double fps = 0.0;
+  int frames_total = 0;              ///< frames in the source (container's count)
+  int frames_used = 0;               ///< frames given to the tracker
+  int first_frame = 0, last_frame = -1;  ///< source frame indices of the range used
+  double t_start_s = 0.0, t_end_s = 0.0;
+  bool object_found = false;
+  int lost_frames = 0;
+  int dropped_frames = 0;            ///< frames missing according to timestamp gaps > 1.5 / fps
+  std::vector<double> t, angle_deg;  ///< the angle (pendulum/tilt) or bend (finger) signal; trajectory: image y
+  std::vector<std::vector<TrajectorySample>> trajectories;  ///< per tracked point (marker: 1)
+  // pendulum
+  cv::Point2d pivot;
+  bool pivot_estimated = false;
+  double pivot_fit_rms_px = 0.0;
+  // pendulum / tilt
+  SignalFeatures signal;
+  StaticPose static_pose;
+  // finger
+  double bend_final_deg = 0.0;
+  // trajectory
+  std::vector<double> bounce_times_s, bounce_y_px, apex_times_s, apex_y_px, apex_heights_px;
+  double floor_y_px = 0.0;
+  std::map<std::string, double> confidence;  ///< per feature, 0..1
+  std::string message;               ///< for a person: what was found and what limited it
+};
+
+/// Kåsa algebraic circle fit; returns false when the points do not define a circle.
+bool fitCircleKasa(const std::vector<cv::Point2d>& pts, cv::Point2d& centre, double& radius, double& rms);
+
+class MotionTracker {
+ public:
+  /// Throws TopoError for an unknown kind/method or a kind the method cannot serve.
+  explicit MotionTracker(const TrackOptions& options);
+  ~MotionTracker();
+  /// Tracks one BGR frame taken at t_s (increasing). The first frame validates the ROI (TopoError).
+  void addFrame(const cv::Mat& bgr, double t_s);
+  /// The last frame with the tracked points, contour, axis/pivot and angle text (empty before a frame).
+  cv::Mat overlay() const;
+  int framesAdded() const;
+  /// Features of everything added so far (may be called repeatedly).
+  TrackResult finish() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Whole-video entry point; `overlay_sink` (optional) receives every overlay frame (debug video).
+/// Throws TopoError for unreadable videos, bad ROIs and bad options.
+TrackResult trackVideo(const std::string& path, const TrackOptions& options,
+                       const std::function<void(const cv::Mat&)>& overlay_sink = nullptr);
+
+/// Features, confidences, frame range, source and message as one JSON object (series when keep_series).
+std::string toJson(const TrackResult& result, bool with_series = false);
+
+}  // namespace vision
+}  // namespace topo_gaussian

@@ -1,0 +1,66 @@
+// Per-frame object trackers on BGR frames inside a region of interest:
+//  - marker:     HSV colour range(s) (default red, two hue bands for the wrap-around), morphological
+//                opening, largest blob above a minimum area → centroid;
+//  - silhouette: foreground by background subtraction (MOG2) or an Otsu threshold, largest contour →
+//                image moments → centroid and principal-axis angle;
+//  - klt:        Shi–Tomasi corners in the ROI of the first frame, pyramidal Lucas–Kanade flow with a
+//                forward–backward check, re-seeded when too few points survive.
+// Coordinates in a Measurement are full-frame pixels.
+#pragma once
+
+#include <memory>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+namespace topo_gaussian {
+namespace vision {
+
+struct HsvRange {
+  cv::Scalar lower, upper;  ///< OpenCV HSV: H 0..180, S and V 0..255 (inclusive)
+};
+
+/// Red in two hue bands (0..10 and 170..180), saturation ≥ 90, value ≥ 60.
+std::vector<HsvRange> defaultRedRanges();
+
+struct TrackerOptions {
+  std::string method = "marker";      ///< marker | silhouette | klt
+  cv::Rect roi;                       ///< empty and not roi_given: the whole frame
+  bool roi_given = false;             ///< an explicitly empty ROI is then an error
+  std::vector<HsvRange> hsv;          ///< marker colour; empty = defaultRedRanges()
+  double min_area_px = 30.0;          ///< smallest blob / contour accepted
+  int morph_kernel_px = 5;            ///< opening kernel (0 = none)
+  std::string foreground = "mog2";    ///< silhouette: mog2 | otsu
+  int klt_max_points = 40;
+  int klt_min_points = 8;             ///< re-seed below this
+  double klt_fb_max_px = 1.0;         ///< forward–backward error limit
+};
+
+struct Measurement {
+  bool found = false;
+  cv::Point2d centroid;               ///< marker / silhouette centroid / mean of the KLT points
+  double area_px = 0.0;
+  double axis_angle_deg = 0.0;        ///< silhouette: principal axis (pointing image-up) from image-up, + towards image-right
+  double elongation = 0.0;            ///< silhouette: sqrt(λmax/λmin) of the moments (1 = round)
+  std::vector<cv::Point> contour;     ///< marker blob / silhouette outline (full-frame pixels)
+  cv::Mat mask;                       ///< silhouette: foreground of the largest contour (ROI-sized, CV_8U), else empty
+  std::vector<cv::Point2f> points;    ///< klt: current points
+  std::vector<int> point_ids;         ///< klt: stable id of each point (re-seeded points get new ids)
+};
+
+class Tracker {
+ public:
+  virtual ~Tracker() = default;
+  virtual Measurement track(const cv::Mat& bgr) = 0;
+  virtual std::string name() const = 0;
+};
+
+/// Throws TopoError for an unknown method, or an ROI that is empty or outside `frame_size`
+/// (message names --roi and the frame size).
+std::unique_ptr<Tracker> makeTracker(const TrackerOptions& options, const cv::Size& frame_size);
+
+/// The ROI clipped/validated against the frame (empty ROI → whole frame); throws as above.
+cv::Rect validRoi(const cv::Rect& roi, const cv::Size& frame_size, bool roi_given);
+
+}  // namespace vision
+}  // namespace topo_gaussian

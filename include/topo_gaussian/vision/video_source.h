@@ -1,0 +1,72 @@
+// Frames from a video file (mp4/avi/gif, OpenCV FFMPEG backend) or an image sequence (a printf
+// pattern such as frames/frame_%04d.png, or a directory of images sorted by name), restricted to a
+// time range and a frame stride. Every returned frame carries its timestamp: the container's
+// CAP_PROP_POS_MSEC when it is valid (increasing), else index / fps — so dropped frames appear as
+// gaps in the timestamps.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <opencv2/videoio.hpp>
+#include <string>
+#include <vector>
+
+namespace topo_gaussian {
+namespace vision {
+
+struct VideoOptions {
+  double start_s = 0.0;        ///< first time used
+  double end_s = -1.0;         ///< last time used (< 0: to the end)
+  int stride = 1;              ///< use every stride-th frame in the range
+  double sequence_fps = 30.0;  ///< frame rate of an image sequence (files carry none)
+};
+
+class VideoSource {
+ public:
+  /// Throws TopoError naming the path for a missing/unreadable file, an unsupported codec (the
+  /// first frame cannot be decoded), an empty image sequence or bad options.
+  explicit VideoSource(const std::string& path, const VideoOptions& options = VideoOptions());
+
+  /// Next frame in [start, end] honouring the stride; false at the end. `t_s` is its timestamp.
+  bool read(cv::Mat& bgr, double& t_s);
+
+  const std::string& path() const { return path_; }
+  bool isSequence() const { return sequence_; }
+  double fps() const { return fps_; }
+  /// Frames in the whole file as reported by the container (sequence: number of images); may be
+  /// an estimate for some containers.
+  int frameCount() const { return frame_count_; }
+  cv::Size frameSize() const { return size_; }
+  /// Frames decoded so far (including skipped ones) and the index of the last returned frame.
+  int framesDecoded() const { return decoded_; }
+  int lastIndex() const { return last_index_; }
+  /// Timestamps of every frame returned so far.
+  const std::vector<double>& timestamps() const { return times_; }
+  const std::vector<int>& indices() const { return indices_; }
+
+ private:
+  bool decodeNext(cv::Mat& bgr, double& t_s, int& index);
+
+  std::string path_;
+  VideoOptions opt_;
+  bool sequence_ = false;
+  std::vector<std::string> files_;
+  cv::VideoCapture cap_;
+  cv::Mat pending_;          // first frame decoded while opening
+  bool has_pending_ = false;
+  double pending_t_ = 0.0;
+  double fps_ = 30.0;
+  int frame_count_ = 0;
+  cv::Size size_;
+  int decoded_ = 0;
+  int next_index_ = 0;
+  int last_index_ = -1;
+  int used_in_range_ = 0;
+  double last_msec_ = -1.0;
+  int last_msec_index_ = -1;
+  bool msec_ok_ = true;
+  std::vector<double> times_;
+  std::vector<int> indices_;
+};
+
+}  // namespace vision
+}  // namespace topo_gaussian

@@ -1,0 +1,224 @@
+#include "topo_gaussian/ros/motion_tracker_node.h"
+
+#include <cv_bridge/cv_bridge.h>
+#include <sensor_msgs/image_encodings.h>
+
+#include <cmath>
+
+#include "topo_gaussian/physics/error.h"
+
+namespace topo_gaussian::topo_ros {
+namespace {
+
+template <typename T>
+T param(const ::ros::NodeHandle& pnh, const std::string& name, const T& fallback) {
+  T v = fallback;
+  pnh.param(name, v, fallback);
+  return v;
+}
+
+}  // namespace
+
+MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh) {
+  MotionTrackerParams p;
+  p.video_file = param<std::string>(pnh, "video_file", "");
+  p.options.tracker.method = param<std::string>(pnh, "method", "marker");
+  p.options.kind = param<std::string>(pnh, "kind", "pendulum");
+  std::vector<int> roi;
+  pnh.param("roi", roi, std::vector<int>());
+  if (!roi.empty()) {
+    if (roi.size() != 4 || roi[2] <= 0 || roi[3] <= 0)
+      throw TopoError("~roi", "must be [x, y, width, height] with a positive size", "e.g. _roi:=[100,50,300,300], or leave it unset for the whole frame");
+    p.options.tracker.roi = cv::Rect(roi[0], roi[1], roi[2], roi[3]);
+    p.options.tracker.roi_given = true;
+  }
+  p.options.video.start_s = param(pnh, "start_s", 0.0);
+  p.options.video.end_s = param(pnh, "end_s", -1.0);
+  p.options.video.stride = param(pnh, "stride", 1);
+  if (p.options.video.stride < 1) throw TopoError("~stride", "must be at least 1", "use 1 for every frame");
+  std::vector<double> pivot;
+  pnh.param("pivot", pivot, std::vector<double>());
+  if (!pivot.empty()) {
+    if (pivot.size() != 2) throw TopoError("~pivot", "must be [x, y] in pixels", "or leave it unset to fit it");
+    p.options.pivot_given = true;
+    p.options.pivot = cv::Point2d(pivot[0], pivot[1]);
+  }
+  p.window_s = param(pnh, "window_s", 20.0);
+  p.publish_period_s = param(pnh, "publish_period_s", 1.0);
+  if (!(p.window_s > 0) || !(p.publish_period_s > 0))
+    throw TopoError("~window_s/~publish_period_s", "must be positive [s]", "e.g. 20 and 1");
+  vision::MotionTracker check(p.options);  // validates kind and method (throws TopoError)
+  return p;
+}
+
+topo_gaussian::MotionFeatures toMotionFeaturesMsg(const vision::TrackResult& r) {
+  topo_gaussian::MotionFeatures m;
+  m.kind = r.kind;
+  m.method = r.method;
+  m.source = r.source;
+  m.message = r.message;
+  m.oscillation_found = r.signal.oscillation_found;
+  m.period_s = r.signal.period_s;
+  m.amplitude_deg = r.signal.amplitude_deg;
+  m.max_tilt_deg = r.signal.max_tilt_deg;
+  m.equilibrium_deg = r.signal.oscillation_found ? r.signal.equilibrium_deg : r.static_pose.angle_deg;
+  m.log_decrement = r.signal.log_decrement;
+  m.damping_ratio = r.signal.damping_ratio;
+  m.bending_angle_deg = r.bend_final_deg;
+  auto conf = [&](const char* k) {
+    const auto it = r.confidence.find(k);
+    return it == r.confidence.end() ? 0.0 : it->second;
+  };
+  m.period_confidence = conf("period_s");
+  m.amplitude_confidence = conf("amplitude_deg");
+  m.equilibrium_confidence = conf("equilibrium_deg");
+  m.bending_confidence = conf("bend_final_deg");
+  m.start_time_s = r.t_start_s;
+  m.end_time_s = r.t_end_s;
+  m.first_frame = r.first_frame;
+  m.last_frame = r.last_frame;
+  m.frames_used = r.frames_used;
+  m.frames_lost = r.lost_frames;
+  m.time_s = r.t;
+  m.angle_deg = r.angle_deg;
+  for (std::size_t k = 0; k < r.trajectories.size(); ++k) {
+    topo_gaussian::PixelTrajectory tr;
+    tr.name = "point_" + std::to_string(k);
+    for (const auto& s : r.trajectories[k]) {
+      tr.time_s.push_back(s.t);
+      tr.x_px.push_back(s.x);
+      tr.y_px.push_back(s.y);
+    }
+    m.trajectories.push_back(tr);
+  }
+  return m;
+}
+
+cv::Mat imageToBgr(const sensor_msgs::Image& msg, const std::string& topic) {
+  namespace enc = sensor_msgs::image_encodings;
+  const std::string& e = msg.encoding;
+  const bool ok = e == enc::MONO8 || e == enc::BGR8 || e == enc::RGB8 || e == enc::BGRA8 || e == enc::RGBA8 ||
+                  e == enc::MONO16 || e.rfind("bayer_", 0) == 0;
+  if (!ok)
+    throw TopoError(topic, "has encoding '" + e + "', which is not a camera image the tracker can use",
+                    "publish mono8, bgr8, rgb8, bgra8, rgba8 or bayer_* (e.g. the driver's image_raw or image_color)");
+  try {
+    return cv_bridge::toCvCopy(msg, enc::BGR8)->image;
+  } catch (const cv_bridge::Exception& ex) {
+    throw TopoError(topic, std::string("cannot convert encoding '") + e + "' to bgr8: " + ex.what(),
+                    "check the camera driver's encoding and image size");
+  }
+}
+
+MotionTrackerNode::MotionTrackerNode(const ::ros::NodeHandle& nh, const ::ros::NodeHandle& pnh)
+    : nh_(nh), pnh_(pnh), params_(loadMotionTrackerParams(pnh)) {
+  features_pub_ = nh_.advertise<topo_gaussian::MotionFeatures>("motion_features", 1, true);
+  debug_pub_ = pnh_.advertise<sensor_msgs::Image>("debug_image", 2);
+  image_sub_ = nh_.subscribe("image", 5, &MotionTrackerNode::onImage, this);
+  info_sub_ = nh_.subscribe("camera_info", 1, &MotionTrackerNode::onCameraInfo, this);
+  service_ = pnh_.advertiseService("extract_motion", &MotionTrackerNode::onExtractMotion, this);
+  timer_ = nh_.createTimer(::ros::Duration(params_.publish_period_s), &MotionTrackerNode::onTimer, this);
+  ROS_INFO("motion_tracker: method %s, kind %s; listening on %s, service %s",
+           params_.options.tracker.method.c_str(), params_.options.kind.c_str(), image_sub_.getTopic().c_str(),
+           service_.getService().c_str());
+  if (!params_.video_file.empty()) trackStartupFile();
+}
+
+void MotionTrackerNode::publish(const vision::TrackResult& result, const std::string& frame_id) {
+  topo_gaussian::MotionFeatures m = toMotionFeaturesMsg(result);
+  m.header.stamp = ::ros::Time::now();
+  m.header.frame_id = frame_id;
+  features_pub_.publish(m);
+}
+
+void MotionTrackerNode::trackStartupFile() {
+  try {
+    const vision::TrackResult r = vision::trackVideo(params_.video_file, params_.options, [&](const cv::Mat& overlay) {
+      if (debug_pub_.getNumSubscribers() == 0) return;
+      cv_bridge::CvImage img(std_msgs::Header(), "bgr8", overlay);
+      debug_pub_.publish(img.toImageMsg());
+    });
+    publish(r, "camera");
+    ROS_INFO("motion_tracker: %s: %s", params_.video_file.c_str(), r.message.c_str());
+  } catch (const std::exception& e) {
+    ROS_ERROR("motion_tracker: ~video_file: %s", e.what());
+  }
+}
+
+void MotionTrackerNode::onCameraInfo(const sensor_msgs::CameraInfoConstPtr& msg) { camera_info_ = *msg; }
+
+void MotionTrackerNode::onImage(const sensor_msgs::ImageConstPtr& msg) {
+  cv::Mat bgr;
+  try {
+    bgr = imageToBgr(*msg, image_sub_.getTopic());
+  } catch (const std::exception& e) {
+    ROS_ERROR_THROTTLE(5.0, "motion_tracker: %s", e.what());
+    return;
+  }
+  const double t = msg->header.stamp.isZero() ? ::ros::Time::now().toSec() : msg->header.stamp.toSec();
+  if (last_t_s_ >= 0 && t <= last_t_s_) {
+    ROS_WARN_THROTTLE(5.0, "motion_tracker: %s: stamp %.3f s is not after the previous frame's; frame skipped",
+                      image_sub_.getTopic().c_str(), t);
+    return;
+  }
+  try {
+    if (!live_ || t - live_start_s_ > params_.window_s) {
+      live_ = std::make_unique<vision::MotionTracker>(params_.options);
+      live_start_s_ = t;
+    }
+    live_->addFrame(bgr, t - live_start_s_);
+    last_t_s_ = t;
+    live_frame_id_ = msg->header.frame_id;
+    live_dirty_ = true;
+    if (debug_pub_.getNumSubscribers() > 0) {
+      cv_bridge::CvImage img(msg->header, "bgr8", live_->overlay());
+      debug_pub_.publish(img.toImageMsg());
+    }
+  } catch (const std::exception& e) {
+    ROS_ERROR_THROTTLE(5.0, "motion_tracker: %s: %s", image_sub_.getTopic().c_str(), e.what());
+    live_.reset();
+  }
+}
+
+void MotionTrackerNode::onTimer(const ::ros::TimerEvent&) {
+  if (!live_ || !live_dirty_) return;
+  live_dirty_ = false;
+  try {
+    vision::TrackResult r = live_->finish();
+    r.source = image_sub_.getTopic();
+    publish(r, live_frame_id_);
+  } catch (const std::exception& e) {
+    ROS_ERROR_THROTTLE(5.0, "motion_tracker: %s", e.what());
+  }
+}
+
+bool MotionTrackerNode::onExtractMotion(topo_gaussian::ExtractMotion::Request& req,
+                                        topo_gaussian::ExtractMotion::Response& res) {
+  vision::TrackOptions o = params_.options;
+  try {
+    if (!req.method.empty()) o.tracker.method = req.method;
+    if (!req.kind.empty()) o.kind = req.kind;
+    if (!req.roi.empty()) {
+      if (req.roi.size() != 4)
+        throw TopoError("extract_motion roi", "must be [x, y, width, height]", "or leave it empty for the whole frame");
+      o.tracker.roi = cv::Rect(req.roi[0], req.roi[1], req.roi[2], req.roi[3]);
+      o.tracker.roi_given = true;
+    }
+    if (req.start_s > 0) o.video.start_s = req.start_s;
+    if (req.end_s > 0) o.video.end_s = req.end_s;
+    if (req.stride > 1) o.video.stride = req.stride;
+    const vision::TrackResult r = vision::trackVideo(req.video_file, o);
+    res.features = toMotionFeaturesMsg(r);
+    res.features.header.stamp = ::ros::Time::now();
+    res.success = true;
+    res.message = r.message;
+    publish(r, "camera");
+  } catch (const std::exception& e) {
+    res.success = false;
+    res.message = e.what();
+    ROS_ERROR("motion_tracker: ~extract_motion: %s", e.what());
+  }
+  return true;
+}
+
+}  // namespace topo_gaussian::topo_ros

@@ -1,0 +1,218 @@
+// `topo track`: track an object in a video and print its motion features (period, amplitude,
+// equilibrium, bounces, bending angle), optionally with an overlay video and a plot of the signal.
+#include <algorithm>
+#include <cstdio>
+#include <functional>
+#include <iostream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+#include <sstream>
+
+#include "args.h"
+#include "commands.h"
+#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/vision/motion_tracker.h"
+
+namespace topo_gaussian::tools {
+namespace {
+
+const char* kTrackHelp =
+    "usage: topo track --video FILE [options]\n"
+    "\n"
+    "Tracks an object through a video (or an image sequence: a printf pattern such as frame_%04d.png or\n"
+    "a directory of images) and prints its motion features: the swing period, amplitude, equilibrium\n"
+    "and damping of a pendulum or tumbler, the bounces and apex heights of a ball, or the bending angle\n"
+    "of a finger.\n"
+    "\n"
+    "  --video FILE           video file (mp4/avi/gif) or image sequence\n"
+    "  --method M             marker (colour blob, default) | silhouette | klt (feature points)\n"
+    "  --kind K               pendulum (default) | tilt | trajectory | finger\n"
+    "  --roi x,y,w,h          region of interest in pixels (default: whole frame)\n"
+    "  --start S --end S      time range in seconds (default: whole video)\n"
+    "  --stride N             use every N-th frame (default 1)\n"
+    "  --fps F                frame rate of an image sequence (default 30)\n"
+    "  --pivot x,y            pendulum pivot in pixels (default: circle fit to the marker's path)\n"
+    "  --hsv-lower h,s,v --hsv-upper h,s,v   marker colour (OpenCV HSV, H 0..180; default red)\n"
+    "  --foreground F         silhouette foreground: mog2 (default) | otsu\n"
+    "  --min-area PX          smallest blob accepted (default 30)\n"
+    "  --json                 print the features as one JSON object\n"
+    "  --series               with --json: include the time series\n"
+    "  --debug-video OUT      write the overlay video (tracked points, axis, angle text)\n"
+    "  --plot OUT.png         write a plot of the angle signal (crossings and turning points marked)\n"
+    "exit codes: 0 success, 1 bad input (missing file, bad ROI, ...), 2 bad command line\n";
+
+std::vector<double> numbers(const Args& a, const std::string& name, std::size_t count) {
+  std::vector<double> v;
+  std::stringstream ss(a.str(name));
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    try {
+      std::size_t used = 0;
+      v.push_back(std::stod(item, &used));
+      if (used != item.size()) throw std::invalid_argument(item);
+    } catch (const std::exception&) {
+      throw UsageError("--" + name + " expects " + std::to_string(count) + " comma-separated numbers, got '" +
+                       a.str(name) + "'");
+    }
+  }
+  if (v.size() != count)
+    throw UsageError("--" + name + " expects " + std::to_string(count) + " comma-separated numbers, got '" +
+                     a.str(name) + "'");
+  return v;
+}
+
+cv::Scalar hsv(const Args& a, const std::string& name) {
+  const auto v = numbers(a, name, 3);
+  return cv::Scalar(v[0], v[1], v[2]);
+}
+
+/// The signal on a white canvas with axes, zero line, equilibrium crossings and turning points.
+void writePlot(const vision::TrackResult& r, const std::string& path) {
+  const int W = 1000, H = 500, L = 70, R = 20, T = 40, B = 50;
+  cv::Mat img(H, W, CV_8UC3, cv::Scalar(255, 255, 255));
+  if (r.t.size() >= 2) {
+    const double t0 = r.t.front(), t1 = r.t.back();
+    double y0 = *std::min_element(r.angle_deg.begin(), r.angle_deg.end());
+    double y1 = *std::max_element(r.angle_deg.begin(), r.angle_deg.end());
+    if (y1 - y0 < 1e-6) {
+      y0 -= 1;
+      y1 += 1;
+    }
+    const double pad = 0.05 * (y1 - y0);
+    y0 -= pad;
+    y1 += pad;
+    auto P = [&](double t, double y) {
+      return cv::Point(static_cast<int>(L + (t - t0) / (t1 - t0) * (W - L - R)),
+                       static_cast<int>(H - B - (y - y0) / (y1 - y0) * (H - T - B)));
+    };
+    cv::rectangle(img, cv::Point(L, T), cv::Point(W - R, H - B), cv::Scalar(0, 0, 0), 1);
+    for (int k = 0; k <= 5; ++k) {
+      const double y = y0 + k * (y1 - y0) / 5, t = t0 + k * (t1 - t0) / 5;
+      char buf[32];
+      std::snprintf(buf, sizeof(buf), "%.1f", y);
+      cv::putText(img, buf, cv::Point(5, P(t0, y).y + 5), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+      cv::line(img, cv::Point(L - 5, P(t0, y).y), cv::Point(L, P(t0, y).y), cv::Scalar(0, 0, 0));
+      std::snprintf(buf, sizeof(buf), "%.2f", t);
+      cv::putText(img, buf, cv::Point(P(t, y0).x - 15, H - B + 20), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0), 1,
+                  cv::LINE_AA);
+    }
+    cv::putText(img, "time [s]", cv::Point(W / 2 - 30, H - 10), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+    const std::string ylabel = r.kind == "trajectory" ? "image y [px]" : (r.kind == "finger" ? "bend [deg]" : "angle [deg]");
+    cv::putText(img, ylabel + "   " + r.source, cv::Point(L, T - 12), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1,
+                cv::LINE_AA);
+    if (r.signal.oscillation_found) {
+      const double e = r.signal.equilibrium_deg;
+      cv::line(img, P(t0, e), P(t1, e), cv::Scalar(180, 180, 180), 1);
+      for (double tc : r.signal.crossing_times_s) cv::line(img, P(tc, y0), P(tc, y1), cv::Scalar(200, 200, 255), 1);
+    }
+    for (std::size_t i = 1; i < r.t.size(); ++i)
+      cv::line(img, P(r.t[i - 1], r.angle_deg[i - 1]), P(r.t[i], r.angle_deg[i]), cv::Scalar(160, 60, 0), 2, cv::LINE_AA);
+    for (std::size_t i = 0; i < r.signal.peak_times_s.size() && i < r.signal.peak_values_deg.size(); ++i)
+      cv::circle(img, P(r.signal.peak_times_s[i], r.signal.peak_values_deg[i]), 5, cv::Scalar(0, 0, 220), 2, cv::LINE_AA);
+    for (std::size_t i = 0; i < r.bounce_times_s.size(); ++i)
+      cv::circle(img, P(r.bounce_times_s[i], r.bounce_y_px[i]), 5, cv::Scalar(0, 0, 220), 2, cv::LINE_AA);
+    for (std::size_t i = 0; i < r.apex_times_s.size(); ++i)
+      cv::circle(img, P(r.apex_times_s[i], r.apex_y_px[i]), 5, cv::Scalar(0, 160, 0), 2, cv::LINE_AA);
+    if (r.signal.oscillation_found) {
+      char buf[128];
+      std::snprintf(buf, sizeof(buf), "period %.4f s, amplitude %.2f deg", r.signal.period_s, r.signal.amplitude_deg);
+      cv::putText(img, buf, cv::Point(L + 10, T + 20), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 200), 1, cv::LINE_AA);
+    }
+  } else {
+    cv::putText(img, "no signal: " + r.message.substr(0, 90), cv::Point(20, H / 2), cv::FONT_HERSHEY_SIMPLEX, 0.5,
+                cv::Scalar(0, 0, 200), 1, cv::LINE_AA);
+  }
+  if (!cv::imwrite(path, img)) throw TopoError(path, "the plot cannot be written", "give a writable .png path for --plot");
+}
+
+}  // namespace
+
+int trackCommand(const std::vector<std::string>& argv) {
+  const Args a(argv, {"help", "json", "series"},
+               {"video", "method", "kind", "roi", "start", "end", "stride", "fps", "pivot", "hsv-lower", "hsv-upper",
+                "foreground", "min-area", "debug-video", "plot"});
+  if (a.has("help")) {
+    std::cout << kTrackHelp;
+    return 0;
+  }
+  if (!a.has("video")) throw UsageError("--video FILE is required");
+  vision::TrackOptions o;
+  o.kind = a.str("kind", "pendulum");
+  o.tracker.method = a.str("method", "marker");
+  o.tracker.foreground = a.str("foreground", "mog2");
+  o.tracker.min_area_px = a.num("min-area", 30.0);
+  if (a.has("roi")) {
+    const auto v = numbers(a, "roi", 4);
+    o.tracker.roi = cv::Rect(static_cast<int>(v[0]), static_cast<int>(v[1]), static_cast<int>(v[2]), static_cast<int>(v[3]));
+    o.tracker.roi_given = true;
+  }
+  if (a.has("hsv-lower") != a.has("hsv-upper")) throw UsageError("give both --hsv-lower and --hsv-upper");
+  if (a.has("hsv-lower")) o.tracker.hsv = {vision::HsvRange{hsv(a, "hsv-lower"), hsv(a, "hsv-upper")}};
+  o.video.start_s = a.num("start", 0.0);
+  o.video.end_s = a.num("end", -1.0);
+  o.video.stride = static_cast<int>(a.integer("stride", 1));
+  o.video.sequence_fps = a.num("fps", 30.0);
+  if (a.has("pivot")) {
+    const auto v = numbers(a, "pivot", 2);
+    o.pivot_given = true;
+    o.pivot = cv::Point2d(v[0], v[1]);
+  }
+  const std::string video = a.str("video");
+  cv::VideoWriter writer;
+  std::string debug = a.str("debug-video");
+  std::function<void(const cv::Mat&)> sink;
+  double fps_out = 30.0;
+  {
+    vision::VideoSource probe(video, o.video);  // fails early with the file's name
+    fps_out = probe.fps() / std::max(1, o.video.stride);
+  }
+  if (!debug.empty()) {
+    sink = [&](const cv::Mat& frame) {
+      if (!writer.isOpened()) {
+        const bool avi = debug.size() > 4 && debug.substr(debug.size() - 4) == ".avi";
+        const int fourcc = avi ? cv::VideoWriter::fourcc('M', 'J', 'P', 'G') : cv::VideoWriter::fourcc('m', 'p', '4', 'v');
+        if (!writer.open(debug, cv::CAP_FFMPEG, fourcc, fps_out, frame.size()))
+          throw TopoError(debug, "the debug video cannot be written", "give a writable .mp4 or .avi path for --debug-video");
+      }
+      writer.write(frame);
+    };
+  }
+  const vision::TrackResult r = vision::trackVideo(video, o, sink);
+  writer.release();
+  if (a.has("plot")) writePlot(r, a.str("plot"));
+  if (a.has("json")) {
+    std::cout << vision::toJson(r, a.has("series")) << "\n";
+  } else {
+    std::printf("source          %s (%.3f fps, frames %d..%d of %d, %.3f..%.3f s)\n", r.source.c_str(), r.fps, r.first_frame,
+                r.last_frame, r.frames_total, r.t_start_s, r.t_end_s);
+    std::printf("tracking        %s / %s, %d frames used, %d lost, %d dropped\n", r.method.c_str(), r.kind.c_str(),
+                r.frames_used, r.lost_frames, r.dropped_frames);
+    if (r.kind == "pendulum" || r.kind == "tilt") {
+      if (r.signal.oscillation_found) {
+        std::printf("period_s        %.5f\n", r.signal.period_s);
+        std::printf("amplitude_deg   %.3f\n", r.signal.amplitude_deg);
+        std::printf("equilibrium_deg %.3f\n", r.signal.equilibrium_deg);
+        std::printf("max_tilt_deg    %.3f\n", r.signal.max_tilt_deg);
+        std::printf("damping_ratio   %.5f\n", r.signal.damping_ratio);
+      } else {
+        std::printf("static_angle_deg %.3f (spread %.3f)\n", r.static_pose.angle_deg, r.static_pose.spread_deg);
+      }
+      if (r.kind == "pendulum")
+        std::printf("pivot_px        %.1f, %.1f (%s)\n", r.pivot.x, r.pivot.y, r.pivot_estimated ? "estimated" : "given/assumed");
+    } else if (r.kind == "trajectory") {
+      for (std::size_t i = 0; i < r.bounce_times_s.size(); ++i)
+        std::printf("bounce          t %.4f s  y %.1f px\n", r.bounce_times_s[i], r.bounce_y_px[i]);
+      for (std::size_t i = 0; i < r.apex_times_s.size(); ++i)
+        std::printf("apex            t %.4f s  height %.1f px\n", r.apex_times_s[i],
+                    i < r.apex_heights_px.size() ? r.apex_heights_px[i] : 0.0);
+    } else {
+      std::printf("bend_final_deg  %.3f\n", r.bend_final_deg);
+    }
+    for (const auto& kv : r.confidence) std::printf("confidence      %s %.3f\n", kv.first.c_str(), kv.second);
+    std::printf("message         %s\n", r.message.c_str());
+  }
+  return 0;
+}
+
+}  // namespace topo_gaussian::tools

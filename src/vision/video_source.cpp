@@ -1,0 +1,180 @@
+// VideoSource: video files through cv::VideoCapture (FFMPEG backend) and image sequences.
+#include "topo_gaussian/vision/video_source.h"
+
+#include <dirent.h>
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "topo_gaussian/physics/error.h"
+
+namespace topo_gaussian {
+namespace vision {
+namespace {
+
+bool isDirectory(const std::string& p) {
+  struct stat st {};
+  return ::stat(p.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+}
+
+bool isReadableFile(const std::string& p) {
+  struct stat st {};
+  if (::stat(p.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return false;
+  FILE* f = std::fopen(p.c_str(), "rb");
+  if (!f) return false;
+  std::fclose(f);
+  return true;
+}
+
+std::string lower(std::string s) {
+  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+bool hasImageExtension(const std::string& name) {
+  const std::string n = lower(name);
+  for (const char* ext : {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".ppm", ".pgm", ".webp"}) {
+    const std::string e(ext);
+    if (n.size() > e.size() && n.compare(n.size() - e.size(), e.size(), e) == 0) return true;
+  }
+  return false;
+}
+
+cv::Mat toBgr(const cv::Mat& m) {
+  if (m.channels() == 3) return m;
+  cv::Mat out;
+  if (m.channels() == 1) cv::cvtColor(m, out, cv::COLOR_GRAY2BGR);
+  else if (m.channels() == 4) cv::cvtColor(m, out, cv::COLOR_BGRA2BGR);
+  else out = m;
+  return out;
+}
+
+}  // namespace
+
+VideoSource::VideoSource(const std::string& path, const VideoOptions& options) : path_(path), opt_(options) {
+  if (opt_.stride < 1)
+    throw TopoError("stride " + std::to_string(opt_.stride), "must be at least 1", "give --stride 1 or more");
+  if (opt_.end_s >= 0 && opt_.end_s <= opt_.start_s)
+    throw TopoError("time range " + std::to_string(opt_.start_s) + ".." + std::to_string(opt_.end_s) + " s",
+                    "is empty", "give --end larger than --start (or leave --end out)");
+  if (path.find('%') != std::string::npos || isDirectory(path)) {
+    sequence_ = true;
+    if (!(opt_.sequence_fps > 0))
+      throw TopoError(path, "image sequence with a non-positive fps", "give a positive frame rate");
+    fps_ = opt_.sequence_fps;
+    if (isDirectory(path)) {
+      DIR* d = ::opendir(path.c_str());
+      if (!d) throw TopoError(path, "directory cannot be read", "check its permissions");
+      while (dirent* e = ::readdir(d)) {
+        const std::string n = e->d_name;
+        if (hasImageExtension(n)) files_.push_back(path + "/" + n);
+      }
+      ::closedir(d);
+      std::sort(files_.begin(), files_.end());
+    } else {
+      char buf[4096];
+      for (int start : {0, 1}) {
+        for (int i = start;; ++i) {
+          std::snprintf(buf, sizeof(buf), path.c_str(), i);
+          if (!isReadableFile(buf)) break;
+          files_.push_back(buf);
+        }
+        if (!files_.empty()) break;
+      }
+    }
+    if (files_.empty())
+      throw TopoError(path, "no images found for this image sequence",
+                      "give a printf pattern such as frames/frame_%04d.png (numbered from 0 or 1) or a directory "
+                      "of .png/.jpg images");
+    frame_count_ = static_cast<int>(files_.size());
+    cv::Mat first = cv::imread(files_[0], cv::IMREAD_COLOR);
+    if (first.empty()) throw TopoError(files_[0], "cannot be decoded as an image", "check the image file");
+    size_ = first.size();
+    return;
+  }
+  if (!isReadableFile(path))
+    throw TopoError(path, "video file does not exist or cannot be read",
+                    "check the path (--video) and the file permissions");
+  if (!cap_.open(path, cv::CAP_FFMPEG))
+    throw TopoError(path, "cannot be opened as a video (unknown container or codec)",
+                    "convert it, e.g. `ffmpeg -i IN -c:v libx264 OUT.mp4`, or give an image sequence");
+  const double fps = cap_.get(cv::CAP_PROP_FPS);
+  fps_ = (std::isfinite(fps) && fps > 0.5 && fps < 10000) ? fps : opt_.sequence_fps;
+  frame_count_ = static_cast<int>(std::max(0.0, cap_.get(cv::CAP_PROP_FRAME_COUNT)));
+  double t = 0;
+  int idx = 0;
+  cv::Mat first;
+  if (!decodeNext(first, t, idx) || first.empty())
+    throw TopoError(path, "the first frame cannot be decoded (unsupported codec or damaged file)",
+                    "convert it, e.g. `ffmpeg -i IN -c:v libx264 -pix_fmt yuv420p OUT.mp4`");
+  size_ = first.size();
+  next_index_ = 0;  // the first frame is handed out again by read()
+  pending_ = first;
+  pending_t_ = t;
+  has_pending_ = true;
+}
+
+bool VideoSource::decodeNext(cv::Mat& bgr, double& t_s, int& index) {
+  if (sequence_) {
+    if (next_index_ >= static_cast<int>(files_.size())) return false;
+    index = next_index_++;
+    bgr = cv::imread(files_[index], cv::IMREAD_COLOR);
+    if (bgr.empty())
+      throw TopoError(files_[index], "cannot be decoded as an image", "remove or replace the damaged image");
+    t_s = index / fps_;
+    ++decoded_;
+    return true;
+  }
+  if (has_pending_) {
+    has_pending_ = false;
+    bgr = pending_;
+    pending_.release();
+    t_s = pending_t_;
+    index = next_index_++;
+    return true;
+  }
+  cv::Mat raw;
+  if (!cap_.read(raw) || raw.empty()) return false;
+  bgr = toBgr(raw);
+  index = next_index_++;
+  ++decoded_;
+  const double msec = cap_.get(cv::CAP_PROP_POS_MSEC);
+  // The container timestamp is used while it is valid: finite and increasing (0 allowed first).
+  // The FFMPEG backend reports 0 for the frames flushed from the decoder at the end of the stream;
+  // from the first invalid value on, time continues from the last valid stamp at 1/fps per frame.
+  if (msec_ok_ && std::isfinite(msec) && msec >= 0 && (index == 0 ? true : msec > last_msec_)) {
+    last_msec_ = msec;
+    last_msec_index_ = index;
+    t_s = msec / 1000.0;
+  } else {
+    msec_ok_ = false;
+    t_s = last_msec_index_ >= 0 ? last_msec_ / 1000.0 + (index - last_msec_index_) / fps_ : index / fps_;
+  }
+  return true;
+}
+
+bool VideoSource::read(cv::Mat& bgr, double& t_s) {
+  cv::Mat f;
+  double t = 0;
+  int idx = 0;
+  while (decodeNext(f, t, idx)) {
+    if (t + 1e-9 < opt_.start_s) continue;
+    if (opt_.end_s >= 0 && t > opt_.end_s + 1e-9) return false;
+    const int k = used_in_range_++;
+    if (k % opt_.stride != 0) continue;
+    bgr = f;
+    t_s = t;
+    last_index_ = idx;
+    times_.push_back(t);
+    indices_.push_back(idx);
+    return true;
+  }
+  return false;
+}
+
+}  // namespace vision
+}  // namespace topo_gaussian

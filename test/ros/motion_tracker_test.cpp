@@ -1,0 +1,123 @@
+// rostest node for motion_tracker (test/ros/motion_tracker.test): a pendulum video generated here
+// goes through ~extract_motion; the same pendulum replayed as an image stream (stamped at 30 fps,
+// sent faster than real time) must give the same period on `motion_features`; a 32FC1 image is
+// refused while the node keeps serving.
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <ros/topic.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/image_encodings.h>
+
+#include <cv_bridge/cv_bridge.h>
+
+#include <mutex>
+#include <string>
+
+#include "topo_gaussian/ExtractMotion.h"
+#include "topo_gaussian/MotionFeatures.h"
+#include "topo_gaussian/vision/synthetic_video.h"
+
+namespace {
+
+namespace vis = topo_gaussian::vision;
+
+vis::PendulumScene scene() {
+  vis::PendulumScene s;
+  s.period_s = 1.1;
+  s.amplitude_deg = 14.0;
+  s.equilibrium_deg = 3.0;
+  s.duration_s = 5.0;
+  s.noise_sigma = 4.0;
+  return s;
+}
+
+bool callExtract(const std::string& file, topo_gaussian::ExtractMotion& srv) {
+  ros::ServiceClient c = ros::NodeHandle().serviceClient<topo_gaussian::ExtractMotion>("/motion_tracker/extract_motion");
+  if (!c.waitForExistence(ros::Duration(20.0))) return false;
+  srv.request.video_file = file;
+  return c.call(srv);
+}
+
+}  // namespace
+
+TEST(MotionTrackerNode, ExtractMotionFromAGeneratedVideo) {
+  const vis::PendulumScene s = scene();
+  const std::string file = "/tmp/topo_rostest_pendulum.avi";
+  vis::writeVideo(vis::renderPendulum(s), s.fps, file);
+  topo_gaussian::ExtractMotion srv;
+  ASSERT_TRUE(callExtract(file, srv));
+  ASSERT_TRUE(srv.response.success) << srv.response.message;
+  const auto& f = srv.response.features;
+  EXPECT_TRUE(f.oscillation_found);
+  EXPECT_NEAR(f.period_s, s.period_s, 0.005 * s.period_s);
+  EXPECT_NEAR(f.amplitude_deg, s.amplitude_deg, 1.0);
+  EXPECT_NEAR(f.equilibrium_deg, s.equilibrium_deg, 1.0);
+  EXPECT_GT(f.period_confidence, 0.5);
+  EXPECT_EQ(f.source, file);
+  // A missing file: success false with the path in the message, and the node keeps serving.
+  topo_gaussian::ExtractMotion bad;
+  ASSERT_TRUE(callExtract("/tmp/no_such_video.mp4", bad));
+  EXPECT_FALSE(bad.response.success);
+  EXPECT_NE(bad.response.message.find("/tmp/no_such_video.mp4"), std::string::npos) << bad.response.message;
+}
+
+TEST(MotionTrackerNode, ImageStreamGivesTheSamePeriod) {
+  ros::NodeHandle nh;
+  ros::Publisher pub = nh.advertise<sensor_msgs::Image>("/image", 300);
+  std::mutex mu;
+  topo_gaussian::MotionFeatures last;
+  bool got = false;
+  ros::Subscriber sub = nh.subscribe<topo_gaussian::MotionFeatures>(
+      "/motion_features", 10, [&](const topo_gaussian::MotionFeaturesConstPtr& m) {
+        std::lock_guard<std::mutex> l(mu);
+        if (m->source == "/image") {
+          last = *m;
+          got = true;
+        }
+      });
+  for (int i = 0; i < 100 && pub.getNumSubscribers() == 0; ++i) ros::Duration(0.05).sleep();
+  ASSERT_GT(pub.getNumSubscribers(), 0u);
+  // A 32FC1 image first: refused (logged), the node must stay alive.
+  cv_bridge::CvImage depth(std_msgs::Header(), sensor_msgs::image_encodings::TYPE_32FC1, cv::Mat(48, 64, CV_32FC1, 1.0f));
+  depth.header.stamp = ros::Time(100.0);
+  pub.publish(depth.toImageMsg());
+  const vis::PendulumScene s = scene();
+  const std::vector<cv::Mat> frames = vis::renderPendulum(s);
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    cv_bridge::CvImage img(std_msgs::Header(), "bgr8", frames[k]);
+    img.header.stamp = ros::Time(200.0 + k / s.fps);
+    img.header.frame_id = "camera";
+    pub.publish(img.toImageMsg());
+    ros::Duration(0.012).sleep();
+  }
+  // Wait for features covering (almost) the whole stream.
+  const ros::Time deadline = ros::Time::now() + ros::Duration(30.0);
+  topo_gaussian::MotionFeatures f;
+  while (ros::Time::now() < deadline) {
+    {
+      std::lock_guard<std::mutex> l(mu);
+      if (got && last.frames_used >= static_cast<int>(0.9 * frames.size())) {
+        f = last;
+        break;
+      }
+    }
+    ros::Duration(0.1).sleep();
+  }
+  ASSERT_GE(f.frames_used, static_cast<int>(0.9 * frames.size())) << "no complete features on /motion_features";
+  EXPECT_TRUE(f.oscillation_found) << f.message;
+  EXPECT_NEAR(f.period_s, s.period_s, 0.01 * s.period_s) << f.message;
+  EXPECT_NEAR(f.amplitude_deg, s.amplitude_deg, 1.0);
+  EXPECT_EQ(f.header.frame_id, "camera");
+  EXPECT_FALSE(f.time_s.empty());
+  // Still serving after the bad image.
+  topo_gaussian::ExtractMotion srv;
+  EXPECT_TRUE(callExtract("/tmp/no_such_video.mp4", srv));
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "motion_tracker_test");
+  ros::AsyncSpinner spinner(1);
+  spinner.start();
+  return RUN_ALL_TESTS();
+}
