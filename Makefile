@@ -33,6 +33,7 @@ demo: build
 bench: build
 	@./bench/fill $(BUILD)
 	@./bench/infer $(BUILD)
+	@./bench/track $(BUILD)
 
 # The ROS-free physics/topology core alone (what the GPU machines build).
 core:
