@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/vision/camera_model.h"
 
 namespace topo_gaussian::topo_ros {
 namespace {
@@ -42,6 +43,26 @@ MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh) {
     if (pivot.size() != 2) throw TopoError("~pivot", "must be [x, y] in pixels", "or leave it unset to fit it");
     p.options.pivot_given = true;
     p.options.pivot = cv::Point2d(pivot[0], pivot[1]);
+  }
+  std::vector<double> plane, pose;
+  pnh.param("plane", plane, std::vector<double>());
+  if (!plane.empty()) {
+    if (plane.size() != 4 || std::sqrt(plane[0] * plane[0] + plane[1] * plane[1] + plane[2] * plane[2]) == 0)
+      throw TopoError("~plane", "must be [nx, ny, nz, d] with a non-zero normal (plane n.x = d, world frame)",
+                      "e.g. [0, 0, 1, 0] for the floor");
+    p.plane_given = true;
+    p.plane = cv::Vec4d(plane[0], plane[1], plane[2], plane[3]);
+  }
+  pnh.param("camera_pose", pose, std::vector<double>());
+  if (!pose.empty()) {
+    if (pose.size() != 7) throw TopoError("~camera_pose", "must be [x, y, z, qx, qy, qz, qw]", "the optical frame's pose in the world");
+    const double n = std::sqrt(pose[3] * pose[3] + pose[4] * pose[4] + pose[5] * pose[5] + pose[6] * pose[6]);
+    if (!(n > 0)) throw TopoError("~camera_pose", "quaternion is zero", "e.g. [0, 0, 0, 0, 0, 0, 1]");
+    const double x = pose[3] / n, y = pose[4] / n, z = pose[5] / n, w = pose[6] / n;
+    p.camera_R = cv::Matx33d(1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w), 2 * (x * y + z * w),
+                             1 - 2 * (x * x + z * z), 2 * (y * z - x * w), 2 * (x * z - y * w), 2 * (y * z + x * w),
+                             1 - 2 * (x * x + y * y));
+    p.camera_t = cv::Vec3d(pose[0], pose[1], pose[2]);
   }
   p.window_s = param(pnh, "window_s", 20.0);
   p.publish_period_s = param(pnh, "publish_period_s", 1.0);
@@ -89,6 +110,14 @@ topo_gaussian::MotionFeatures toMotionFeaturesMsg(const vision::TrackResult& r) 
       tr.x_px.push_back(s.x);
       tr.y_px.push_back(s.y);
     }
+    if (k < r.points_on_plane.size())
+      for (const auto& q : r.points_on_plane[k]) {
+        geometry_msgs::Point pt;
+        pt.x = q[0];
+        pt.y = q[1];
+        pt.z = q[2];
+        tr.points_on_plane.push_back(pt);
+      }
     m.trajectories.push_back(tr);
   }
   return m;
@@ -124,7 +153,19 @@ MotionTrackerNode::MotionTrackerNode(const ::ros::NodeHandle& nh, const ::ros::N
   if (!params_.video_file.empty()) trackStartupFile();
 }
 
-void MotionTrackerNode::publish(const vision::TrackResult& result, const std::string& frame_id) {
+void MotionTrackerNode::publish(const vision::TrackResult& result_in, const std::string& frame_id) {
+  vision::TrackResult result = result_in;
+  if (params_.plane_given) {
+    if (camera_info_.K[0] > 0) {
+      const auto& K = camera_info_.K;
+      const vision::CameraModel cam(cv::Matx33d(K[0], K[1], K[2], K[3], K[4], K[5], K[6], K[7], K[8]),
+                                    std::vector<double>(camera_info_.D.begin(), camera_info_.D.end()), params_.camera_R,
+                                    params_.camera_t);
+      vision::placeOnPlane(cam, cv::Vec3d(params_.plane[0], params_.plane[1], params_.plane[2]), params_.plane[3], result);
+    } else {
+      ROS_WARN_THROTTLE(10.0, "motion_tracker: ~plane is set but no camera_info has arrived: trajectories stay in pixels");
+    }
+  }
   topo_gaussian::MotionFeatures m = toMotionFeaturesMsg(result);
   m.header.stamp = ::ros::Time::now();
   m.header.frame_id = frame_id;

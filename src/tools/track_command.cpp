@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <functional>
+#include <cmath>
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -12,6 +13,7 @@
 #include "args.h"
 #include "commands.h"
 #include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/vision/camera_model.h"
 #include "topo_gaussian/vision/motion_tracker.h"
 
 namespace topo_gaussian::tools {
@@ -40,6 +42,10 @@ const char* kTrackHelp =
     "  --series               with --json: include the time series\n"
     "  --debug-video OUT      write the overlay video (tracked points, axis, angle text)\n"
     "  --plot OUT.png         write a plot of the angle signal (crossings and turning points marked)\n"
+    "  --camera fx,fy,cx,cy[,k1,k2,p1,p2[,k3]]   intrinsics (and OpenCV distortion) of the camera\n"
+    "  --camera-pose x,y,z,qx,qy,qz,qw          camera optical frame in the world (default: identity)\n"
+    "  --plane nx,ny,nz,d     with --camera: place the trajectories on the world plane n.x = d [m]\n"
+    "                         (JSON points_on_plane), e.g. the wall the pendulum swings along\n"
     "exit codes: 0 success, 1 bad input (missing file, bad ROI, ...), 2 bad command line\n";
 
 std::vector<double> numbers(const Args& a, const std::string& name, std::size_t count) {
@@ -131,7 +137,7 @@ void writePlot(const vision::TrackResult& r, const std::string& path) {
 int trackCommand(const std::vector<std::string>& argv) {
   const Args a(argv, {"help", "json", "series"},
                {"video", "method", "kind", "roi", "start", "end", "stride", "fps", "pivot", "hsv-lower", "hsv-upper",
-                "foreground", "min-area", "debug-video", "plot"});
+                "foreground", "min-area", "debug-video", "plot", "camera", "camera-pose", "plane"});
   if (a.has("help")) {
     std::cout << kTrackHelp;
     return 0;
@@ -178,8 +184,36 @@ int trackCommand(const std::vector<std::string>& argv) {
       writer.write(frame);
     };
   }
-  const vision::TrackResult r = vision::trackVideo(video, o, sink);
+  if (a.has("plane") != a.has("camera")) throw UsageError("--plane and --camera go together");
+  vision::TrackResult r = vision::trackVideo(video, o, sink);
   writer.release();
+  if (a.has("plane")) {
+    std::vector<double> c;
+    for (std::size_t n : {4u, 8u, 9u}) {
+      try {
+        c = numbers(a, "camera", n);
+        break;
+      } catch (const UsageError&) {
+      }
+    }
+    if (c.empty()) throw UsageError("--camera expects fx,fy,cx,cy with 0, 4 or 5 distortion coefficients after them");
+    const cv::Matx33d K(c[0], 0, c[2], 0, c[1], c[3], 0, 0, 1);
+    const std::vector<double> dist(c.begin() + 4, c.end());
+    cv::Matx33d R = cv::Matx33d::eye();
+    cv::Vec3d t(0, 0, 0);
+    if (a.has("camera-pose")) {
+      const auto p = numbers(a, "camera-pose", 7);
+      const double n = std::sqrt(p[3] * p[3] + p[4] * p[4] + p[5] * p[5] + p[6] * p[6]);
+      if (!(n > 0)) throw UsageError("--camera-pose quaternion is zero");
+      const double x = p[3] / n, y = p[4] / n, z = p[5] / n, w = p[6] / n;
+      R = cv::Matx33d(1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w), 2 * (x * y + z * w),
+                      1 - 2 * (x * x + z * z), 2 * (y * z - x * w), 2 * (x * z - y * w), 2 * (y * z + x * w),
+                      1 - 2 * (x * x + y * y));
+      t = cv::Vec3d(p[0], p[1], p[2]);
+    }
+    const auto pl = numbers(a, "plane", 4);
+    vision::placeOnPlane(vision::CameraModel(K, dist, R, t), cv::Vec3d(pl[0], pl[1], pl[2]), pl[3], r);
+  }
   if (a.has("plot")) writePlot(r, a.str("plot"));
   if (a.has("json")) {
     std::cout << vision::toJson(r, a.has("series")) << "\n";

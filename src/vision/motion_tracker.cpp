@@ -615,6 +615,18 @@ std::string toJson(const TrackResult& r, bool with_series) {
     first = false;
   }
   o << "},\"message\":" << jsonString(r.message);
+  if (!r.points_on_plane.empty()) {
+    o << ",\"points_on_plane\":[";
+    for (std::size_t k = 0; k < r.points_on_plane.size(); ++k) {
+      o << (k ? "," : "") << "[";
+      for (std::size_t j = 0; j < r.points_on_plane[k].size(); ++j) {
+        const cv::Vec3d& p = r.points_on_plane[k][j];
+        o << (j ? "," : "") << "[" << num(p[0]) << "," << num(p[1]) << "," << num(p[2]) << "]";
+      }
+      o << "]";
+    }
+    o << "]";
+  }
   if (with_series) {
     o << ",\"series\":{\"t\":" << array(r.t) << ",\"" << (r.kind == "trajectory" ? "y_px" : "angle_deg")
       << "\":" << array(r.angle_deg) << "}";

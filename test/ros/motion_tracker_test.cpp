@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <ros/topic.h>
+#include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/image_encodings.h>
 
@@ -64,6 +65,12 @@ TEST(MotionTrackerNode, ExtractMotionFromAGeneratedVideo) {
 TEST(MotionTrackerNode, ImageStreamGivesTheSamePeriod) {
   ros::NodeHandle nh;
   ros::Publisher pub = nh.advertise<sensor_msgs::Image>("/image", 300);
+  ros::Publisher info_pub = nh.advertise<sensor_msgs::CameraInfo>("/camera_info", 1, true);
+  sensor_msgs::CameraInfo info;
+  info.width = 640;
+  info.height = 480;
+  info.K = {500, 0, 320, 0, 500, 240, 0, 0, 1};
+  info_pub.publish(info);
   std::mutex mu;
   topo_gaussian::MotionFeatures last;
   bool got = false;
@@ -109,6 +116,14 @@ TEST(MotionTrackerNode, ImageStreamGivesTheSamePeriod) {
   EXPECT_NEAR(f.amplitude_deg, s.amplitude_deg, 1.0);
   EXPECT_EQ(f.header.frame_id, "camera");
   EXPECT_FALSE(f.time_s.empty());
+  // ~plane with camera_info: the marker's trajectory also as points on z = 2 m.
+  ASSERT_EQ(f.trajectories.size(), 1u);
+  ASSERT_EQ(f.trajectories[0].points_on_plane.size(), f.trajectories[0].x_px.size());
+  for (std::size_t k = 0; k < f.trajectories[0].x_px.size(); k += 17) {
+    const auto& p = f.trajectories[0].points_on_plane[k];
+    EXPECT_NEAR(p.z, 2.0, 1e-9);
+    EXPECT_NEAR(p.x, (f.trajectories[0].x_px[k] - 320) / 500 * 2.0, 1e-6);
+  }
   // Still serving after the bad image.
   topo_gaussian::ExtractMotion srv;
   EXPECT_TRUE(callExtract("/tmp/no_such_video.mp4", srv));

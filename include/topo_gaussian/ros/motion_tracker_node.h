@@ -25,6 +25,10 @@ struct MotionTrackerParams {
   vision::TrackOptions options;    ///< ~method, ~kind, ~roi [x,y,w,h], ~start_s, ~end_s, ~stride, ~pivot [x,y]
   double window_s = 20.0;          ///< ~window_s: live stream analysed over windows this long [s]
   double publish_period_s = 1.0;   ///< ~publish_period_s: live features published this often [s]
+  bool plane_given = false;        ///< ~plane [nx, ny, nz, d]: trajectories placed on n·x = d (world) using
+  cv::Vec4d plane;                 ///  the latest camera_info and ~camera_pose
+  cv::Matx33d camera_R = cv::Matx33d::eye();  ///< ~camera_pose [x, y, z, qx, qy, qz, qw]: optical frame in the world
+  cv::Vec3d camera_t = cv::Vec3d(0, 0, 0);
 };
 
 /// Reads and validates the private parameters; throws TopoError naming the parameter and the fix.

@@ -68,6 +68,9 @@ struct TrackResult {
   // trajectory
   std::vector<double> bounce_times_s, bounce_y_px, apex_times_s, apex_y_px, apex_heights_px;
   double floor_y_px = 0.0;
+  /// trajectories placed on a known plane through a camera model (placeOnPlane), world frame [m];
+  /// NaN where a ray misses the plane. Empty unless placeOnPlane was called.
+  std::vector<std::vector<cv::Vec3d>> points_on_plane;
   std::map<std::string, double> confidence;  ///< per feature, 0..1
   std::string message;               ///< for a person: what was found and what limited it
 };
@@ -97,6 +100,12 @@ class MotionTracker {
 /// Throws TopoError for unreadable videos, bad ROIs and bad options.
 TrackResult trackVideo(const std::string& path, const TrackOptions& options,
                        const std::function<void(const cv::Mat&)>& overlay_sink = nullptr);
+
+class CameraModel;
+/// Intersects every trajectory sample's pixel ray with the plane n·x = d (world frame) and stores
+/// the points in result.points_on_plane, so simulated points can be compared in 3D (or, the other
+/// way, projected into the same camera with CameraModel::project).
+void placeOnPlane(const CameraModel& camera, const cv::Vec3d& plane_normal, double plane_d, TrackResult& result);
 
 /// Features, confidences, frame range, source and message as one JSON object (series when keep_series).
 std::string toJson(const TrackResult& result, bool with_series = false);

@@ -1,0 +1,41 @@
+// Trajectories as 3D points on a known plane (issue 4 §1): a generated pendulum video is tracked
+// and its marker placed on the plane z = 2 m in front of a pinhole camera; the points must lie
+// where the rendered bob was, back-projected analytically.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/vision/camera_model.h"
+#include "topo_gaussian/vision/motion_tracker.h"
+#include "topo_gaussian/vision/synthetic_video.h"
+
+using namespace topo_gaussian::vision;
+
+TEST(PlaneTrajectories, MarkerLandsWhereTheBobWas) {
+  PendulumScene s;
+  s.duration_s = 3.0;
+  s.noise_sigma = 3.0;
+  const std::string file = testing::TempDir() + "/plane_pendulum.avi";
+  writeVideo(renderPendulum(s), s.fps, file);
+  TrackOptions o;
+  TrackResult r = trackVideo(file, o);
+  ASSERT_EQ(r.trajectories.size(), 1u);
+  const double f = 500.0, cx = 320.0, cy = 240.0, depth = 2.0;
+  const CameraModel cam(cv::Matx33d(f, 0, cx, 0, f, cy, 0, 0, 1), {});
+  placeOnPlane(cam, cv::Vec3d(0, 0, 1), depth, r);
+  ASSERT_EQ(r.points_on_plane.size(), 1u);
+  ASSERT_EQ(r.points_on_plane[0].size(), r.trajectories[0].size());
+  double worst = 0;
+  for (std::size_t k = 0; k < r.trajectories[0].size(); ++k) {
+    const double t = r.trajectories[0][k].t, th = pendulumAngleDeg(s, t) * M_PI / 180.0;
+    const cv::Point2d px = s.pivot + s.length_px * cv::Point2d(std::sin(th), std::cos(th));
+    const cv::Vec3d expected((px.x - cx) / f * depth, (px.y - cy) / f * depth, depth);
+    worst = std::max(worst, cv::norm(r.points_on_plane[0][k] - expected));
+  }
+  // One pixel at 2 m with f = 500 px is 4 mm; allow 1.5 px of tracking error (and the frame-time
+  // quantisation of the codec).
+  EXPECT_LT(worst, 0.006) << "worst distance " << worst << " m";
+  EXPECT_NE(toJson(r).find("\"points_on_plane\""), std::string::npos);
+  EXPECT_THROW(placeOnPlane(cam, cv::Vec3d(0, 0, 0), 1.0, r), topo_gaussian::TopoError);
+}
