@@ -1,0 +1,149 @@
+// Corotated SPH elasticity (Becker, Ihmsen & Teschner 2009) as used by the TopoGaussian paper
+// (appendix "Soft body dynamics"): cubic spline kernel, rest neighbourhoods fixed at construction,
+// per-particle rotation R_i from the polar decomposition of A_pq,i, deformation gradient
+// F_i = I + ∇u_i with u_ji = R_iᵀ(x_j − x_i) − (X_j − X_i), and a St. Venant–Kirchhoff (Green
+// strain) or corotated linear (Cauchy strain) energy E = Σ_i V_i ψ(F_i), plus a zero-energy-mode
+// (hourglass) penalty.
+//
+// Notation: X rest positions, x current positions, X_ji = X_j − X_i, x_ji = x_j − x_i,
+// W_ij = W(X_ji, h), ĝ_ij = L_i ∇W(X_ji, h) the corrected kernel gradient.
+// Structure of arrays; neighbourhoods in CSR form (NeighborList). No ROS / PCL / OpenCV.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "topo_gaussian/physics/neighbor_list.h"
+#include "topo_gaussian/physics/volume_cloud.h"
+
+namespace topo_gaussian {
+
+enum class SphEnergyModel {
+  StVK,             ///< ψ = μ ε:ε + λ/2 tr(ε)², ε = ½(FᵀF − I)   (Green strain)
+  CorotatedLinear,  ///< ψ = μ ε:ε + λ/2 tr(ε)², ε = ½(F + Fᵀ) − I (Cauchy strain)
+};
+
+/// Where R_i comes from.
+enum class SphRotationSource {
+  /// Paper / Becker 2009: polar decomposition of A_pq,i = Σ_j m_j W_ij x_ji X_jiᵀ. Exact for rigid
+  /// motions; for a pure stretch S it gives R_i = I only where Σ_j m_j W_ij X_ji X_jiᵀ commutes with
+  /// S (interior and face particles of an axis-aligned box, not edges/corners).
+  ShapeMatchingApq,
+  /// Polar decomposition of the corrected deformation gradient F̃_i = Σ_j V_j x_ji ĝ_ijᵀ: then
+  /// F_i = R_iᵀF̃_i is the symmetric stretch on every particle for every affine deformation.
+  CorrectedGradient,
+};
+
+struct LameParameters {
+  double mu = 0.0;      ///< shear modulus μ [Pa]
+  double lambda = 0.0;  ///< first Lamé parameter λ [Pa]
+};
+
+/// μ = E / (2(1+ν)), λ = E ν / ((1+ν)(1−2ν)). Throws TopoError for E ≤ 0, ν ∉ (−1, 0.5) or
+/// non-finite values.
+LameParameters lameFromYoung(double youngs_modulus, double poisson_ratio);
+
+/// Strain energy density ψ(F) of a model (per unit rest volume).
+double sphStrainEnergyDensity(SphEnergyModel model, const Eigen::Matrix3d& F, double mu, double lambda);
+/// First Piola–Kirchhoff stress P = ∂ψ/∂F.
+Eigen::Matrix3d sphFirstPiola(SphEnergyModel model, const Eigen::Matrix3d& F, double mu, double lambda);
+
+struct CorotatedSphOptions {
+  /// Smoothing length h [m]; ≤ 0 picks smoothing_factor × spacing.
+  double smoothing_length = 0.0;
+  double smoothing_factor = 1.5;
+  /// Lattice spacing [m]; ≤ 0 estimates it as ∛(mean V_i).
+  double spacing = 0.0;
+  /// Mass density ρ0 [kg/m³]: m_i = ρ0 V_i (used for A_pq and the SPH rest density).
+  double density = 1000.0;
+  SphEnergyModel model = SphEnergyModel::StVK;
+  SphRotationSource rotation = SphRotationSource::ShapeMatchingApq;
+  /// Hourglass weight α in E_hg = Σ_i Σ_j V_i V_j W_ij (α μ_i / h²) |F̃_i X_ji − x_ji|².
+  /// Σ_j V_j W_ij ≈ 1 and the non-affine part of x_ji is O(h |∇u|), so α is roughly the stiffness
+  /// of the zero-energy modes relative to μ. 0.1 suppresses them while changing affine (and nearly
+  /// affine) response not at all: E_hg vanishes exactly for every affine deformation.
+  double hourglass_alpha = 0.1;
+};
+
+class CorotatedSph {
+ public:
+  /// Per-particle material. Throws TopoError for size mismatches, non-finite / non-positive input,
+  /// a particle with no neighbour within 2h, or a degenerate (coplanar) neighbourhood.
+  CorotatedSph(const std::vector<Eigen::Vector3d>& X, const std::vector<double>& V,
+               const std::vector<double>& mu, const std::vector<double>& lambda,
+               const CorotatedSphOptions& options = CorotatedSphOptions());
+  /// Uniform material.
+  CorotatedSph(const std::vector<Eigen::Vector3d>& X, const std::vector<double>& V, LameParameters material,
+               const CorotatedSphOptions& options = CorotatedSphOptions());
+  /// From a volume cloud (its spacing is used unless options.spacing is set).
+  static CorotatedSph fromCloud(const VolumeCloud& cloud, LameParameters material,
+                                CorotatedSphOptions options = CorotatedSphOptions());
+
+  // ------------------------------------------------------------ rest state
+  std::size_t size() const { return X_.size(); }
+  double smoothingLength() const { return h_; }
+  const CorotatedSphOptions& options() const { return opt_; }
+  const NeighborList& neighbors() const { return nbr_; }
+  int neighborCount(std::size_t i) const { return nbr_.count(i); }
+  const std::vector<Eigen::Vector3d>& restPositions() const { return X_; }
+  const std::vector<double>& volumes() const { return V_; }
+  const std::vector<double>& masses() const { return m_; }
+  /// SPH rest density ρ_i = Σ_j m_j W(X_ij, h) (self included); below ρ0 near the boundary.
+  const std::vector<double>& restDensity() const { return rho_; }
+  /// Correction matrix L_i = (Σ_j V_j ∇W(X_ji) X_jiᵀ)⁻¹.
+  const Eigen::Matrix3d& correction(std::size_t i) const { return L_[i]; }
+
+  // ------------------------------------------------------------ deformed state
+  /// Rotations R_i for positions x (per options.rotation).
+  std::vector<Eigen::Matrix3d> computeRotations(const std::vector<Eigen::Vector3d>& x) const;
+  /// Evaluates R, F, P, energies and forces at x. Throws TopoError for a size mismatch, a
+  /// non-finite position or an inverted particle (det F_i ≤ 0).
+  void update(const std::vector<Eigen::Vector3d>& x);
+  /// As update() but with the rotations given (held fixed).
+  void updateWithRotations(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& R);
+  /// Total energy (elastic + hourglass) at x with rotations R held fixed; does not touch the state.
+  /// Forces are exactly −∂/∂x of this function (used by the finite-difference tests).
+  double energyWithRotations(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& R) const;
+
+  double energy() const { return elastic_energy_ + hourglass_energy_; }
+  double elasticEnergy() const { return elastic_energy_; }
+  double hourglassEnergy() const { return hourglass_energy_; }
+  /// f = −∂E/∂x with R held fixed.
+  const std::vector<Eigen::Vector3d>& forces() const { return f_; }
+  const Eigen::Matrix3d& F(std::size_t i) const { return F_[i]; }        ///< unrotated F_i = I + ∇u_i
+  const Eigen::Matrix3d& R(std::size_t i) const { return R_[i]; }
+  const Eigen::Matrix3d& stress(std::size_t i) const { return P_[i]; }   ///< P_i = ∂ψ/∂F (unrotated)
+  /// Corrected full deformation gradient F̃_i = Σ_j V_j x_ji ĝ_ijᵀ = R_i F_i.
+  const Eigen::Matrix3d& deformationGradient(std::size_t i) const { return Ft_[i]; }
+
+ private:
+  struct Eval {
+    std::vector<Eigen::Matrix3d> F, Ft, P, M;
+    std::vector<double> e_el, e_hg;
+  };
+  void checkPositions(const std::vector<Eigen::Vector3d>& x) const;
+  void computeFtilde(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Matrix3d>* Ft) const;
+  void rotationsFrom(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& Ft,
+                     std::vector<Eigen::Matrix3d>* R) const;
+  void evaluate(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& R, Eval* ev,
+                bool need_M) const;
+  void gatherForces(const std::vector<Eigen::Vector3d>& x, const Eval& ev, std::vector<Eigen::Vector3d>* f) const;
+  void store(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Matrix3d> R, Eval&& ev);
+
+  CorotatedSphOptions opt_;
+  double h_ = 0.0;
+  std::vector<Eigen::Vector3d> X_;
+  std::vector<double> V_, m_, rho_, mu_, lambda_;
+  NeighborList nbr_;
+  std::vector<int> rev_;               ///< per CSR entry (i→j): position of entry (j→i) in row j
+  std::vector<double> W_;              ///< per CSR entry: W_ij
+  std::vector<Eigen::Vector3d> gh_;    ///< per CSR entry: ĝ_ij = L_i ∇W(X_ji)
+  std::vector<Eigen::Matrix3d> L_;
+
+  std::vector<Eigen::Matrix3d> R_, F_, Ft_, P_;
+  std::vector<Eigen::Vector3d> f_;
+  double elastic_energy_ = 0.0, hourglass_energy_ = 0.0;
+};
+
+}  // namespace topo_gaussian
