@@ -93,6 +93,9 @@ class CorotatedSph {
   const std::vector<double>& restDensity() const { return rho_; }
   /// Correction matrix L_i = (Σ_j V_j ∇W(X_ji) X_jiᵀ)⁻¹.
   const Eigen::Matrix3d& correction(std::size_t i) const { return L_[i]; }
+  /// Per-particle shear modulus μ_i and first Lamé parameter λ_i [Pa].
+  const std::vector<double>& shearModuli() const { return mu_; }
+  const std::vector<double>& lameLambdas() const { return lambda_; }
 
   // ------------------------------------------------------------ deformed state
   /// Rotations R_i for positions x (per options.rotation).
