@@ -83,11 +83,9 @@ class BallTask : public Task {
   }
 
   TaskEvaluation evaluate(const std::vector<double>& r, std::vector<double>* dL_dr) const override {
-    std::vector<double> m, dm;
-    masses(r, &m, dL_dr ? &dm : nullptr);
-    const MassMoments mom = computeMassMoments(cloud_.X, m);
+    const RigidMass rm = rigidMass(r, dL_dr != nullptr);
     TaskEvaluation ev;
-    ev.mass = massPropertiesFromMoments(mom);
+    ev.mass = rm.props;
     const RigidInertia<Dual10> I = seedInertia(ev.mass);
     // The body frame is placed in the world by a fixed shift (the shape does not move when c does):
     // body point b is at b + shift, so the centre of mass starts at c + shift.
@@ -145,12 +143,7 @@ class BallTask : public Task {
     ev.features.push_back(Feature{"apex_height_m", apex, "m"});
     ev.features.push_back(Feature{"final_spin_rad_s", traj.states.back().angular_velocity.norm().value(), "rad/s"});
     ev.features.push_back(Feature{"mass_kg", ev.mass.mass, "kg"});
-    if (dL_dr) {
-      std::vector<double> dL_dm;
-      massPropertiesGradientToParticles(cloud_.X, mom, dL, &dL_dm);
-      dL_dr->resize(r.size());
-      for (std::size_t i = 0; i < r.size(); ++i) (*dL_dr)[i] = dL_dm[i] * dm[i];
-    }
+    if (dL_dr) chainToIndicator(rm, dL, dL_dr);
     return ev;
   }
 

@@ -47,8 +47,7 @@ std::string featuresJson(const std::vector<Feature>& fs) {
   return s + "}";
 }
 
-std::string geometryJson(const ProblemEvaluation& ev, const Task& task) {
-  const TaskGeometry g = task.geometry();
+std::string geometryJson(const ProblemEvaluation& ev, const TaskGeometry& g) {
   std::string s = "\"gravity\": " + vec3(g.gravity) + ", \"center_of_mass\": " + vec3(ev.task.mass.com) +
                   ", \"mass_kg\": " + num(ev.task.mass.mass) + ", \"inertia\": [";
   for (int a = 0; a < 3; ++a) s += std::string(a ? ", " : "") + vec3(ev.task.mass.inertia.row(a).transpose());
@@ -94,6 +93,7 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   InferenceResult res;
   res.task = config.task();
   res.representation = problem.representation().name();
+  res.geometry = problem.task().geometry();
   const Eigen::VectorXd theta0 = problem.initialParameters();
   Eigen::VectorXd lo, hi, g;
   problem.bounds(&lo, &hi);
@@ -196,14 +196,14 @@ std::vector<double> readInteriorPly(const std::string& path, std::size_t expecte
   return r;
 }
 
-std::string simulationJson(const ProblemEvaluation& ev, const TaskConfig& config, const Task& task) {
+std::string simulationJson(const ProblemEvaluation& ev, const TaskConfig& config, const TaskGeometry& geometry) {
   std::ostringstream s;
   s << "{\"task\": " << quote(config.task()) << ", \"features\": " << featuresJson(ev.task.features)
-    << ", \"loss\": " << num(ev.loss) << ", " << geometryJson(ev, task) << "}";
+    << ", \"loss\": " << num(ev.loss) << ", " << geometryJson(ev, geometry) << "}";
   return s.str();
 }
 
-std::string reportJson(const InferenceResult& r, const TaskConfig& config, const Task& task) {
+std::string reportJson(const InferenceResult& r, const TaskConfig& config) {
   std::ostringstream s;
   s << "{\n  \"task\": " << quote(r.task) << ",\n  \"task_source\": " << quote(config.source())
     << ",\n  \"representation\": " << quote(r.representation) << ",\n  \"parameters\": {";
@@ -219,7 +219,7 @@ std::string reportJson(const InferenceResult& r, const TaskConfig& config, const
     << ",\n  \"optimizer_converged\": " << (r.optimizer.converged ? "true" : "false")
     << ",\n  \"targets_reached\": " << (r.targets_reached ? "true" : "false")
     << ",\n  \"cancelled\": " << (r.optimizer.cancelled ? "true" : "false") << ",\n  \"message\": " << quote(r.message)
-    << ",\n  " << geometryJson(r.final, task) << ",\n  \"initial_center_of_mass\": " << vec3(r.initial.task.mass.com)
+    << ",\n  " << geometryJson(r.final, r.geometry) << ",\n  \"initial_center_of_mass\": " << vec3(r.initial.task.mass.com)
     << ",\n  \"particles\": " << r.r.size() << ",\n  \"parameters_count\": " << r.theta.size()
     << ",\n  \"timings_s\": {\"setup\": " << num(r.setup_s) << ", \"optimize\": " << num(r.optimize_s)
     << ", \"per_evaluation\": " << num(r.evaluation_s) << "},\n  \"loss_history\": [";

@@ -101,11 +101,9 @@ class StaticTask : public Task {
   }
 
   TaskEvaluation evaluate(const std::vector<double>& r, std::vector<double>* dL_dr) const override {
-    std::vector<double> m, dm;
-    masses(r, &m, dL_dr ? &dm : nullptr);
-    const MassMoments mom = computeMassMoments(cloud_.X, m);
+    const RigidMass rm = rigidMass(r, dL_dr != nullptr);
     TaskEvaluation ev;
-    ev.mass = massPropertiesFromMoments(mom);
+    ev.mass = rm.props;
     const Eigen::Matrix3d P = Eigen::Matrix3d::Identity() - g_hat_ * g_hat_.transpose();
     const Eigen::Vector3d d = R_ * (ev.mass.com - point_);   // world offset of c from the point
     const Eigen::Vector3d e = P * d;
@@ -135,10 +133,7 @@ class StaticTask : public Task {
     if (dL_dr) {
       Eigen::Matrix<double, 10, 1> g = Eigen::Matrix<double, 10, 1>::Zero();
       g.segment<3>(1) = dL_dc;
-      std::vector<double> dL_dm;
-      massPropertiesGradientToParticles(cloud_.X, mom, g, &dL_dm);
-      dL_dr->resize(r.size());
-      for (std::size_t i = 0; i < r.size(); ++i) (*dL_dr)[i] = dL_dm[i] * dm[i];
+      chainToIndicator(rm, g, dL_dr);
     }
     return ev;
   }

@@ -52,6 +52,23 @@ void Task::masses(const std::vector<double>& r, std::vector<double>* m, std::vec
   }
 }
 
+Task::RigidMass Task::rigidMass(const std::vector<double>& r, bool with_gradient) const {
+  RigidMass out;
+  std::vector<double> m;
+  masses(r, &m, with_gradient ? &out.dm_dr : nullptr);
+  out.moments = computeMassMoments(cloud_.X, m);
+  out.props = massPropertiesFromMoments(out.moments);
+  return out;
+}
+
+void Task::chainToIndicator(const RigidMass& mass, const Eigen::Matrix<double, 10, 1>& dL_dprops,
+                            std::vector<double>* dL_dr) const {
+  std::vector<double> dL_dm;
+  massPropertiesGradientToParticles(cloud_.X, mass.moments, dL_dprops, &dL_dm);
+  dL_dr->resize(dL_dm.size());
+  for (std::size_t i = 0; i < dL_dm.size(); ++i) (*dL_dr)[i] = dL_dm[i] * mass.dm_dr[i];
+}
+
 std::unique_ptr<Task> makeTask(const TaskConfig& config, const VolumeCloud& cloud) {
   const std::string& t = config.task();
   if (t == "hanging" || t == "balance" || t == "stand") return makeStaticTask(config, cloud);

@@ -47,11 +47,9 @@ class TumblerTask : public Task {
   }
 
   TaskEvaluation evaluate(const std::vector<double>& r, std::vector<double>* dL_dr) const override {
-    std::vector<double> m, dm;
-    masses(r, &m, dL_dr ? &dm : nullptr);
-    const MassMoments mom = computeMassMoments(cloud_.X, m);
+    const RigidMass rm = rigidMass(r, dL_dr != nullptr);
     TaskEvaluation ev;
-    ev.mass = massPropertiesFromMoments(mom);
+    ev.mass = rm.props;
     const RigidInertia<Dual10> inertia = seedInertia(ev.mass);
     const Eigen::Quaterniond q0(Eigen::AngleAxisd(tilt0_, axis_));
     RigidState<Dual10> s0 = restingState(inertia, q0, contact_, options_);
@@ -102,12 +100,7 @@ class TumblerTask : public Task {
     ev.features = {fp, ft, Feature{"equilibrium_tilt_deg", f.equilibrium.value(), "deg"},
                    Feature{"amplitude_deg", f.amplitude.value(), "deg"},
                    Feature{"mass_kg", ev.mass.mass, "kg"}};
-    if (dL_dr) {
-      std::vector<double> dL_dm;
-      massPropertiesGradientToParticles(cloud_.X, mom, dL, &dL_dm);
-      dL_dr->resize(r.size());
-      for (std::size_t i = 0; i < r.size(); ++i) (*dL_dr)[i] = dL_dm[i] * dm[i];
-    }
+    if (dL_dr) chainToIndicator(rm, dL, dL_dr);
     return ev;
   }
 

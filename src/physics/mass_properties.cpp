@@ -14,43 +14,39 @@ using Vec10 = Eigen::Matrix<double, 10, 1>;
 constexpr int kSymRow[6] = {0, 1, 2, 0, 0, 1};
 constexpr int kSymCol[6] = {0, 1, 2, 1, 2, 2};
 
+// The ten numbers (scalar, 3-vector, symmetric 3×3) are packed alike for moments and properties.
+Vec10 pack(double s, const Eigen::Vector3d& v, const Eigen::Matrix3d& M) {
+  Vec10 out;
+  out[0] = s;
+  out.segment<3>(1) = v;
+  for (int k = 0; k < 6; ++k) out[4 + k] = M(kSymRow[k], kSymCol[k]);
+  return out;
+}
+
+void unpack(const Vec10& in, double* s, Eigen::Vector3d* v, Eigen::Matrix3d* M) {
+  *s = in[0];
+  *v = in.segment<3>(1);
+  for (int k = 0; k < 6; ++k) {
+    (*M)(kSymRow[k], kSymCol[k]) = in[4 + k];
+    (*M)(kSymCol[k], kSymRow[k]) = in[4 + k];
+  }
+}
+
 }  // namespace
 
-Vec10 MassMoments::toVector() const {
-  Vec10 v;
-  v[0] = m0;
-  v.segment<3>(1) = m1;
-  for (int k = 0; k < 6; ++k) v[4 + k] = m2(kSymRow[k], kSymCol[k]);
-  return v;
-}
+Vec10 MassMoments::toVector() const { return pack(m0, m1, m2); }
 
 MassMoments MassMoments::fromVector(const Vec10& v) {
   MassMoments m;
-  m.m0 = v[0];
-  m.m1 = v.segment<3>(1);
-  for (int k = 0; k < 6; ++k) {
-    m.m2(kSymRow[k], kSymCol[k]) = v[4 + k];
-    m.m2(kSymCol[k], kSymRow[k]) = v[4 + k];
-  }
+  unpack(v, &m.m0, &m.m1, &m.m2);
   return m;
 }
 
-Vec10 MassProperties::toVector() const {
-  Vec10 v;
-  v[0] = mass;
-  v.segment<3>(1) = com;
-  for (int k = 0; k < 6; ++k) v[4 + k] = inertia(kSymRow[k], kSymCol[k]);
-  return v;
-}
+Vec10 MassProperties::toVector() const { return pack(mass, com, inertia); }
 
 MassProperties MassProperties::fromVector(const Vec10& v) {
   MassProperties p;
-  p.mass = v[0];
-  p.com = v.segment<3>(1);
-  for (int k = 0; k < 6; ++k) {
-    p.inertia(kSymRow[k], kSymCol[k]) = v[4 + k];
-    p.inertia(kSymCol[k], kSymRow[k]) = v[4 + k];
-  }
+  unpack(v, &p.mass, &p.com, &p.inertia);
   return p;
 }
 

@@ -128,9 +128,8 @@ int inferCommand(const std::vector<std::string>& argv) {
         }
         return true;
       });
-  const inference::InteriorProblem problem(config, cloud);
   inference::writeInteriorPly(dir + "/interior.ply", cloud, res.r, res.density, config.boolean("continuous_material"));
-  const std::string report = inference::reportJson(res, config, problem.task());
+  const std::string report = inference::reportJson(res, config);
   writeText(dir + "/report.json", report);
   std::cerr << "[topo infer] " << res.message << "\n";
   for (const auto& f : res.final.task.features) {
@@ -179,7 +178,7 @@ int simulateCommand(const std::vector<std::string>& argv) {
     writeText(a.str("trajectory"), os.str());
   }
   if (a.has("json")) {
-    std::cout << inference::simulationJson(ev, config, problem.task()) << "\n";
+    std::cout << inference::simulationJson(ev, config, problem.task().geometry()) << "\n";
   } else {
     for (const auto& f : ev.task.features) std::cout << f.name << " = " << f.value << " " << f.unit << "\n";
   }

@@ -17,6 +17,7 @@ namespace inference {
 
 struct InferenceResult {
   std::string task, representation;
+  TaskGeometry geometry;          ///< hanging/support/pivot point and gravity of the task
   Eigen::VectorXd theta;
   std::vector<double> r;          ///< indicator of the best design
   std::vector<double> density;    ///< [kg/m³]
@@ -45,9 +46,9 @@ void writeInteriorPly(const std::string& path, const VolumeCloud& cloud, const s
 std::vector<double> readInteriorPly(const std::string& path, std::size_t expected_count);
 
 /// report.json of a run (task, targets, achieved features, loss history, timings, geometry).
-std::string reportJson(const InferenceResult& result, const TaskConfig& config, const Task& task);
+std::string reportJson(const InferenceResult& result, const TaskConfig& config);
 /// JSON of a simulated design (features, mass properties, geometry).
-std::string simulationJson(const ProblemEvaluation& ev, const TaskConfig& config, const Task& task);
+std::string simulationJson(const ProblemEvaluation& ev, const TaskConfig& config, const TaskGeometry& geometry);
 
 }  // namespace inference
 }  // namespace topo_gaussian

@@ -67,6 +67,16 @@ class Task {
 
  protected:
   Task(const TaskConfig& config, const VolumeCloud& cloud);
+  /// What a rigid task needs from r: the raw moments, (m, c, I) and, for gradients, dm_i/dr_i.
+  struct RigidMass {
+    MassMoments moments;
+    MassProperties props;
+    std::vector<double> dm_dr;  ///< empty unless asked for
+  };
+  RigidMass rigidMass(const std::vector<double>& r, bool with_gradient) const;
+  /// dL/dr_i from dL/d(m, c, I) through the mass-property Jacobian and ρ(r). Overwrites dL_dr.
+  void chainToIndicator(const RigidMass& mass, const Eigen::Matrix<double, 10, 1>& dL_dprops,
+                        std::vector<double>* dL_dr) const;
   std::string name_;
   const VolumeCloud& cloud_;
   MaterialInterpolation density_;
