@@ -1,8 +1,10 @@
 #include "topo_gaussian/geometry/shape_generator.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 
+#include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/physics/error.h"
 
 namespace topo_gaussian::geometry {
@@ -20,6 +22,43 @@ SurfaceData emptyMesh(const std::string& name) {
 void quad(SurfaceData& m, int a, int b, int c, int d) {
   if (a != b && b != c && a != c) m.triangles.emplace_back(a, b, c);
   if (a != c && c != d && a != d) m.triangles.emplace_back(a, c, d);
+}
+
+// Surface of revolution about z of a meridian profile (r, z) that starts and ends on the axis
+// (r = 0: the two poles) and runs from the bottom pole to the top pole with the solid on its left
+// (towards the axis); every point in between has r > 0 and becomes a ring of `seg` vertices.
+SurfaceData revolve(const std::vector<Eigen::Vector2d>& profile, int seg, const std::string& name) {
+  SurfaceData m = emptyMesh(name);
+  const int rings = int(profile.size()) - 2;
+  m.points.emplace_back(0, 0, profile.front().y());
+  for (int i = 1; i <= rings; ++i)
+    for (int j = 0; j < seg; ++j) {
+      const double ph = 2 * M_PI * j / seg;
+      m.points.emplace_back(profile[i].x() * std::cos(ph), profile[i].x() * std::sin(ph), profile[i].y());
+    }
+  const int top = int(m.points.size());
+  m.points.emplace_back(0, 0, profile.back().y());
+  auto ring = [&](int i, int j) { return 1 + (i - 1) * seg + (j % seg); };
+  for (int j = 0; j < seg; ++j) m.triangles.emplace_back(0, ring(1, j + 1), ring(1, j));
+  for (int i = 1; i < rings; ++i)
+    for (int j = 0; j < seg; ++j) quad(m, ring(i, j), ring(i, j + 1), ring(i + 1, j + 1), ring(i + 1, j));
+  for (int j = 0; j < seg; ++j) m.triangles.emplace_back(top, ring(rings, j), ring(rings, j + 1));
+  return m;
+}
+
+// Extrusion along y ∈ [−w, w] of a convex polygon in the (x, z) plane given counter-clockwise
+// (x to the right, z up). Side walls are quads, the two caps fans from the first vertex.
+SurfaceData extrudeY(const std::vector<Eigen::Vector2d>& poly, double w, const std::string& name) {
+  SurfaceData m = emptyMesh(name);
+  const int n = int(poly.size());
+  for (double y : {-w, w})
+    for (const auto& p : poly) m.points.emplace_back(p.x(), y, p.y());
+  for (int k = 0; k < n; ++k) quad(m, k, n + k, n + (k + 1) % n, (k + 1) % n);
+  for (int k = 1; k + 1 < n; ++k) {
+    m.triangles.emplace_back(0, k, k + 1);              // y = −w, normal −y
+    m.triangles.emplace_back(n, n + k + 1, n + k);      // y = +w, normal +y
+  }
+  return m;
 }
 
 }  // namespace
@@ -84,6 +123,53 @@ SurfaceData makeShape(const std::string& name, double size) {
   if (name == "torus") return makeTorus(size * 2.0 / 3.0, size / 3.0);
   if (name == "box") return makeBox(Eigen::Vector3d::Constant(size));
   throw TopoError("shape " + name, "is not a known shape", "use one of: sphere, torus, box");
+}
+
+SurfaceData makeDefaultShapeMesh(const std::string& name, int resolution) {
+  const DefaultShape shape = defaultShape(name);  // throws for an unknown name, listing the valid ones
+  if (resolution < 8 || resolution > 4096)
+    throw TopoError("mesh resolution " + std::to_string(resolution), "is out of range",
+                    "give 8 to 4096 segments around a full circle (default 64)");
+  namespace d = default_shape_dims;
+  const std::string source = "default " + name + " shape";
+  if (name == "beam") {
+    SurfaceData m = makeBox(shape.hi - shape.lo);
+    const Eigen::Vector3d mid = 0.5 * (shape.lo + shape.hi);
+    for (auto& p : m.points) p += mid;
+    m.source = source;
+    return m;
+  }
+  if (name == "finger") {
+    const double t = d::kFingerHalfHeight, x0 = d::kFingerTipCentreX;
+    const int tip = std::max(2, resolution / 2);
+    std::vector<Eigen::Vector2d> poly{{0.0, -t}};
+    for (int i = 0; i <= tip; ++i) {  // half-disc from (x0, −t) over the tip to (x0, t)
+      const double a = -M_PI / 2 + M_PI * i / tip;
+      poly.emplace_back(i == 0 || i == tip ? x0 : x0 + t * std::cos(a), t * std::sin(a));
+    }
+    poly.emplace_back(0.0, t);
+    return extrudeY(poly, d::kFingerHalfWidth, source);
+  }
+  std::vector<Eigen::Vector2d> profile;
+  if (name == "pear") {
+    // Rings clustered towards the poles (z = H (1 − cos πs)/2): there r ~ √z, so r grows linearly in s.
+    const int rings = std::max(4, resolution / 2);
+    for (int i = 0; i <= rings; ++i) {
+      const double z = i == rings ? d::kPearHeight : 0.5 * d::kPearHeight * (1.0 - std::cos(M_PI * i / rings));
+      profile.emplace_back(i == 0 || i == rings ? 0.0 : pearRadius(z), z);
+    }
+  } else {  // tumbler: the spherical arc from the bottom pole to the cut, then the flat cap inwards
+    const double R = d::kTumblerRadius, c = d::kTumblerCutZ;
+    const double top = std::asin(c / R), rc = std::sqrt(R * R - c * c);
+    const int arc = std::max(3, int(std::lround(0.5 * resolution * (top + M_PI / 2) / M_PI)));
+    for (int i = 0; i < arc; ++i) {
+      const double a = -M_PI / 2 + (top + M_PI / 2) * i / arc;
+      profile.emplace_back(i == 0 ? 0.0 : R * std::cos(a), R * std::sin(a));
+    }
+    const int cap = std::max(2, resolution / 8);
+    for (int j = 0; j <= cap; ++j) profile.emplace_back(rc * (1.0 - double(j) / cap), c);
+  }
+  return revolve(profile, resolution, source);
 }
 
 void writeObj(const SurfaceData& mesh, const std::string& path) {

@@ -158,7 +158,10 @@ CorotatedSph::CorotatedSph(const std::vector<Eigen::Vector3d>& X, const std::vec
   L_.resize(n);
   rho_.resize(n);
 
-  std::vector<int> bad(n, 0);
+  if (opt_.gradient_order != 1 && opt_.gradient_order != 2)
+    throw TopoError(what, "gradient_order " + std::to_string(opt_.gradient_order) + " is not supported",
+                    "use 1 (corrected kernel gradient) or 2 (quadratic moving least squares)");
+  std::vector<int> bad(n, 0), fallback(n, 0);
 #pragma omp parallel for schedule(static)
   for (long long ii = 0; ii < static_cast<long long>(n); ++ii) {
     const std::size_t i = static_cast<std::size_t>(ii);
@@ -190,6 +193,7 @@ CorotatedSph::CorotatedSph(const std::vector<Eigen::Vector3d>& X, const std::vec
     }
     L_[i] = K.inverse();
     for (int e = nbr_.offsets[i]; e < nbr_.offsets[i + 1]; ++e) gh_[e] = L_[i] * gh_[e];
+    if (opt_.gradient_order >= 2 && !quadraticGradient(i)) fallback[i] = 1;
   }
   for (std::size_t i = 0; i < n; ++i) {
     if (bad[i]) {
@@ -199,6 +203,8 @@ CorotatedSph::CorotatedSph(const std::vector<Eigen::Vector3d>& X, const std::vec
       throw TopoError(what, s.str(), "increase the smoothing length so that every particle has neighbours in 3-D");
     }
   }
+  linear_fallbacks_ = 0;
+  for (std::size_t i = 0; i < n; ++i) linear_fallbacks_ += fallback[i];
   for (std::size_t e = 0; e < nnz; ++e)
     if (rev_[e] < 0) throw TopoError(what, "neighbour list is not symmetric (internal error)", "report this as a bug");
 
@@ -208,6 +214,43 @@ CorotatedSph::CorotatedSph(const std::vector<Eigen::Vector3d>& X, const std::vec
   Ft_.assign(n, Eigen::Matrix3d::Identity());
   P_.assign(n, Eigen::Matrix3d::Zero());
   f_.assign(n, Eigen::Vector3d::Zero());
+  x_ = X_;
+}
+
+// Quadratic moving least squares: fit x_ji ≈ G X_ji + Q q(X_ji) with weights V_j W_ij, where q holds
+// the six quadratic monomials (scaled by 1/h for conditioning). G = Σ_j V_j x_ji ĝ_ijᵀ with
+// ĝ_ij = W_ij [M_i⁻¹ p(X_ji)]_{0..2}, M_i = Σ_j V_j W_ij p pᵀ, p = (X_ji, q(X_ji)). Reproduces every
+// quadratic field exactly. Returns false (ĝ left at order 1) when M_i is ill-conditioned.
+bool CorotatedSph::quadraticGradient(std::size_t i) {
+  using Vec9 = Eigen::Matrix<double, 9, 1>;
+  using Mat9 = Eigen::Matrix<double, 9, 9>;
+  const double ih = 1.0 / h_;
+  auto basis = [&](const Eigen::Vector3d& d) {
+    Vec9 p;
+    p << d.x(), d.y(), d.z(), ih * d.x() * d.x(), ih * d.y() * d.y(), ih * d.z() * d.z(), ih * d.x() * d.y(),
+        ih * d.x() * d.z(), ih * d.y() * d.z();
+    return p;
+  };
+  Mat9 M = Mat9::Zero();
+  int used = 0;
+  for (int e = nbr_.offsets[i]; e < nbr_.offsets[i + 1]; ++e) {
+    const Eigen::Vector3d d = X_[nbr_.indices[e]] - X_[i];
+    const double w = V_[nbr_.indices[e]] * W_[e];
+    if (w <= 0.0) continue;
+    const Vec9 p = basis(d);
+    M.noalias() += w * p * p.transpose();
+    ++used;
+  }
+  if (used < 12) return false;
+  Eigen::SelfAdjointEigenSolver<Mat9> es(M);
+  const Eigen::VectorXd ev = es.eigenvalues();
+  if (!(ev(0) > 1e-6 * ev(8))) return false;
+  const Mat9 Minv = es.eigenvectors() * ev.cwiseInverse().asDiagonal() * es.eigenvectors().transpose();
+  for (int e = nbr_.offsets[i]; e < nbr_.offsets[i + 1]; ++e) {
+    const Eigen::Vector3d d = X_[nbr_.indices[e]] - X_[i];
+    gh_[e] = W_[e] * (Minv * basis(d)).head<3>();
+  }
+  return true;
 }
 
 // ------------------------------------------------------------------ evaluation
@@ -326,9 +369,19 @@ void CorotatedSph::evaluate(const std::vector<Eigen::Vector3d>& x, const std::ve
 
 void CorotatedSph::gatherForces(const std::vector<Eigen::Vector3d>& x, const Eval& ev,
                                 std::vector<Eigen::Vector3d>* f) const {
+  gather(x, ev.Ft, ev.M, true, f);
+  for (auto& v : *f) v = -v;
+}
+
+// out_k = Σ_{j∈N(k)} [ V_k M_j ĝ_jk − V_j M_k ĝ_kj ] (+ hourglass q_kj − q_jk with e_ij = F̃_i X_ji − x_ji):
+// the gradient of Σ_i M_i : F̃_i(x) (+ E_hg) for M held fixed; linear in (x, F̃, M) jointly, so
+// the same gather with (dx, dF̃, dM) gives the Hessian product.
+void CorotatedSph::gather(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& Ft,
+                          const std::vector<Eigen::Matrix3d>& M, bool hourglass,
+                          std::vector<Eigen::Vector3d>* out) const {
   const std::size_t n = X_.size();
-  f->resize(n);
-  const double alpha = opt_.hourglass_alpha;
+  out->resize(n);
+  const double alpha = hourglass ? opt_.hourglass_alpha : 0.0;
   const double inv_h2 = 1.0 / (h_ * h_);
 #pragma omp parallel for schedule(static)
   for (long long kk = 0; kk < static_cast<long long>(n); ++kk) {
@@ -338,23 +391,163 @@ void CorotatedSph::gatherForces(const std::vector<Eigen::Vector3d>& x, const Eva
     for (int e = nbr_.offsets[k]; e < nbr_.offsets[k + 1]; ++e) {
       const int j = nbr_.indices[e];
       const int r = rev_[e];  // entry (j → k)
-      g += V_[k] * (ev.M[j] * gh_[r]) - V_[j] * (ev.M[k] * gh_[e]);
+      g += V_[k] * (M[j] * gh_[r]) - V_[j] * (M[k] * gh_[e]);
       const double cj = alpha * mu_[j] * V_[j] * inv_h2;
       if (ck > 0.0 || cj > 0.0) {
         const Eigen::Vector3d Xjk = X_[j] - X_[k];
         const Eigen::Vector3d xjk = x[j] - x[k];
         const double wk = W_[e];  // W_kj = W_jk
-        const Eigen::Vector3d q_kj = (2.0 * ck * V_[j] * wk) * (ev.Ft[k] * Xjk - xjk);
-        const Eigen::Vector3d q_jk = (2.0 * cj * V_[k] * wk) * (ev.Ft[j] * (-Xjk) + xjk);
+        const Eigen::Vector3d q_kj = (2.0 * ck * V_[j] * wk) * (Ft[k] * Xjk - xjk);
+        const Eigen::Vector3d q_jk = (2.0 * cj * V_[k] * wk) * (Ft[j] * (-Xjk) + xjk);
         g += q_kj - q_jk;
       }
     }
-    (*f)[k] = -g;
+    (*out)[k] = g;
   }
+}
+
+std::vector<Eigen::Matrix3d> CorotatedSph::gradientField(const std::vector<Eigen::Vector3d>& u) const {
+  checkPositions(u);
+  std::vector<Eigen::Matrix3d> G;
+  computeFtilde(u, &G);
+  return G;
+}
+
+std::vector<Eigen::Vector3d> CorotatedSph::stressDivergence(const std::vector<Eigen::Matrix3d>& G) const {
+  if (G.size() != X_.size())
+    throw TopoError("corotated SPH stress divergence", std::to_string(G.size()) + " matrices for " +
+                                                           std::to_string(X_.size()) + " particles",
+                    "pass one matrix per particle");
+  std::vector<Eigen::Vector3d> out;
+  gather(x_, Ft_, G, false, &out);
+  return out;
+}
+
+namespace {
+
+/// Differential of P̂(F̃) = ∂ψ(R(F̃)ᵀF̃)/∂F̃ along dF̃ (see hessianProduct()).
+Eigen::Matrix3d piolaDifferential(SphEnergyModel model, bool exact_rotation, const Eigen::Matrix3d& Ft,
+                                  const Eigen::Matrix3d& R, const Eigen::Matrix3d& dFt, double mu, double lambda) {
+  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+  if (model == SphEnergyModel::StVK) {
+    const Eigen::Matrix3d E = 0.5 * (Ft.transpose() * Ft - I);
+    const Eigen::Matrix3d dE = 0.5 * (dFt.transpose() * Ft + Ft.transpose() * dFt);
+    return dFt * (2.0 * mu * E + lambda * E.trace() * I) + Ft * (2.0 * mu * dE + lambda * dE.trace() * I);
+  }
+  // Corotated linear: P̂ = 2μ(F̃ − R) + λ tr(S − I) R with S = RᵀF̃.
+  const Eigen::Matrix3d S = R.transpose() * Ft;
+  const Eigen::Matrix3d Y = R.transpose() * dFt;
+  Eigen::Matrix3d dR = Eigen::Matrix3d::Zero();
+  if (exact_rotation) {
+    // F̃ = RS ⇒ Y − Yᵀ = WS + SW with W = RᵀdR = [ω]×, i.e. ((tr S)I − S) ω = axial(Y − Yᵀ).
+    const Eigen::Vector3d a(Y(2, 1) - Y(1, 2), Y(0, 2) - Y(2, 0), Y(1, 0) - Y(0, 1));
+    const Eigen::Vector3d w = (S.trace() * I - 0.5 * (S + S.transpose())).inverse() * a;
+    Eigen::Matrix3d Wx;
+    Wx << 0, -w.z(), w.y(), w.z(), 0, -w.x(), -w.y(), w.x(), 0;
+    dR = R * Wx;
+  }
+  const double trSm = S.trace() - 3.0;
+  return 2.0 * mu * (dFt - dR) + lambda * Y.trace() * R + lambda * trSm * dR;
+}
+
+}  // namespace
+
+std::vector<Eigen::Vector3d> CorotatedSph::hessianProduct(const std::vector<Eigen::Vector3d>& dx) const {
+  checkPositions(dx);
+  const std::size_t n = X_.size();
+  std::vector<Eigen::Matrix3d> dFt, dM(n);
+  computeFtilde(dx, &dFt);
+  const bool exact = opt_.rotation == SphRotationSource::CorrectedGradient;
+  const double inv_h2 = 1.0 / (h_ * h_);
+#pragma omp parallel for schedule(static)
+  for (long long ii = 0; ii < static_cast<long long>(n); ++ii) {
+    const std::size_t i = static_cast<std::size_t>(ii);
+    Eigen::Matrix3d m = V_[i] * piolaDifferential(opt_.model, exact, Ft_[i], R_[i], dFt[i], mu_[i], lambda_[i]);
+    const double c = opt_.hourglass_alpha * mu_[i] * V_[i] * inv_h2;
+    if (c > 0.0) {
+      Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+      for (int e = nbr_.offsets[i]; e < nbr_.offsets[i + 1]; ++e) {
+        const int j = nbr_.indices[e];
+        const Eigen::Vector3d Xji = X_[j] - X_[i];
+        H += (2.0 * V_[j] * W_[e]) * (dFt[i] * Xji - (dx[j] - dx[i])) * Xji.transpose();
+      }
+      m += c * H;
+    }
+    dM[i] = m;
+  }
+  std::vector<Eigen::Vector3d> out;
+  gather(dx, dFt, dM, true, &out);
+  return out;
+}
+
+void CorotatedSph::materialDirectional(const std::vector<Eigen::Vector3d>& w, std::vector<double>* d_mu,
+                                       std::vector<double>* d_lambda) const {
+  checkPositions(w);
+  const std::size_t n = X_.size();
+  std::vector<Eigen::Matrix3d> dFt;
+  computeFtilde(w, &dFt);
+  d_mu->assign(n, 0.0);
+  d_lambda->assign(n, 0.0);
+  const double inv_h2 = 1.0 / (h_ * h_);
+#pragma omp parallel for schedule(static)
+  for (long long ii = 0; ii < static_cast<long long>(n); ++ii) {
+    const std::size_t i = static_cast<std::size_t>(ii);
+    // ∂E_i/∂μ_i and ∂E_i/∂λ_i as functions of x; their derivative along w. M̂ = R P(F) per unit modulus.
+    const Eigen::Matrix3d Pmu = R_[i] * sphFirstPiola(opt_.model, F_[i], 1.0, 0.0);
+    const Eigen::Matrix3d Plam = R_[i] * sphFirstPiola(opt_.model, F_[i], 0.0, 1.0);
+    double hg = 0.0;
+    const double c = opt_.hourglass_alpha * V_[i] * inv_h2;
+    if (c > 0.0) {
+      for (int e = nbr_.offsets[i]; e < nbr_.offsets[i + 1]; ++e) {
+        const int j = nbr_.indices[e];
+        const Eigen::Vector3d Xji = X_[j] - X_[i];
+        const Eigen::Vector3d err = Ft_[i] * Xji - (x_[j] - x_[i]);
+        const Eigen::Vector3d derr = dFt[i] * Xji - (w[j] - w[i]);
+        hg += 2.0 * V_[j] * W_[e] * err.dot(derr);
+      }
+    }
+    (*d_mu)[i] = V_[i] * (Pmu.array() * dFt[i].array()).sum() + c * hg;
+    (*d_lambda)[i] = V_[i] * (Plam.array() * dFt[i].array()).sum();
+  }
+}
+
+void CorotatedSph::materialEnergies(std::vector<double>* e_mu, std::vector<double>* e_lambda) const {
+  const std::size_t n = X_.size();
+  e_mu->assign(n, 0.0);
+  e_lambda->assign(n, 0.0);
+  const double inv_h2 = 1.0 / (h_ * h_);
+  for (std::size_t i = 0; i < n; ++i) {
+    (*e_mu)[i] = V_[i] * sphStrainEnergyDensity(opt_.model, F_[i], 1.0, 0.0);
+    (*e_lambda)[i] = V_[i] * sphStrainEnergyDensity(opt_.model, F_[i], 0.0, 1.0);
+    const double c = opt_.hourglass_alpha * V_[i] * inv_h2;
+    if (c > 0.0)
+      for (int e = nbr_.offsets[i]; e < nbr_.offsets[i + 1]; ++e) {
+        const int j = nbr_.indices[e];
+        const Eigen::Vector3d err = Ft_[i] * (X_[j] - X_[i]) - (x_[j] - x_[i]);
+        (*e_mu)[i] += c * V_[j] * W_[e] * err.squaredNorm();
+      }
+  }
+}
+
+void CorotatedSph::setMaterial(const std::vector<double>& mu, const std::vector<double>& lambda) {
+  if (mu.size() != X_.size() || lambda.size() != X_.size())
+    throw TopoError("corotated SPH material", std::to_string(mu.size()) + " mu and " + std::to_string(lambda.size()) +
+                                                  " lambda values for " + std::to_string(X_.size()) + " particles",
+                    "give one material per particle");
+  for (std::size_t i = 0; i < mu.size(); ++i)
+    if (!std::isfinite(mu[i]) || mu[i] <= 0.0 || !std::isfinite(lambda[i]))
+      throw TopoError("corotated SPH material",
+                      "particle " + std::to_string(i) + " has mu = " + std::to_string(mu[i]) +
+                          ", lambda = " + std::to_string(lambda[i]),
+                      "mu must be positive and lambda finite");
+  mu_ = mu;
+  lambda_ = lambda;
+  update(x_);
 }
 
 void CorotatedSph::store(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Matrix3d> R, Eval&& ev) {
   gatherForces(x, ev, &f_);
+  x_ = x;
   R_ = std::move(R);
   F_ = std::move(ev.F);
   Ft_ = std::move(ev.Ft);

@@ -1,6 +1,7 @@
 // Soft-body simulator; see soft_body.h for the model and the integrator.
 #include "topo_gaussian/physics/soft_body.h"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -31,6 +32,12 @@ SoftBodySimulator::SoftBodySimulator(CorotatedSph sph, const SoftBodyOptions& op
   v_.assign(n, Eigen::Vector3d::Zero());
   clamped_.assign(n, 0);
 
+  updateStability();
+  refreshForces("initial state");
+}
+
+void SoftBodySimulator::updateStability() {
+  const std::size_t n = sph_.size();
   double vmin = sph_.volumes()[0];
   c_max_ = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
@@ -45,7 +52,52 @@ SoftBodySimulator::SoftBodySimulator(CorotatedSph sph, const SoftBodyOptions& op
     throw TopoError("SoftBodySimulator", "the wave speed sqrt((lambda + 2 mu)/rho) is not positive and finite",
                     "check the material parameters and the density");
   dt_stable_ = opt_.cfl * dx_ / c_max_;
-  refreshForces("initial state");
+}
+
+void SoftBodySimulator::setMasses(const std::vector<double>& m) {
+  if (m.size() != size())
+    throw TopoError("SoftBodySimulator::setMasses", std::to_string(m.size()) + " masses for " +
+                                                        std::to_string(size()) + " particles",
+                    "pass one mass per particle");
+  for (std::size_t i = 0; i < m.size(); ++i)
+    if (!std::isfinite(m[i]) || m[i] <= 0.0)
+      throw TopoError("SoftBodySimulator::setMasses", "mass " + std::to_string(i) + " = " + std::to_string(m[i]) +
+                                                          " is not positive", "use a mass floor for hollow particles");
+  m_ = m;
+  updateStability();
+}
+
+void SoftBodySimulator::setMaterial(const std::vector<double>& mu, const std::vector<double>& lambda) {
+  sph_.setMaterial(mu, lambda);
+  updateStability();
+  refreshForces("setMaterial");
+}
+
+void SoftBodySimulator::setActuation(const PneumaticActuation& a) {
+  a.validate(size());
+  act_ = a;
+  refreshForces("setActuation");
+}
+
+void SoftBodySimulator::setContact(const SoftContact& c) {
+  if (!c.mask().empty() && c.mask().size() != size())
+    throw TopoError("SoftBodySimulator::setContact", "the contact mask has " + std::to_string(c.mask().size()) +
+                                                         " entries for " + std::to_string(size()) + " particles",
+                    "pass one entry per particle or an empty mask");
+  contact_ = c;
+  if (!(contact_.options().stiffness > 0.0)) {
+    double kmax = 0.0;
+    for (std::size_t i = 0; i < size(); ++i)
+      kmax = std::max(kmax, sph_.lameLambdas()[i] + 2.0 * sph_.shearModuli()[i]);
+    contact_.setStiffness(10.0 * kmax * dx_);
+  }
+  refreshForces("setContact");
+}
+
+void SoftBodySimulator::setTime(double t) {
+  if (!std::isfinite(t)) throw TopoError("SoftBodySimulator::setTime", "time is not finite", "pass a finite time [s]");
+  time_ = t;
+  refreshForces("setTime");
 }
 
 void SoftBodySimulator::setGravity(const Eigen::Vector3d& g) {
@@ -116,6 +168,206 @@ void SoftBodySimulator::refreshForces(const std::string& where) {
     throw TopoError("SoftBodySimulator (" + where + ")", e.what(),
                     "reduce the time step (e.g. 0.5 x stableTimeStep()), add damping, or check the loads");
   }
+  f_cons_ = sph_.forces();
+  act_.addForces(sph_, pressureNow(), &f_cons_);
+  if (!contact_.empty()) contact_.addForces(x_, nullptr, &f_cons_);
+}
+
+void SoftBodySimulator::evaluateAt(const std::vector<Eigen::Vector3d>& x, double t) {
+  x_ = x;
+  time_ = t;
+  enforceClamp();
+  refreshForces("evaluateAt t = " + std::to_string(t) + " s");
+}
+
+std::vector<Eigen::Vector3d> SoftBodySimulator::stiffnessProduct(const std::vector<Eigen::Vector3d>& dx_in) const {
+  std::vector<Eigen::Vector3d> dx = dx_in;
+  for (std::size_t i = 0; i < size(); ++i)
+    if (clamped_[i]) dx[i].setZero();
+  std::vector<Eigen::Vector3d> out = sph_.hessianProduct(dx);
+  act_.addHessianProduct(sph_, pressureNow(), dx, &out);
+  if (!contact_.empty()) contact_.addHessianProduct(x_, dx, &out);
+  for (std::size_t i = 0; i < size(); ++i)
+    if (clamped_[i]) out[i].setZero();
+  return out;
+}
+
+std::vector<Eigen::Vector3d> SoftBodySimulator::frictionForces(const std::vector<Eigen::Vector3d>& v) const {
+  std::vector<Eigen::Vector3d> f(size(), Eigen::Vector3d::Zero());
+  if (contact_.empty() || contact_.options().friction <= 0.0) return f;
+  std::vector<Eigen::Vector3d> fn(size(), Eigen::Vector3d::Zero());
+  contact_.addForces(x_, nullptr, &fn);
+  contact_.addForces(x_, &v, &f);
+  for (std::size_t i = 0; i < size(); ++i) f[i] -= fn[i];
+  return f;
+}
+
+double SoftBodySimulator::forceScale() const {
+  double s = 0.0;
+  for (std::size_t i = 0; i < size(); ++i) s = std::max(s, m_[i] * opt_.gravity.norm());
+  const double p = std::abs(act_.pressure_pa);
+  if (p > 0.0 && !act_.chamber.empty())
+    for (std::size_t i = 0; i < size(); ++i) s = std::max(s, p * act_.chamber[i] * std::pow(sph_.volumes()[i], 2.0 / 3.0));
+  if (!(s > 0.0)) {  // no load at all: use the elastic force of a 1e-3 strain
+    for (std::size_t i = 0; i < size(); ++i)
+      s = std::max(s, 1e-3 * sph_.shearModuli()[i] * std::pow(sph_.volumes()[i], 2.0 / 3.0));
+  }
+  return s;
+}
+
+void SoftBodySimulator::requireConservative(const std::string& where) const {
+  if (sph_.options().model == SphEnergyModel::CorotatedLinear &&
+      sph_.options().rotation != SphRotationSource::CorrectedGradient)
+    throw TopoError(where,
+                    "corotated linear elasticity with shape-matching rotations is not the gradient of an energy, so "
+                    "Newton's line search and the adjoint have no exact objective",
+                    "use CorotatedSphOptions::rotation = CorrectedGradient (or the StVK model)");
+}
+
+SolveReport SoftBodySimulator::newtonSolve(const std::string& where, double dt, const std::vector<Eigen::Vector3d>& x0,
+                                           const std::vector<Eigen::Vector3d>& v0, const NewtonOptions& newton) {
+  requireConservative(where);
+  const std::size_t n = size();
+  const bool dynamic = dt > 0.0;
+  const double c = opt_.damping;
+  const double inertia = dynamic ? 1.0 / (dt * dt) + c / dt : 0.0;
+  std::vector<Eigen::Vector3d> xt(n), ffr;
+  if (dynamic) {
+    for (std::size_t i = 0; i < n; ++i) xt[i] = x0[i];
+    ffr = frictionForces(v0);  // lagged friction (current state is x0)
+  }
+  const Eigen::Vector3d g = opt_.gravity;
+  auto unpack = [&](const Eigen::VectorXd& z) {
+    std::vector<Eigen::Vector3d> x(n);
+    for (std::size_t i = 0; i < n; ++i) x[i] = clamped_[i] ? sph_.restPositions()[i] : Eigen::Vector3d(z.segment<3>(3 * i));
+    return x;
+  };
+  std::vector<Eigen::Vector3d> cur;
+  NewtonObjective obj;
+  obj.value = [&](const Eigen::VectorXd& z) {
+    cur = unpack(z);
+    x_ = cur;
+    refreshForces(where);
+    double psi = sph_.energy() + act_.energy(sph_, pressureNow()) + contact_.energy(x_);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (clamped_[i]) continue;
+      psi -= m_[i] * g.dot(x_[i]);
+      if (dynamic) {
+        const Eigen::Vector3d a = x_[i] - x0[i] - dt * v0[i], b = x_[i] - x0[i];
+        psi += 0.5 * m_[i] * (a.squaredNorm() / (dt * dt) + (c / dt) * b.squaredNorm());
+        psi -= ffr[i].dot(x_[i]);
+      }
+    }
+    return psi;
+  };
+  obj.gradient = [&](const Eigen::VectorXd&, Eigen::VectorXd* out) {
+    out->setZero(3 * n);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (clamped_[i]) continue;
+      Eigen::Vector3d r = -f_cons_[i] - m_[i] * g;
+      if (dynamic)
+        r += m_[i] * ((x_[i] - x0[i] - dt * v0[i]) / (dt * dt) + (c / dt) * (x_[i] - x0[i])) - ffr[i];
+      out->segment<3>(3 * i) = r;
+    }
+  };
+  obj.hessian = [&](const Eigen::VectorXd&, const Eigen::VectorXd& p, Eigen::VectorXd* out) {
+    std::vector<Eigen::Vector3d> dx(n);
+    for (std::size_t i = 0; i < n; ++i) dx[i] = p.segment<3>(3 * i);
+    const auto h = stiffnessProduct(dx);
+    out->resize(3 * n);
+    for (std::size_t i = 0; i < n; ++i)
+      out->segment<3>(3 * i) = clamped_[i] ? Eigen::Vector3d::Zero() : Eigen::Vector3d(h[i] + inertia * m_[i] * dx[i]);
+  };
+  // Jacobi preconditioner: inertia + an elastic estimate (λ+2μ)V/h² per particle + contact.
+  obj.diagonal = [&](const Eigen::VectorXd&, Eigen::VectorXd* d) {
+    std::vector<Eigen::Vector3d> cd(n, Eigen::Vector3d::Zero());
+    if (!contact_.empty()) contact_.addHessianDiagonal(x_, &cd);
+    const double h2 = sph_.smoothingLength() * sph_.smoothingLength();
+    d->resize(3 * n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const double el = (sph_.lameLambdas()[i] + 2.0 * sph_.shearModuli()[i]) * sph_.volumes()[i] / h2;
+      for (int k = 0; k < 3; ++k) (*d)(3 * i + k) = clamped_[i] ? 1.0 : inertia * m_[i] + el + cd[i](k);
+    }
+  };
+  Eigen::VectorXd z(3 * n);
+  for (std::size_t i = 0; i < n; ++i) z.segment<3>(3 * i) = dynamic ? Eigen::Vector3d(x0[i] + dt * v0[i]) : x_[i];
+  double scale = forceScale();
+  SolveReport rep;
+  rep.pressure_pa = pressureNow();
+  rep.newton = minimizeNewton(obj, scale, newton, &z);
+  obj.value(z);
+  return rep;
+}
+
+SolveReport SoftBodySimulator::stepImplicit(double dt, const NewtonOptions& newton) {
+  if (!std::isfinite(dt) || dt <= 0.0)
+    throw TopoError("SoftBodySimulator::stepImplicit", "time step dt = " + std::to_string(dt) + " s is not positive",
+                    "use dt > 0");
+  const long k = steps_ + 1;
+  const std::vector<Eigen::Vector3d> x0 = x_, v0 = v_;
+  const double t0 = time_;
+  time_ = t0 + dt;
+  const std::string where = "implicit step " + std::to_string(k) + ", t = " + std::to_string(time_) + " s";
+  SolveReport rep;
+  try {
+    rep = newtonSolve(where, dt, x0, v0, newton);
+  } catch (const TopoError&) {
+    x_ = x0;
+    time_ = t0;
+    refreshForces("restore after a failed implicit step");
+    throw;
+  }
+  if (!rep.newton.converged) {
+    x_ = x0;
+    time_ = t0;
+    refreshForces("restore after a failed implicit step");
+    std::ostringstream s;
+    s << "Newton did not converge in " << where << ": " << rep.newton.message << ", residual " << rep.newton.residual
+      << " after " << rep.newton.iterations << " iterations (" << rep.newton.cg_iterations << " CG iterations)";
+    throw TopoError("SoftBodySimulator::stepImplicit", s.str(),
+                    "reduce dt, ramp the pressure more slowly (PneumaticActuation::ramp_s), or raise "
+                    "NewtonOptions::max_iterations");
+  }
+  for (std::size_t i = 0; i < size(); ++i) v_[i] = clamped_[i] ? Eigen::Vector3d::Zero() : Eigen::Vector3d((x_[i] - x0[i]) / dt);
+  steps_ = k;
+  return rep;
+}
+
+SolveReport SoftBodySimulator::solveStatic(const NewtonOptions& newton, int load_steps) {
+  if (load_steps < 1)
+    throw TopoError("SoftBodySimulator::solveStatic", "load_steps must be >= 1", "e.g. solveStatic(options, 4)");
+  const Eigen::Vector3d g_full = opt_.gravity;
+  const PneumaticActuation a_full = act_;
+  SolveReport rep;
+  for (int s = 1; s <= load_steps; ++s) {
+    const double f = static_cast<double>(s) / load_steps;
+    opt_.gravity = f * g_full;
+    act_.pressure_pa = f * a_full.pressure_pa;
+    act_.ramp_s = 0.0;
+    const std::string where = "static solve, load step " + std::to_string(s) + "/" + std::to_string(load_steps);
+    try {
+      rep = newtonSolve(where, 0.0, x_, v_, newton);
+    } catch (...) {
+      opt_.gravity = g_full;
+      act_ = a_full;
+      throw;
+    }
+    if (!rep.newton.converged) {
+      opt_.gravity = g_full;
+      act_ = a_full;
+      refreshForces("restore after a failed static solve");
+      std::ostringstream o;
+      o << "Newton did not converge in " << where << ": " << rep.newton.message << ", residual "
+        << rep.newton.residual << " after " << rep.newton.iterations << " iterations";
+      throw TopoError("SoftBodySimulator::solveStatic", o.str(),
+                      "use more load steps, a lower pressure, or check that the body is clamped or supported");
+    }
+  }
+  opt_.gravity = g_full;
+  act_ = a_full;
+  refreshForces("static solve");
+  for (auto& v : v_) v.setZero();
+  return rep;
 }
 
 void SoftBodySimulator::step(double dt) {
@@ -136,17 +388,27 @@ void SoftBodySimulator::step(double dt) {
   const std::size_t n = size();
   const Eigen::Vector3d g = opt_.gravity;
   const double c = opt_.damping;
+  const bool friction = !contact_.empty() && contact_.options().friction > 0.0;
   auto kick = [&](double h) {
-    const auto& f = sph_.forces();
+    const auto& f = f_cons_;
+    std::vector<Eigen::Vector3d> ffr;
+    if (friction) ffr = frictionForces(v_);
     for (std::size_t i = 0; i < n; ++i) {
       if (clamped_[i]) continue;
-      v_[i] += h * (f[i] / m_[i] + g - c * v_[i]);
+      v_[i] += h * ((friction ? Eigen::Vector3d(f[i] + ffr[i]) : f[i]) / m_[i] + g - c * v_[i]);
     }
   };
   kick(0.5 * dt);
   for (std::size_t i = 0; i < n; ++i)
     if (!clamped_[i]) x_[i] += dt * v_[i];
-  refreshForces("step " + std::to_string(k) + ", t = " + std::to_string(time_ + dt) + " s");
+  const double t0 = time_;
+  time_ = t0 + dt;
+  try {
+    refreshForces("step " + std::to_string(k) + ", t = " + std::to_string(time_) + " s");
+  } catch (...) {
+    time_ = t0;
+    throw;
+  }
   kick(0.5 * dt);
   for (std::size_t i = 0; i < n; ++i)
     if (!finite3(v_[i])) {
@@ -155,7 +417,6 @@ void SoftBodySimulator::step(double dt) {
       throw TopoError("SoftBodySimulator::step", s.str(), "reduce the time step or check the material and loads");
     }
   steps_ = k;
-  time_ += dt;
 }
 
 void SoftBodySimulator::advance(double duration, double safety) {
@@ -181,7 +442,7 @@ double SoftBodySimulator::gravitationalEnergy() const {
 }
 
 double SoftBodySimulator::residual() const {
-  const auto& f = sph_.forces();
+  const auto& f = f_cons_;
   double rmax = 0.0, scale = 0.0;
   for (std::size_t i = 0; i < size(); ++i) {
     scale = std::max(scale, m_[i] * opt_.gravity.norm());
@@ -215,7 +476,7 @@ RelaxResult SoftBodySimulator::relaxToEquilibrium(double tolerance, int max_step
       break;
     }
     if (it == max_steps) break;
-    const auto& f = sph_.forces();
+    const auto& f = f_cons_;
     double P = 0.0, vv = 0.0, ff = 0.0;
     for (std::size_t i = 0; i < n; ++i) {
       F[i] = clamped_[i] ? Eigen::Vector3d::Zero() : Eigen::Vector3d(f[i] + m_[i] * g);

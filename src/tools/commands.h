@@ -9,6 +9,7 @@ namespace topo_gaussian::tools {
 int fillCommand(const std::vector<std::string>& args);
 int generateCommand(const std::vector<std::string>& args);
 int inferCommand(const std::vector<std::string>& args);
+int shapeCommand(const std::vector<std::string>& args);
 int simulateCommand(const std::vector<std::string>& args);
 int trackCommand(const std::vector<std::string>& args);
 

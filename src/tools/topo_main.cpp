@@ -1,4 +1,4 @@
-// `topo`: the command-line front end. Subcommands: fill, generate, infer, simulate (later: track, export).
+// `topo`: the command-line front end. Subcommands: fill, generate, shape, infer, simulate, track (later: export).
 #include <iostream>
 #include <string>
 #include <vector>
@@ -15,6 +15,7 @@ const char* kUsage =
     "commands:\n"
     "  fill       surface file in (3DGS .ply, .ply/.pcd points, .obj/.off/.stl/.ply mesh), volume .ply out\n"
     "  generate   write a closed test mesh (sphere, torus, box) as .obj\n"
+    "  shape      write a soft-body task's default shape (finger, pear, beam, tumbler) as .obj [+ volume .ply]\n"
     "  infer      find an interior whose simulated behaviour matches observed targets\n"
     "  simulate   print the simulated features of a given interior\n"
     "  track      track an object in a video: period, amplitude, bounces, bending angle\n"
@@ -36,6 +37,7 @@ int main(int argc, char** argv) {
     if (cmd == "fill") return fillCommand(rest);
     if (cmd == "generate") return generateCommand(rest);
     if (cmd == "infer") return inferCommand(rest);
+    if (cmd == "shape") return shapeCommand(rest);
     if (cmd == "simulate") return simulateCommand(rest);
     if (cmd == "track") return trackCommand(rest);
     std::cerr << "topo: unknown command '" << cmd << "'\n\n" << kUsage;

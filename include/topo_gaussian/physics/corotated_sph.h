@@ -64,6 +64,13 @@ struct CorotatedSphOptions {
   /// of the zero-energy modes relative to μ. 0.1 suppresses them while changing affine (and nearly
   /// affine) response not at all: E_hg vanishes exactly for every affine deformation.
   double hourglass_alpha = 0.1;
+  /// Consistency order of the kernel gradient ĝ_ij (F̃_i = Σ_j V_j x_ji ĝ_ijᵀ):
+  /// 1 = corrected kernel gradient L_i ∇W_ij (exact for linear fields, the paper's choice);
+  /// 2 = moving-least-squares gradient with a quadratic basis (exact for quadratic fields, so pure
+  ///     bending is exact even where the neighbourhood is one-sided: the outer fibres of a beam).
+  ///     Particles whose neighbourhood cannot support a quadratic fit (too few / degenerate
+  ///     neighbours) fall back to order 1. F̃ stays linear in x, so forces and Hessians are unchanged.
+  int gradient_order = 1;
 };
 
 class CorotatedSph {
@@ -96,6 +103,8 @@ class CorotatedSph {
   /// Per-particle shear modulus μ_i and first Lamé parameter λ_i [Pa].
   const std::vector<double>& shearModuli() const { return mu_; }
   const std::vector<double>& lameLambdas() const { return lambda_; }
+  /// Particles that asked for gradient_order 2 but fell back to order 1 (too few neighbours).
+  std::size_t linearFallbacks() const { return linear_fallbacks_; }
 
   // ------------------------------------------------------------ deformed state
   /// Rotations R_i for positions x (per options.rotation).
@@ -108,6 +117,27 @@ class CorotatedSph {
   /// Total energy (elastic + hourglass) at x with rotations R held fixed; does not touch the state.
   /// Forces are exactly −∂/∂x of this function (used by the finite-difference tests).
   double energyWithRotations(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& R) const;
+
+  // ------------------------------------------------------------ derivatives (at the last update())
+  /// Σ_j V_j u_ji ĝ_ijᵀ for a per-particle field u (F̃ when u = x; linear in u).
+  std::vector<Eigen::Matrix3d> gradientField(const std::vector<Eigen::Vector3d>& u) const;
+  /// ∂/∂x_k of Σ_i G_i : F̃_i(x) for per-particle matrices G_i held fixed (no hourglass term): the
+  /// force of any energy Σ_i φ_i(F̃_i) is −stressDivergence(∂φ_i/∂F̃_i).
+  std::vector<Eigen::Vector3d> stressDivergence(const std::vector<Eigen::Matrix3d>& G) const;
+  /// H·dx with H = ∂²E/∂x² at the last update() (so the force changes by −H·dx). Exact for StVK
+  /// (rotation-invariant) and for CorotatedLinear with SphRotationSource::CorrectedGradient (the
+  /// derivative of the polar rotation is included); with ShapeMatchingApq rotations it holds R
+  /// fixed (the rotation's derivative is not available), an approximation.
+  std::vector<Eigen::Vector3d> hessianProduct(const std::vector<Eigen::Vector3d>& dx) const;
+  /// Mixed derivatives for adjoints: d_mu[i] = w · ∂²E/∂x∂μ_i, d_lambda[i] = w · ∂²E/∂x∂λ_i.
+  void materialDirectional(const std::vector<Eigen::Vector3d>& w, std::vector<double>* d_mu,
+                           std::vector<double>* d_lambda) const;
+  /// ∂E/∂μ_i and ∂E/∂λ_i at the last update() (E is linear in the Lamé parameters).
+  void materialEnergies(std::vector<double>* e_mu, std::vector<double>* e_lambda) const;
+  /// Replace the per-particle Lamé parameters (neighbourhoods kept) and re-evaluate at the last x.
+  void setMaterial(const std::vector<double>& mu, const std::vector<double>& lambda);
+  /// Positions of the last update().
+  const std::vector<Eigen::Vector3d>& positions() const { return x_; }
 
   double energy() const { return elastic_energy_ + hourglass_energy_; }
   double elasticEnergy() const { return elastic_energy_; }
@@ -125,6 +155,7 @@ class CorotatedSph {
     std::vector<Eigen::Matrix3d> F, Ft, P, M;
     std::vector<double> e_el, e_hg;
   };
+  bool quadraticGradient(std::size_t i);
   void checkPositions(const std::vector<Eigen::Vector3d>& x) const;
   void computeFtilde(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Matrix3d>* Ft) const;
   void rotationsFrom(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& Ft,
@@ -133,6 +164,8 @@ class CorotatedSph {
                 bool need_M) const;
   void gatherForces(const std::vector<Eigen::Vector3d>& x, const Eval& ev, std::vector<Eigen::Vector3d>* f) const;
   void store(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Matrix3d> R, Eval&& ev);
+  void gather(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& Ft,
+              const std::vector<Eigen::Matrix3d>& M, bool hourglass, std::vector<Eigen::Vector3d>* out) const;
 
   CorotatedSphOptions opt_;
   double h_ = 0.0;
@@ -143,9 +176,10 @@ class CorotatedSph {
   std::vector<double> W_;              ///< per CSR entry: W_ij
   std::vector<Eigen::Vector3d> gh_;    ///< per CSR entry: ĝ_ij = L_i ∇W(X_ji)
   std::vector<Eigen::Matrix3d> L_;
+  std::size_t linear_fallbacks_ = 0;
 
   std::vector<Eigen::Matrix3d> R_, F_, Ft_, P_;
-  std::vector<Eigen::Vector3d> f_;
+  std::vector<Eigen::Vector3d> f_, x_;
   double elastic_energy_ = 0.0, hourglass_energy_ = 0.0;
 };
 

@@ -25,6 +25,9 @@
 #include <vector>
 
 #include "topo_gaussian/physics/corotated_sph.h"
+#include "topo_gaussian/physics/newton_solver.h"
+#include "topo_gaussian/physics/pneumatic_actuation.h"
+#include "topo_gaussian/physics/soft_contact.h"
 
 namespace topo_gaussian {
 
@@ -44,6 +47,12 @@ struct RelaxResult {
   std::vector<Eigen::Vector3d> x;  ///< the relaxed positions (also set on the simulator)
 };
 
+/// Result of an implicit step or a quasi-static solve.
+struct SolveReport {
+  NewtonResult newton;
+  double pressure_pa = 0.0;
+};
+
 class SoftBodySimulator {
  public:
   /// Starts at rest in the rest configuration, no particle clamped. Masses are sph.masses().
@@ -61,6 +70,24 @@ class SoftBodySimulator {
   const std::vector<Eigen::Vector3d>& velocities() const { return v_; }
   /// Elastic (+ hourglass) forces at the current positions.
   const std::vector<Eigen::Vector3d>& elasticForces() const { return sph_.forces(); }
+  /// Conservative forces at the current positions: elastic + actuation (at pressureNow()) + contact
+  /// normal forces (no gravity, damping or friction).
+  const std::vector<Eigen::Vector3d>& conservativeForces() const { return f_cons_; }
+
+  // ------------------------------------------------------------ design (what inference varies)
+  /// Per-particle masses [kg] (default ρ0 V_i). Throws TopoError for a size mismatch or m ≤ 0.
+  void setMasses(const std::vector<double>& m);
+  /// Per-particle Lamé parameters [Pa]; updates the stability limit.
+  void setMaterial(const std::vector<double>& mu, const std::vector<double>& lambda);
+  /// Pneumatic chamber and pressure schedule (see pneumatic_actuation.h).
+  void setActuation(const PneumaticActuation& actuation);
+  const PneumaticActuation& actuation() const { return act_; }
+  double pressureNow() const { return act_.pressureAt(time_); }
+  /// Ground / clamp contact. A stiffness ≤ 0 is set to 10 × max(λ+2μ) × spacing [N/m].
+  void setContact(const SoftContact& contact);
+  const SoftContact& contact() const { return contact_; }
+  /// Sets the clock (the pressure schedule reads it); steps advance it.
+  void setTime(double t_s);
 
   /// Dirichlet mask (1 = clamped): clamped particles are put back at their rest positions with zero
   /// velocity and stay there. Throws TopoError when the size is not size().
@@ -76,6 +103,29 @@ class SoftBodySimulator {
   /// Leapfrog step. Throws TopoError when dt ≤ 0, dt > stableTimeStep() (the message names both and
   /// the fix), or the state becomes non-finite / inverted (the message names the step number).
   void step(double dt);
+  /// Implicit Euler step (paper appendix A.2): x_{n+1} minimises the incremental potential
+  ///   ½|x − x_n − dt v_n|²_M / dt² + ½ (c/dt)|x − x_n|²_M + E_el(x) + E_a(x; p(t_{n+1})) + E_c(x)
+  ///   − Σ m_i g·x_i − f_friction(x_n, v_n)·x
+  /// by Newton's method with matrix-free Jacobi-PCG and a backtracking line search; v_{n+1} = (x_{n+1} −
+  /// x_n)/dt. Any dt > 0 is accepted. Requires a conservative elastic model (StVK, or corotated
+  /// linear with SphRotationSource::CorrectedGradient). Throws TopoError naming the step and the
+  /// Newton residual when Newton does not converge (the state is left at the start of the step).
+  SolveReport stepImplicit(double dt, const NewtonOptions& newton = NewtonOptions());
+  /// Quasi-static equilibrium at the current pressure and gravity by Newton (load stepping over
+  /// `load_steps` equal increments of gravity and pressure). Throws TopoError when it fails.
+  SolveReport solveStatic(const NewtonOptions& newton = NewtonOptions(), int load_steps = 1);
+
+  // ------------------------------------------------------------ kernels for the adjoint (soft_rollout.h)
+  /// Evaluate the state at positions x (clamped particles forced to rest) and time t.
+  void evaluateAt(const std::vector<Eigen::Vector3d>& x, double t_s);
+  /// (∂²Φ/∂x²) dx at the current state, Φ = elastic + actuation + contact normal potential; rows and
+  /// columns of clamped particles are zero.
+  std::vector<Eigen::Vector3d> stiffnessProduct(const std::vector<Eigen::Vector3d>& dx) const;
+  /// Friction forces at the current positions for velocities v.
+  std::vector<Eigen::Vector3d> frictionForces(const std::vector<Eigen::Vector3d>& v) const;
+  /// Largest load per particle [N] (gravity, pressure, elastic scale): the Newton force scale.
+  double forceScale() const;
+
   /// Advances by `duration` seconds in ceil(duration / (safety·stableTimeStep())) equal steps.
   void advance(double duration, double safety = 0.5);
   long stepCount() const { return steps_; }
@@ -89,7 +139,12 @@ class SoftBodySimulator {
   double kineticEnergy() const;        ///< ½ Σ m_i |v_i|²
   double gravitationalEnergy() const;  ///< −Σ m_i g·x_i (zero at the origin)
   double elasticEnergy() const { return sph_.energy(); }  ///< elastic + hourglass (the force potential)
-  double totalEnergy() const { return kineticEnergy() + gravitationalEnergy() + elasticEnergy(); }
+  double actuationEnergy() const { return act_.energy(sph_, pressureNow()); }
+  double contactEnergy() const { return contact_.energy(x_); }
+  /// Kinetic + gravitational + elastic + actuation + contact.
+  double totalEnergy() const {
+    return kineticEnergy() + gravitationalEnergy() + elasticEnergy() + actuationEnergy() + contactEnergy();
+  }
 
   /// Quasi-static equilibrium under the current gravity by FIRE. residual = max over free particles
   /// of |f_el,i + m_i g| divided by the force scale max(max_i m_i|g|, max_i |f_el,i|) (relative, 1 =
@@ -102,12 +157,18 @@ class SoftBodySimulator {
   void refreshForces(const std::string& where);
   void enforceClamp();
   double residual() const;
+  void updateStability();
+  void requireConservative(const std::string& where) const;
+  SolveReport newtonSolve(const std::string& where, double dt, const std::vector<Eigen::Vector3d>& x0,
+                          const std::vector<Eigen::Vector3d>& v0, const NewtonOptions& newton);
 
   CorotatedSph sph_;
   SoftBodyOptions opt_;
   std::vector<double> m_;
-  std::vector<Eigen::Vector3d> x_, v_;
+  std::vector<Eigen::Vector3d> x_, v_, f_cons_;
   std::vector<std::uint8_t> clamped_;
+  PneumaticActuation act_;
+  SoftContact contact_;
   double dx_ = 0.0, c_max_ = 0.0, dt_stable_ = 0.0, time_ = 0.0;
   long steps_ = 0;
 };

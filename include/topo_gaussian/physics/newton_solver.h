@@ -1,0 +1,61 @@
+// Matrix-free Newton minimisation with preconditioned conjugate gradients and a backtracking
+// (Armijo) line search, for the soft body's incremental potential (implicit Euler, paper appendix
+// A.2) and its quasi-static equilibrium. Vectors are flat (3N); the caller supplies the objective,
+// its gradient, Hessian-vector products and a diagonal preconditioner. Fixed (Dirichlet) degrees of
+// freedom are handled by the caller zeroing them in the gradient and in Hessian products.
+#pragma once
+
+#include <Eigen/Core>
+#include <functional>
+#include <string>
+
+namespace topo_gaussian {
+
+struct CgResult {
+  int iterations = 0;
+  double relative_residual = 0.0;  ///< |b − Ax| / |b|
+  bool negative_curvature = false; ///< stopped at a direction with pᵀAp ≤ 0
+  bool converged = false;
+};
+
+/// Solves A x = b by Jacobi-preconditioned CG from x = 0. apply(p, &Ap); diag > 0 (its inverse is
+/// the preconditioner). Stops at relative residual ≤ tol, max_iter, or negative curvature (then x
+/// is the last iterate, or the preconditioned steepest-descent direction if that happens at once).
+CgResult conjugateGradient(const std::function<void(const Eigen::VectorXd&, Eigen::VectorXd*)>& apply,
+                           const Eigen::VectorXd& diag, const Eigen::VectorXd& b, double tol, int max_iter,
+                           Eigen::VectorXd* x);
+
+struct NewtonOptions {
+  /// Converged when |∇Ψ|∞ ≤ tolerance × force_scale (force_scale given by the caller, e.g. the
+  /// largest external/inertial load per particle [N]).
+  double tolerance = 1e-8;
+  int max_iterations = 50;
+  double cg_tolerance = 1e-6;   ///< relative residual of each inner solve (tightened near convergence)
+  int cg_max_iterations = 5000;
+  int max_line_search = 30;     ///< halvings
+};
+
+struct NewtonResult {
+  bool converged = false;
+  int iterations = 0;
+  int cg_iterations = 0;       ///< total
+  double residual = 0.0;       ///< final |∇Ψ|∞ / force_scale
+  std::string message;         ///< why it stopped
+};
+
+/// The objective Ψ: value(x) may throw TopoError (e.g. an inverted particle), which the line search
+/// treats as +∞. gradient(x, &g) and hessian(x, p, &Hp) are evaluated at the most recent x passed to
+/// value() (the caller caches the state there); diagonal(x, &d) for the preconditioner.
+struct NewtonObjective {
+  std::function<double(const Eigen::VectorXd&)> value;
+  std::function<void(const Eigen::VectorXd&, Eigen::VectorXd*)> gradient;
+  std::function<void(const Eigen::VectorXd&, const Eigen::VectorXd&, Eigen::VectorXd*)> hessian;
+  std::function<void(const Eigen::VectorXd&, Eigen::VectorXd*)> diagonal;
+};
+
+/// Minimises Ψ from x (overwritten with the result). Never throws for non-convergence: the result
+/// says so (the caller decides; the soft-body simulator turns it into a TopoError with the step).
+NewtonResult minimizeNewton(const NewtonObjective& f, double force_scale, const NewtonOptions& options,
+                            Eigen::VectorXd* x);
+
+}  // namespace topo_gaussian

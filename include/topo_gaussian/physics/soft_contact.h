@@ -1,0 +1,74 @@
+// Penalty contact of soft-body particles with rigid obstacles (paper §"Collision model"): the
+// ground (a half-space) and a rigid clamp (an axis-aligned solid box). For each contact particle i
+// and obstacle with signed distance φ(x) (positive outside the obstacle) and margin δ:
+//
+//   E_c = ½ k Σ_i min(φ(x_i) − δ, 0)²                        (conservative, exact Hessian k n nᵀ)
+//   f_friction,i = −μ f_n,i v_t,i / √(|v_t,i|² + ε²)          (smoothed Coulomb, f_n = k·penetration)
+//
+// Friction depends on the velocity, so it is not part of the potential: explicit steps evaluate it
+// at the current state, implicit steps lag it (evaluated at the start of the step). Its derivatives
+// are local to the particle (exact, used by the adjoints). The box's normal is piecewise constant
+// (the face of least penetration), so its Hessian is exact away from edges.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+namespace topo_gaussian {
+
+struct ContactObstacle {
+  enum class Kind { HalfSpace, Box } kind = Kind::HalfSpace;
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  ///< HalfSpace: outward unit normal
+  double offset = 0.0;                                ///< HalfSpace: φ(x) = n·x − offset
+  Eigen::Vector3d lo = Eigen::Vector3d::Zero(), hi = Eigen::Vector3d::Zero();  ///< Box corners
+
+  static ContactObstacle ground(double height = 0.0);
+  static ContactObstacle box(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);
+  /// Signed distance and its gradient (unit normal).
+  double distance(const Eigen::Vector3d& x, Eigen::Vector3d* n) const;
+};
+
+struct SoftContactOptions {
+  double stiffness = 0.0;   ///< k [N/m] per particle; ≤ 0 = automatic (set by the simulator)
+  double friction = 0.5;    ///< Coulomb coefficient μ
+  double slip_velocity = 1e-3;  ///< ε [m/s]: friction regularisation (stick below ~ε)
+  double margin = 0.0;      ///< δ [m]: contact starts at φ = δ (e.g. half the spacing)
+};
+
+class SoftContact {
+ public:
+  SoftContact() = default;
+  SoftContact(std::vector<ContactObstacle> obstacles, const SoftContactOptions& options,
+              std::vector<std::uint8_t> mask = {});
+  bool empty() const { return obstacles_.empty(); }
+  const SoftContactOptions& options() const { return opt_; }
+  void setStiffness(double k) { opt_.stiffness = k; }
+  const std::vector<ContactObstacle>& obstacles() const { return obstacles_; }
+  /// Which particles may touch (empty = all).
+  const std::vector<std::uint8_t>& mask() const { return mask_; }
+
+  double energy(const std::vector<Eigen::Vector3d>& x) const;
+  /// f += normal (conservative) forces; friction too when v != nullptr.
+  void addForces(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>* v,
+                 std::vector<Eigen::Vector3d>* f) const;
+  /// out += (∂²E_c/∂x²) dx.
+  void addHessianProduct(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& dx,
+                         std::vector<Eigen::Vector3d>* out) const;
+  /// diag += the diagonal of ∂²E_c/∂x² (3 per particle).
+  void addHessianDiagonal(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Vector3d>* diag) const;
+  /// Adjoint of the friction force: given a (per particle), x̄ += (∂f_fr/∂x)ᵀa, v̄ += (∂f_fr/∂v)ᵀa.
+  void frictionAdjoint(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& v,
+                       const std::vector<Eigen::Vector3d>& a, std::vector<Eigen::Vector3d>* x_bar,
+                       std::vector<Eigen::Vector3d>* v_bar) const;
+  /// Particles in contact at x.
+  std::size_t activeCount(const std::vector<Eigen::Vector3d>& x) const;
+
+ private:
+  bool candidate(std::size_t i) const { return mask_.empty() || mask_[i]; }
+  std::vector<ContactObstacle> obstacles_;
+  SoftContactOptions opt_;
+  std::vector<std::uint8_t> mask_;
+};
+
+}  // namespace topo_gaussian

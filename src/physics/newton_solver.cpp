@@ -1,0 +1,140 @@
+// Newton–PCG minimisation; see newton_solver.h.
+#include "topo_gaussian/physics/newton_solver.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "topo_gaussian/physics/error.h"
+
+namespace topo_gaussian {
+
+CgResult conjugateGradient(const std::function<void(const Eigen::VectorXd&, Eigen::VectorXd*)>& apply,
+                           const Eigen::VectorXd& diag, const Eigen::VectorXd& b, double tol, int max_iter,
+                           Eigen::VectorXd* x) {
+  CgResult res;
+  const Eigen::Index n = b.size();
+  x->setZero(n);
+  const double bn = b.norm();
+  if (bn == 0.0) {
+    res.converged = true;
+    return res;
+  }
+  const Eigen::VectorXd dinv = diag.cwiseMax(1e-300).cwiseInverse();
+  Eigen::VectorXd r = b, z = dinv.cwiseProduct(r), p = z, Ap(n);
+  double rz = r.dot(z);
+  for (int it = 0; it < max_iter; ++it) {
+    apply(p, &Ap);
+    const double pAp = p.dot(Ap);
+    if (!(pAp > 0.0)) {
+      res.negative_curvature = true;
+      if (it == 0) *x = z;  // preconditioned steepest descent
+      break;
+    }
+    const double a = rz / pAp;
+    *x += a * p;
+    r -= a * Ap;
+    res.iterations = it + 1;
+    res.relative_residual = r.norm() / bn;
+    if (res.relative_residual <= tol) {
+      res.converged = true;
+      return res;
+    }
+    z = dinv.cwiseProduct(r);
+    const double rz_new = r.dot(z);
+    p = z + (rz_new / rz) * p;
+    rz = rz_new;
+  }
+  res.relative_residual = (b - [&] {
+                            Eigen::VectorXd Ax(n);
+                            apply(*x, &Ax);
+                            return Ax;
+                          }())
+                              .norm() /
+                          bn;
+  return res;
+}
+
+NewtonResult minimizeNewton(const NewtonObjective& f, double force_scale, const NewtonOptions& opt,
+                            Eigen::VectorXd* x) {
+  NewtonResult res;
+  if (!(force_scale > 0.0) || !std::isfinite(force_scale))
+    throw TopoError("Newton solver", "force scale " + std::to_string(force_scale) + " is not positive",
+                    "pass the size of the loads [N]");
+  const Eigen::Index n = x->size();
+  double psi = f.value(*x);
+  if (!std::isfinite(psi)) {
+    res.message = "the objective is not finite at the start";
+    return res;
+  }
+  Eigen::VectorXd g(n), d(n), diag(n), trial(n);
+  for (int it = 0; it < opt.max_iterations; ++it) {
+    f.gradient(*x, &g);
+    res.residual = g.lpNorm<Eigen::Infinity>() / force_scale;
+    res.iterations = it;
+    if (!std::isfinite(res.residual)) {
+      res.message = "the gradient became non-finite";
+      return res;
+    }
+    if (res.residual <= opt.tolerance) {
+      res.converged = true;
+      res.message = "converged";
+      return res;
+    }
+    f.diagonal(*x, &diag);
+    // Forcing term: tighter inner solves as the outer residual falls (Eisenstat–Walker flavour).
+    const double cg_tol = std::min(opt.cg_tolerance, std::max(1e-12, std::sqrt(res.residual) * 1e-2));
+    const CgResult cg = conjugateGradient([&](const Eigen::VectorXd& p, Eigen::VectorXd* Hp) { f.hessian(*x, p, Hp); },
+                                          diag, -g, cg_tol, opt.cg_max_iterations, &d);
+    res.cg_iterations += cg.iterations;
+    double slope = g.dot(d);
+    if (!(slope < 0.0)) {  // not a descent direction: fall back to preconditioned steepest descent
+      d = -g.cwiseQuotient(diag.cwiseMax(1e-300));
+      slope = g.dot(d);
+    }
+    double step = 1.0;
+    bool accepted = false;
+    for (int ls = 0; ls <= opt.max_line_search; ++ls) {
+      trial = *x + step * d;
+      double v;
+      try {
+        v = f.value(trial);
+      } catch (const TopoError&) {
+        v = INFINITY;
+      }
+      if (std::isfinite(v) && v <= psi + 1e-4 * step * slope) {
+        psi = v;
+        *x = trial;
+        accepted = true;
+        break;
+      }
+      // Near convergence Ψ stalls at round-off: accept a step that reduces the gradient instead.
+      if (std::isfinite(v) && std::abs(v - psi) <= 1e-13 * std::max(1.0, std::abs(psi))) {
+        Eigen::VectorXd gt(n);
+        f.gradient(trial, &gt);
+        if (gt.lpNorm<Eigen::Infinity>() < g.lpNorm<Eigen::Infinity>()) {
+          psi = v;
+          *x = trial;
+          accepted = true;
+          break;
+        }
+      }
+      step *= 0.5;
+    }
+    if (!accepted) {
+      f.value(*x);  // restore the cached state at x
+      std::ostringstream s;
+      s << "line search failed at Newton iteration " << it + 1 << " (residual " << res.residual << ")";
+      res.message = s.str();
+      return res;
+    }
+  }
+  f.gradient(*x, &g);
+  res.residual = g.lpNorm<Eigen::Infinity>() / force_scale;
+  res.iterations = opt.max_iterations;
+  res.converged = res.residual <= opt.tolerance;
+  res.message = res.converged ? "converged" : "reached max_iterations";
+  return res;
+}
+
+}  // namespace topo_gaussian

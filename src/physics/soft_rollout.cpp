@@ -1,0 +1,230 @@
+// Differentiable soft-body rollout with checkpointing; see soft_rollout.h for the equations.
+#include "topo_gaussian/physics/soft_rollout.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include "topo_gaussian/physics/error.h"
+
+namespace topo_gaussian {
+
+namespace {
+
+using Vec3s = std::vector<Eigen::Vector3d>;
+
+double since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+SoftRollout::SoftRollout(SoftBodySimulator* sim, const SoftRolloutOptions& options) : sim_(sim), opt_(options) {
+  if (!sim_) throw TopoError("SoftRollout", "no simulator", "pass a SoftBodySimulator");
+  if (!std::isfinite(opt_.dt) || opt_.dt <= 0.0 || opt_.steps < 1) {
+    std::ostringstream s;
+    s << "dt = " << opt_.dt << " s, steps = " << opt_.steps;
+    throw TopoError("SoftRollout options", s.str(), "use dt > 0 and steps >= 1");
+  }
+  if (opt_.integrator == SoftIntegrator::SymplecticEuler && opt_.dt > sim_->stableTimeStep()) {
+    std::ostringstream s;
+    s << "explicit time step dt = " << opt_.dt << " s exceeds the stability limit stableTimeStep() = "
+      << sim_->stableTimeStep() << " s";
+    throw TopoError("SoftRollout options", s.str(),
+                    "use dt <= " + std::to_string(sim_->stableTimeStep()) +
+                        " s, or SoftIntegrator::ImplicitEuler, which has no stability limit");
+  }
+  if (opt_.checkpoint_every <= 0) opt_.checkpoint_every = static_cast<int>(std::ceil(std::sqrt(double(opt_.steps))));
+}
+
+void SoftRollout::stepForward(int k) {
+  SoftBodySimulator& s = *sim_;
+  const double dt = opt_.dt;
+  if (opt_.integrator == SoftIntegrator::ImplicitEuler) {
+    s.stepImplicit(dt, opt_.newton);
+    return;
+  }
+  const std::size_t n = s.size();
+  const Vec3s& f = s.conservativeForces();
+  const Vec3s ffr = s.frictionForces(s.velocities());
+  const Eigen::Vector3d g = s.options().gravity;
+  const double c = s.options().damping;
+  Vec3s x = s.positions(), v = s.velocities();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (s.clamped()[i]) continue;
+    v[i] += dt * ((f[i] + ffr[i]) / s.masses()[i] + g - c * v[i]);
+    x[i] += dt * v[i];
+  }
+  const std::string where = "explicit step " + std::to_string(k + 1);
+  for (std::size_t i = 0; i < n; ++i)
+    if (!std::isfinite(v[i].squaredNorm()) || !std::isfinite(x[i].squaredNorm())) {
+      std::ostringstream o;
+      o << "particle " << i << " became non-finite at " << where;
+      throw TopoError("SoftRollout", o.str(), "reduce dt or check the material and loads");
+    }
+  try {
+    s.evaluateAt(x, s.time() + dt);
+  } catch (const TopoError& e) {
+    throw TopoError("SoftRollout (" + where + ")", e.what(), "reduce dt or use the implicit integrator");
+  }
+  s.setVelocities(v);
+}
+
+SoftRolloutResult SoftRollout::run(const SoftStepLoss& loss, bool with_gradient) {
+  SoftBodySimulator& s = *sim_;
+  const std::size_t n = s.size();
+  const int N = opt_.steps, K = opt_.checkpoint_every;
+  const double dt = opt_.dt, t0 = s.time();
+  SoftRolloutResult res;
+  auto tf = std::chrono::steady_clock::now();
+  std::vector<std::pair<Vec3s, Vec3s>> checkpoints;
+  auto newtonCount = [&]() { return 0; };
+  (void)newtonCount;
+  res.loss = loss(0, t0, s.positions(), s.velocities(), nullptr, nullptr);
+  for (int k = 0; k < N; ++k) {
+    if (with_gradient && k % K == 0) checkpoints.emplace_back(s.positions(), s.velocities());
+    stepForward(k);
+    res.loss += loss(k + 1, t0 + (k + 1) * dt, s.positions(), s.velocities(), nullptr, nullptr);
+  }
+  res.forward_s = since(tf);
+  res.peak_states = checkpoints.size();
+  if (!with_gradient) return res;
+
+  auto tb = std::chrono::steady_clock::now();
+  const Vec3s x_end = s.positions(), v_end = s.velocities();
+  const double t_end = s.time();
+  const long steps_end = s.stepCount();
+  SoftDesignGradient& G = res.gradient;
+  G.mass.assign(n, 0.0);
+  G.mu.assign(n, 0.0);
+  G.lambda.assign(n, 0.0);
+  G.chamber.assign(n, 0.0);
+  Vec3s xb(n, Eigen::Vector3d::Zero()), vb(n, Eigen::Vector3d::Zero());
+  loss(N, t_end, x_end, v_end, &xb, &vb);
+  const Eigen::Vector3d g = s.options().gravity;
+  const double c = s.options().damping;
+  const auto& clamped = s.clamped();
+  std::vector<double> d_mu, d_lam;
+
+  for (int seg = static_cast<int>(checkpoints.size()) - 1; seg >= 0; --seg) {
+    const int k0 = seg * K, k1 = std::min(k0 + K, N);
+    // Recompute the segment from its checkpoint.
+    std::vector<std::pair<Vec3s, Vec3s>> states;
+    states.reserve(k1 - k0 + 1);
+    s.evaluateAt(checkpoints[seg].first, t0 + k0 * dt);
+    s.setVelocities(checkpoints[seg].second);
+    states.emplace_back(s.positions(), s.velocities());
+    for (int k = k0; k < k1; ++k) {
+      stepForward(k);
+      states.emplace_back(s.positions(), s.velocities());
+    }
+    res.peak_states = std::max(res.peak_states, checkpoints.size() + states.size());
+    for (int k = k1 - 1; k >= k0; --k) {
+      const Vec3s& xk = states[k - k0].first;
+      const Vec3s& vk = states[k - k0].second;
+      Vec3s xbn(n, Eigen::Vector3d::Zero()), vbn(n, Eigen::Vector3d::Zero());
+      if (opt_.integrator == SoftIntegrator::SymplecticEuler) {
+        s.evaluateAt(xk, t0 + k * dt);
+        s.setVelocities(vk);
+        const Vec3s& f = s.conservativeForces();
+        const Vec3s ffr = s.frictionForces(vk);
+        Vec3s a(n, Eigen::Vector3d::Zero());
+        Vec3s w(n, Eigen::Vector3d::Zero());
+        for (std::size_t i = 0; i < n; ++i) {
+          if (clamped[i]) continue;
+          w[i] = vb[i] + dt * xb[i];
+          a[i] = dt * w[i] / s.masses()[i];
+          G.mass[i] -= a[i].dot(f[i] + ffr[i]) / s.masses()[i];
+        }
+        const Vec3s Ha = s.stiffnessProduct(a);
+        for (std::size_t i = 0; i < n; ++i) {
+          if (clamped[i]) continue;
+          xbn[i] = xb[i] - Ha[i];
+          vbn[i] = (1.0 - c * dt) * w[i];
+        }
+        if (!s.contact().empty()) s.contact().frictionAdjoint(xk, vk, a, &xbn, &vbn);
+        s.sph().materialDirectional(a, &d_mu, &d_lam);
+        const std::vector<double> dch = s.actuation().chamber.empty()
+                                            ? std::vector<double>()
+                                            : s.actuation().chamberDirectional(s.sph(), s.pressureNow(), a);
+        for (std::size_t i = 0; i < n; ++i) {
+          G.mu[i] -= d_mu[i];
+          G.lambda[i] -= d_lam[i];
+          if (!dch.empty()) G.chamber[i] -= dch[i];
+        }
+      } else {
+        const Vec3s& x1 = states[k - k0 + 1].first;
+        s.evaluateAt(x1, t0 + (k + 1) * dt);
+        const double inertia = 1.0 / (dt * dt) + c / dt;
+        Eigen::VectorXd b(3 * n), diag(3 * n), lam;
+        const double h2 = s.sph().smoothingLength() * s.sph().smoothingLength();
+        for (std::size_t i = 0; i < n; ++i) {
+          b.segment<3>(3 * i) = clamped[i] ? Eigen::Vector3d::Zero() : Eigen::Vector3d(xb[i] + vb[i] / dt);
+          const double el = (s.sph().lameLambdas()[i] + 2.0 * s.sph().shearModuli()[i]) * s.sph().volumes()[i] / h2;
+          diag.segment<3>(3 * i).setConstant(clamped[i] ? 1.0 : inertia * s.masses()[i] + el);
+        }
+        const CgResult cg = conjugateGradient(
+            [&](const Eigen::VectorXd& p, Eigen::VectorXd* out) {
+              Vec3s dx(n);
+              for (std::size_t i = 0; i < n; ++i) dx[i] = p.segment<3>(3 * i);
+              const Vec3s h = s.stiffnessProduct(dx);
+              out->resize(3 * n);
+              for (std::size_t i = 0; i < n; ++i)
+                out->segment<3>(3 * i) = clamped[i] ? Eigen::Vector3d::Zero()
+                                                    : Eigen::Vector3d(h[i] + inertia * s.masses()[i] * dx[i]);
+            },
+            diag, b, opt_.adjoint_cg_tolerance, opt_.adjoint_cg_max_iterations, &lam);
+        if (!cg.converged && cg.relative_residual > 1e-6) {
+          std::ostringstream o;
+          o << "the adjoint solve of implicit step " << k + 1 << " did not converge (relative residual "
+            << cg.relative_residual << (cg.negative_curvature ? ", the step's Hessian is indefinite" : "") << ")";
+          throw TopoError("SoftRollout backward", o.str(), "reduce dt or raise adjoint_cg_max_iterations");
+        }
+        Vec3s L(n);
+        for (std::size_t i = 0; i < n; ++i) L[i] = lam.segment<3>(3 * i);
+        for (std::size_t i = 0; i < n; ++i) {
+          if (clamped[i]) continue;
+          const double m = s.masses()[i];
+          xbn[i] = -vb[i] / dt + m * inertia * L[i];
+          vbn[i] = m * L[i] / dt;
+          const Eigen::Vector3d r = (x1[i] - xk[i] - dt * vk[i]) / (dt * dt) + c * (x1[i] - xk[i]) / dt - g;
+          G.mass[i] -= L[i].dot(r);
+        }
+        if (!s.contact().empty()) s.contact().frictionAdjoint(xk, vk, L, &xbn, &vbn);
+        s.sph().materialDirectional(L, &d_mu, &d_lam);
+        const std::vector<double> dch = s.actuation().chamber.empty()
+                                            ? std::vector<double>()
+                                            : s.actuation().chamberDirectional(s.sph(), s.pressureNow(), L);
+        for (std::size_t i = 0; i < n; ++i) {
+          G.mu[i] -= d_mu[i];
+          G.lambda[i] -= d_lam[i];
+          if (!dch.empty()) G.chamber[i] -= dch[i];
+        }
+      }
+      for (std::size_t i = 0; i < n; ++i)
+        if (clamped[i]) {
+          xbn[i].setZero();
+          vbn[i].setZero();
+        }
+      loss(k, t0 + k * dt, xk, vk, &xbn, &vbn);
+      xb.swap(xbn);
+      vb.swap(vbn);
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    if (clamped[i]) {
+      xb[i].setZero();
+      vb[i].setZero();
+    }
+  G.x0 = xb;
+  G.v0 = vb;
+  // Leave the simulator at the final state, as after a forward-only run.
+  s.evaluateAt(x_end, t_end);
+  s.setVelocities(v_end);
+  (void)steps_end;
+  res.backward_s = since(tb);
+  return res;
+}
+
+}  // namespace topo_gaussian
