@@ -34,6 +34,7 @@ bench: build
 	@./bench/fill $(BUILD)
 	@./bench/infer $(BUILD)
 	@./bench/track $(BUILD)
+	@./bench/soft $(BUILD)
 
 # The ROS-free physics/topology core alone (what the GPU machines build).
 core:

@@ -10,6 +10,7 @@
 
 #include "rigid_options.h"
 #include "task_factories.h"
+#include "trajectory_csv.h"
 #include "topo_gaussian/physics/error.h"
 #include "topo_gaussian/physics/rigid_body.h"
 
@@ -56,31 +57,7 @@ class BallTask : public Task {
                       "give a CSV of t and x y z per pivot point: --target target_trajectory_file=FILE.csv");
   }
 
-  void readTrajectory(const std::string& path) {
-    std::ifstream in(path);
-    if (!in) throw TopoError(path, "cannot open the trajectory file", "check the path");
-    std::string line;
-    int row = 0;
-    while (std::getline(in, line)) {
-      ++row;
-      if (line.empty() || line[0] == '#' || std::isalpha(static_cast<unsigned char>(line[0]))) continue;
-      for (char& ch : line)
-        if (ch == ',' || ch == ';') ch = ' ';
-      std::istringstream ls(line);
-      std::vector<double> v;
-      double x;
-      while (ls >> x) v.push_back(x);
-      if (v.size() != 1 + 3 * pivots_.size())
-        throw TopoError(path + " row " + std::to_string(row),
-                        "has " + std::to_string(v.size()) + " numbers, expected 1 + 3 x " + std::to_string(pivots_.size()),
-                        "write t then x y z for each pivot point (see pivot_points)");
-      obs_t_.push_back(v[0]);
-      std::vector<Eigen::Vector3d> pts;
-      for (std::size_t k = 0; k < pivots_.size(); ++k) pts.emplace_back(v[1 + 3 * k], v[2 + 3 * k], v[3 + 3 * k]);
-      obs_.push_back(pts);
-    }
-    if (obs_t_.empty()) throw TopoError(path, "holds no samples", "write one row per observed frame");
-  }
+  void readTrajectory(const std::string& path) { readTrajectoryCsv(path, pivots_.size(), &obs_t_, &obs_); }
 
   TaskEvaluation evaluate(const std::vector<double>& r, std::vector<double>* dL_dr) const override {
     const RigidMass rm = rigidMass(r, dL_dr != nullptr);

@@ -37,7 +37,8 @@ Task::Task(const TaskConfig& config, const VolumeCloud& cloud) : name_(config.ta
   cloud.bounds(&lo_, &hi_);
   size_ = std::max((hi_ - lo_).norm(), 1e-9);
   geometry_.gravity = config.vector3("gravity");
-  if (geometry_.gravity.norm() <= 0.0) throw TopoError("gravity", "is zero", "give a gravity vector such as 0,0,-9.81");
+  // The finger may be simulated without gravity (a stiff finger hardly sags); rigid tasks need it.
+  if (geometry_.gravity.norm() <= 0.0 && config.task() != "finger") throw TopoError("gravity", "is zero", "give a gravity vector such as 0,0,-9.81");
 }
 
 void Task::masses(const std::vector<double>& r, std::vector<double>* m, std::vector<double>* dm_dr) const {
@@ -75,6 +76,9 @@ std::unique_ptr<Task> makeTask(const TaskConfig& config, const VolumeCloud& clou
   if (t == "tumbler") return makeTumblerTask(config, cloud);
   if (t == "qiqi") return makeQiqiTask(config, cloud);
   if (t == "ball") return makeBallTask(config, cloud);
+  if (t == "finger") return makeFingerTask(config, cloud);
+  if (t == "pear") return makePearTask(config, cloud);
+  if (t == "cantilever") return makeCantileverTask(config, cloud);
   throw TopoError("task '" + t + "'", "has no implementation", "use one of the task names of TaskConfig::taskNames()");
 }
 

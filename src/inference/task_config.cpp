@@ -69,7 +69,8 @@ struct TaskConfigBuilder {
 namespace {
 
 const std::vector<std::string>& knownTasks() {
-  static const std::vector<std::string> k = {"hanging", "balance", "stand", "tumbler", "qiqi", "ball"};
+  static const std::vector<std::string> k = {"hanging", "balance", "stand", "tumbler", "qiqi", "ball",
+                                                      "finger", "pear", "cantilever"};
   return k;
 }
 
@@ -211,6 +212,66 @@ TaskConfig TaskConfig::defaults(const std::string& task) {
     b.num("water_smoothing", 0.01, "width of the water surface as a fraction of the object size", 0, 1, true);
     b.target("target_tilts_deg", ParamType::List, "observed tilt at each fill level [deg]");
   }
+  if (task == "finger" || task == "pear" || task == "cantilever") {
+    // Soft bodies (paper §6.1 soft, table 2): Young's modulus interpolated by r like the density.
+    const bool finger = task == "finger", pear = task == "pear";
+    b.num("youngs_modulus_solid", finger ? 1e7 : (pear ? 1e6 : 1e7),
+          "Young's modulus of the r = 1 material [Pa] (paper: stiff 3e7, real finger 1e7)", 0, 1e300, true);
+    b.num("youngs_modulus_hollow", finger ? 1e6 : (pear ? 1e5 : 1e7),
+          finger ? "Young's modulus of the chamber (r = 0) [Pa]" : "Young's modulus of the r = 0 material [Pa] (paper: soft 1.5e5)",
+          0, 1e300, true);
+    b.num("poisson_ratio", finger ? 0.45 : 0.3, "Poisson ratio nu of the r = 1 material (paper: 0.4; real finger 0.49)", -0.99, 0.499);
+    b.num("poisson_ratio_hollow", finger ? 0.0 : 0.3,
+          finger ? "Poisson ratio of the chamber (0: the air offers no bulk stiffness)" : "Poisson ratio of the r = 0 material",
+          -0.99, 0.499);
+    b.num("stiffness_power", finger ? 3.0 : 1.0, "SIMP power of the Young's modulus interpolation", 1, 10);
+    b.text("energy_model", "corotated_linear", "corotated_linear (Cauchy strain) | stvk (Green strain)",
+           {"corotated_linear", "stvk"});
+    b.integer("gradient_order", task == "cantilever" ? 2 : 1,
+              "SPH kernel gradient: 1 corrected (paper), 2 quadratic MLS (exact in bending)", 1, 2);
+    b.num("smoothing_factor", 1.5, "SPH smoothing length h as a multiple of the particle spacing", 0.8, 3);
+    b.num("hourglass_alpha", 0.1, "zero-energy-mode penalty relative to mu", 0);
+    b.num("damping_per_s", pear ? 0.0 : 0.0, "mass-proportional damping c [1/s]", 0);
+    b.num("newton_tolerance", 1e-8, "Newton convergence: max residual force / load scale", 0, 1, true);
+    b.num("default_spacing_m", finger ? 0.0025 : (pear ? 0.008 : 0.004),
+          "particle spacing of the generated default shape when no volume is given [m]", 0, 1e300, true);
+    c.values_["density_hollow"].number = finger ? 1.0 : (pear ? 1000.0 : 1000.0);
+    c.values_["density_solid"].number = 1000.0;
+    c.values_["pin_shell"].number = finger ? 1.0 : 0.0;
+  }
+  if (task == "finger") {
+    b.num("pressure_pa", 5e5, "chamber gauge pressure at the end of the ramp [Pa] (paper: 5e5)");
+    b.num("clamp_length_m", 0.01, "particles within this distance of the base (min x) are clamped [m]", 0, 1e300, true);
+    b.text("mode", "static", "static (quasi-static equilibrium at the full pressure) | implicit (implicit Euler over the ramp)",
+           {"static", "implicit"});
+    b.integer("load_steps", 2, "static mode: pressure increments of the Newton solve", 1, 100);
+    b.num("duration_s", 0.2, "implicit mode: simulated time; the pressure ramps over it [s]", 0, 1e300, true);
+    b.num("dt_s", 0.01, "implicit mode: time step [s]", 0, 1e300, true);
+    b.vec("finger_axis", &ex, "the finger's long axis from base to tip (rest state)");
+    b.vec("bend_normal", &ez, "positive bending angle = tip turning towards this direction");
+    b.num("tip_fraction", 0.15, "the tip segment: the last fraction of the length; the segment before it has the same length", 0.02, 0.45);
+    c.values_["gravity"].vec = zero;  // the paper's finger task: actuation only
+    c.values_["loss_tolerance"].number = 1e-8;
+    b.target("bend_angle_deg", ParamType::Number, "observed bending angle of the tip at the full pressure [deg]", -180, 180);
+  }
+  if (task == "pear") {
+    b.num("duration_s", 0.12, "simulated time [s]", 0, 1e300, true);
+    b.num("dt_s", 0.0, "integration step [s]; 0 = 0.9 x the explicit stability limit", 0);
+    b.num("sample_dt_s", 0.005, "spacing of the compared trajectory samples [s]", 0, 1e300, true);
+    b.num("initial_height_m", 0.01, "gap between the lowest point and the ground at release [m]", 0);
+    b.vec("initial_velocity", &zero, "initial velocity [m/s]");
+    b.num("initial_tilt_deg", 15.0, "release tilt about world x [deg]", -89, 89);
+    b.num("contact_stiffness_n_per_m", 0.0, "ground penalty stiffness per particle [N/m]; 0 = automatic", 0);
+    b.num("friction_mu", 0.5, "Coulomb friction coefficient", 0);
+    b.list("pivot_points", {}, "tracked body points x,y,z,... [m]; default: top, bottom and two side points");
+    b.target("target_trajectory_file", ParamType::Text, "CSV: t, then x y z of each pivot point [s, m]");
+  }
+  if (task == "cantilever") {
+    b.num("clamp_length_m", 0.0, "particles with x < min x + this are clamped [m]; 0 = 3 spacings", 0);
+    b.flag("vibration", true, "also release the static shape without gravity and measure the first frequency");
+    b.num("vibration_periods", 1.0, "free vibration: full periods to measure", 0.5, 20);
+    c.values_["pin_shell"].number = 0.0;
+  }
   if (task == "ball") {
     b.num("initial_height_m", 0.3, "drop height of the lowest point above the ground [m]", 0);
     b.vec("initial_velocity", &zero, "initial velocity [m/s]");
@@ -267,6 +328,16 @@ void TaskConfig::check(const ParamSpec& s, const ParamValue& v, const std::strin
 
 void TaskConfig::set(const std::string& key_in, const std::string& value_in, const std::string& origin) {
   const std::string key = trim(key_in), value = trim(value_in);
+  // Uniform-material shorthands (the cantilever): one value for both materials.
+  if (task_ == "cantilever" && (key == "youngs_modulus" || key == "density")) {
+    const std::string base = key == "density" ? "density" : "youngs_modulus";
+    set(base + "_solid", value, origin + " " + key + " ->");
+    set(base + "_hollow", value, origin + " " + key + " ->");
+    return;
+  }
+  if (task_ == "cantilever" && key == "poisson_ratio") {
+    set("poisson_ratio_hollow", value, origin + " " + key + " ->");  // and fall through for poisson_ratio
+  }
   const ParamSpec* s = spec(key);
   if (!s) {
     std::string nearest;

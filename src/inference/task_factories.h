@@ -12,6 +12,9 @@ std::unique_ptr<Task> makeStaticTask(const TaskConfig& config, const VolumeCloud
 std::unique_ptr<Task> makeTumblerTask(const TaskConfig& config, const VolumeCloud& cloud);
 std::unique_ptr<Task> makeQiqiTask(const TaskConfig& config, const VolumeCloud& cloud);
 std::unique_ptr<Task> makeBallTask(const TaskConfig& config, const VolumeCloud& cloud);
+std::unique_ptr<Task> makeFingerTask(const TaskConfig& config, const VolumeCloud& cloud);
+std::unique_ptr<Task> makePearTask(const TaskConfig& config, const VolumeCloud& cloud);
+std::unique_ptr<Task> makeCantileverTask(const TaskConfig& config, const VolumeCloud& cloud);
 
 }  // namespace inference
 }  // namespace topo_gaussian

@@ -79,8 +79,6 @@ SoftRolloutResult SoftRollout::run(const SoftStepLoss& loss, bool with_gradient)
   SoftRolloutResult res;
   auto tf = std::chrono::steady_clock::now();
   std::vector<std::pair<Vec3s, Vec3s>> checkpoints;
-  auto newtonCount = [&]() { return 0; };
-  (void)newtonCount;
   res.loss = loss(0, t0, s.positions(), s.velocities(), nullptr, nullptr);
   for (int k = 0; k < N; ++k) {
     if (with_gradient && k % K == 0) checkpoints.emplace_back(s.positions(), s.velocities());
@@ -225,6 +223,63 @@ SoftRolloutResult SoftRollout::run(const SoftStepLoss& loss, bool with_gradient)
   (void)steps_end;
   res.backward_s = since(tb);
   return res;
+}
+
+SoftDesignGradient staticEquilibriumGradient(const SoftBodySimulator& s, const std::vector<Eigen::Vector3d>& dL_dx,
+                                             double cg_tolerance) {
+  const std::size_t n = s.size();
+  if (dL_dx.size() != n)
+    throw TopoError("staticEquilibriumGradient", std::to_string(dL_dx.size()) + " loss gradients for " +
+                                                     std::to_string(n) + " particles",
+                    "pass dL/dx for every particle");
+  if (s.pressureNow() != s.actuation().pressure_pa)
+    throw TopoError("staticEquilibriumGradient", "the pressure ramp is not complete at the simulator's time",
+                    "set PneumaticActuation::ramp_s = 0 (static solves apply the full pressure)");
+  const auto& clamped = s.clamped();
+  const double h2 = s.sph().smoothingLength() * s.sph().smoothingLength();
+  Eigen::VectorXd b(3 * n), diag(3 * n), lam;
+  for (std::size_t i = 0; i < n; ++i) {
+    b.segment<3>(3 * i) = clamped[i] ? Eigen::Vector3d::Zero() : dL_dx[i];
+    const double el = (s.sph().lameLambdas()[i] + 2.0 * s.sph().shearModuli()[i]) * s.sph().volumes()[i] / h2;
+    diag.segment<3>(3 * i).setConstant(clamped[i] ? 1.0 : el);
+  }
+  const CgResult cg = conjugateGradient(
+      [&](const Eigen::VectorXd& p, Eigen::VectorXd* out) {
+        Vec3s dx(n);
+        for (std::size_t i = 0; i < n; ++i) dx[i] = p.segment<3>(3 * i);
+        const Vec3s h = s.stiffnessProduct(dx);
+        out->resize(3 * n);
+        for (std::size_t i = 0; i < n; ++i) out->segment<3>(3 * i) = h[i];
+      },
+      diag, b, cg_tolerance, 50000, &lam);
+  if (cg.negative_curvature || !(cg.relative_residual < 1e-6)) {
+    std::ostringstream o;
+    o << "the adjoint solve at the equilibrium failed (relative residual " << cg.relative_residual
+      << (cg.negative_curvature ? ", the stiffness is indefinite: an unstable equilibrium or an unsupported body" : "")
+      << ")";
+    throw TopoError("staticEquilibriumGradient", o.str(), "clamp or support the body, or lower the load");
+  }
+  Vec3s L(n);
+  for (std::size_t i = 0; i < n; ++i) L[i] = lam.segment<3>(3 * i);
+  SoftDesignGradient G;
+  G.mass.assign(n, 0.0);
+  G.chamber.assign(n, 0.0);
+  const Eigen::Vector3d g = s.options().gravity;
+  for (std::size_t i = 0; i < n; ++i)
+    if (!clamped[i]) G.mass[i] = L[i].dot(g);
+  std::vector<double> d_mu, d_lam;
+  s.sph().materialDirectional(L, &d_mu, &d_lam);
+  G.mu.resize(n);
+  G.lambda.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    G.mu[i] = -d_mu[i];
+    G.lambda[i] = -d_lam[i];
+  }
+  if (!s.actuation().chamber.empty()) {
+    const auto dch = s.actuation().chamberDirectional(s.sph(), s.pressureNow(), L);
+    for (std::size_t i = 0; i < n; ++i) G.chamber[i] = -dch[i];
+  }
+  return G;
 }
 
 }  // namespace topo_gaussian

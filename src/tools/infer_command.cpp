@@ -11,6 +11,7 @@
 #include "commands.h"
 #include "topo_gaussian/geometry/ingest.h"
 #include "topo_gaussian/geometry/volume_io.h"
+#include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/physics/error.h"
 
@@ -23,6 +24,7 @@ namespace {
 
 const char* kInferHelp =
     "usage: topo infer --task TASK (--surface FILE | --volume VOLUME.ply) --output DIR [options]\n"
+    "       (finger, pear: without --surface/--volume the default shape of `topo shape` is used)\n"
     "\n"
     "Finds an interior (solid/hollow per particle) whose simulated behaviour matches the targets.\n"
     "Writes DIR/interior.ply (x y z r solid density) and DIR/report.json (task, targets, achieved\n"
@@ -45,6 +47,9 @@ const char* kInferHelp =
 
 const char* kSimulateHelp =
     "usage: topo simulate --task TASK --volume VOLUME.ply [--interior INTERIOR.ply] [--set KEY=VALUE ...] [--json]\n"
+    "       (finger, pear, cantilever: without --volume the default shape of `topo shape` is used;\n"
+    "        topo simulate --task cantilever --volume BEAM.ply --set youngs_modulus_solid=1e7 --json\n"
+    "        prints tip_deflection_m and first_frequency_hz next to Euler-Bernoulli theory)\n"
     "\n"
     "Simulates a given interior (fully solid without --interior) and prints its features, e.g. the\n"
     "rocking period_s and max_tilt_deg for the tumbler, the centre-of-mass offset for hanging.\n"
@@ -78,8 +83,21 @@ inference::TaskConfig loadConfig(const Args& a) {
   return c;
 }
 
-VolumeCloud loadVolume(const Args& a) {
-  if (a.has("volume") == a.has("surface")) throw UsageError("give exactly one of --volume or --surface");
+VolumeCloud loadVolume(const Args& a, const inference::TaskConfig& config) {
+  if (!a.has("volume") && !a.has("surface")) {
+    // Soft tasks bring a default shape of their own (see `topo shape`).
+    const std::string& t = config.task();
+    const std::string shape = t == "finger" ? "finger" : t == "pear" ? "pear" : t == "cantilever" ? "beam" : "";
+    if (!shape.empty()) {
+      const double h = config.number("default_spacing_m");
+      VolumeCloud c = defaultShapeCloud(shape, h);
+      std::cerr << "[topo] no --volume/--surface: using the default " << shape << " shape (" << c.size()
+                << " particles at " << h << " m; `topo shape " << shape << "` writes it)\n";
+      return c;
+    }
+  }
+  if (a.has("volume") == a.has("surface"))
+    throw UsageError("give exactly one of --volume or --surface (tasks finger, pear and cantilever have a default shape)");
   if (a.has("volume")) return geometry::readVolumePly(a.str("volume"));
   geometry::IngestOptions io;
   io.fill.target_count = static_cast<std::size_t>(a.integer("count", 20000));
@@ -115,7 +133,7 @@ int inferCommand(const std::vector<std::string>& argv) {
   struct stat st;
   if (::stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
     throw TopoError(dir, "is not a directory and cannot be created", "give a writable output directory");
-  const VolumeCloud cloud = loadVolume(a);
+  const VolumeCloud cloud = loadVolume(a, config);
   const bool quiet = a.has("quiet");
   std::cerr << "[topo infer] task " << config.task() << " (" << config.source() << "), representation "
             << config.text("representation") << ", " << cloud.size() << " particles, optimizer "
@@ -155,7 +173,7 @@ int simulateCommand(const std::vector<std::string>& argv) {
     std::cout << config.help();
     return 0;
   }
-  const VolumeCloud cloud = loadVolume(a);
+  const VolumeCloud cloud = loadVolume(a, config);
   std::vector<double> r;
   if (a.has("interior")) r = inference::readInteriorPly(a.str("interior"), cloud.size());
   const inference::InteriorProblem problem(config, cloud);
@@ -168,7 +186,7 @@ int simulateCommand(const std::vector<std::string>& argv) {
   }
   if (a.has("trajectory")) {
     if (ev.task.trajectory_rows.empty())
-      throw TopoError("--trajectory", "task '" + config.task() + "' tracks no points", "use it with --task ball");
+      throw TopoError("--trajectory", "task '" + config.task() + "' tracks no points", "use it with --task ball or pear");
     std::ostringstream os;
     os << "# t, then x y z of each tracked point [s, m]\n" << std::setprecision(12);
     for (const auto& row : ev.task.trajectory_rows) {

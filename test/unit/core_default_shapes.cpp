@@ -8,21 +8,14 @@
 #include <limits>
 
 #include "test_clouds.h"
+#include "test_util.h"
 #include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/physics/error.h"
 
 using namespace topo_gaussian;
+using topo_test::errorOf;
 
 namespace {
-
-std::string errorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const TopoError& e) {
-    return e.what();
-  }
-  return "";
-}
 
 bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
 

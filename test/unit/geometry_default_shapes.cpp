@@ -1,17 +1,15 @@
 // Meshes of the default soft-body shapes (finger, pear, beam, tumbler): watertight and outward,
 // the same solids as the lattice clouds, and `topo shape` end to end.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <Eigen/Geometry>
-#include <array>
-#include <cstdio>
 #include <cstdlib>
 #include <functional>
 #include <iostream>
 #include <map>
 #include <utility>
 
+#include "test_util.h"
 #include "topo_gaussian/geometry/mesh_fill.h"
 #include "topo_gaussian/geometry/mesh_metrics.h"
 #include "topo_gaussian/geometry/shape_generator.h"
@@ -22,17 +20,11 @@
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::geometry;
+using topo_test::errorOf;
+using topo_test::ToolRun;
+using topo_test::runTopo;
 
 namespace {
-
-std::string errorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const TopoError& e) {
-    return e.what();
-  }
-  return "";
-}
 
 // Every directed edge used once and its reverse used once: each undirected edge is shared by
 // exactly two triangles with opposite orientation. Returns the number of violations.
@@ -55,23 +47,6 @@ std::size_t degenerateTriangles(const SurfaceData& m) {
     if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || (b - a).cross(c - a).norm() < 1e-14) ++bad;
   }
   return bad;
-}
-
-struct ToolRun {
-  int code = -1;
-  std::string out;
-};
-
-ToolRun run(const std::string& args) {
-  ToolRun r;
-  const std::string cmd = std::string(TOPO_TOOL_PATH) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return r;
-  std::array<char, 4096> buf;
-  while (fgets(buf.data(), buf.size(), p)) r.out += buf.data();
-  const int st = pclose(p);
-  r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
 }
 
 bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
@@ -143,7 +118,7 @@ TEST(DefaultShapeMesh, ResolutionConvergesAndBadInputIsRefused) {
 TEST(DefaultShapeCli, ShapeWritesMeshAndVolume) {
   const std::string dir = testing::TempDir() + "/topo_shape_cli";
   std::system(("mkdir -p " + dir).c_str());
-  const ToolRun r = run("shape finger --output " + dir + "/finger.obj");
+  const ToolRun r = runTopo("shape finger --output " + dir + "/finger.obj");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(contains(r.out, "[topo shape] wrote " + dir + "/finger.obj")) << r.out;
   EXPECT_TRUE(contains(r.out, "triangles, volume")) << r.out;
@@ -153,8 +128,8 @@ TEST(DefaultShapeCli, ShapeWritesMeshAndVolume) {
   const double exact = defaultShape("finger").volume_m3;
   EXPECT_NEAR(meshIntegrals(back).volume / exact, 1.0, 0.01);
 
-  const ToolRun v = run("shape tumbler --output " + dir + "/tumbler.obj --resolution 32 --spacing 0.0025 --volume " + dir +
-                        "/tumbler.ply");
+  const ToolRun v = runTopo("shape tumbler --output " + dir + "/tumbler.obj --resolution 32 --spacing 0.0025 --volume " +
+                            dir + "/tumbler.ply");
   ASSERT_EQ(v.code, 0) << v.out;
   EXPECT_TRUE(contains(v.out, "particles")) << v.out;
   const VolumeCloud cloud = readVolumePly(dir + "/tumbler.ply");
@@ -164,27 +139,27 @@ TEST(DefaultShapeCli, ShapeWritesMeshAndVolume) {
   EXPECT_EQ(cloud.surfaceCount(), expected.surfaceCount());
   EXPECT_EQ(readSurface(dir + "/tumbler.obj").size(), makeDefaultShapeMesh("tumbler", 32).size());
 
-  const ToolRun help = run("shape --help");
+  const ToolRun help = runTopo("shape --help");
   EXPECT_EQ(help.code, 0);
   for (const char* s : {"finger", "pear", "beam", "tumbler", "metres", "m^3", "--resolution", "--spacing", "--volume"})
     EXPECT_TRUE(contains(help.out, s)) << s << "\n" << help.out;
-  EXPECT_TRUE(contains(run("--help").out, "shape"));
+  EXPECT_TRUE(contains(runTopo("--help").out, "shape"));
 }
 
 TEST(DefaultShapeCli, ErrorsHaveTheRightExitCodeAndMessage) {
   const std::string dir = testing::TempDir() + "/topo_shape_cli";
   std::system(("mkdir -p " + dir).c_str());
-  const ToolRun unknown = run("shape banana --output " + dir + "/b.obj");
+  const ToolRun unknown = runTopo("shape banana --output " + dir + "/b.obj");
   EXPECT_EQ(unknown.code, 1) << unknown.out;
   EXPECT_TRUE(contains(unknown.out, "finger, pear, beam, tumbler")) << unknown.out;
-  const ToolRun coarse = run("shape finger --spacing 0.01 --volume " + dir + "/f.ply");
+  const ToolRun coarse = runTopo("shape finger --spacing 0.01 --volume " + dir + "/f.ply");
   EXPECT_EQ(coarse.code, 1) << coarse.out;
   EXPECT_TRUE(contains(coarse.out, "at most 0.005 m")) << coarse.out;
   for (const std::string args : {"shape --output x.obj", "shape finger", "shape finger --output x.obj --resolution 3",
                                  "shape finger --output x.obj --resolution many", "shape finger --volume x.ply",
                                  "shape finger --output x.obj --spacing -1 --volume x.ply", "shape finger extra",
                                  "shape finger --output x.obj --colour red"}) {
-    const ToolRun r = run(args);
+    const ToolRun r = runTopo(args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
     EXPECT_TRUE(contains(r.out, "topo shape --help")) << args << "\n" << r.out;
   }

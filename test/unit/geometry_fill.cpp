@@ -8,6 +8,7 @@
 #include <random>
 
 #include "shared_data.h"
+#include "test_util.h"
 #include "topo_gaussian/geometry/cleaning.h"
 #include "topo_gaussian/geometry/ingest.h"
 #include "topo_gaussian/geometry/interior_fill.h"
@@ -19,17 +20,9 @@
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::geometry;
+using topo_test::errorOf;
 
 namespace {
-
-std::string errorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const TopoError& e) {
-    return e.what();
-  }
-  return "";
-}
 
 // Gaussians on a sphere of radius r: flat surfels tangent to the surface, like a trained 3DGS.
 SurfaceData gaussianSphere(double r, std::size_t n) {

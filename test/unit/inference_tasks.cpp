@@ -7,6 +7,7 @@
 #include <random>
 
 #include "test_clouds.h"
+#include "test_util.h"
 #include "topo_gaussian/inference/interior_problem.h"
 #include "topo_gaussian/inference/optimizer.h"
 #include "topo_gaussian/inference/pipeline.h"
@@ -15,17 +16,9 @@
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::inference;
+using topo_test::errorOf;
 
 namespace {
-
-std::string errorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const TopoError& e) {
-    return e.what();
-  }
-  return "";
-}
 
 // Relative error of the analytic gradient against central differences, along each of `coords`
 // and along one random direction.

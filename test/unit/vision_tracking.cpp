@@ -10,6 +10,7 @@
 #include <string>
 
 #include "shared_data.h"
+#include "test_util.h"
 #include "topo_gaussian/physics/error.h"
 #include "topo_gaussian/vision/camera_model.h"
 #include "topo_gaussian/vision/motion_tracker.h"
@@ -37,17 +38,6 @@ std::string writeScene(const std::vector<cv::Mat>& frames, double fps, const std
   const std::string path = testing::TempDir() + "/" + name;
   writeVideo(frames, fps, path);
   return path;
-}
-
-int runTool(const std::string& args, std::string& out) {
-  const std::string cmd = std::string(TOPO_TOOL_PATH) + " " + args + " 2>/dev/null";
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return -1;
-  char buf[4096];
-  out.clear();
-  while (std::fgets(buf, sizeof(buf), p)) out += buf;
-  const int st = pclose(p);
-  return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
 }
 
 }  // namespace
@@ -309,15 +299,18 @@ TEST(VisionTracking, CliTrackJson) {
   PendulumScene s;
   s.duration_s = 4.0;
   const std::string path = writeScene(renderPendulum(s), s.fps, "cli_pendulum.avi");
-  std::string out;
-  EXPECT_EQ(runTool("track --video " + path + " --json", out), 0);
-  EXPECT_NE(out.find("\"period_s\""), std::string::npos) << out;
-  EXPECT_EQ(runTool("track --video /nonexistent/none.mp4 --json", out), 1);
-  EXPECT_EQ(runTool("track --video " + path + " --roi 0,0,0,0", out), 1);
-  EXPECT_EQ(runTool("track", out), 2);
+  // stdout only (stderr discarded), so `out` holds just what the command prints as its result
+  auto track = [](const std::string& args) { return topo_test::runTopo("track " + args, topo_test::Stderr::Discard); };
+  const topo_test::ToolRun json = track("--video " + path + " --json");
+  EXPECT_EQ(json.code, 0);
+  EXPECT_NE(json.out.find("\"period_s\""), std::string::npos) << json.out;
+  EXPECT_EQ(track("--video /nonexistent/none.mp4 --json").code, 1);
+  EXPECT_EQ(track("--video " + path + " --roi 0,0,0,0").code, 1);
+  EXPECT_EQ(track("").code, 2);
   const std::string plot = testing::TempDir() + "/cli_plot.png";
   const std::string dbg = testing::TempDir() + "/cli_debug.avi";
-  EXPECT_EQ(runTool("track --video " + path + " --plot " + plot + " --debug-video " + dbg, out), 0) << out;
+  const topo_test::ToolRun plotted = track("--video " + path + " --plot " + plot + " --debug-video " + dbg);
+  EXPECT_EQ(plotted.code, 0) << plotted.out;
   EXPECT_TRUE(topo_test::fileExists(plot));
   EXPECT_TRUE(topo_test::fileExists(dbg));
 }

@@ -13,7 +13,9 @@
 //   Δx = ∛(min_i V_i) (the lattice spacing for lattice clouds).
 // The default cfl = 0.8 is calibrated on cubic-spline corotated SPH with h = 1.5 Δx and hourglass
 // α = 0.1 (cantilever 0.2 × 0.02 × 0.02 m, Δx = 4 mm, E = 1e6, ν = 0.3): leapfrog stayed stable at
-// dt = 1.2 Δx/c and blew up at 1.5 Δx/c, so the estimate keeps a margin of about 1.5–1.9×.
+// dt = 1.2 Δx/c and blew up at 1.5 Δx/c, so the estimate keeps a margin of about 1.5–1.9×
+// (test StableTimeStepIsBelowTheLeapfrogLimit compares it with 2/ω_max from power iteration).
+// Second-order kernel gradients raise ω_max by 2.37×; the estimate is divided by that factor.
 //
 // Quasi-static mode: relaxToEquilibrium() minimises by FIRE (fast inertial relaxation engine,
 // Bitzek et al. 2006), a damped dynamic relaxation with adaptive step and velocity mixing.
@@ -83,7 +85,8 @@ class SoftBodySimulator {
   void setActuation(const PneumaticActuation& actuation);
   const PneumaticActuation& actuation() const { return act_; }
   double pressureNow() const { return act_.pressureAt(time_); }
-  /// Ground / clamp contact. A stiffness ≤ 0 is set to 10 × max(λ+2μ) × spacing [N/m].
+  /// Ground / clamp contact. A stiffness ≤ 0 is set to max(λ+2μ) × spacing [N/m] (the stiffness of
+  /// one particle's worth of the stiffest material).
   void setContact(const SoftContact& contact);
   const SoftContact& contact() const { return contact_; }
   /// Sets the clock (the pressure schedule reads it); steps advance it.
@@ -123,6 +126,15 @@ class SoftBodySimulator {
   std::vector<Eigen::Vector3d> stiffnessProduct(const std::vector<Eigen::Vector3d>& dx) const;
   /// Friction forces at the current positions for velocities v.
   std::vector<Eigen::Vector3d> frictionForces(const std::vector<Eigen::Vector3d>& v) const;
+  /// Lowest natural frequency [Hz] of small vibrations about the current state (clamps respected):
+  /// inverse iteration on K φ = ω² M φ with K the stiffnessProduct (each solve by PCG), started from
+  /// the static deflection under gravity (or a uniform field). Throws TopoError when the body is
+  /// unsupported (K singular) or the iteration does not settle to `tolerance` (relative change of ω).
+  double firstNaturalFrequency(double tolerance = 1e-6, int max_iterations = 50) const;
+  /// Highest natural frequency [rad/s] by power iteration on M⁻¹K (the explicit stability limit of
+  /// leapfrog is 2/ω_max).
+  double maxAngularFrequency(int iterations = 200) const;
+
   /// Largest load per particle [N] (gravity, pressure, elastic scale): the Newton force scale.
   double forceScale() const;
 

@@ -51,7 +51,6 @@ struct SoftRolloutResult {
   double loss = 0.0;
   SoftDesignGradient gradient;   ///< empty unless requested
   std::size_t peak_states = 0;   ///< most (x, v) states held at once (checkpoints + one segment)
-  int newton_iterations = 0;     ///< forward implicit steps, total
   double forward_s = 0.0, backward_s = 0.0;
 };
 
@@ -69,5 +68,13 @@ class SoftRollout {
   SoftBodySimulator* sim_;
   SoftRolloutOptions opt_;
 };
+
+/// Gradient of a loss L(x*) of a static equilibrium x* (the simulator's current state after
+/// solveStatic(), with the pressure fully applied: pressureNow() == actuation().pressure_pa):
+/// H λ = ∂L/∂x* (PCG on the stiffness at x*), then θ̄ = −λᵀ ∂g/∂θ with g = ∇Φ(x*; θ) − M g:
+/// m̄_i = λ_i·g, μ̄_i = −λ·∂∇E/∂μ_i, λ̄_i likewise, w̄_i = −λ·∂∇E_a/∂w_i. x0/v0 are left empty.
+/// Throws TopoError when the stiffness is indefinite (an unstable equilibrium) or the solve fails.
+SoftDesignGradient staticEquilibriumGradient(const SoftBodySimulator& sim, const std::vector<Eigen::Vector3d>& dL_dx,
+                                             double cg_tolerance = 1e-10);
 
 }  // namespace topo_gaussian

@@ -1,0 +1,113 @@
+// Cantilever (validation, no inference): the beam's particles at its minimum-x end are clamped
+// (x < min x + clamp_length_m); the task reports the static tip deflection under gravity (Newton)
+// and the first natural frequency, both from the free vibration released from the static shape
+// without gravity (leapfrog, zero crossings of the tip) and from inverse iteration (modal), next to
+// the Euler–Bernoulli values wL⁴/(8EI) and (1.8751²/(2πL²))√(EI/(ρA)) for the beam's bounding box
+// (cell-centred lattice: the box is the particle bounds grown by half a spacing). Gravity along −z.
+#include <cmath>
+
+#include "soft_task.h"
+#include "task_factories.h"
+#include "topo_gaussian/physics/error.h"
+
+namespace topo_gaussian {
+namespace inference {
+namespace {
+
+class CantileverTask : public SoftTask {
+ public:
+  CantileverTask(const TaskConfig& c, const VolumeCloud& cloud) : SoftTask(c, cloud) {
+    spacing_ = sph_.options().spacing;
+    const double clamp = c.number("clamp_length_m") > 0 ? c.number("clamp_length_m") : 3.0 * spacing_;
+    vibration_ = c.boolean("vibration");
+    periods_ = c.number("vibration_periods");
+    x_clamp_ = lo_.x() + clamp;
+    clamp_.assign(cloud.size(), 0);
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      if (cloud.X[i].x() < x_clamp_) clamp_[i] = 1;
+      if (cloud.X[i].x() > hi_.x() - 0.5 * spacing_) last_.push_back(i);
+      else if (cloud.X[i].x() > hi_.x() - 1.5 * spacing_) before_.push_back(i);
+    }
+    if (std::count(clamp_.begin(), clamp_.end(), 1) == 0 || last_.empty() || before_.empty() ||
+        x_clamp_ >= hi_.x() - 2.0 * spacing_)
+      throw TopoError("cantilever volume", "leaves no clamp or no free length (x from " + std::to_string(lo_.x()) +
+                                                " to " + std::to_string(hi_.x()) + " m)",
+                      "give a slender beam along x and clamp_length_m shorter than it");
+    length_ = hi_.x() + 0.5 * spacing_ - x_clamp_;
+    width_ = hi_.y() - lo_.y() + spacing_;
+    thickness_ = hi_.z() - lo_.z() + spacing_;
+  }
+
+  double tipZ(const SoftBodySimulator& sim) const {
+    auto mean = [&](const std::vector<std::size_t>& ids) {
+      double s = 0.0;
+      for (auto i : ids) s += sim.positions()[i].z() - cloud_.X[i].z();
+      return s / double(ids.size());
+    };
+    const double zl = mean(last_), zb = mean(before_);
+    // The last layer is centred half a spacing before the end: extrapolate to x = L.
+    return zl + 0.5 * (zl - zb);
+  }
+
+  TaskEvaluation evaluate(const std::vector<double>& r, std::vector<double>* dL_dr) const override {
+    const Materials mat = materials(r, false);
+    auto sim = simulator(mat);
+    sim->setClamped(clamp_);
+    TaskEvaluation ev;
+    const double E = E_solid_, rho = rho_solid_, g = -geometry_.gravity.z();
+    const double A = width_ * thickness_, I = width_ * std::pow(thickness_, 3) / 12.0;
+    const double tip_theory = rho * g * A * std::pow(length_, 4) / (8.0 * E * I);
+    const double f_theory = 1.8751 * 1.8751 / (2.0 * M_PI * length_ * length_) * std::sqrt(E * I / (rho * A));
+    const double f_modal = sim->firstNaturalFrequency(1e-6);
+    const SolveReport rep = sim->solveStatic(NewtonOptions(), 2);
+    const double tip = -tipZ(*sim);
+    ev.features = {Feature{"tip_deflection_m", tip, "m"}, Feature{"tip_deflection_theory_m", tip_theory, "m"},
+                   Feature{"modal_frequency_hz", f_modal, "Hz"}, Feature{"first_frequency_theory_hz", f_theory, "Hz"},
+                   Feature{"free_length_m", length_, "m"}, Feature{"newton_iterations", double(rep.newton.iterations), ""}};
+    if (vibration_) {
+      sim->setGravity(Eigen::Vector3d::Zero());
+      const double dt = 0.9 * sim->stableTimeStep();
+      const long max_steps = static_cast<long>((periods_ + 1.0) / f_modal / dt) + 10;
+      double prev = tipZ(*sim);
+      std::vector<double> crossings;
+      const std::size_t want = static_cast<std::size_t>(std::lround(2.0 * periods_)) + 1;
+      for (long k = 0; k < max_steps && crossings.size() < want; ++k) {
+        sim->step(dt);
+        const double z = tipZ(*sim);
+        if (k % 20 == 0) {
+          ev.signal_time_s.push_back(sim->time());
+          ev.signal.push_back(z);
+        }
+        if ((prev < 0.0) != (z < 0.0)) crossings.push_back(sim->time() - dt * z / (z - prev));
+        prev = z;
+      }
+      ev.signal_name = "tip_z_m";
+      if (crossings.size() < 3)
+        throw TopoError("cantilever free vibration", "fewer than 3 zero crossings of the tip in " +
+                                                         std::to_string(max_steps) + " steps",
+                        "check the clamp and the material (an unclamped or overdamped beam does not vibrate)");
+      const double f = 0.5 * double(crossings.size() - 1) / (crossings.back() - crossings.front());
+      ev.features.insert(ev.features.begin() + 2, Feature{"first_frequency_hz", f, "Hz"});
+    }
+    std::vector<double> m;
+    masses(r, &m, nullptr);
+    ev.mass = massPropertiesFromMoments(computeMassMoments(cloud_.X, m));
+    if (dL_dr) dL_dr->assign(r.size(), 0.0);  // a validation task: no loss
+    return ev;
+  }
+
+ private:
+  double spacing_ = 0, x_clamp_ = 0, length_ = 0, width_ = 0, thickness_ = 0, periods_ = 1;
+  bool vibration_ = true;
+  std::vector<std::uint8_t> clamp_;
+  std::vector<std::size_t> last_, before_;
+};
+
+}  // namespace
+
+std::unique_ptr<Task> makeCantileverTask(const TaskConfig& config, const VolumeCloud& cloud) {
+  return std::make_unique<CantileverTask>(config, cloud);
+}
+
+}  // namespace inference
+}  // namespace topo_gaussian

@@ -1,0 +1,170 @@
+// Pneumatic finger (paper §7 "Pneumatic Finger"): a soft finger clamped at its base with an air
+// chamber inside; at the chamber pressure p the tip bends. Infer the chamber (r = 0: chamber, air
+// at pressure p, soft; r = 1: solid wall material) so that the bending angle at the full pressure
+// matches the observed one. Loss (θ − θ*)² [deg²]. Static mode solves the quasi-static equilibrium
+// at p (Newton, load steps) and differentiates it by one adjoint solve; implicit mode integrates
+// the pressure ramp with implicit Euler and differentiates through time (SoftRollout).
+//
+// Bending angle: d = centroid(tip segment) − centroid(the segment before it), segments by rest
+// coordinate along finger_axis; θ = atan2(d·n, d·a) with a the axis and n the bend normal (0 at rest).
+#include <cmath>
+
+#include "soft_task.h"
+#include "task_factories.h"
+#include "topo_gaussian/physics/error.h"
+
+namespace topo_gaussian {
+namespace inference {
+namespace {
+
+constexpr double kDeg = 180.0 / M_PI;
+
+class FingerTask : public SoftTask {
+ public:
+  FingerTask(const TaskConfig& c, const VolumeCloud& cloud) : SoftTask(c, cloud) {
+    axis_ = c.vector3("finger_axis");
+    normal_ = c.vector3("bend_normal");
+    if (axis_.norm() == 0 || normal_.norm() == 0) throw TopoError("finger_axis/bend_normal", "is zero", "give directions");
+    axis_.normalize();
+    normal_ = (normal_ - normal_.dot(axis_) * axis_);
+    if (normal_.norm() < 1e-9)
+      throw TopoError("bend_normal", "is parallel to finger_axis", "give a bend normal across the finger, e.g. 0,0,1");
+    normal_.normalize();
+    pressure_ = c.number("pressure_pa");
+    implicit_ = c.text("mode") == "implicit";
+    load_steps_ = c.integer("load_steps");
+    newton_.tolerance = c.number("newton_tolerance");
+    duration_ = c.number("duration_s");
+    dt_ = c.number("dt_s");
+    if (c.has("bend_angle_deg")) target_ = c.number("bend_angle_deg"), has_target_ = true;
+    // Rest coordinate along the axis; clamp and segments.
+    double smin = 1e300, smax = -1e300;
+    std::vector<double> s(cloud.size());
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      s[i] = cloud.X[i].dot(axis_);
+      smin = std::min(smin, s[i]);
+      smax = std::max(smax, s[i]);
+    }
+    const double len = smax - smin, f = c.number("tip_fraction"), clamp = c.number("clamp_length_m");
+    if (clamp >= 0.5 * len)
+      throw TopoError("clamp_length_m", "clamps half the finger or more (" + std::to_string(clamp) + " m of " +
+                                            std::to_string(len) + " m)", "clamp only the base, e.g. 0.01");
+    clamp_.assign(cloud.size(), 0);
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      const double u = s[i] - smin;
+      if (u < clamp) clamp_[i] = 1;
+      if (u > (1.0 - f) * len) tip_.push_back(i);
+      else if (u > (1.0 - 2.0 * f) * len) pre_.push_back(i);
+    }
+    if (tip_.empty() || pre_.empty() || std::count(clamp_.begin(), clamp_.end(), 1) == 0)
+      throw TopoError("finger volume", "has no particles in the clamp, the tip or the segment before it",
+                      "check finger_axis, clamp_length_m and tip_fraction against the shape");
+    geometry_.has_point = false;
+  }
+
+  void requireTargets() const override {
+    if (!has_target_)
+      throw TopoError("finger target", "bend_angle_deg is not given", "give the observed angle: --target bend_angle_deg=30");
+  }
+
+  /// θ [deg] and dθ/dx (when grad != nullptr).
+  double angle(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Vector3d>* grad) const {
+    Eigen::Vector3d ct = Eigen::Vector3d::Zero(), cp = Eigen::Vector3d::Zero();
+    for (auto i : tip_) ct += x[i];
+    for (auto i : pre_) cp += x[i];
+    ct /= double(tip_.size());
+    cp /= double(pre_.size());
+    const Eigen::Vector3d d = ct - cp;
+    const double X = d.dot(axis_), Y = d.dot(normal_);
+    if (grad) {
+      grad->assign(x.size(), Eigen::Vector3d::Zero());
+      const Eigen::Vector3d dd = kDeg * (X * normal_ - Y * axis_) / (X * X + Y * Y);
+      for (auto i : tip_) (*grad)[i] += dd / double(tip_.size());
+      for (auto i : pre_) (*grad)[i] -= dd / double(pre_.size());
+    }
+    return std::atan2(Y, X) * kDeg;
+  }
+
+  TaskEvaluation evaluate(const std::vector<double>& r, std::vector<double>* dL_dr) const override {
+    const Materials mat = materials(r, true);
+    auto sim = simulator(mat);
+    sim->setClamped(clamp_);
+    PneumaticActuation act;
+    act.chamber = mat.chamber;
+    act.pressure_pa = pressure_;
+    act.ramp_s = implicit_ ? duration_ : 0.0;
+    sim->setActuation(act);
+    TaskEvaluation ev;
+    double theta = 0.0;
+    SoftDesignGradient g;
+    std::vector<Eigen::Vector3d> dth;
+    const double w = has_target_ ? 1.0 : 0.0;
+    if (!implicit_) {
+      sim->solveStatic(newton_, load_steps_);
+      theta = angle(sim->positions(), dL_dr ? &dth : nullptr);
+      if (dL_dr) {
+        for (auto& v : dth) v *= w * 2.0 * (theta - target_);
+        g = staticEquilibriumGradient(*sim, dth);
+      }
+    } else {
+      SoftRolloutOptions ro;
+      ro.integrator = SoftIntegrator::ImplicitEuler;
+      ro.dt = dt_;
+      ro.steps = std::max(1, static_cast<int>(std::lround(duration_ / dt_)));
+      ro.newton = newton_;
+      SoftRollout roll(sim.get(), ro);
+      const int N = ro.steps;
+      const SoftRolloutResult res = roll.run(
+          [&](int k, double, const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>&,
+              std::vector<Eigen::Vector3d>* gx, std::vector<Eigen::Vector3d>*) {
+            if (k != N) return 0.0;
+            std::vector<Eigen::Vector3d> gg;
+            const double th = angle(x, gx ? &gg : nullptr);
+            if (gx)
+              for (std::size_t i = 0; i < x.size(); ++i) (*gx)[i] += w * 2.0 * (th - target_) * gg[i];
+            return w * (th - target_) * (th - target_);
+          },
+          dL_dr != nullptr);
+      theta = angle(sim->positions(), nullptr);
+      g = res.gradient;
+      ev.signal_name = "pressure_pa";
+    }
+    ev.loss = w * (theta - target_) * (theta - target_);
+    double vch = 0.0, vtot = 0.0;
+    for (std::size_t i = 0; i < r.size(); ++i) {
+      vch += mat.chamber[i] * cloud_.V[i];
+      vtot += cloud_.V[i];
+    }
+    const auto& X = cloud_.X;
+    double tipdisp = 0.0;
+    for (auto i : tip_) tipdisp += (sim->positions()[i] - X[i]).norm() / double(tip_.size());
+    ev.features = {Feature{"bend_angle_deg", theta, "deg", has_target_, target_, 1.0, 0.01},
+                   Feature{"chamber_volume_fraction", vch / vtot, ""},
+                   Feature{"chamber_inflation", act.chamberVolume(sim->sph()) / std::max(vch, 1e-30), ""},
+                   Feature{"tip_displacement_m", tipdisp, "m"},
+                   Feature{"pressure_pa", pressure_, "Pa"}};
+    std::vector<double> m;
+    masses(r, &m, nullptr);
+    ev.mass = massPropertiesFromMoments(computeMassMoments(cloud_.X, m));
+    if (dL_dr) chain(mat, g, true, dL_dr);
+    return ev;
+  }
+
+ private:
+  Eigen::Vector3d axis_, normal_;
+  double pressure_ = 0.0, duration_ = 0.2, dt_ = 0.01, target_ = 0.0;
+  bool implicit_ = false, has_target_ = false;
+  int load_steps_ = 2;
+  NewtonOptions newton_;
+  std::vector<std::uint8_t> clamp_;
+  std::vector<std::size_t> tip_, pre_;
+};
+
+}  // namespace
+
+std::unique_ptr<Task> makeFingerTask(const TaskConfig& config, const VolumeCloud& cloud) {
+  return std::make_unique<FingerTask>(config, cloud);
+}
+
+}  // namespace inference
+}  // namespace topo_gaussian

@@ -1,0 +1,159 @@
+// Pear (paper §7, soft bodies): a soft pear with a stiff insert is released above the ground at a
+// tilt and bounces; a camera tracks a few points on it. Infer the insert (r = 1 stiff, r = 0 soft)
+// so that the simulated trajectories of those pivot points match the observed ones:
+//   L = Σ_j Σ_p |x_p(t_j) − x*_p(t_j)|² / (J P s²),  s = object size,
+// at the observed times t_j (each at the nearest simulation step). Explicit symplectic Euler with
+// ground contact (penalty + friction) on the surface particles; reverse mode through time with
+// checkpointing (SoftRollout). The target format is the ball task's: CSV rows t, x y z per point.
+#include <Eigen/Geometry>
+#include <cmath>
+
+#include "soft_task.h"
+#include "task_factories.h"
+#include "trajectory_csv.h"
+#include "topo_gaussian/physics/error.h"
+
+namespace topo_gaussian {
+namespace inference {
+namespace {
+
+class PearTask : public SoftTask {
+ public:
+  PearTask(const TaskConfig& c, const VolumeCloud& cloud) : SoftTask(c, cloud) {
+    duration_ = c.number("duration_s");
+    sample_dt_ = c.number("sample_dt_s");
+    const double tilt = c.number("initial_tilt_deg") * M_PI / 180.0;
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(tilt, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    const Eigen::Vector3d centre = cloud.centroid();
+    x0_.resize(cloud.size());
+    double zmin = 1e300;
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      x0_[i] = R * (cloud.X[i] - centre) + centre;
+      zmin = std::min(zmin, x0_[i].z());
+    }
+    const Eigen::Vector3d shift(0, 0, c.number("initial_height_m") - zmin);
+    for (auto& p : x0_) p += shift;
+    v0_ = c.vector3("initial_velocity");
+    contact_opt_.stiffness = c.number("contact_stiffness_n_per_m");
+    contact_opt_.friction = c.number("friction_mu");
+    contact_opt_.slip_velocity = 0.01;
+    contact_mask_ = cloud.surface;
+    if (std::count(contact_mask_.begin(), contact_mask_.end(), 1) == 0) contact_mask_.assign(cloud.size(), 1);
+    // Pivot points (body frame) → nearest particles.
+    std::vector<Eigen::Vector3d> pts;
+    const auto& pp = c.list("pivot_points");
+    if (!pp.empty()) {
+      if (pp.size() % 3 != 0) throw TopoError("pivot_points", "needs x,y,z triples", "give 3 numbers per point");
+      for (std::size_t k = 0; k < pp.size(); k += 3) pts.emplace_back(pp[k], pp[k + 1], pp[k + 2]);
+    } else {
+      pts = {Eigen::Vector3d(centre.x(), centre.y(), hi_.z()), Eigen::Vector3d(centre.x(), centre.y(), lo_.z()),
+             Eigen::Vector3d(hi_.x(), centre.y(), centre.z()), Eigen::Vector3d(centre.x(), hi_.y(), centre.z())};
+    }
+    for (const auto& p : pts) {
+      std::size_t best = 0;
+      for (std::size_t i = 1; i < cloud.size(); ++i)
+        if ((cloud.X[i] - p).squaredNorm() < (cloud.X[best] - p).squaredNorm()) best = i;
+      pivots_.push_back(best);
+    }
+    dt_user_ = c.number("dt_s");
+    if (c.has("target_trajectory_file")) readTrajectoryCsv(c.text("target_trajectory_file"), pivots_.size(), &obs_t_, &obs_);
+    geometry_.has_point = false;
+  }
+
+  void requireTargets() const override {
+    if (obs_t_.empty())
+      throw TopoError("pear targets", "target_trajectory_file is not given",
+                      "give a CSV of t and x y z per pivot point: --target target_trajectory_file=FILE.csv");
+  }
+
+  TaskEvaluation evaluate(const std::vector<double>& r, std::vector<double>* dL_dr) const override {
+    const Materials mat = materials(r, false);
+    auto sim = simulator(mat);
+    sim->setContact(SoftContact({ContactObstacle::ground(0.0)}, contact_opt_, contact_mask_));
+    sim->setPositions(x0_);
+    sim->setVelocities(std::vector<Eigen::Vector3d>(x0_.size(), v0_));
+    const double dt_max = dt_user_ > 0 ? dt_user_ : 0.9 * sim->stableTimeStep();
+    const int N = std::max(1, static_cast<int>(std::ceil(duration_ / dt_max)));
+    const double dt = duration_ / N;
+    // Observation j at step k_j.
+    std::vector<std::vector<std::size_t>> at_step(N + 1);
+    for (std::size_t j = 0; j < obs_t_.size(); ++j) {
+      const long k = std::lround(obs_t_[j] / dt);
+      if (k >= 0 && k <= N) at_step[k].push_back(j);
+    }
+    std::size_t used = 0;
+    for (const auto& v : at_step) used += v.size();
+    const double norm = used > 0 ? 1.0 / (double(used) * double(pivots_.size()) * size_ * size_) : 0.0;
+    const int every = std::max(1, static_cast<int>(std::lround(sample_dt_ / dt)));
+    TaskEvaluation ev;
+    double sq = 0.0, extent = 0.0;
+    SoftRolloutOptions ro;
+    ro.integrator = SoftIntegrator::SymplecticEuler;
+    ro.dt = dt;
+    ro.steps = N;
+    SoftRollout roll(sim.get(), ro);
+    bool forward = true;
+    const SoftRolloutResult res = roll.run(
+        [&](int k, double t, const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>&,
+            std::vector<Eigen::Vector3d>* gx, std::vector<Eigen::Vector3d>*) {
+          if (!gx && forward && k % every == 0) {
+            std::vector<double> row{t};
+            for (auto p : pivots_) row.insert(row.end(), {x[p].x(), x[p].y(), x[p].z()});
+            ev.trajectory_rows.push_back(row);
+          }
+          double l = 0.0;
+          for (std::size_t j : at_step[k])
+            for (std::size_t q = 0; q < pivots_.size(); ++q) {
+              const Eigen::Vector3d e = x[pivots_[q]] - obs_[j][q];
+              l += norm * e.squaredNorm();
+              if (gx) (*gx)[pivots_[q]] += 2.0 * norm * e;
+              if (!gx) sq += e.squaredNorm();
+            }
+          if (k == N) forward = false;
+          return l;
+        },
+        dL_dr != nullptr);
+    for (std::size_t q = 0; q < pivots_.size(); ++q) {
+      Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
+      for (const auto& s : obs_) {
+        lo = lo.cwiseMin(s[q]);
+        hi = hi.cwiseMax(s[q]);
+      }
+      if (!obs_.empty()) extent = std::max(extent, (hi - lo).norm());
+    }
+    ev.loss = res.loss;
+    const double rms = used > 0 ? std::sqrt(sq / (double(used) * pivots_.size())) : 0.0;
+    double lowest = 1e300;
+    for (const auto& row : ev.trajectory_rows)
+      for (std::size_t q = 0; q < pivots_.size(); ++q) lowest = std::min(lowest, row[3 + 3 * q]);
+    ev.features = {Feature{"trajectory_rms_m", rms, "m"},
+                   Feature{"trajectory_rms_relative", extent > 0 ? rms / extent : 0.0, "", !obs_.empty(), 0.0, 1.0, 0.02},
+                   Feature{"steps", double(N), ""},
+                   Feature{"dt_s", dt, "s"},
+                   Feature{"lowest_pivot_z_m", lowest, "m"}};
+    std::vector<double> m;
+    masses(r, &m, nullptr);
+    ev.mass = massPropertiesFromMoments(computeMassMoments(cloud_.X, m));
+    if (dL_dr) chain(mat, res.gradient, false, dL_dr);
+    return ev;
+  }
+
+ private:
+  double duration_ = 0.12, sample_dt_ = 0.005, dt_user_ = 0.0;
+  std::vector<Eigen::Vector3d> x0_;
+  Eigen::Vector3d v0_ = Eigen::Vector3d::Zero();
+  SoftContactOptions contact_opt_;
+  std::vector<std::uint8_t> contact_mask_;
+  std::vector<std::size_t> pivots_;
+  std::vector<double> obs_t_;
+  std::vector<std::vector<Eigen::Vector3d>> obs_;
+};
+
+}  // namespace
+
+std::unique_ptr<Task> makePearTask(const TaskConfig& config, const VolumeCloud& cloud) {
+  return std::make_unique<PearTask>(config, cloud);
+}
+
+}  // namespace inference
+}  // namespace topo_gaussian
