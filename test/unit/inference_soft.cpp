@@ -133,3 +133,35 @@ TEST(SoftTasks, PearGradientMatchesFiniteDifferences) {
   EXPECT_GT(feature(probe, "steps"), 50.0);
   taskGradientCheck(c, cloud, r, "pear");
 }
+
+// Recovery (pear): ground truth = a stiff spherical insert in the bulb; its pivot trajectories are
+// the target; inference starts from a fully stiff pear (quadric representation). The inferred
+// design must reproduce the trajectories within 2 % (RMS over all samples and pivots, relative to
+// their largest extent), and do better than the start.
+TEST(SoftTasks, PearRecoveryReproducesTrajectories) {
+  const VolumeCloud cloud = defaultShapeCloud("pear", 0.01);
+  TaskConfig c = TaskConfig::defaults("pear");
+  c.set("duration_s", "0.08");
+  std::vector<double> gt(cloud.size(), 0.0);
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if ((cloud.X[i] - Eigen::Vector3d(0, 0, 0.04)).norm() < 0.022) gt[i] = 1.0;
+  const ProblemEvaluation truth = simulateInterior(c, cloud, gt);
+  const std::string csv = ::testing::TempDir() + "pear_target.csv";
+  {
+    std::ofstream out(csv);
+    for (const auto& row : truth.task.trajectory_rows) {
+      for (std::size_t k = 0; k < row.size(); ++k) out << (k ? "," : "") << row[k];
+      out << "\n";
+    }
+  }
+  c.set("target_trajectory_file", csv);
+  c.set("max_iterations", "40");
+  c.set("initial_field", "0.0");  // r = 0.5 everywhere: the sigmoid is not saturated
+  const InferenceResult res = runInference(c, cloud);
+  const double rel0 = feature(res.initial.task, "trajectory_rms_relative");
+  const double rel1 = feature(res.final.task, "trajectory_rms_relative");
+  std::printf("[recovery pear] %zu particles: trajectory RMS / extent %.4f -> %.4f (%d iterations, %.1f s); %s\n",
+              cloud.size(), rel0, rel1, res.optimizer.iterations, res.optimize_s, res.message.c_str());
+  EXPECT_LT(rel1, 0.02);
+  EXPECT_LT(rel1, 0.5 * rel0);
+}
