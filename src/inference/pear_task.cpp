@@ -92,11 +92,10 @@ class PearTask : public SoftTask {
     ro.dt = dt;
     ro.steps = N;
     SoftRollout roll(sim.get(), ro);
-    bool forward = true;
     const SoftRolloutResult res = roll.run(
         [&](int k, double t, const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>&,
             std::vector<Eigen::Vector3d>* gx, std::vector<Eigen::Vector3d>*) {
-          if (!gx && forward && k % every == 0) {
+          if (!gx && k % every == 0) {  // forward pass (the backward pass always asks for gradients)
             std::vector<double> row{t};
             for (auto p : pivots_) row.insert(row.end(), {x[p].x(), x[p].y(), x[p].z()});
             ev.trajectory_rows.push_back(row);
@@ -109,7 +108,6 @@ class PearTask : public SoftTask {
               if (gx) (*gx)[pivots_[q]] += 2.0 * norm * e;
               if (!gx) sq += e.squaredNorm();
             }
-          if (k == N) forward = false;
           return l;
         },
         dL_dr != nullptr);

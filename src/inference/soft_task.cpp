@@ -34,7 +34,7 @@ double cloudSpacing(const VolumeCloud& cloud) {
 }  // namespace
 
 SoftTask::SoftTask(const TaskConfig& c, const VolumeCloud& cloud)
-    : Task(c, cloud),
+    : Task(c, cloud, false),
       sph_(cloud.X, cloud.V, lameFromYoung(c.number("youngs_modulus_solid"), c.number("poisson_ratio")),
            sphOptionsFromConfig(c, cloudSpacing(cloud))) {
   const LameParameters solid = lameFromYoung(c.number("youngs_modulus_solid"), c.number("poisson_ratio"));

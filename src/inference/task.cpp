@@ -21,7 +21,8 @@ Eigen::Matrix3d targetRotation(double roll_deg, double pitch_deg) {
       .toRotationMatrix();
 }
 
-Task::Task(const TaskConfig& config, const VolumeCloud& cloud) : name_(config.task()), cloud_(cloud) {
+Task::Task(const TaskConfig& config, const VolumeCloud& cloud, bool require_gravity)
+    : name_(config.task()), cloud_(cloud) {
   cloud.validate("volume cloud for task '" + config.task() + "'");
   density_.value_r0 = config.number("density_hollow");
   density_.value_r1 = config.number("density_solid");
@@ -37,8 +38,7 @@ Task::Task(const TaskConfig& config, const VolumeCloud& cloud) : name_(config.ta
   cloud.bounds(&lo_, &hi_);
   size_ = std::max((hi_ - lo_).norm(), 1e-9);
   geometry_.gravity = config.vector3("gravity");
-  // The finger may be simulated without gravity (a stiff finger hardly sags); rigid tasks need it.
-  if (geometry_.gravity.norm() <= 0.0 && config.task() != "finger") throw TopoError("gravity", "is zero", "give a gravity vector such as 0,0,-9.81");
+  if (require_gravity && geometry_.gravity.norm() <= 0.0) throw TopoError("gravity", "is zero", "give a gravity vector such as 0,0,-9.81");
 }
 
 void Task::masses(const std::vector<double>& r, std::vector<double>* m, std::vector<double>* dm_dr) const {

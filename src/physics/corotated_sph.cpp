@@ -312,12 +312,12 @@ std::vector<Eigen::Matrix3d> CorotatedSph::computeRotations(const std::vector<Ei
 }
 
 void CorotatedSph::evaluate(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& R, Eval* ev,
-                            bool need_M) const {
+                            bool need_M, bool ft_ready) const {
   const std::size_t n = X_.size();
   if (R.size() != n)
     throw TopoError("corotated SPH rotations", std::to_string(R.size()) + " rotations for " + std::to_string(n) +
                                                    " particles", "pass one rotation per particle");
-  computeFtilde(x, &ev->Ft);
+  if (!ft_ready) computeFtilde(x, &ev->Ft);
   ev->F.resize(n);
   ev->P.resize(n);
   ev->e_el.resize(n);
@@ -567,7 +567,7 @@ void CorotatedSph::update(const std::vector<Eigen::Vector3d>& x) {
   std::vector<Eigen::Matrix3d> R;
   computeFtilde(x, &ev.Ft);
   rotationsFrom(x, ev.Ft, &R);
-  evaluate(x, R, &ev, true);
+  evaluate(x, R, &ev, true, true);
   store(x, std::move(R), std::move(ev));
 }
 

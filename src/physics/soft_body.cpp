@@ -174,7 +174,7 @@ void SoftBodySimulator::refreshForces(const std::string& where) {
   }
   f_cons_ = sph_.forces();
   act_.addForces(sph_, pressureNow(), &f_cons_);
-  if (!contact_.empty()) contact_.addForces(x_, nullptr, &f_cons_);
+  if (!contact_.empty()) contact_.addNormalForces(x_, &f_cons_);
 }
 
 void SoftBodySimulator::evaluateAt(const std::vector<Eigen::Vector3d>& x, double t) {
@@ -196,13 +196,33 @@ std::vector<Eigen::Vector3d> SoftBodySimulator::stiffnessProduct(const std::vect
   return out;
 }
 
+void SoftBodySimulator::systemProduct(const Eigen::VectorXd& p, double inertia, Eigen::VectorXd* out) const {
+  const std::size_t n = size();
+  std::vector<Eigen::Vector3d> dx(n);
+  for (std::size_t i = 0; i < n; ++i) dx[i] = p.segment<3>(3 * i);
+  const auto h = stiffnessProduct(dx);
+  out->resize(3 * n);
+  for (std::size_t i = 0; i < n; ++i)
+    out->segment<3>(3 * i) = clamped_[i] ? Eigen::Vector3d::Zero() : Eigen::Vector3d(h[i] + inertia * m_[i] * dx[i]);
+}
+
+Eigen::VectorXd SoftBodySimulator::systemDiagonal(double inertia) const {
+  const std::size_t n = size();
+  std::vector<Eigen::Vector3d> cd(n, Eigen::Vector3d::Zero());
+  if (!contact_.empty()) contact_.addHessianDiagonal(x_, &cd);
+  const double h2 = sph_.smoothingLength() * sph_.smoothingLength();
+  Eigen::VectorXd d(3 * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double el = (sph_.lameLambdas()[i] + 2.0 * sph_.shearModuli()[i]) * sph_.volumes()[i] / h2;
+    for (int k = 0; k < 3; ++k) d(3 * i + k) = clamped_[i] ? 1.0 : inertia * m_[i] + el + cd[i](k);
+  }
+  return d;
+}
+
 std::vector<Eigen::Vector3d> SoftBodySimulator::frictionForces(const std::vector<Eigen::Vector3d>& v) const {
   std::vector<Eigen::Vector3d> f(size(), Eigen::Vector3d::Zero());
   if (contact_.empty() || contact_.options().friction <= 0.0) return f;
-  std::vector<Eigen::Vector3d> fn(size(), Eigen::Vector3d::Zero());
-  contact_.addForces(x_, nullptr, &fn);
-  contact_.addForces(x_, &v, &f);
-  for (std::size_t i = 0; i < size(); ++i) f[i] -= fn[i];
+  contact_.addFrictionForces(x_, v, &f);
   return f;
 }
 
@@ -222,22 +242,12 @@ double SoftBodySimulator::forceScale() const {
 double SoftBodySimulator::firstNaturalFrequency(double tolerance, int max_iterations) const {
   requireConservative("SoftBodySimulator::firstNaturalFrequency");
   const std::size_t n = size();
-  const double h2 = sph_.smoothingLength() * sph_.smoothingLength();
-  Eigen::VectorXd diag(3 * n), phi(3 * n), b(3 * n), next;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double el = (sph_.lameLambdas()[i] + 2.0 * sph_.shearModuli()[i]) * sph_.volumes()[i] / h2;
-    diag.segment<3>(3 * i).setConstant(clamped_[i] ? 1.0 : el);
-    // Start: gravity direction (or z) — the static deflection shape after the first solve.
-    const Eigen::Vector3d d = opt_.gravity.norm() > 0 ? Eigen::Vector3d(opt_.gravity.normalized()) : Eigen::Vector3d::UnitZ();
-    phi.segment<3>(3 * i) = clamped_[i] ? Eigen::Vector3d::Zero() : d;
-  }
-  auto apply = [&](const Eigen::VectorXd& p, Eigen::VectorXd* out) {
-    std::vector<Eigen::Vector3d> dx(n);
-    for (std::size_t i = 0; i < n; ++i) dx[i] = p.segment<3>(3 * i);
-    const auto h = stiffnessProduct(dx);
-    out->resize(3 * n);
-    for (std::size_t i = 0; i < n; ++i) out->segment<3>(3 * i) = clamped_[i] ? Eigen::Vector3d::Zero() : h[i];
-  };
+  const Eigen::VectorXd diag = systemDiagonal(0.0);
+  Eigen::VectorXd phi(3 * n), b(3 * n), next;
+  // Start: the gravity direction (or z) everywhere — the static deflection shape after one solve.
+  const Eigen::Vector3d d = opt_.gravity.norm() > 0 ? Eigen::Vector3d(opt_.gravity.normalized()) : Eigen::Vector3d::UnitZ();
+  for (std::size_t i = 0; i < n; ++i) phi.segment<3>(3 * i) = clamped_[i] ? Eigen::Vector3d::Zero() : d;
+  auto apply = [&](const Eigen::VectorXd& p, Eigen::VectorXd* out) { systemProduct(p, 0.0, out); };
   double omega2 = 0.0;
   for (int it = 0; it < max_iterations; ++it) {
     for (std::size_t i = 0; i < n; ++i) b.segment<3>(3 * i) = m_[i] * phi.segment<3>(3 * i);
@@ -342,24 +352,9 @@ SolveReport SoftBodySimulator::newtonSolve(const std::string& where, double dt, 
     }
   };
   obj.hessian = [&](const Eigen::VectorXd&, const Eigen::VectorXd& p, Eigen::VectorXd* out) {
-    std::vector<Eigen::Vector3d> dx(n);
-    for (std::size_t i = 0; i < n; ++i) dx[i] = p.segment<3>(3 * i);
-    const auto h = stiffnessProduct(dx);
-    out->resize(3 * n);
-    for (std::size_t i = 0; i < n; ++i)
-      out->segment<3>(3 * i) = clamped_[i] ? Eigen::Vector3d::Zero() : Eigen::Vector3d(h[i] + inertia * m_[i] * dx[i]);
+    systemProduct(p, inertia, out);
   };
-  // Jacobi preconditioner: inertia + an elastic estimate (λ+2μ)V/h² per particle + contact.
-  obj.diagonal = [&](const Eigen::VectorXd&, Eigen::VectorXd* d) {
-    std::vector<Eigen::Vector3d> cd(n, Eigen::Vector3d::Zero());
-    if (!contact_.empty()) contact_.addHessianDiagonal(x_, &cd);
-    const double h2 = sph_.smoothingLength() * sph_.smoothingLength();
-    d->resize(3 * n);
-    for (std::size_t i = 0; i < n; ++i) {
-      const double el = (sph_.lameLambdas()[i] + 2.0 * sph_.shearModuli()[i]) * sph_.volumes()[i] / h2;
-      for (int k = 0; k < 3; ++k) (*d)(3 * i + k) = clamped_[i] ? 1.0 : inertia * m_[i] + el + cd[i](k);
-    }
-  };
+  obj.diagonal = [&](const Eigen::VectorXd&, Eigen::VectorXd* d) { *d = systemDiagonal(inertia); };
   Eigen::VectorXd z(3 * n);
   for (std::size_t i = 0; i < n; ++i) z.segment<3>(3 * i) = dynamic ? Eigen::Vector3d(x0[i] + dt * v0[i]) : x_[i];
   double scale = forceScale();

@@ -75,9 +75,9 @@ double SoftContact::energy(const std::vector<Eigen::Vector3d>& x) const {
   return e;
 }
 
-void SoftContact::addForces(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>* v,
-                            std::vector<Eigen::Vector3d>* f) const {
-  const double k = opt_.stiffness, mu = opt_.friction, eps2 = opt_.slip_velocity * opt_.slip_velocity;
+// Calls f(i, n, fn) for every active contact of a candidate particle (fn = k · penetration > 0).
+template <class F>
+void SoftContact::forEachContact(const std::vector<Eigen::Vector3d>& x, F&& f) const {
 #pragma omp parallel for schedule(static)
   for (long long ii = 0; ii < static_cast<long long>(x.size()); ++ii) {
     const std::size_t i = static_cast<std::size_t>(ii);
@@ -85,36 +85,36 @@ void SoftContact::addForces(const std::vector<Eigen::Vector3d>& x, const std::ve
     Eigen::Vector3d n;
     for (const auto& o : obstacles_) {
       const double g = o.distance(x[i], &n) - opt_.margin;
-      if (g >= 0.0) continue;
-      const double fn = -k * g;
-      (*f)[i] += fn * n;
-      if (v && mu > 0.0) {
-        const Eigen::Vector3d vt = (*v)[i] - n * n.dot((*v)[i]);
-        (*f)[i] -= (mu * fn / std::sqrt(vt.squaredNorm() + eps2)) * vt;
-      }
+      if (g < 0.0) f(i, n, -opt_.stiffness * g);
     }
   }
 }
 
+void SoftContact::addNormalForces(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Vector3d>* f) const {
+  forEachContact(x, [&](std::size_t i, const Eigen::Vector3d& n, double fn) { (*f)[i] += fn * n; });
+}
+
+void SoftContact::addFrictionForces(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& v,
+                                    std::vector<Eigen::Vector3d>* f) const {
+  const double mu = opt_.friction, eps2 = opt_.slip_velocity * opt_.slip_velocity;
+  if (mu <= 0.0) return;
+  forEachContact(x, [&](std::size_t i, const Eigen::Vector3d& n, double fn) {
+    const Eigen::Vector3d vt = v[i] - n * n.dot(v[i]);
+    (*f)[i] -= (mu * fn / std::sqrt(vt.squaredNorm() + eps2)) * vt;
+  });
+}
+
 void SoftContact::addHessianProduct(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& dx,
                                     std::vector<Eigen::Vector3d>* out) const {
-#pragma omp parallel for schedule(static)
-  for (long long ii = 0; ii < static_cast<long long>(x.size()); ++ii) {
-    const std::size_t i = static_cast<std::size_t>(ii);
-    if (!candidate(i)) continue;
-    Eigen::Vector3d n;
-    for (const auto& o : obstacles_)
-      if (o.distance(x[i], &n) - opt_.margin < 0.0) (*out)[i] += opt_.stiffness * n * n.dot(dx[i]);
-  }
+  forEachContact(x, [&](std::size_t i, const Eigen::Vector3d& n, double) {
+    (*out)[i] += opt_.stiffness * n * n.dot(dx[i]);
+  });
 }
 
 void SoftContact::addHessianDiagonal(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Vector3d>* diag) const {
-  Eigen::Vector3d n;
-  for (std::size_t i = 0; i < x.size(); ++i) {
-    if (!candidate(i)) continue;
-    for (const auto& o : obstacles_)
-      if (o.distance(x[i], &n) - opt_.margin < 0.0) (*diag)[i] += opt_.stiffness * n.cwiseProduct(n);
-  }
+  forEachContact(x, [&](std::size_t i, const Eigen::Vector3d& n, double) {
+    (*diag)[i] += opt_.stiffness * n.cwiseProduct(n);
+  });
 }
 
 void SoftContact::frictionAdjoint(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& v,
@@ -123,25 +123,16 @@ void SoftContact::frictionAdjoint(const std::vector<Eigen::Vector3d>& x, const s
   const double k = opt_.stiffness, mu = opt_.friction, eps2 = opt_.slip_velocity * opt_.slip_velocity;
   if (mu <= 0.0) return;
   const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
-#pragma omp parallel for schedule(static)
-  for (long long ii = 0; ii < static_cast<long long>(x.size()); ++ii) {
-    const std::size_t i = static_cast<std::size_t>(ii);
-    if (!candidate(i)) continue;
-    Eigen::Vector3d n;
-    for (const auto& o : obstacles_) {
-      const double g = o.distance(x[i], &n) - opt_.margin;
-      if (g >= 0.0) continue;
-      const double fn = -k * g;
-      const Eigen::Matrix3d T = I - n * n.transpose();
-      const Eigen::Vector3d vt = T * v[i];
-      const double s = std::sqrt(vt.squaredNorm() + eps2);
-      const Eigen::Vector3d t = vt / s;
-      // f = −μ fn t(v_t); ∂f/∂v = −μ fn (I/s − vt vtᵀ/s³) T; ∂f/∂x = −μ t (∂fn/∂x)ᵀ = −μ t (−k n)ᵀ.
-      const Eigen::Matrix3d dfdv = -mu * fn * ((I / s - vt * vt.transpose() / (s * s * s)) * T);
-      (*v_bar)[i] += dfdv.transpose() * a[i];
-      (*x_bar)[i] += (mu * k * t.dot(a[i])) * n;
-    }
-  }
+  forEachContact(x, [&](std::size_t i, const Eigen::Vector3d& n, double fn) {
+    const Eigen::Matrix3d T = I - n * n.transpose();
+    const Eigen::Vector3d vt = T * v[i];
+    const double s = std::sqrt(vt.squaredNorm() + eps2);
+    const Eigen::Vector3d t = vt / s;
+    // f = −μ fn t(v_t); ∂f/∂v = −μ fn (I/s − vt vtᵀ/s³) T; ∂f/∂x = −μ t (∂fn/∂x)ᵀ = −μ t (−k n)ᵀ.
+    const Eigen::Matrix3d dfdv = -mu * fn * ((I / s - vt * vt.transpose() / (s * s * s)) * T);
+    (*v_bar)[i] += dfdv.transpose() * a[i];
+    (*x_bar)[i] += (mu * k * t.dot(a[i])) * n;
+  });
 }
 
 std::size_t SoftContact::activeCount(const std::vector<Eigen::Vector3d>& x) const {

@@ -14,6 +14,39 @@ namespace {
 
 using Vec3s = std::vector<Eigen::Vector3d>;
 
+/// G.μ −= a·∂²E/∂x∂μ (likewise λ) and G.w −= a·∂²E_a/∂x∂w at the simulator's state: the material
+/// part of every adjoint (explicit: a = dt w/m; implicit and static: a = λ).
+void subtractMaterialTerms(const SoftBodySimulator& s, const Vec3s& a, SoftDesignGradient* G) {
+  std::vector<double> d_mu, d_lam;
+  s.sph().materialDirectional(a, &d_mu, &d_lam);
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    G->mu[i] -= d_mu[i];
+    G->lambda[i] -= d_lam[i];
+  }
+  if (s.actuation().chamber.empty()) return;
+  const std::vector<double> dch = s.actuation().chamberDirectional(s.sph(), s.pressureNow(), a);
+  for (std::size_t i = 0; i < a.size(); ++i) G->chamber[i] -= dch[i];
+}
+
+/// Solves (K + inertia·M) λ = b by PCG at the simulator's state; throws naming `what` on failure.
+Vec3s adjointSolve(const SoftBodySimulator& s, double inertia, const Eigen::VectorXd& b, double tol, int max_iter,
+                   const std::string& what) {
+  Eigen::VectorXd lam;
+  const CgResult cg = conjugateGradient(
+      [&](const Eigen::VectorXd& p, Eigen::VectorXd* out) { s.systemProduct(p, inertia, out); },
+      s.systemDiagonal(inertia), b, tol, max_iter, &lam);
+  if (cg.negative_curvature || (!cg.converged && cg.relative_residual > 1e-6)) {
+    std::ostringstream o;
+    o << "the adjoint solve of " << what << " did not converge (relative residual " << cg.relative_residual
+      << (cg.negative_curvature ? ", the Hessian is indefinite: an unstable state or an unsupported body" : "")
+      << ")";
+    throw TopoError("soft-body adjoint", o.str(), "reduce dt, clamp or support the body, or lower the load");
+  }
+  Vec3s L(s.size());
+  for (std::size_t i = 0; i < L.size(); ++i) L[i] = lam.segment<3>(3 * i);
+  return L;
+}
+
 double since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -103,7 +136,6 @@ SoftRolloutResult SoftRollout::run(const SoftStepLoss& loss, bool with_gradient)
   const Eigen::Vector3d g = s.options().gravity;
   const double c = s.options().damping;
   const auto& clamped = s.clamped();
-  std::vector<double> d_mu, d_lam;
 
   for (int seg = static_cast<int>(checkpoints.size()) - 1; seg >= 0; --seg) {
     const int k0 = seg * K, k1 = std::min(k0 + K, N);
@@ -142,45 +174,16 @@ SoftRolloutResult SoftRollout::run(const SoftStepLoss& loss, bool with_gradient)
           vbn[i] = (1.0 - c * dt) * w[i];
         }
         if (!s.contact().empty()) s.contact().frictionAdjoint(xk, vk, a, &xbn, &vbn);
-        s.sph().materialDirectional(a, &d_mu, &d_lam);
-        const std::vector<double> dch = s.actuation().chamber.empty()
-                                            ? std::vector<double>()
-                                            : s.actuation().chamberDirectional(s.sph(), s.pressureNow(), a);
-        for (std::size_t i = 0; i < n; ++i) {
-          G.mu[i] -= d_mu[i];
-          G.lambda[i] -= d_lam[i];
-          if (!dch.empty()) G.chamber[i] -= dch[i];
-        }
+        subtractMaterialTerms(s, a, &G);
       } else {
         const Vec3s& x1 = states[k - k0 + 1].first;
         s.evaluateAt(x1, t0 + (k + 1) * dt);
         const double inertia = 1.0 / (dt * dt) + c / dt;
-        Eigen::VectorXd b(3 * n), diag(3 * n), lam;
-        const double h2 = s.sph().smoothingLength() * s.sph().smoothingLength();
-        for (std::size_t i = 0; i < n; ++i) {
+        Eigen::VectorXd b(3 * n);
+        for (std::size_t i = 0; i < n; ++i)
           b.segment<3>(3 * i) = clamped[i] ? Eigen::Vector3d::Zero() : Eigen::Vector3d(xb[i] + vb[i] / dt);
-          const double el = (s.sph().lameLambdas()[i] + 2.0 * s.sph().shearModuli()[i]) * s.sph().volumes()[i] / h2;
-          diag.segment<3>(3 * i).setConstant(clamped[i] ? 1.0 : inertia * s.masses()[i] + el);
-        }
-        const CgResult cg = conjugateGradient(
-            [&](const Eigen::VectorXd& p, Eigen::VectorXd* out) {
-              Vec3s dx(n);
-              for (std::size_t i = 0; i < n; ++i) dx[i] = p.segment<3>(3 * i);
-              const Vec3s h = s.stiffnessProduct(dx);
-              out->resize(3 * n);
-              for (std::size_t i = 0; i < n; ++i)
-                out->segment<3>(3 * i) = clamped[i] ? Eigen::Vector3d::Zero()
-                                                    : Eigen::Vector3d(h[i] + inertia * s.masses()[i] * dx[i]);
-            },
-            diag, b, opt_.adjoint_cg_tolerance, opt_.adjoint_cg_max_iterations, &lam);
-        if (!cg.converged && cg.relative_residual > 1e-6) {
-          std::ostringstream o;
-          o << "the adjoint solve of implicit step " << k + 1 << " did not converge (relative residual "
-            << cg.relative_residual << (cg.negative_curvature ? ", the step's Hessian is indefinite" : "") << ")";
-          throw TopoError("SoftRollout backward", o.str(), "reduce dt or raise adjoint_cg_max_iterations");
-        }
-        Vec3s L(n);
-        for (std::size_t i = 0; i < n; ++i) L[i] = lam.segment<3>(3 * i);
+        const Vec3s L = adjointSolve(s, inertia, b, opt_.adjoint_cg_tolerance, opt_.adjoint_cg_max_iterations,
+                                     "implicit step " + std::to_string(k + 1));
         for (std::size_t i = 0; i < n; ++i) {
           if (clamped[i]) continue;
           const double m = s.masses()[i];
@@ -190,15 +193,7 @@ SoftRolloutResult SoftRollout::run(const SoftStepLoss& loss, bool with_gradient)
           G.mass[i] -= L[i].dot(r);
         }
         if (!s.contact().empty()) s.contact().frictionAdjoint(xk, vk, L, &xbn, &vbn);
-        s.sph().materialDirectional(L, &d_mu, &d_lam);
-        const std::vector<double> dch = s.actuation().chamber.empty()
-                                            ? std::vector<double>()
-                                            : s.actuation().chamberDirectional(s.sph(), s.pressureNow(), L);
-        for (std::size_t i = 0; i < n; ++i) {
-          G.mu[i] -= d_mu[i];
-          G.lambda[i] -= d_lam[i];
-          if (!dch.empty()) G.chamber[i] -= dch[i];
-        }
+        subtractMaterialTerms(s, L, &G);
       }
       for (std::size_t i = 0; i < n; ++i)
         if (clamped[i]) {
@@ -236,49 +231,18 @@ SoftDesignGradient staticEquilibriumGradient(const SoftBodySimulator& s, const s
     throw TopoError("staticEquilibriumGradient", "the pressure ramp is not complete at the simulator's time",
                     "set PneumaticActuation::ramp_s = 0 (static solves apply the full pressure)");
   const auto& clamped = s.clamped();
-  const double h2 = s.sph().smoothingLength() * s.sph().smoothingLength();
-  Eigen::VectorXd b(3 * n), diag(3 * n), lam;
-  for (std::size_t i = 0; i < n; ++i) {
-    b.segment<3>(3 * i) = clamped[i] ? Eigen::Vector3d::Zero() : dL_dx[i];
-    const double el = (s.sph().lameLambdas()[i] + 2.0 * s.sph().shearModuli()[i]) * s.sph().volumes()[i] / h2;
-    diag.segment<3>(3 * i).setConstant(clamped[i] ? 1.0 : el);
-  }
-  const CgResult cg = conjugateGradient(
-      [&](const Eigen::VectorXd& p, Eigen::VectorXd* out) {
-        Vec3s dx(n);
-        for (std::size_t i = 0; i < n; ++i) dx[i] = p.segment<3>(3 * i);
-        const Vec3s h = s.stiffnessProduct(dx);
-        out->resize(3 * n);
-        for (std::size_t i = 0; i < n; ++i) out->segment<3>(3 * i) = h[i];
-      },
-      diag, b, cg_tolerance, 50000, &lam);
-  if (cg.negative_curvature || !(cg.relative_residual < 1e-6)) {
-    std::ostringstream o;
-    o << "the adjoint solve at the equilibrium failed (relative residual " << cg.relative_residual
-      << (cg.negative_curvature ? ", the stiffness is indefinite: an unstable equilibrium or an unsupported body" : "")
-      << ")";
-    throw TopoError("staticEquilibriumGradient", o.str(), "clamp or support the body, or lower the load");
-  }
-  Vec3s L(n);
-  for (std::size_t i = 0; i < n; ++i) L[i] = lam.segment<3>(3 * i);
+  Eigen::VectorXd b(3 * n);
+  for (std::size_t i = 0; i < n; ++i) b.segment<3>(3 * i) = clamped[i] ? Eigen::Vector3d::Zero() : dL_dx[i];
+  const Vec3s L = adjointSolve(s, 0.0, b, cg_tolerance, 50000, "the static equilibrium");
   SoftDesignGradient G;
   G.mass.assign(n, 0.0);
+  G.mu.assign(n, 0.0);
+  G.lambda.assign(n, 0.0);
   G.chamber.assign(n, 0.0);
   const Eigen::Vector3d g = s.options().gravity;
   for (std::size_t i = 0; i < n; ++i)
     if (!clamped[i]) G.mass[i] = L[i].dot(g);
-  std::vector<double> d_mu, d_lam;
-  s.sph().materialDirectional(L, &d_mu, &d_lam);
-  G.mu.resize(n);
-  G.lambda.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    G.mu[i] = -d_mu[i];
-    G.lambda[i] = -d_lam[i];
-  }
-  if (!s.actuation().chamber.empty()) {
-    const auto dch = s.actuation().chamberDirectional(s.sph(), s.pressureNow(), L);
-    for (std::size_t i = 0; i < n; ++i) G.chamber[i] = -dch[i];
-  }
+  subtractMaterialTerms(s, L, &G);
   return G;
 }
 

@@ -66,7 +66,9 @@ class Task {
   double size() const { return size_; }
 
  protected:
-  Task(const TaskConfig& config, const VolumeCloud& cloud);
+  /// require_gravity: refuse a zero gravity vector (rigid tasks; soft tasks may run without, e.g.
+  /// an actuated finger).
+  Task(const TaskConfig& config, const VolumeCloud& cloud, bool require_gravity = true);
   /// What a rigid task needs from r: the raw moments, (m, c, I) and, for gradients, dm_i/dr_i.
   struct RigidMass {
     MassMoments moments;

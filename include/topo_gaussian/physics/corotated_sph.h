@@ -160,8 +160,9 @@ class CorotatedSph {
   void computeFtilde(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Matrix3d>* Ft) const;
   void rotationsFrom(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& Ft,
                      std::vector<Eigen::Matrix3d>* R) const;
+  /// ft_ready: ev->Ft already holds F̃ at x (update() computes it for the rotations).
   void evaluate(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& R, Eval* ev,
-                bool need_M) const;
+                bool need_M, bool ft_ready = false) const;
   void gatherForces(const std::vector<Eigen::Vector3d>& x, const Eval& ev, std::vector<Eigen::Vector3d>* f) const;
   void store(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Matrix3d> R, Eval&& ev);
   void gather(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& Ft,

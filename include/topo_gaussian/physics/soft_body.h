@@ -124,6 +124,11 @@ class SoftBodySimulator {
   /// (∂²Φ/∂x²) dx at the current state, Φ = elastic + actuation + contact normal potential; rows and
   /// columns of clamped particles are zero.
   std::vector<Eigen::Vector3d> stiffnessProduct(const std::vector<Eigen::Vector3d>& dx) const;
+  /// Flat (3N) form for linear solves: out = (∂²Φ/∂x² + inertia·M) p, clamped rows zero.
+  void systemProduct(const Eigen::VectorXd& p, double inertia, Eigen::VectorXd* out) const;
+  /// Jacobi preconditioner of that system: inertia·m_i + (λ_i+2μ_i)V_i/h² + the contact diagonal
+  /// (1 on clamped rows).
+  Eigen::VectorXd systemDiagonal(double inertia) const;
   /// Friction forces at the current positions for velocities v.
   std::vector<Eigen::Vector3d> frictionForces(const std::vector<Eigen::Vector3d>& v) const;
   /// Lowest natural frequency [Hz] of small vibrations about the current state (clamps respected):

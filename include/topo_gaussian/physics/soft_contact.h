@@ -49,9 +49,11 @@ class SoftContact {
   const std::vector<std::uint8_t>& mask() const { return mask_; }
 
   double energy(const std::vector<Eigen::Vector3d>& x) const;
-  /// f += normal (conservative) forces; friction too when v != nullptr.
-  void addForces(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>* v,
-                 std::vector<Eigen::Vector3d>* f) const;
+  /// f += normal (conservative) forces −∂E_c/∂x.
+  void addNormalForces(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Vector3d>* f) const;
+  /// f += friction forces for velocities v.
+  void addFrictionForces(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& v,
+                         std::vector<Eigen::Vector3d>* f) const;
   /// out += (∂²E_c/∂x²) dx.
   void addHessianProduct(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& dx,
                          std::vector<Eigen::Vector3d>* out) const;
@@ -66,6 +68,8 @@ class SoftContact {
 
  private:
   bool candidate(std::size_t i) const { return mask_.empty() || mask_[i]; }
+  template <class F>
+  void forEachContact(const std::vector<Eigen::Vector3d>& x, F&& f) const;
   std::vector<ContactObstacle> obstacles_;
   SoftContactOptions opt_;
   std::vector<std::uint8_t> mask_;
