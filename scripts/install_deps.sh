@@ -11,6 +11,7 @@ PACKAGES=(
   libpcl-dev libpcl-ros-dev libpcl-conversions-dev libcv-bridge-dev libopencv-dev
   libeigen3-dev libnlopt-cxx-dev libyaml-cpp-dev libgtest-dev
   libbullet-dev
+  libsuitesparse-dev libopenblas-dev
   libopenmpi-dev
   clang libclang-rt-14-dev
   python3-numpy

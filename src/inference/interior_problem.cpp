@@ -80,6 +80,17 @@ ProblemEvaluation InteriorProblem::evaluateIndicator(const std::vector<double>& 
   return ev;
 }
 
+Eigen::VectorXd InteriorProblem::initialParameters() const {
+  const std::vector<double>& given = config_.list("initial_parameters");
+  if (given.empty()) return representation_->initialParameters();
+  if (static_cast<int>(given.size()) != representation_->numParameters())
+    throw TopoError("initial_parameters", "has " + std::to_string(given.size()) + " values but the " +
+                                              representation_->name() + " representation has " +
+                                              std::to_string(representation_->numParameters()) + " parameters",
+                    "give one value per parameter, or leave it empty to start from initial_field");
+  return Eigen::Map<const Eigen::VectorXd>(given.data(), static_cast<Eigen::Index>(given.size()));
+}
+
 double InteriorProblem::evaluate(const Eigen::VectorXd& theta, Eigen::VectorXd* grad, ProblemEvaluation* details) const {
   if (!theta.allFinite())
     throw TopoError("design parameters", "contain NaN or infinity", "restart from the initial design (the optimiser diverged)");

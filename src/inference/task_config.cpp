@@ -141,6 +141,10 @@ TaskConfig TaskConfig::defaults(const std::string& task) {
   b.text("representation", "quadric", "topology representation: point | quadric | neural", {"point", "quadric", "neural"});
   b.num("epsilon", 0.05, "sigmoid width eps of r = sigmoid(s/eps), field units (normalised coordinates)", 0, 1e300, true);
   b.num("initial_field", 0.3, "initial field value s (> 0: fully solid start)");
+  b.list("initial_parameters", {},
+         "starting parameters theta0 of the representation, overriding initial_field (quadric: the 10 "
+         "coefficients a,b,c,d,e,f,g,h,i,j of a x^2+b y^2+c z^2+2(d xy+e xz+f yz)+g x+h y+i z+j in the "
+         "normalised frame; s < 0 is hollow); empty: initial_field everywhere");
   b.num("point_bound", 1.0, "point representation: bound of each variable t_i", 0, 1e300, true);
   b.integer("neural_depth", 8, "neural SDF: number of linear layers (paper: 8)", 2, 64);
   b.integer("neural_width", 512, "neural SDF: hidden width (paper: 512)", 1, 8192);

@@ -9,9 +9,13 @@
 
 namespace topo_gaussian {
 
-CgResult conjugateGradient(const std::function<void(const Eigen::VectorXd&, Eigen::VectorXd*)>& apply,
-                           const Eigen::VectorXd& diag, const Eigen::VectorXd& b, double tol, int max_iter,
-                           Eigen::VectorXd* x) {
+LinearOperator jacobiPreconditioner(Eigen::VectorXd diag) {
+  Eigen::VectorXd inv = diag.cwiseMax(1e-300).cwiseInverse();
+  return [inv](const Eigen::VectorXd& r, Eigen::VectorXd* z) { *z = inv.cwiseProduct(r); };
+}
+
+CgResult conjugateGradient(const LinearOperator& apply, const LinearOperator& precondition, const Eigen::VectorXd& b,
+                           double tol, int max_iter, Eigen::VectorXd* x) {
   CgResult res;
   const Eigen::Index n = b.size();
   x->setZero(n);
@@ -20,8 +24,9 @@ CgResult conjugateGradient(const std::function<void(const Eigen::VectorXd&, Eige
     res.converged = true;
     return res;
   }
-  const Eigen::VectorXd dinv = diag.cwiseMax(1e-300).cwiseInverse();
-  Eigen::VectorXd r = b, z = dinv.cwiseProduct(r), p = z, Ap(n);
+  Eigen::VectorXd r = b, z, Ap(n);
+  precondition(r, &z);
+  Eigen::VectorXd p = z;
   double rz = r.dot(z);
   for (int it = 0; it < max_iter; ++it) {
     apply(p, &Ap);
@@ -40,7 +45,7 @@ CgResult conjugateGradient(const std::function<void(const Eigen::VectorXd&, Eige
       res.converged = true;
       return res;
     }
-    z = dinv.cwiseProduct(r);
+    precondition(r, &z);
     const double rz_new = r.dot(z);
     p = z + (rz_new / rz) * p;
     rz = rz_new;
@@ -67,7 +72,7 @@ NewtonResult minimizeNewton(const NewtonObjective& f, double force_scale, const 
     res.message = "the objective is not finite at the start";
     return res;
   }
-  Eigen::VectorXd g(n), d(n), diag(n), trial(n);
+  Eigen::VectorXd g(n), d(n), trial(n);
   for (int it = 0; it < opt.max_iterations; ++it) {
     f.gradient(*x, &g);
     res.residual = g.lpNorm<Eigen::Infinity>() / force_scale;
@@ -81,15 +86,17 @@ NewtonResult minimizeNewton(const NewtonObjective& f, double force_scale, const 
       res.message = "converged";
       return res;
     }
-    f.diagonal(*x, &diag);
-    // Forcing term: tighter inner solves as the outer residual falls (Eisenstat–Walker flavour).
-    const double cg_tol = std::min(opt.cg_tolerance, std::max(1e-12, std::sqrt(res.residual) * 1e-2));
+    const LinearOperator precondition = f.preconditioner(*x);
+    // Forcing term (inexact Newton, Eisenstat–Walker flavour): the inner relative tolerance follows
+    // the outer residual, η = min(cg_tolerance, residual), so early steps far from the solution
+    // take few CG iterations and the last ones converge superlinearly.
+    const double cg_tol = std::min(opt.cg_tolerance, std::max(1e-12, res.residual));
     const CgResult cg = conjugateGradient([&](const Eigen::VectorXd& p, Eigen::VectorXd* Hp) { f.hessian(*x, p, Hp); },
-                                          diag, -g, cg_tol, opt.cg_max_iterations, &d);
+                                          precondition, -g, cg_tol, opt.cg_max_iterations, &d);
     res.cg_iterations += cg.iterations;
     double slope = g.dot(d);
     if (!(slope < 0.0)) {  // not a descent direction: fall back to preconditioned steepest descent
-      d = -g.cwiseQuotient(diag.cwiseMax(1e-300));
+      precondition(-g, &d);
       slope = g.dot(d);
     }
     double step = 1.0;

@@ -68,11 +68,13 @@ void SoftBodySimulator::setMasses(const std::vector<double>& m) {
       throw TopoError("SoftBodySimulator::setMasses", "mass " + std::to_string(i) + " = " + std::to_string(m[i]) +
                                                           " is not positive", "use a mass floor for hollow particles");
   m_ = m;
+  invalidateRestFactor();
   updateStability();
 }
 
 void SoftBodySimulator::setMaterial(const std::vector<double>& mu, const std::vector<double>& lambda) {
   sph_.setMaterial(mu, lambda);
+  invalidateRestFactor();
   updateStability();
   refreshForces("setMaterial");
 }
@@ -127,6 +129,7 @@ void SoftBodySimulator::setClamped(const std::vector<std::uint8_t>& mask) {
   }
   clamped_.resize(mask.size());
   for (std::size_t i = 0; i < mask.size(); ++i) clamped_[i] = mask[i] ? 1 : 0;
+  invalidateRestFactor();
   enforceClamp();
   refreshForces("setClamped");
 }
@@ -219,6 +222,23 @@ Eigen::VectorXd SoftBodySimulator::systemDiagonal(double inertia) const {
   return d;
 }
 
+LinearOperator SoftBodySimulator::systemPreconditioner(double inertia) const {
+  if (size() > opt_.cholesky_max_particles) return jacobiPreconditioner(systemDiagonal(inertia));
+  if (rest_factor_inertia_ != inertia) {
+    Eigen::VectorXd shift(3 * size());
+    for (std::size_t i = 0; i < size(); ++i) shift.segment<3>(3 * i).setConstant(inertia * m_[i]);
+    rest_factor_inertia_ = inertia;
+    try {
+      rest_factor_ = std::make_shared<const RestStiffnessPreconditioner>(sph_, shift, clamped_);
+    } catch (const TopoError&) {
+      rest_factor_.reset();  // unsupported at rest (held by contact only): Jacobi
+    }
+  }
+  if (!rest_factor_) return jacobiPreconditioner(systemDiagonal(inertia));
+  std::shared_ptr<const RestStiffnessPreconditioner> f = rest_factor_;
+  return [f](const Eigen::VectorXd& r, Eigen::VectorXd* z) { f->apply(r, z); };
+}
+
 std::vector<Eigen::Vector3d> SoftBodySimulator::frictionForces(const std::vector<Eigen::Vector3d>& v) const {
   std::vector<Eigen::Vector3d> f(size(), Eigen::Vector3d::Zero());
   if (contact_.empty() || contact_.options().friction <= 0.0) return f;
@@ -242,7 +262,7 @@ double SoftBodySimulator::forceScale() const {
 double SoftBodySimulator::firstNaturalFrequency(double tolerance, int max_iterations) const {
   requireConservative("SoftBodySimulator::firstNaturalFrequency");
   const std::size_t n = size();
-  const Eigen::VectorXd diag = systemDiagonal(0.0);
+  const LinearOperator precondition = systemPreconditioner(0.0);
   Eigen::VectorXd phi(3 * n), b(3 * n), next;
   // Start: the gravity direction (or z) everywhere — the static deflection shape after one solve.
   const Eigen::Vector3d d = opt_.gravity.norm() > 0 ? Eigen::Vector3d(opt_.gravity.normalized()) : Eigen::Vector3d::UnitZ();
@@ -251,7 +271,7 @@ double SoftBodySimulator::firstNaturalFrequency(double tolerance, int max_iterat
   double omega2 = 0.0;
   for (int it = 0; it < max_iterations; ++it) {
     for (std::size_t i = 0; i < n; ++i) b.segment<3>(3 * i) = m_[i] * phi.segment<3>(3 * i);
-    const CgResult cg = conjugateGradient(apply, diag, b, 1e-10, 20000, &next);
+    const CgResult cg = conjugateGradient(apply, precondition, b, 1e-10, 20000, &next);
     if (cg.negative_curvature || !(cg.relative_residual < 1e-6))
       throw TopoError("SoftBodySimulator::firstNaturalFrequency",
                       "the stiffness is singular or indefinite (relative residual " +
@@ -354,7 +374,7 @@ SolveReport SoftBodySimulator::newtonSolve(const std::string& where, double dt, 
   obj.hessian = [&](const Eigen::VectorXd&, const Eigen::VectorXd& p, Eigen::VectorXd* out) {
     systemProduct(p, inertia, out);
   };
-  obj.diagonal = [&](const Eigen::VectorXd&, Eigen::VectorXd* d) { *d = systemDiagonal(inertia); };
+  obj.preconditioner = [&](const Eigen::VectorXd&) { return systemPreconditioner(inertia); };
   Eigen::VectorXd z(3 * n);
   for (std::size_t i = 0; i < n; ++i) z.segment<3>(3 * i) = dynamic ? Eigen::Vector3d(x0[i] + dt * v0[i]) : x_[i];
   double scale = forceScale();

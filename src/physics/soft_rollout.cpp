@@ -34,7 +34,7 @@ Vec3s adjointSolve(const SoftBodySimulator& s, double inertia, const Eigen::Vect
   Eigen::VectorXd lam;
   const CgResult cg = conjugateGradient(
       [&](const Eigen::VectorXd& p, Eigen::VectorXd* out) { s.systemProduct(p, inertia, out); },
-      s.systemDiagonal(inertia), b, tol, max_iter, &lam);
+      s.systemPreconditioner(inertia), b, tol, max_iter, &lam);
   if (cg.negative_curvature || (!cg.converged && cg.relative_residual > 1e-6)) {
     std::ostringstream o;
     o << "the adjoint solve of " << what << " did not converge (relative residual " << cg.relative_residual

@@ -31,7 +31,8 @@ class InteriorProblem {
   InteriorProblem(const TaskConfig& config, const VolumeCloud& cloud);
 
   int numParameters() const { return representation_->numParameters(); }
-  Eigen::VectorXd initialParameters() const { return representation_->initialParameters(); }
+  /// The representation's start (initial_field), or initial_parameters when configured.
+  Eigen::VectorXd initialParameters() const;
   void bounds(Eigen::VectorXd* lo, Eigen::VectorXd* hi) const { representation_->bounds(lo, hi); }
 
   /// Loss (and gradient when grad != null) at θ.

@@ -103,6 +103,10 @@ class CorotatedSph {
   /// Per-particle shear modulus μ_i and first Lamé parameter λ_i [Pa].
   const std::vector<double>& shearModuli() const { return mu_; }
   const std::vector<double>& lameLambdas() const { return lambda_; }
+  /// Per CSR entry e (i→j) of neighbors(): the kernel value W_ij and the corrected gradient ĝ_ij
+  /// (order 1 or 2), so that F̃_i = Σ_j V_j x_ji ĝ_ijᵀ (used to assemble the rest stiffness).
+  const std::vector<double>& kernelValues() const { return W_; }
+  const std::vector<Eigen::Vector3d>& kernelGradients() const { return gh_; }
   /// Particles that asked for gradient_order 2 but fell back to order 1 (too few neighbours).
   std::size_t linearFallbacks() const { return linear_fallbacks_; }
 

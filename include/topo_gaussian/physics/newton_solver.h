@@ -1,7 +1,7 @@
 // Matrix-free Newton minimisation with preconditioned conjugate gradients and a backtracking
 // (Armijo) line search, for the soft body's incremental potential (implicit Euler, paper appendix
 // A.2) and its quasi-static equilibrium. Vectors are flat (3N); the caller supplies the objective,
-// its gradient, Hessian-vector products and a diagonal preconditioner. Fixed (Dirichlet) degrees of
+// its gradient, Hessian-vector products and a preconditioner. Fixed (Dirichlet) degrees of
 // freedom are handled by the caller zeroing them in the gradient and in Hessian products.
 #pragma once
 
@@ -18,19 +18,26 @@ struct CgResult {
   bool converged = false;
 };
 
-/// Solves A x = b by Jacobi-preconditioned CG from x = 0. apply(p, &Ap); diag > 0 (its inverse is
-/// the preconditioner). Stops at relative residual ≤ tol, max_iter, or negative curvature (then x
-/// is the last iterate, or the preconditioned steepest-descent direction if that happens at once).
-CgResult conjugateGradient(const std::function<void(const Eigen::VectorXd&, Eigen::VectorXd*)>& apply,
-                           const Eigen::VectorXd& diag, const Eigen::VectorXd& b, double tol, int max_iter,
-                           Eigen::VectorXd* x);
+/// y = A x for a linear operator A (matrix-free).
+using LinearOperator = std::function<void(const Eigen::VectorXd&, Eigen::VectorXd*)>;
+
+/// Jacobi preconditioner z = r ./ diag (diag > 0).
+LinearOperator jacobiPreconditioner(Eigen::VectorXd diag);
+
+/// Solves A x = b by preconditioned CG from x = 0: apply(p, &Ap); precondition(r, &z) applies an
+/// SPD approximation of A⁻¹. Stops at relative residual ≤ tol, max_iter, or negative curvature
+/// (then x is the last iterate, or the preconditioned steepest-descent direction if that happens
+/// at once).
+CgResult conjugateGradient(const LinearOperator& apply, const LinearOperator& precondition, const Eigen::VectorXd& b,
+                           double tol, int max_iter, Eigen::VectorXd* x);
 
 struct NewtonOptions {
   /// Converged when |∇Ψ|∞ ≤ tolerance × force_scale (force_scale given by the caller, e.g. the
   /// largest external/inertial load per particle [N]).
   double tolerance = 1e-8;
   int max_iterations = 50;
-  double cg_tolerance = 1e-6;   ///< relative residual of each inner solve (tightened near convergence)
+  /// Largest relative residual of an inner solve; each solve uses min(cg_tolerance, outer residual).
+  double cg_tolerance = 0.1;
   int cg_max_iterations = 5000;
   int max_line_search = 30;     ///< halvings
 };
@@ -45,12 +52,13 @@ struct NewtonResult {
 
 /// The objective Ψ: value(x) may throw TopoError (e.g. an inverted particle), which the line search
 /// treats as +∞. gradient(x, &g) and hessian(x, p, &Hp) are evaluated at the most recent x passed to
-/// value() (the caller caches the state there); diagonal(x, &d) for the preconditioner.
+/// value() (the caller caches the state there); preconditioner(x) returns the inner solves'
+/// preconditioner at x (an SPD approximation of the inverse Hessian).
 struct NewtonObjective {
   std::function<double(const Eigen::VectorXd&)> value;
   std::function<void(const Eigen::VectorXd&, Eigen::VectorXd*)> gradient;
   std::function<void(const Eigen::VectorXd&, const Eigen::VectorXd&, Eigen::VectorXd*)> hessian;
-  std::function<void(const Eigen::VectorXd&, Eigen::VectorXd*)> diagonal;
+  std::function<LinearOperator(const Eigen::VectorXd&)> preconditioner;
 };
 
 /// Minimises Ψ from x (overwritten with the result). Never throws for non-convergence: the result

@@ -23,12 +23,14 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "topo_gaussian/physics/corotated_sph.h"
 #include "topo_gaussian/physics/newton_solver.h"
 #include "topo_gaussian/physics/pneumatic_actuation.h"
+#include "topo_gaussian/physics/rest_stiffness.h"
 #include "topo_gaussian/physics/soft_contact.h"
 
 namespace topo_gaussian {
@@ -39,6 +41,11 @@ struct SoftBodyOptions {
   double damping = 0.0;
   /// CFL factor of stableTimeStep() (see the header comment).
   double cfl = 0.8;
+  /// Preconditioner of every linear solve (Newton steps, adjoints, modal analysis): the Cholesky
+  /// factor of the rest stiffness (+ inertia), rest_stiffness.h, for bodies of up to this many
+  /// particles (factorised once per material and inertia; memory grows with the fill), Jacobi
+  /// above it. 0 = always Jacobi.
+  std::size_t cholesky_max_particles = 20000;
 };
 
 struct RelaxResult {
@@ -109,7 +116,7 @@ class SoftBodySimulator {
   /// Implicit Euler step (paper appendix A.2): x_{n+1} minimises the incremental potential
   ///   ½|x − x_n − dt v_n|²_M / dt² + ½ (c/dt)|x − x_n|²_M + E_el(x) + E_a(x; p(t_{n+1})) + E_c(x)
   ///   − Σ m_i g·x_i − f_friction(x_n, v_n)·x
-  /// by Newton's method with matrix-free Jacobi-PCG and a backtracking line search; v_{n+1} = (x_{n+1} −
+  /// by Newton's method with matrix-free PCG (systemPreconditioner()) and a backtracking line search; v_{n+1} = (x_{n+1} −
   /// x_n)/dt. Any dt > 0 is accepted. Requires a conservative elastic model (StVK, or corotated
   /// linear with SphRotationSource::CorrectedGradient). Throws TopoError naming the step and the
   /// Newton residual when Newton does not converge (the state is left at the start of the step).
@@ -126,9 +133,13 @@ class SoftBodySimulator {
   std::vector<Eigen::Vector3d> stiffnessProduct(const std::vector<Eigen::Vector3d>& dx) const;
   /// Flat (3N) form for linear solves: out = (∂²Φ/∂x² + inertia·M) p, clamped rows zero.
   void systemProduct(const Eigen::VectorXd& p, double inertia, Eigen::VectorXd* out) const;
-  /// Jacobi preconditioner of that system: inertia·m_i + (λ_i+2μ_i)V_i/h² + the contact diagonal
-  /// (1 on clamped rows).
+  /// Jacobi approximation of that system's diagonal: inertia·m_i + (λ_i+2μ_i)V_i/h² + the contact
+  /// diagonal (1 on clamped rows).
   Eigen::VectorXd systemDiagonal(double inertia) const;
+  /// Preconditioner of that system: (K0 + inertia·M)⁻¹ by the rest stiffness's Cholesky factor
+  /// (cached per material, masses, clamps and inertia; contact is left to CG) when the body has at
+  /// most options().cholesky_max_particles particles, else Jacobi on systemDiagonal().
+  LinearOperator systemPreconditioner(double inertia) const;
   /// Friction forces at the current positions for velocities v.
   std::vector<Eigen::Vector3d> frictionForces(const std::vector<Eigen::Vector3d>& v) const;
   /// Lowest natural frequency [Hz] of small vibrations about the current state (clamps respected):
@@ -172,6 +183,10 @@ class SoftBodySimulator {
 
  private:
   void refreshForces(const std::string& where);
+  void invalidateRestFactor() {
+    rest_factor_.reset();
+    rest_factor_inertia_ = -1.0;
+  }
   void enforceClamp();
   double residual() const;
   void updateStability();
@@ -188,6 +203,10 @@ class SoftBodySimulator {
   SoftContact contact_;
   double dx_ = 0.0, c_max_ = 0.0, dt_stable_ = 0.0, time_ = 0.0;
   long steps_ = 0;
+  /// Cholesky factor for rest_factor_inertia_ (< 0: none yet; null with inertia ≥ 0: K0 + inertia·M
+  /// is singular, Jacobi is used). Reset when masses, materials or clamps change.
+  mutable std::shared_ptr<const RestStiffnessPreconditioner> rest_factor_;
+  mutable double rest_factor_inertia_ = -1.0;
 };
 
 }  // namespace topo_gaussian

@@ -1,0 +1,216 @@
+// Rest stiffness assembly and its Cholesky preconditioner; see rest_stiffness.h.
+#include "topo_gaussian/physics/rest_stiffness.h"
+
+#include <algorithm>
+#include <chrono>
+#include <string>
+#include <utility>
+
+#include "topo_gaussian/physics/error.h"
+
+#ifdef TOPO_HAVE_CHOLMOD
+#include <Eigen/CholmodSupport>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+// OpenBLAS's own threads compete with the OpenMP particle loops: measured on the finger (1904
+// particles, 2 cores) one Newton solve took 12.7 s with 2 BLAS threads and 7.8 s with 1 (its
+// threads spin in the kernel between calls). BLAS gets every core for the factorisation and one
+// thread for the triangular solves. Weak: absent with other BLAS implementations.
+extern "C" void openblas_set_num_threads(int) __attribute__((weak));
+#else
+#include <Eigen/SparseCholesky>
+#endif
+
+namespace topo_gaussian {
+namespace {
+
+using Block = std::pair<int, Eigen::Matrix3d>;
+
+/// Column blocks of rows k (particles) of K0 + diag(shift); fixed particles get identity rows and
+/// no couplings.
+std::vector<std::vector<Block>> assembleRows(const CorotatedSph& sph, const Eigen::VectorXd* shift,
+                                             const std::vector<std::uint8_t>* fixed) {
+  const std::size_t n = sph.size();
+  const NeighborList& nb = sph.neighbors();
+  const auto& X = sph.restPositions();
+  const auto& V = sph.volumes();
+  const auto& W = sph.kernelValues();
+  const auto& g = sph.kernelGradients();
+  const auto& mu = sph.shearModuli();
+  const auto& lambda = sph.lameLambdas();
+  const double h = sph.smoothingLength();
+  const double alpha = sph.options().hourglass_alpha;
+  auto isFixed = [&](std::size_t i) { return fixed && !fixed->empty() && (*fixed)[i]; };
+
+  // Per particle i: c_i (self coefficient), and the hourglass moments D_i = Σ_j w_ij X_ji X_jiᵀ,
+  // m_i = Σ_j w_ij X_ji, Σ_j w_ij.
+  std::vector<Eigen::Vector3d> cself(n), mom(n);
+  std::vector<Eigen::Matrix3d> D(n);
+  std::vector<double> wsum(n);
+#pragma omp parallel for schedule(static)
+  for (long long ii = 0; ii < static_cast<long long>(n); ++ii) {
+    const std::size_t i = static_cast<std::size_t>(ii);
+    Eigen::Vector3d c = Eigen::Vector3d::Zero(), m = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d d = Eigen::Matrix3d::Zero();
+    double ws = 0.0;
+    for (int e = nb.offsets[i]; e < nb.offsets[i + 1]; ++e) {
+      const int j = nb.indices[e];
+      c -= V[j] * g[e];
+      const Eigen::Vector3d Xji = X[j] - X[i];
+      const double w = V[j] * W[e];
+      m += w * Xji;
+      d += w * Xji * Xji.transpose();
+      ws += w;
+    }
+    cself[i] = c;
+    mom[i] = m;
+    D[i] = d;
+    wsum[i] = ws;
+  }
+
+  std::vector<std::vector<Block>> rows(n);
+#pragma omp parallel
+  {
+    std::vector<int> slot(n, -1);  // column particle → position in the row being built
+#pragma omp for schedule(dynamic, 64)
+    for (long long kk = 0; kk < static_cast<long long>(n); ++kk) {
+      const std::size_t k = static_cast<std::size_t>(kk);
+      std::vector<Block>& row = rows[k];
+      if (isFixed(k)) {
+        row.emplace_back(static_cast<int>(k), Eigen::Matrix3d::Identity());
+        continue;
+      }
+      auto add = [&](int l, const Eigen::Matrix3d& B) {
+        if (slot[l] < 0) {
+          slot[l] = static_cast<int>(row.size());
+          row.emplace_back(l, B);
+        } else {
+          row[slot[l]].second += B;
+        }
+      };
+      // Particles i whose energy involves x_k: k itself and its neighbours (lists are symmetric).
+      for (int ei = nb.offsets[k] - 1; ei < nb.offsets[k + 1]; ++ei) {
+        const std::size_t i = ei < nb.offsets[k] ? k : static_cast<std::size_t>(nb.indices[ei]);
+        // q_k, w_k, X_k relative to particle i.
+        Eigen::Vector3d qk = cself[i], Xk = Eigen::Vector3d::Zero();
+        double wk = 0.0;
+        const bool k_is_i = i == k;
+        if (!k_is_i) {
+          const int* b = nb.begin(i);
+          const int* p = std::lower_bound(b, nb.end(i), static_cast<int>(k));
+          const int e = nb.offsets[i] + static_cast<int>(p - b);
+          qk = V[k] * g[e];
+          Xk = X[k] - X[i];
+          wk = V[k] * W[e];
+        }
+        const double Vi = V[i], mui = mu[i], lai = lambda[i];
+        const double chg = 2.0 * alpha * mui * Vi / (h * h);
+        const Eigen::Vector3d Dqk = D[i] * qk;
+        const double qk_m = qk.dot(mom[i]);
+        for (int el = nb.offsets[i] - 1; el < nb.offsets[i + 1]; ++el) {
+          const bool l_is_i = el < nb.offsets[i];
+          const int l = l_is_i ? static_cast<int>(i) : nb.indices[el];
+          if (isFixed(static_cast<std::size_t>(l))) continue;
+          Eigen::Vector3d ql = cself[i], Xl = Eigen::Vector3d::Zero();
+          double wl = 0.0;
+          if (!l_is_i) {
+            ql = V[l] * g[el];
+            Xl = X[l] - X[i];
+            wl = V[l] * W[el];
+          }
+          Eigen::Matrix3d B = Vi * (mui * ql * qk.transpose() + lai * qk * ql.transpose());
+          double a = Dqk.dot(ql) - wl * qk.dot(Xl) - wk * ql.dot(Xk);
+          if (l_is_i) a += qk_m;
+          if (k_is_i) a += ql.dot(mom[i]) - wl;
+          if (l_is_i) a -= wk;
+          if (k_is_i && l_is_i) a += wsum[i];
+          if (!k_is_i && l == static_cast<int>(k)) a += wk;
+          B.diagonal().array() += Vi * mui * qk.dot(ql) + chg * a;
+          add(l, B);
+        }
+      }
+      if (shift && shift->size() > 0) {
+        Eigen::Matrix3d S = shift->segment<3>(3 * k).asDiagonal();
+        add(static_cast<int>(k), S);
+      }
+      for (const Block& b : row) slot[b.first] = -1;
+      std::sort(row.begin(), row.end(), [](const Block& a, const Block& b) { return a.first < b.first; });
+    }
+  }
+  return rows;
+}
+
+Eigen::SparseMatrix<double> toSparse(const std::vector<std::vector<Block>>& rows) {
+  const std::size_t n = rows.size();
+  std::size_t nnz = 0;
+  for (const auto& r : rows) nnz += 9 * r.size();
+  Eigen::SparseMatrix<double> K(3 * n, 3 * n);
+  K.reserve(static_cast<Eigen::Index>(nnz));
+  // Column 3k+a holds K(3l+b, 3k+a) = block(k,l)(a,b) (K is symmetric).
+  for (std::size_t k = 0; k < n; ++k)
+    for (int a = 0; a < 3; ++a) {
+      K.startVec(static_cast<Eigen::Index>(3 * k + a));
+      for (const Block& b : rows[k])
+        for (int c = 0; c < 3; ++c) K.insertBack(3 * b.first + c, static_cast<Eigen::Index>(3 * k + a)) = b.second(a, c);
+    }
+  K.finalize();
+  return K;
+}
+
+}  // namespace
+
+#ifdef TOPO_HAVE_CHOLMOD
+struct RestStiffnessPreconditioner::Factor {
+  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt;
+  static void blasThreads(int n) {
+    if (openblas_set_num_threads) openblas_set_num_threads(n);
+  }
+  bool compute(const Eigen::SparseMatrix<double>& K) {
+#ifdef _OPENMP
+    blasThreads(omp_get_max_threads());
+#endif
+    llt.compute(K);
+    blasThreads(1);
+    return llt.info() == Eigen::Success;
+  }
+  Eigen::VectorXd solve(const Eigen::VectorXd& r) const { return llt.solve(r); }
+};
+std::string RestStiffnessPreconditioner::backend() { return "cholmod-supernodal"; }
+#else
+struct RestStiffnessPreconditioner::Factor {
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> ldlt;
+  bool compute(const Eigen::SparseMatrix<double>& K) {
+    ldlt.compute(K);
+    return ldlt.info() == Eigen::Success && ldlt.vectorD().minCoeff() > 0.0;
+  }
+  Eigen::VectorXd solve(const Eigen::VectorXd& r) const { return ldlt.solve(r); }
+};
+std::string RestStiffnessPreconditioner::backend() { return "eigen-simplicial-ldlt"; }
+#endif
+
+RestStiffnessPreconditioner::~RestStiffnessPreconditioner() = default;
+
+Eigen::SparseMatrix<double> restStiffness(const CorotatedSph& sph) { return toSparse(assembleRows(sph, nullptr, nullptr)); }
+
+RestStiffnessPreconditioner::RestStiffnessPreconditioner(const CorotatedSph& sph, const Eigen::VectorXd& shift,
+                                                         const std::vector<std::uint8_t>& fixed) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::size_t n = sph.size();
+  if (shift.size() != 0 && static_cast<std::size_t>(shift.size()) != 3 * n)
+    throw TopoError("rest-stiffness preconditioner", "shift has " + std::to_string(shift.size()) + " entries for " +
+                                                         std::to_string(n) + " particles", "pass 3N entries or none");
+  if (!fixed.empty() && fixed.size() != n)
+    throw TopoError("rest-stiffness preconditioner", "fixed flags have the wrong size", "pass one flag per particle");
+  const Eigen::SparseMatrix<double> K = toSparse(assembleRows(sph, &shift, &fixed));
+  nnz_ = static_cast<std::size_t>(K.nonZeros());
+  factor_ = std::make_unique<Factor>();
+  if (!factor_->compute(K))
+    throw TopoError("rest-stiffness preconditioner", "the rest stiffness is singular or not positive definite",
+                    "clamp the body, add contact or inertia (an unsupported body has rigid modes)");
+  seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void RestStiffnessPreconditioner::apply(const Eigen::VectorXd& r, Eigen::VectorXd* z) const { *z = factor_->solve(r); }
+
+}  // namespace topo_gaussian
