@@ -2,6 +2,9 @@
 // iterations, end-to-end time, time per loss+gradient evaluation, and the ratio of one analytic
 // gradient to one finite-difference gradient (central differences, 2·P loss evaluations) measured
 // in the same run (projected from one loss evaluation when 2·P evaluations would take too long).
+// finger_quadric: the pneumatic finger's inference at about 10k particles (goal: under 10 minutes on
+// 2 CPU cores), set up as the finger recovery test (inference_soft) but at 1.5 mm (quick: 3 mm) and
+// with the default (paper) materials.
 // Usage: bench_infer [--quick] [CASE_SUBSTRING]
 #include <chrono>
 #include <cmath>
@@ -11,6 +14,7 @@
 
 #include "../test/unit/test_clouds.h"
 #include "topo_gaussian/inference/pipeline.h"
+#include "topo_gaussian/physics/default_shapes.h"
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::inference;
@@ -132,6 +136,23 @@ int main(int argc, char** argv) {
     c.set("target_tilts_deg", "10, 5, -20");
     c.set("max_iterations", quick ? "5" : "40");
     runCase("qiqi_quadric", c, vessel, true, 1000);
+  }
+  {
+    const VolumeCloud finger = defaultShapeCloud("finger", quick ? 0.003 : 0.0015);
+    TaskConfig c = TaskConfig::defaults("finger");  // the paper's real finger: 10 MPa walls
+    std::vector<double> truth(10, 0.0), start(10, 0.0);
+    truth[8] = 3.0, truth[9] = 0.09;    // chamber below z_n = -0.03 (ground truth)
+    start[2] = 100.0, start[9] = -0.25; // chamber around the axis (start)
+    c.setList("initial_parameters", truth);
+    if (!g_only || std::string("finger_quadric").find(g_only) != std::string::npos) {
+      const InteriorProblem gt(c, finger);
+      ProblemEvaluation ev;
+      gt.evaluate(gt.initialParameters(), nullptr, &ev);
+      c.setNumber("bend_angle_deg", ev.task.features[0].value);
+    }
+    c.setList("initial_parameters", start);
+    c.set("max_iterations", "30");
+    runCase("finger_quadric", c, finger, true, 0);
   }
   return 0;
 }

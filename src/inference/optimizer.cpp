@@ -23,7 +23,8 @@ struct Tracker {
   bool stop = false;
   std::string error;
 
-  int failures = 0;
+  int failures = 0, total_failures = 0;
+  Eigen::VectorXd failed_x;  ///< the last design the task could not evaluate
   double scale = 1.0;  ///< L-BFGS sees scale × loss (NLopt's L-BFGS stops when every gradient entry is tiny)
 
   double call(const Eigen::VectorXd& x, Eigen::VectorXd* g) {
@@ -36,6 +37,8 @@ struct Tracker {
       // A trial design the task cannot evaluate (e.g. a tumbler that no longer rocks): report a loss
       // far above the best so the line search steps back; give up after several in a row.
       error = e.what();
+      failed_x = x;
+      ++total_failures;
       if (++failures >= 8) {
         stop = true;
         return std::numeric_limits<double>::infinity();
@@ -140,14 +143,38 @@ OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, cons
     opt.set_min_objective(fn, &t);
     // L-BFGS restarts from the best design (fresh curvature memory) when NLopt gives up on a rough
     // stretch of the loss (line-search failure), while evaluations remain.
+    //
+    // Trust region after failed evaluations: when the line search gave up because a trial design could
+    // not be evaluated (e.g. no static equilibrium of a soft body at that design), the restart keeps
+    // every parameter within half the distance (∞-norm) from the best design to the failed one, so
+    // NLopt's first steps cannot jump there again; the box doubles after each restart that makes
+    // progress without failures.
     Eigen::VectorXd start = x0;
     double best_at_start = std::numeric_limits<double>::infinity();
+    double radius = inf;
+    int failures_seen = 0;
     for (int attempt = 0; attempt < 50 && !t.stop; ++attempt) {
-      if (t.have_best && !(t.result.loss < best_at_start)) {
+      const bool new_failure = t.total_failures > failures_seen;
+      failures_seen = t.total_failures;
+      if (new_failure && t.have_best && t.failed_x.size() == static_cast<Eigen::Index>(n)) {
+        const double d = (t.failed_x - t.result.theta).lpNorm<Eigen::Infinity>();
+        radius = std::min(radius, 0.5 * d);
+      } else if (attempt > 0 && std::isfinite(radius)) {
+        radius *= 2.0;
+      }
+      if (t.have_best && !(t.result.loss < best_at_start) && !new_failure) {
         // No progress since the last restart: try once more without the loss scaling, then give up.
         if (t.scale == 1.0) break;
         t.scale = 1.0;
         opt.set_stopval(options.loss_tolerance);
+      }
+      if (std::isfinite(radius)) {
+        for (int k = 0; k < static_cast<int>(n); ++k) {
+          lb[k] = std::max(lower[k], start[k] - radius);
+          ub[k] = std::min(upper[k], start[k] + radius);
+        }
+        opt.set_lower_bounds(lb);
+        opt.set_upper_bounds(ub);
       }
       best_at_start = t.have_best ? t.result.loss : best_at_start;
       const int left = options.max_iterations - t.result.iterations;

@@ -422,37 +422,69 @@ SolveReport SoftBodySimulator::stepImplicit(double dt, const NewtonOptions& newt
 SolveReport SoftBodySimulator::solveStatic(const NewtonOptions& newton, int load_steps) {
   if (load_steps < 1)
     throw TopoError("SoftBodySimulator::solveStatic", "load_steps must be >= 1", "e.g. solveStatic(options, 4)");
+  requireConservative("static solve");
   const Eigen::Vector3d g_full = opt_.gravity;
   const PneumaticActuation a_full = act_;
+  auto restoreLoads = [&] {
+    opt_.gravity = g_full;
+    act_ = a_full;
+  };
+  // Load fraction f goes 0 → 1 in increments of 1/load_steps; an increment whose Newton solve fails
+  // (line search stuck, too many iterations) is retried from the last equilibrium with half the
+  // increment, down to 1/(8 · load_steps) (adaptive load stepping). Beyond a limit point (an
+  // inflating soft chamber can have no equilibrium above some pressure) every retry fails, so the
+  // number of halvings is kept small.
+  const double df_min = 1.0 / (8.0 * load_steps);
+  double f = 0.0, df = 1.0 / load_steps;
+  std::vector<Eigen::Vector3d> x_ok = x_;
   SolveReport rep;
-  for (int s = 1; s <= load_steps; ++s) {
-    const double f = static_cast<double>(s) / load_steps;
-    opt_.gravity = f * g_full;
-    act_.pressure_pa = f * a_full.pressure_pa;
+  int increments = 0, bisections = 0;
+  std::string last_failure;
+  while (f < 1.0) {
+    const double f_try = std::min(1.0, f + df);
+    opt_.gravity = f_try * g_full;
+    act_.pressure_pa = f_try * a_full.pressure_pa;
     act_.ramp_s = 0.0;
-    const std::string where = "static solve, load step " + std::to_string(s) + "/" + std::to_string(load_steps);
+    std::ostringstream where;
+    where << "static solve, load " << f_try * 100.0 << " %";
+    bool ok = false;
     try {
-      rep = newtonSolve(where, 0.0, x_, v_, newton);
-    } catch (...) {
-      opt_.gravity = g_full;
-      act_ = a_full;
-      throw;
+      rep = newtonSolve(where.str(), 0.0, x_, v_, newton);
+      ok = rep.newton.converged;
+      if (!ok) {
+        std::ostringstream o;
+        o << where.str() << ": " << rep.newton.message << ", residual " << rep.newton.residual << " after "
+          << rep.newton.iterations << " iterations";
+        last_failure = o.str();
+      }
+    } catch (const TopoError& e) {
+      last_failure = e.what();
     }
-    if (!rep.newton.converged) {
-      opt_.gravity = g_full;
-      act_ = a_full;
+    if (ok) {
+      f = f_try;
+      x_ok = x_;
+      ++increments;
+      continue;
+    }
+    x_ = x_ok;  // back to the last equilibrium
+    df *= 0.5;
+    ++bisections;
+    if (df < df_min) {
+      restoreLoads();
       refreshForces("restore after a failed static solve");
       std::ostringstream o;
-      o << "Newton did not converge in " << where << ": " << rep.newton.message << ", residual "
-        << rep.newton.residual << " after " << rep.newton.iterations << " iterations";
+      o << "Newton did not converge even with load increments of " << df * 2.0 * 100.0 << " % (reached "
+        << f * 100.0 << " % of the load after " << increments << " increments and " << bisections
+        << " halvings); last failure: " << last_failure;
       throw TopoError("SoftBodySimulator::solveStatic", o.str(),
-                      "use more load steps, a lower pressure, or check that the body is clamped or supported");
+                      "lower the pressure or the load, stiffen the material, or check that the body is clamped or "
+                      "supported");
     }
   }
-  opt_.gravity = g_full;
-  act_ = a_full;
+  restoreLoads();
   refreshForces("static solve");
   for (auto& v : v_) v.setZero();
+  rep.load_increments = increments;
   return rep;
 }
 

@@ -58,8 +58,9 @@ struct RelaxResult {
 
 /// Result of an implicit step or a quasi-static solve.
 struct SolveReport {
-  NewtonResult newton;
+  NewtonResult newton;        ///< of the last Newton solve
   double pressure_pa = 0.0;
+  int load_increments = 1;    ///< static solves: converged load increments (more than asked after halvings)
 };
 
 class SoftBodySimulator {
@@ -122,7 +123,9 @@ class SoftBodySimulator {
   /// Newton residual when Newton does not converge (the state is left at the start of the step).
   SolveReport stepImplicit(double dt, const NewtonOptions& newton = NewtonOptions());
   /// Quasi-static equilibrium at the current pressure and gravity by Newton (load stepping over
-  /// `load_steps` equal increments of gravity and pressure). Throws TopoError when it fails.
+  /// `load_steps` equal increments of gravity and pressure; an increment that fails is retried
+  /// from the last equilibrium with half the increment, down to 1/8 of it). Throws TopoError
+  /// naming the load reached and the last failure when even that fails.
   SolveReport solveStatic(const NewtonOptions& newton = NewtonOptions(), int load_steps = 1);
 
   // ------------------------------------------------------------ kernels for the adjoint (soft_rollout.h)
