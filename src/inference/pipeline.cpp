@@ -8,31 +8,16 @@
 #include <sstream>
 
 #include "topo_gaussian/physics/error.h"
+#include "json_text.h"
 
 namespace topo_gaussian {
 namespace inference {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
-std::string num(double v) {
-  if (!std::isfinite(v)) return "null";
-  std::ostringstream os;
-  os << std::setprecision(10) << v;
-  return os.str();
-}
-
-std::string quote(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') o += '\\', o += c;
-    else if (c == '\n') o += "\\n";
-    else if (static_cast<unsigned char>(c) < 0x20) o += ' ';
-    else o += c;
-  }
-  return o + "\"";
-}
+using json_text::Clock;
+using json_text::num;
+using json_text::quote;
+using json_text::since;
 
 std::string vec3(const Eigen::Vector3d& v) { return "[" + num(v[0]) + ", " + num(v[1]) + ", " + num(v[2]) + "]"; }
 
@@ -163,18 +148,25 @@ void writeInteriorPly(const std::string& path, const VolumeCloud& cloud, const s
   if (!out) throw TopoError(path, "write failed", "check the free disk space");
 }
 
-std::vector<double> readInteriorPly(const std::string& path, std::size_t expected) {
+InteriorPly readInteriorPlyData(const std::string& path, std::size_t expected) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw TopoError(path, "cannot open the interior file", "check the path (an interior.ply written by topo infer)");
   std::string line;
   std::size_t count = 0;
   bool header_ok = false;
+  InteriorPly out;
   std::getline(in, line);
   if (line.rfind("ply", 0) != 0) throw TopoError(path, "is not a PLY file", "give an interior.ply written by topo infer");
   std::vector<std::string> props;
   while (std::getline(in, line)) {
-    if (line.rfind("element vertex", 0) == 0) count = std::stoul(line.substr(15));
-    else if (line.rfind("property", 0) == 0) props.push_back(line);
+    if (line.rfind("element vertex", 0) == 0) {
+      try {
+        count = std::stoul(line.substr(15));
+      } catch (const std::exception&) {
+        throw TopoError(path, "has a malformed line '" + line.substr(0, 60) + "'", "write it with topo infer");
+      }
+    } else if (line.rfind("property", 0) == 0) props.push_back(line);
+    else if (line.rfind("comment", 0) == 0 && line.find("continuous material") != std::string::npos) out.continuous = true;
     else if (line == "end_header") { header_ok = true; break; }
   }
   const std::vector<std::string> want = {"property float x", "property float y", "property float z", "property float r",
@@ -184,16 +176,25 @@ std::vector<double> readInteriorPly(const std::string& path, std::size_t expecte
   if (count != expected)
     throw TopoError(path, "has " + std::to_string(count) + " particles, the volume has " + std::to_string(expected),
                     "use the interior computed on this volume");
-  std::vector<double> r(count);
+  out.X.resize(count);
+  out.r.resize(count);
+  out.density.resize(count);
   for (std::size_t i = 0; i < count; ++i) {
     char buf[21];
     in.read(buf, sizeof buf);
     if (!in) throw TopoError(path, "ends early at particle " + std::to_string(i), "the file is truncated: write it again");
-    float v;
-    std::memcpy(&v, buf + 12, 4);
-    r[i] = v;
+    float v[4], d;
+    std::memcpy(v, buf, 16);
+    std::memcpy(&d, buf + 17, 4);
+    out.X[i] = Eigen::Vector3d(v[0], v[1], v[2]);
+    out.r[i] = v[3];
+    out.density[i] = d;
   }
-  return r;
+  return out;
+}
+
+std::vector<double> readInteriorPly(const std::string& path, std::size_t expected) {
+  return readInteriorPlyData(path, expected).r;
 }
 
 std::string simulationJson(const ProblemEvaluation& ev, const TaskConfig& config, const TaskGeometry& geometry) {

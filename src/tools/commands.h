@@ -6,6 +6,7 @@
 
 namespace topo_gaussian::tools {
 
+int exportCommand(const std::vector<std::string>& args);
 int fillCommand(const std::vector<std::string>& args);
 int generateCommand(const std::vector<std::string>& args);
 int inferCommand(const std::vector<std::string>& args);

@@ -12,6 +12,7 @@
 #include "topo_gaussian/geometry/ingest.h"
 #include "topo_gaussian/geometry/volume_io.h"
 #include "topo_gaussian/physics/default_shapes.h"
+#include "topo_gaussian/inference/interior_export.h"
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/physics/error.h"
 
@@ -28,8 +29,9 @@ const char* kInferHelp =
     "\n"
     "Finds an interior (solid/hollow per particle) whose simulated behaviour matches the targets.\n"
     "Writes DIR/interior.ply (x y z r solid density) and DIR/report.json (task, targets, achieved\n"
-    "features, loss history, timings, centre of mass, hanging/support point, gravity), and prints one\n"
-    "progress line per iteration on stderr.\n"
+    "features, loss history, timings, centre of mass, hanging/support point, gravity, and the\n"
+    "\"interface\": smoothness and watertightness of the solid region's mesh, see topo export), and\n"
+    "prints one progress line per iteration on stderr.\n"
     "\n"
     "  --task TASK            hanging | balance | stand | tumbler | qiqi | ball, or a task YAML file\n"
     "                         (names resolve to config/tasks/TASK.yaml when it exists; $TOPO_TASK_DIR)\n"
@@ -147,7 +149,13 @@ int inferCommand(const std::vector<std::string>& argv) {
         return true;
       });
   inference::writeInteriorPly(dir + "/interior.ply", cloud, res.r, res.density, config.boolean("continuous_material"));
-  const std::string report = inference::reportJson(res, config);
+  std::string report = inference::reportJson(res, config);
+  try {  // the interface's smoothness and printability (topo export writes the STL and pictures)
+    const inference::InterfaceQuality q = inference::measureInterface(cloud, res.r);
+    report = inference::withInterfaceSection(report, q);
+  } catch (const TopoError& e) {
+    std::cerr << "[topo infer] no \"interface\" section in report.json: " << e.what() << "\n";
+  }
   writeText(dir + "/report.json", report);
   std::cerr << "[topo infer] " << res.message << "\n";
   for (const auto& f : res.final.task.features) {

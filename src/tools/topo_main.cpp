@@ -1,4 +1,4 @@
-// `topo`: the command-line front end. Subcommands: fill, generate, shape, infer, simulate, track (later: export).
+// `topo`: the command-line front end. Subcommands: fill, generate, shape, infer, simulate, track, export.
 #include <iostream>
 #include <string>
 #include <vector>
@@ -19,6 +19,7 @@ const char* kUsage =
     "  infer      find an interior whose simulated behaviour matches observed targets\n"
     "  simulate   print the simulated features of a given interior\n"
     "  track      track an object in a video: period, amplitude, bounces, bending angle\n"
+    "  export     an inferred interior as a watertight STL, slice and loss pictures, export.json\n"
     "\n"
     "`topo <command> --help` describes each command's options.\n"
     "exit codes: 0 success, 1 bad input or failed computation, 2 bad command line\n";
@@ -40,6 +41,7 @@ int main(int argc, char** argv) {
     if (cmd == "shape") return shapeCommand(rest);
     if (cmd == "simulate") return simulateCommand(rest);
     if (cmd == "track") return trackCommand(rest);
+    if (cmd == "export") return exportCommand(rest);
     std::cerr << "topo: unknown command '" << cmd << "'\n\n" << kUsage;
     return 2;
   } catch (const UsageError& e) {

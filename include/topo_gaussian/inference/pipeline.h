@@ -45,6 +45,15 @@ void writeInteriorPly(const std::string& path, const VolumeCloud& cloud, const s
 /// index; throws TopoError naming the file when the count differs from the volume cloud.
 std::vector<double> readInteriorPly(const std::string& path, std::size_t expected_count);
 
+/// Everything an interior .ply holds (positions as stored, float32; r; density; the continuous flag
+/// from its comment). Same checks and messages as readInteriorPly.
+struct InteriorPly {
+  std::vector<Eigen::Vector3d> X;
+  std::vector<double> r, density;
+  bool continuous = false;
+};
+InteriorPly readInteriorPlyData(const std::string& path, std::size_t expected_count);
+
 /// report.json of a run (task, targets, achieved features, loss history, timings, geometry).
 std::string reportJson(const InferenceResult& result, const TaskConfig& config);
 /// JSON of a simulated design (features, mass properties, geometry).

@@ -1,0 +1,58 @@
+#include "topo_gaussian/vision/figure.h"
+
+#include <cmath>
+#include <cstdio>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "topo_gaussian/physics/error.h"
+
+namespace topo_gaussian {
+namespace vision {
+
+void writePng(const cv::Mat& img, const std::string& path) {
+  bool ok = false;
+  try {
+    ok = cv::imwrite(path, img);
+  } catch (const cv::Exception& e) {
+    throw TopoError(path, std::string("cannot be written as PNG: ") + e.what(), "give a writable path ending in .png");
+  }
+  if (!ok) throw TopoError(path, "cannot be written as PNG", "give a writable path ending in .png in an existing directory");
+}
+
+double niceStepBelow(double limit) {
+  if (!(limit > 0.0) || !std::isfinite(limit)) return 1.0;
+  const double p = std::pow(10.0, std::floor(std::log10(limit)));
+  for (double m : {5.0, 2.0, 1.0})
+    if (m * p <= limit * (1 + 1e-12)) return m * p;
+  return p;
+}
+
+double niceStepAbove(double limit) {
+  if (!(limit > 0.0) || !std::isfinite(limit)) return 1.0;
+  const double p = std::pow(10.0, std::floor(std::log10(limit)));
+  for (double m : {1.0, 2.0, 5.0, 10.0})
+    if (m * p >= limit * (1 - 1e-12)) return m * p;
+  return 10 * p;
+}
+
+std::string compactNumber(double v, int digits) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
+  return buf;
+}
+
+std::string lengthText(double m) {
+  const double a = std::abs(m);
+  if (a >= 1.0) return compactNumber(m, 3) + " m";
+  if (a >= 0.01) return compactNumber(m * 100, 3) + " cm";
+  if (a >= 1e-3) return compactNumber(m * 1e3, 3) + " mm";
+  return compactNumber(m * 1e6, 3) + " um";
+}
+
+void drawText(cv::Mat& img, const std::string& text, cv::Point at, double scale, const cv::Scalar& bgr, int thickness) {
+  cv::putText(img, text, at, cv::FONT_HERSHEY_SIMPLEX, scale, bgr, thickness, cv::LINE_AA);
+}
+
+}  // namespace vision
+}  // namespace topo_gaussian
