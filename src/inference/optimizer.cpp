@@ -127,7 +127,17 @@ OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, cons
       Eigen::VectorXd g(nn);
       const double loss = tr->call(xv, grad ? &g : nullptr);
       if (grad) Eigen::Map<Eigen::VectorXd>(grad, nn) = tr->scale * g;
-      if (grad && tr->failures == 0 && g.norm() <= tr->options.gradient_tolerance) tr->stop = true;
+      // A vanishing gradient ends the run only at the best design so far: a trial step into a
+      // saturated region (every r_i at 0 or 1, e.g. the chamber gone) also has a zero gradient, but
+      // a higher loss; the line search must step back from it, not stop there.
+      if (grad && tr->failures == 0 && g.norm() <= tr->options.gradient_tolerance) {
+        if (loss <= tr->result.loss) {
+          tr->stop = true;
+        } else {  // for the restart's trust region, as a design that could not be evaluated
+          tr->failed_x = xv;
+          ++tr->total_failures;
+        }
+      }
       return tr->scale * loss;
     };
     // With very many parameters (the point representation: one per particle) every gradient entry
@@ -211,7 +221,8 @@ OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, cons
   if (r.cancelled) r.message = "cancelled: returning the best design so far";
   else if (!t.error.empty()) r.message = "stopped early: " + t.error + " (returning the best design so far)";
   else if (r.loss <= options.loss_tolerance) { r.converged = true; r.message = "loss below loss_tolerance"; }
-  else if (r.message.empty() && !r.history.empty() && r.history.back().gradient_norm <= options.gradient_tolerance) {
+  else if (r.message.empty() && !r.history.empty() && r.history.back().gradient_norm <= options.gradient_tolerance &&
+           r.history.back().loss <= r.loss) {
     r.converged = true; r.message = "gradient norm below gradient_tolerance";
   } else if (r.message.empty()) r.message = options.method == "adam" ? "iteration limit reached" : "stopped";
   return r;
