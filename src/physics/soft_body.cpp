@@ -15,6 +15,9 @@ namespace {
 
 bool finite3(const Eigen::Vector3d& v) { return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()); }
 
+/// Particle count from which step()'s per-particle loops run threaded.
+constexpr long long kParallelUpdateMin = 8192;
+
 }  // namespace
 
 SoftBodySimulator::SoftBodySimulator(CorotatedSph sph, const SoftBodyOptions& options)
@@ -507,18 +510,31 @@ void SoftBodySimulator::step(double dt) {
   const Eigen::Vector3d g = opt_.gravity;
   const double c = opt_.damping;
   const bool friction = !contact_.empty() && contact_.options().friction > 0.0;
+  const long long nn = static_cast<long long>(n);
+  // Per-particle updates, each element computed exactly as serially (deterministic); threaded only
+  // for large bodies, where they are worth a parallel region.
+  const bool par = nn >= kParallelUpdateMin;
+  // Returns false if a velocity became non-finite.
   auto kick = [&](double h) {
     const auto& f = f_cons_;
     std::vector<Eigen::Vector3d> ffr;
     if (friction) ffr = frictionForces(v_);
-    for (std::size_t i = 0; i < n; ++i) {
-      if (clamped_[i]) continue;
-      v_[i] += h * ((friction ? Eigen::Vector3d(f[i] + ffr[i]) : f[i]) / m_[i] + g - c * v_[i]);
+    bool finite = true;
+#pragma omp parallel for schedule(static) reduction(&& : finite) if (par)
+    for (long long ii = 0; ii < nn; ++ii) {
+      const std::size_t i = static_cast<std::size_t>(ii);
+      if (!clamped_[i])
+        v_[i] += h * ((friction ? Eigen::Vector3d(f[i] + ffr[i]) : f[i]) / m_[i] + g - c * v_[i]);
+      finite = finite && finite3(v_[i]);
     }
+    return finite;
   };
   kick(0.5 * dt);
-  for (std::size_t i = 0; i < n; ++i)
+#pragma omp parallel for schedule(static) if (par)
+  for (long long ii = 0; ii < nn; ++ii) {
+    const std::size_t i = static_cast<std::size_t>(ii);
     if (!clamped_[i]) x_[i] += dt * v_[i];
+  }
   const double t0 = time_;
   time_ = t0 + dt;
   try {
@@ -527,13 +543,14 @@ void SoftBodySimulator::step(double dt) {
     time_ = t0;
     throw;
   }
-  kick(0.5 * dt);
-  for (std::size_t i = 0; i < n; ++i)
-    if (!finite3(v_[i])) {
-      std::ostringstream s;
-      s << "velocity of particle " << i << " became non-finite at step " << k;
-      throw TopoError("SoftBodySimulator::step", s.str(), "reduce the time step or check the material and loads");
-    }
+  if (!kick(0.5 * dt)) {
+    for (std::size_t i = 0; i < n; ++i)
+      if (!finite3(v_[i])) {
+        std::ostringstream s;
+        s << "velocity of particle " << i << " became non-finite at step " << k;
+        throw TopoError("SoftBodySimulator::step", s.str(), "reduce the time step or check the material and loads");
+      }
+  }
   steps_ = k;
 }
 

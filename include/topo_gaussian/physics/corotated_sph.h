@@ -157,31 +157,55 @@ class CorotatedSph {
  private:
   struct Eval {
     std::vector<Eigen::Matrix3d> F, Ft, P, M;
-    std::vector<double> e_el, e_hg;
+    std::vector<double> e_el, e_hg, det;
+  };
+  /// Buffers reused by update() / updateWithRotations() from call to call (no per-step
+  /// allocation). Never copied: a copied body starts with empty scratch.
+  struct Scratch {
+    Eval ev;
+    std::vector<Eigen::Matrix3d> R;
+    Scratch() = default;
+    Scratch(const Scratch&) {}
+    Scratch& operator=(const Scratch&) { return *this; }
+    Scratch(Scratch&&) = default;
+    Scratch& operator=(Scratch&&) = default;
   };
   bool quadraticGradient(std::size_t i);
+  /// Per-particle constants of the force gather (c_, gsum_, hgsum_); rebuilt when μ changes.
+  void prepareGatherConstants();
   void checkPositions(const std::vector<Eigen::Vector3d>& x) const;
   void computeFtilde(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Matrix3d>* Ft) const;
-  void rotationsFrom(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& Ft,
-                     std::vector<Eigen::Matrix3d>* R) const;
-  /// ft_ready: ev->Ft already holds F̃ at x (update() computes it for the rotations).
-  void evaluate(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& R, Eval* ev,
-                bool need_M, bool ft_ready = false) const;
-  void gatherForces(const std::vector<Eigen::Vector3d>& x, const Eval& ev, std::vector<Eigen::Vector3d>* f) const;
-  void store(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Matrix3d> R, Eval&& ev);
+  /// One pass over the particles: F̃_i, the rotation R_i (from F̃_i or A_pq,i when R_given is null,
+  /// written to *R_out; else R_given is used), F_i, P_i, energies and, with need_M, M_i (the
+  /// hourglass sweep revisits row i while it is still in cache). Does not check det F_i.
+  void evaluate(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>* R_given,
+                std::vector<Eigen::Matrix3d>* R_out, Eval* ev, bool need_M) const;
+  /// Throws for the first particle with det F_i ≤ 0.
+  void checkInversion(const std::vector<Eigen::Vector3d>& x, const Eval& ev) const;
+  /// Moves the scratch evaluation (and rotations) into the state; forces from ev.M.
+  void store(const std::vector<Eigen::Vector3d>& x);
   void gather(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& Ft,
-              const std::vector<Eigen::Matrix3d>& M, bool hourglass, std::vector<Eigen::Vector3d>* out) const;
+              const std::vector<Eigen::Matrix3d>& M, bool hourglass, std::vector<Eigen::Vector3d>* out,
+              bool negate = false) const;
 
   CorotatedSphOptions opt_;
   double h_ = 0.0;
   std::vector<Eigen::Vector3d> X_;
   std::vector<double> V_, m_, rho_, mu_, lambda_;
   NeighborList nbr_;
-  std::vector<int> rev_;               ///< per CSR entry (i→j): position of entry (j→i) in row j
   std::vector<double> W_;              ///< per CSR entry: W_ij
   std::vector<Eigen::Vector3d> gh_;    ///< per CSR entry: ĝ_ij = L_i ∇W(X_ji)
   std::vector<Eigen::Matrix3d> L_;
   std::size_t linear_fallbacks_ = 0;
+
+  // Gather constants (see gather()): c_i = α μ_i V_i / h², gsum_i = Σ_j V_j ĝ_ij,
+  // hgsum_i = Σ_j 2 c_i V_j W_ij X_ji.
+  // ghr_: per CSR entry (k→j) the reverse entry's gradient ĝ_jk (rest constant), so that the
+  // gather streams it instead of looking it up in row j.
+  std::vector<double> c_;
+  std::vector<Eigen::Vector3d> gsum_, hgsum_, ghr_;
+  std::vector<Eigen::Matrix3d> moment_;  ///< C_i = Σ_j V_j W_ij X_ji X_jiᵀ (shape matching with hourglass)
+  Scratch scratch_;
 
   std::vector<Eigen::Matrix3d> R_, F_, Ft_, P_;
   std::vector<Eigen::Vector3d> f_, x_;
