@@ -6,7 +6,8 @@ set -euo pipefail
 PACKAGES=(
   build-essential cmake pkg-config
   ros-core-dev catkin python3-catkin-pkg python3-rostest ros-message-generation
-  libroscpp-dev libactionlib-dev libactionlib-msgs-dev libtf2-ros-dev
+  libroscpp-dev libactionlib-dev libactionlib-msgs-dev libtf2-ros-dev tf2-tools
+  rviz xvfb x11-apps imagemagick
   libsensor-msgs-dev libvisualization-msgs-dev libgeometry-msgs-dev
   libpcl-dev libpcl-ros-dev libpcl-conversions-dev libcv-bridge-dev libopencv-dev
   libeigen3-dev libnlopt-cxx-dev libyaml-cpp-dev libgtest-dev

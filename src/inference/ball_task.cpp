@@ -89,6 +89,7 @@ class BallTask : public Task {
         row.insert(row.end(), {x[0].value(), x[1].value(), x[2].value()});
       }
       ev.trajectory_rows.push_back(row);
+      ev.motion.push_back(bodyPoseOf(traj.time_s[k], traj.states[k], ev.mass.com));
       const double z = pointAt(k, centroid_)[2].value();
       ev.signal.push_back(z);
       if (first_contact < 0 && z - (centroid_.z() - zmin_) <= 1e-3 * size_) first_contact = traj.time_s[k];

@@ -71,7 +71,25 @@ ProblemEvaluation simulateInterior(const TaskConfig& config, const VolumeCloud& 
   return problem.evaluateIndicator(r, nullptr);
 }
 
-InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud, const ProgressCallback& progress) {
+std::string defaultShapeForTask(const std::string& t) {
+  return t == "finger" ? "finger" : t == "pear" ? "pear" : t == "cantilever" ? "beam" : "";
+}
+
+std::vector<double> particleStiffness(const TaskConfig& config, const std::vector<double>& r) {
+  if (!config.has("youngs_modulus_solid") || !config.has("youngs_modulus_hollow")) return {};
+  MaterialInterpolation e;  // the soft tasks' interpolation of the modulus (see soft_task.cpp)
+  e.value_r0 = config.number("youngs_modulus_hollow");
+  e.value_r1 = config.number("youngs_modulus_solid");
+  e.power = config.has("stiffness_power") ? config.number("stiffness_power") : 1.0;
+  e.continuous = config.has("continuous_material") && config.boolean("continuous_material");
+  e.floor = 1e-6 * e.value_r1;
+  std::vector<double> out;
+  e.apply(r, &out, nullptr);
+  return out;
+}
+
+InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud, const ProgressCallback& progress,
+                             const EvaluationCallback& on_evaluation) {
   const auto t0 = Clock::now();
   InteriorProblem problem(config, cloud);
   problem.task().requireTargets();
@@ -94,8 +112,14 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   oo.relative_tolerance = config.number("relative_tolerance");
   oo.gradient_tolerance = config.number("gradient_tolerance");
   const auto to = Clock::now();
-  res.optimizer = minimize([&](const Eigen::VectorXd& th, Eigen::VectorXd* gr) { return problem.evaluate(th, gr); },
-                           theta0, lo, hi, oo, progress);
+  const auto objective = [&](const Eigen::VectorXd& th, Eigen::VectorXd* gr) {
+    if (!on_evaluation) return problem.evaluate(th, gr);
+    ProblemEvaluation details;
+    const double loss = problem.evaluate(th, gr, &details);
+    on_evaluation(details);
+    return loss;
+  };
+  res.optimizer = minimize(objective, theta0, lo, hi, oo, progress);
   res.optimize_s = since(to);
   if (res.optimizer.iterations > 0) res.evaluation_s = res.optimize_s / res.optimizer.iterations;
   res.theta = res.optimizer.theta;

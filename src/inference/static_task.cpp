@@ -155,7 +155,9 @@ class StaticTask : public Task {
                                 Eigen::Quaterniond(R_));
     const RigidTrajectory<double> traj = simulateRigid(I, pivotState(I, q0, o), {}, o);
     std::vector<double> angle;
-    for (const auto& st : traj.states) {
+    for (std::size_t k = 0; k < traj.states.size(); ++k) {
+      const auto& st = traj.states[k];
+      ev.motion.push_back(bodyPoseOf(traj.time_s[k], st, ev.mass.com));
       const Eigen::Vector3d d = st.position - o.pivot_world;   // pivot → centre of mass
       angle.push_back(std::atan2(d.y(), -d.z()) * 180.0 / M_PI);
     }

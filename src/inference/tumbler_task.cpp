@@ -79,6 +79,8 @@ class TumblerTask : public Task {
     ev.signal_name = "tilt_deg";
     ev.signal_time_s = traj.time_s;
     for (const auto& p : phi) ev.signal.push_back(p.value());
+    for (std::size_t k = 0; k < traj.states.size(); ++k)
+      ev.motion.push_back(bodyPoseOf(traj.time_s[k], traj.states[k], ev.mass.com));
     if (!f.valid) {
       throw TopoError("tumbler simulation", f.message + " in " + std::to_string(options_.duration_s) + " s",
                       "check that the object rests on a rounded bottom with its centre of mass low enough to "

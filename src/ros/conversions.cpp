@@ -210,4 +210,69 @@ VolumeCloud fromPointCloud2(const sensor_msgs::PointCloud2& msg, const std::stri
   return c;
 }
 
+std::uint32_t interiorRgb(double r) {
+  const double w = std::isfinite(r) ? std::clamp(r, 0.0, 1.0) : 0.0;
+  std::uint32_t out = 0;
+  for (int shift : {16, 8, 0}) {
+    const double a = double((kHollowRgb >> shift) & 0xFF), b = double((kSolidRgb >> shift) & 0xFF);
+    out |= std::uint32_t(std::lround(a + w * (b - a))) << shift;
+  }
+  return out;
+}
+
+sensor_msgs::PointCloud2 toInteriorCloud(const VolumeCloud& cloud, const std::vector<double>& r,
+                                         const std::vector<double>& density, const std::vector<double>& stiffness,
+                                         const std::string& frame_id, const ::ros::Time& stamp) {
+  const std::size_t n = cloud.size();
+  if (r.size() != n || density.size() != n || (!stiffness.empty() && stiffness.size() != n))
+    throw TopoError("interior", "has " + std::to_string(r.size()) + " indicator, " + std::to_string(density.size()) +
+                                    " density and " + std::to_string(stiffness.size()) + " stiffness values for " +
+                                    std::to_string(n) + " particles",
+                    "give one value per particle of the volume cloud");
+  sensor_msgs::PointCloud2 msg;
+  msg.header.frame_id = frame_id;
+  msg.header.stamp = stamp;
+  msg.height = 1;
+  sensor_msgs::PointCloud2Modifier modifier(msg);
+  modifier.setPointCloud2Fields(7, "x", 1, PointField::FLOAT32, "y", 1, PointField::FLOAT32, "z", 1, PointField::FLOAT32,
+                                "solid", 1, PointField::FLOAT32, "density", 1, PointField::FLOAT32, "stiffness", 1,
+                                PointField::FLOAT32, "rgb", 1, PointField::FLOAT32);
+  modifier.resize(n);
+  msg.is_dense = true;
+  msg.is_bigendian = false;
+  sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z"), s(msg, "solid"), d(msg, "density"),
+      e(msg, "stiffness"), c(msg, "rgb");
+  for (std::size_t i = 0; i < n; ++i, ++x, ++y, ++z, ++s, ++d, ++e, ++c) {
+    *x = float(cloud.X[i].x());
+    *y = float(cloud.X[i].y());
+    *z = float(cloud.X[i].z());
+    *s = float(r[i]);
+    *d = float(density[i]);
+    *e = stiffness.empty() ? 0.0f : float(stiffness[i]);
+    const std::uint32_t rgb = interiorRgb(r[i]);
+    std::memcpy(&*c, &rgb, sizeof(rgb));  // packed as PCL does: the float's bits are 0x00RRGGBB
+    if (!(std::isfinite(*x) && std::isfinite(*y) && std::isfinite(*z) && std::isfinite(*s))) msg.is_dense = false;
+  }
+  return msg;
+}
+
+InteriorPoints fromInteriorCloud(const sensor_msgs::PointCloud2& msg, const std::string& source) {
+  const CloudReader in(msg, source);
+  const std::string layout = "the interior layout: x y z solid (FLOAT32; solid = r in [0, 1])";
+  const int fx = in.require("x", layout), fy = in.require("y", layout), fz = in.require("z", layout);
+  const int fr = in.require("solid", layout);
+  InteriorPoints out;
+  out.X.reserve(in.size());
+  out.r.reserve(in.size());
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    out.X.emplace_back(in.get(i, fx), in.get(i, fy), in.get(i, fz));
+    const double r = in.get(i, fr);
+    if (!(r >= 0.0 && r <= 1.0))
+      throw TopoError(source, "point " + std::to_string(i) + " has solid = " + std::to_string(r) + ", outside [0, 1]",
+                      "publish the indicator r in [0, 1] (1 solid, 0 hollow)");
+    out.r.push_back(r);
+  }
+  return out;
+}
+
 }  // namespace topo_gaussian::topo_ros

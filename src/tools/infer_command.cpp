@@ -88,8 +88,7 @@ inference::TaskConfig loadConfig(const Args& a) {
 VolumeCloud loadVolume(const Args& a, const inference::TaskConfig& config) {
   if (!a.has("volume") && !a.has("surface")) {
     // Soft tasks bring a default shape of their own (see `topo shape`).
-    const std::string& t = config.task();
-    const std::string shape = t == "finger" ? "finger" : t == "pear" ? "pear" : t == "cantilever" ? "beam" : "";
+    const std::string shape = inference::defaultShapeForTask(config.task());
     if (!shape.empty()) {
       const double h = config.number("default_spacing_m");
       VolumeCloud c = defaultShapeCloud(shape, h);

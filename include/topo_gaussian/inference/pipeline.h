@@ -30,10 +30,23 @@ struct InferenceResult {
   double setup_s = 0, optimize_s = 0, evaluation_s = 0;  ///< timings; evaluation_s = per loss+gradient
 };
 
+/// Called after every objective evaluation with its details (features of the design just tried).
+using EvaluationCallback = std::function<void(const ProblemEvaluation&)>;
+
 /// Runs the optimisation. progress is called once per iteration; returning false cancels (the best
-/// design so far is returned). Throws TopoError for bad input before the optimisation starts.
+/// design so far is returned). on_evaluation (optional) sees every evaluated design, before the
+/// progress call of its iteration. Throws TopoError for bad input before the optimisation starts.
 InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
-                             const ProgressCallback& progress = nullptr);
+                             const ProgressCallback& progress = nullptr,
+                             const EvaluationCallback& on_evaluation = nullptr);
+
+/// The default shape a task brings when no volume is given (finger → finger, pear → pear,
+/// cantilever → beam; "" for tasks that need a volume). Its spacing is the task's default_spacing_m.
+std::string defaultShapeForTask(const std::string& task);
+
+/// Young's modulus per particle [Pa] for tasks with an elastic model (E interpolated by r with the
+/// task's stiffness_power); empty for rigid tasks.
+std::vector<double> particleStiffness(const TaskConfig& config, const std::vector<double>& r);
 
 /// Features of a given interior (r per particle; empty = fully solid).
 ProblemEvaluation simulateInterior(const TaskConfig& config, const VolumeCloud& cloud, const std::vector<double>& r);

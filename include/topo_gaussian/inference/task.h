@@ -6,10 +6,12 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "topo_gaussian/inference/body_motion.h"
 #include "topo_gaussian/inference/task_config.h"
 #include "topo_gaussian/physics/mass_properties.h"
 #include "topo_gaussian/physics/volume_cloud.h"
@@ -47,6 +49,9 @@ struct TaskEvaluation {
   /// Tracked points over time (ball): rows of t, then x y z per tracked point — the format of
   /// target_trajectory_file, so a simulated design can serve as an observation.
   std::vector<std::vector<double>> trajectory_rows;
+  /// Rigid motion of the object (tumbler, ball, hanging swing), sampled like the signal; empty for
+  /// tasks without one (static poses, soft bodies).
+  std::vector<BodyPose> motion;
 };
 
 class Task {

@@ -4,13 +4,18 @@
 //  - PointCloud2  -> geometry::SurfaceData (kind Points) for filling: x y z required, of any numeric
 //    type; normal_x/y/z used when all three are present. NaN points are kept here, cleaning drops them.
 //  - PointCloud2 (volume layout) -> VolumeCloud, for tests and later nodes.
+//  - an inferred interior <-> PointCloud2 "interior layout": x y z solid density stiffness rgb, all
+//    FLOAT32 (m, r in [0, 1], kg/m^3, Pa or 0 for rigid tasks, and rgb packed as PCL and rviz read
+//    it: solid red, hollow blue, blended by r).
 // Errors are TopoError with a message that names the topic (or other source) and the field.
 #pragma once
 
 #include <ros/time.h>
 #include <sensor_msgs/PointCloud2.h>
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include "topo_gaussian/geometry/surface_data.h"
 #include "topo_gaussian/physics/volume_cloud.h"
@@ -32,6 +37,26 @@ geometry::SurfaceData toSurfaceData(const sensor_msgs::PointCloud2& msg, const s
 /// Throws TopoError naming `source` for missing fields or malformed data (not for bad values:
 /// call VolumeCloud::validate for that).
 VolumeCloud fromPointCloud2(const sensor_msgs::PointCloud2& msg, const std::string& source);
+
+/// Colours of the interior layout (0xRRGGBB).
+constexpr std::uint32_t kSolidRgb = 0xDC2828, kHollowRgb = 0x2864DC;
+/// The colour of a particle with indicator r: kHollowRgb at 0, kSolidRgb at 1, linear between.
+std::uint32_t interiorRgb(double r);
+
+/// An interior (r, density per particle; stiffness per particle or empty = 0) as a PointCloud2 in
+/// the interior layout. Throws TopoError when the sizes differ from the cloud's.
+sensor_msgs::PointCloud2 toInteriorCloud(const VolumeCloud& cloud, const std::vector<double>& r,
+                                         const std::vector<double>& density, const std::vector<double>& stiffness,
+                                         const std::string& frame_id, const ::ros::Time& stamp);
+
+/// Positions and r (the `solid` field) of a cloud in the interior layout (x y z solid required, the
+/// rest ignored). Throws TopoError naming `source` for missing fields, malformed data, or r outside
+/// [0, 1] / NaN (with the point index).
+struct InteriorPoints {
+  std::vector<Eigen::Vector3d> X;
+  std::vector<double> r;
+};
+InteriorPoints fromInteriorCloud(const sensor_msgs::PointCloud2& msg, const std::string& source);
 
 /// True when the message has a field of this name.
 bool hasField(const sensor_msgs::PointCloud2& msg, const std::string& name);

@@ -1,0 +1,129 @@
+// InteriorInferenceNode: the ROS face of topo_inference (one inference = one action goal).
+//   in : topics `volume` (PointCloud2, volume layout) and `motion_features` (MotionFeatures): the
+//        latest of each is used when a goal carries none
+//   out: action `infer_interior` (InferInterior.action: feedback every iteration, result with the
+//        interior cloud, achieved vs target features and the files written; a cancel or a new goal
+//        returns the best design so far; invalid goals abort with the reason)
+//        topic `interior` (PointCloud2, latched; x y z solid density stiffness rgb, frame ~object_frame)
+//        topic `interior_markers` (MarkerArray, latched; see interior_markers.h)
+//        tf ~world_frame → ~object_frame: the simulated motion of the latest result, replayed in a loop
+//        services ~infer (Infer.srv, the blocking form of the action), ~simulate (SimulateInterior.srv),
+//        ~export (ExportInterior.srv)
+// The node owns handles, parameters and the latest result; runInference / simulateInterior /
+// exportInterior do the work. Callbacks may run concurrently (AsyncSpinner): one inference runs at a
+// time, state is guarded by a mutex.
+#pragma once
+
+#include <actionlib/server/simple_action_server.h>
+#include <ros/ros.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "topo_gaussian/ExportInterior.h"
+#include "topo_gaussian/Infer.h"
+#include "topo_gaussian/InferInteriorAction.h"
+#include "topo_gaussian/MotionFeatures.h"
+#include "topo_gaussian/SimulateInterior.h"
+#include "topo_gaussian/inference/pipeline.h"
+#include "topo_gaussian/inference/run_files.h"
+#include "topo_gaussian/inference/task_config.h"
+
+namespace topo_gaussian::topo_ros {
+
+struct InteriorInferenceParams {
+  std::string task_dir;                           ///< ~task_dir: where task names resolve (config/tasks)
+  std::string default_task = "tumbler";           ///< ~default_task: for ~simulate before any goal
+  std::string output_dir;                         ///< ~output_dir: runs write into OUTPUT_DIR/<task>_<time>
+  std::string world_frame = "world";              ///< ~world_frame
+  std::string object_frame = "object_simulated";  ///< ~object_frame: frame of `interior`, markers, replay
+  double replay_rate_hz = 30.0;                   ///< ~replay_rate_hz: tf replay rate (0: no replay)
+  double replay_speed = 1.0;                      ///< ~replay_speed: simulated seconds per wall second
+  bool export_on_finish = true;                   ///< ~export_on_finish: STL + pictures after every run
+  double max_features_age_s = 0.0;                ///< ~max_features_age_s: older motion features are refused (0: any age)
+};
+
+/// Reads and validates the private parameters; throws TopoError naming the parameter and the fix.
+InteriorInferenceParams loadInteriorInferenceParams(const ::ros::NodeHandle& pnh);
+
+/// What one inference needs (the common part of an action goal and an ~infer request).
+struct InferenceRequest {
+  std::string task, representation;
+  std::vector<std::string> overrides, targets;
+  sensor_msgs::PointCloud2 volume;                ///< no points = the latest `volume`
+  topo_gaussian::MotionFeatures features;         ///< empty kind = the latest `motion_features`
+  bool ignore_motion_features = false;
+  int max_iterations = 0;
+  std::string output_dir;
+};
+
+/// What came out of one inference.
+struct InferenceOutcome {
+  inference::InferenceResult result;
+  std::vector<std::string> files;
+  std::string output_dir;
+  std::string message;                            ///< result message + notes (targets used, export)
+  bool preempted = false;
+};
+
+class InteriorInferenceNode {
+ public:
+  /// Loads parameters (throws TopoError on invalid ones), advertises, subscribes and starts the
+  /// action server.
+  InteriorInferenceNode(const ::ros::NodeHandle& nh, const ::ros::NodeHandle& pnh);
+
+  const InteriorInferenceParams& params() const { return params_; }
+
+  /// Runs one inference (throws TopoError for an invalid request: unknown task, no volume, no
+  /// targets, bad overrides). feedback is called after every iteration with the iteration and the
+  /// features of the design just evaluated; returning false stops with the best design so far.
+  using Feedback = std::function<bool(const topo_gaussian::InferInteriorFeedback&)>;
+  InferenceOutcome run(const InferenceRequest& request, const Feedback& feedback);
+
+ private:
+  void onVolume(const sensor_msgs::PointCloud2ConstPtr& msg);
+  void onFeatures(const topo_gaussian::MotionFeaturesConstPtr& msg);
+  void execute(const topo_gaussian::InferInteriorGoalConstPtr& goal);
+  bool onInfer(topo_gaussian::Infer::Request& req, topo_gaussian::Infer::Response& res);
+  bool onSimulate(topo_gaussian::SimulateInterior::Request& req, topo_gaussian::SimulateInterior::Response& res);
+  bool onExport(topo_gaussian::ExportInterior::Request& req, topo_gaussian::ExportInterior::Response& res);
+  void onReplay(const ::ros::WallTimerEvent&);
+  /// Publishes `interior` and `interior_markers` for a design and starts replaying its motion.
+  void show(const VolumeCloud& cloud, const inference::TaskConfig& config, const std::vector<double>& r,
+            const inference::ProblemEvaluation& ev, const inference::TaskGeometry& geometry);
+  inference::TaskConfig configFor(const std::string& task, const std::string& representation,
+                                  const std::vector<std::string>& overrides, const std::string& origin) const;
+
+  ::ros::NodeHandle nh_, pnh_;
+  InteriorInferenceParams params_;
+  ::ros::Publisher interior_pub_, markers_pub_;
+  ::ros::Subscriber volume_sub_, features_sub_;
+  ::ros::ServiceServer infer_srv_, simulate_srv_, export_srv_;
+  ::ros::WallTimer replay_timer_;
+  tf2_ros::TransformBroadcaster tf_;
+  std::unique_ptr<actionlib::SimpleActionServer<topo_gaussian::InferInteriorAction>> server_;
+
+  std::mutex run_mutex_;    ///< held while an inference runs
+  std::mutex state_mutex_;  ///< guards everything below
+  std::shared_ptr<VolumeCloud> volume_;
+  std::string volume_frame_;
+  std::shared_ptr<topo_gaussian::MotionFeatures> features_;
+  ::ros::Time features_received_;
+  // the latest result (for ~export and ~simulate)
+  bool has_result_ = false;
+  std::shared_ptr<VolumeCloud> result_cloud_;
+  inference::InferenceResult result_;
+  std::string result_task_, result_dir_, result_report_;
+  std::vector<inference::SignalSeries> result_signals_;
+  bool result_continuous_ = false;
+  // the replayed motion
+  std::vector<inference::BodyPose> replay_;
+  ::ros::WallTime replay_start_;
+};
+
+}  // namespace topo_gaussian::topo_ros
