@@ -15,7 +15,7 @@ PACKAGES=(
   libsuitesparse-dev libopenblas-dev
   libopenmpi-dev
   clang libclang-rt-14-dev
-  python3-numpy
+  python3-numpy python3-sensor-msgs python3-visualization-msgs python3-tf2-msgs
 )
 
 missing=()

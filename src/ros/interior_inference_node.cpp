@@ -222,7 +222,7 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
       observed = latest_features.get();
     }
     if (observed) {
-      const MotionTargets mt = targetsFromMotion(config.task(), *observed);
+      const MotionTargets mt = targetsFromMotion(config, *observed);
       for (const auto& [name, value] : mt.targets) {
         config.setNumber(name, value);
         std::ostringstream os;

@@ -1,8 +1,37 @@
 #include "topo_gaussian/ros/motion_targets.h"
 
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "topo_gaussian/inference/oscillation.h"
+
 namespace topo_gaussian::topo_ros {
 
-MotionTargets targetsFromMotion(const std::string& task, const topo_gaussian::MotionFeatures& f) {
+namespace {
+
+/// The tracker's signal resampled at its median frame interval (linear interpolation over gaps).
+bool uniformSignal(const std::vector<double>& t, const std::vector<double>& y, std::vector<double>* out, double* dt) {
+  if (t.size() != y.size() || t.size() < 8) return false;
+  std::vector<double> d;
+  for (std::size_t i = 1; i < t.size(); ++i) d.push_back(t[i] - t[i - 1]);
+  std::nth_element(d.begin(), d.begin() + std::ptrdiff_t(d.size() / 2), d.end());
+  *dt = d[d.size() / 2];
+  if (!(*dt > 0)) return false;
+  out->clear();
+  std::size_t j = 0;
+  for (double s = t.front(); s <= t.back() + 1e-9 * *dt; s += *dt) {
+    while (j + 2 < t.size() && t[j + 1] < s) ++j;
+    const double w = t[j + 1] > t[j] ? std::clamp((s - t[j]) / (t[j + 1] - t[j]), 0.0, 1.0) : 0.0;
+    out->push_back((1 - w) * y[j] + w * y[j + 1]);
+  }
+  return out->size() >= 8;
+}
+
+}  // namespace
+
+MotionTargets targetsFromMotion(const inference::TaskConfig& config, const topo_gaussian::MotionFeatures& f) {
+  const std::string& task = config.task();
   MotionTargets out;
   const std::string from = "motion features (" + (f.source.empty() ? std::string("unknown source") : f.source) + ", kind " +
                            (f.kind.empty() ? std::string("?") : f.kind) + ")";
@@ -10,6 +39,22 @@ MotionTargets targetsFromMotion(const std::string& task, const topo_gaussian::Mo
     if (!f.oscillation_found || !(f.period_s > 0)) {
       out.note = from + " hold no oscillation" + (f.message.empty() ? "" : ": " + f.message);
       return out;
+    }
+    std::vector<double> y;
+    double dt = 0;
+    if (uniformSignal(f.time_s, f.angle_deg, &y, &dt)) {
+      const int cycles = config.has("measured_cycles") ? config.integer("measured_cycles") : 2;
+      const inference::OscillationFeatures<double> o = inference::analyseOscillation(y, 0.0, dt, cycles, true);
+      if (o.valid && o.period > 0) {
+        out.targets.emplace_back("period_s", o.period);
+        out.targets.emplace_back("max_tilt_deg", o.max_abs);
+        std::ostringstream os;
+        os << "the task's analysis of the observed signal (" << y.size() << " samples, first " << cycles
+           << " cycles) gives period " << o.period << " s, max tilt " << o.max_abs << " deg; the tracker's own: "
+           << f.period_s << " s, " << f.max_tilt_deg << " deg";
+        out.note = os.str();
+        return out;
+      }
     }
     out.targets.emplace_back("period_s", f.period_s);
     if (f.max_tilt_deg > 0 && f.amplitude_confidence > 0) out.targets.emplace_back("max_tilt_deg", f.max_tilt_deg);

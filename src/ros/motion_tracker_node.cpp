@@ -25,6 +25,7 @@ MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh) {
   p.video_file = param<std::string>(pnh, "video_file", "");
   p.options.tracker.method = param<std::string>(pnh, "method", "marker");
   p.options.kind = param<std::string>(pnh, "kind", "pendulum");
+  p.options.tracker.foreground = param<std::string>(pnh, "foreground", p.options.tracker.foreground);
   std::vector<int> roi;
   pnh.param("roi", roi, std::vector<int>());
   if (!roi.empty()) {
@@ -68,6 +69,9 @@ MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh) {
   p.publish_period_s = param(pnh, "publish_period_s", 1.0);
   if (!(p.window_s > 0) || !(p.publish_period_s > 0))
     throw TopoError("~window_s/~publish_period_s", "must be positive [s]", "e.g. 20 and 1");
+  p.align_windows = param(pnh, "align_windows", false);
+  p.stale_after_s = param(pnh, "stale_after_s", 5.0);
+  if (!(p.stale_after_s >= 0)) throw TopoError("~stale_after_s", "must be >= 0 [s]", "e.g. 5 (0: never report a stale camera)");
   vision::MotionTracker check(p.options);  // validates kind and method (throws TopoError)
   return p;
 }
@@ -197,13 +201,26 @@ void MotionTrackerNode::onImage(const sensor_msgs::ImageConstPtr& msg) {
     return;
   }
   const double t = msg->header.stamp.isZero() ? ::ros::Time::now().toSec() : msg->header.stamp.toSec();
+  last_image_wall_ = ::ros::WallTime::now();
+  if (stale_reported_) {
+    ROS_INFO("motion_tracker: %s publishes again", image_sub_.getTopic().c_str());
+    stale_reported_ = false;
+  }
   if (last_t_s_ >= 0 && t <= last_t_s_) {
     ROS_WARN_THROTTLE(5.0, "motion_tracker: %s: stamp %.3f s is not after the previous frame's; frame skipped",
                       image_sub_.getTopic().c_str(), t);
     return;
   }
   try {
-    if (!live_ || t - live_start_s_ > params_.window_s) {
+    if (params_.align_windows) {
+      const long k = static_cast<long>(std::floor(t / params_.window_s));
+      if (live_ && k != live_window_) finishLive();  // the previous window is complete
+      if (!live_ || k != live_window_) {
+        live_ = std::make_unique<vision::MotionTracker>(params_.options);
+        live_window_ = k;
+        live_start_s_ = k * params_.window_s;
+      }
+    } else if (!live_ || t - live_start_s_ > params_.window_s) {
       live_ = std::make_unique<vision::MotionTracker>(params_.options);
       live_start_s_ = t;
     }
@@ -221,7 +238,7 @@ void MotionTrackerNode::onImage(const sensor_msgs::ImageConstPtr& msg) {
   }
 }
 
-void MotionTrackerNode::onTimer(const ::ros::TimerEvent&) {
+void MotionTrackerNode::finishLive() {
   if (!live_ || !live_dirty_) return;
   live_dirty_ = false;
   try {
@@ -231,6 +248,30 @@ void MotionTrackerNode::onTimer(const ::ros::TimerEvent&) {
   } catch (const std::exception& e) {
     ROS_ERROR_THROTTLE(5.0, "motion_tracker: %s", e.what());
   }
+}
+
+void MotionTrackerNode::onTimer(const ::ros::TimerEvent&) {
+  // A camera that stopped: say so once (log and a features message), keep the last features latched.
+  if (params_.stale_after_s > 0 && !last_image_wall_.isZero() && !stale_reported_) {
+    const double silent = (::ros::WallTime::now() - last_image_wall_).toSec();
+    if (silent > params_.stale_after_s) {
+      stale_reported_ = true;
+      ROS_WARN("motion_tracker: no image on %s for %.1f s (~stale_after_s %.1f): the camera stopped; the latest "
+               "motion_features are stale", image_sub_.getTopic().c_str(), silent, params_.stale_after_s);
+      topo_gaussian::MotionFeatures m;
+      m.header.stamp = ::ros::Time::now();
+      m.header.frame_id = live_frame_id_;
+      m.source = image_sub_.getTopic();
+      m.kind = params_.options.kind;
+      m.method = params_.options.tracker.method;
+      m.message = "stale: no image on " + image_sub_.getTopic() + " for " + std::to_string(silent) +
+                  " s; check the camera driver";
+      features_pub_.publish(m);
+      live_.reset();
+      live_dirty_ = false;
+    }
+  }
+  if (!params_.align_windows) finishLive();  // aligned windows are published when complete
 }
 
 bool MotionTrackerNode::onExtractMotion(topo_gaussian::ExtractMotion::Request& req,

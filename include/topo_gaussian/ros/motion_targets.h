@@ -1,5 +1,10 @@
 // Observed motion (MotionFeatures from motion_tracker) → the targets of an inference task:
-//   tumbler                  period_s ← period_s, max_tilt_deg ← max_tilt_deg  (oscillation found)
+//   tumbler                  period_s, max_tilt_deg: when the features carry the sampled tilt signal
+//                            (time_s, angle_deg; one release per window, as motion_tracker with
+//                            ~align_windows gives), the task's own analysis (inference/oscillation.h,
+//                            the first measured_cycles cycles after the release) is applied to it, so
+//                            observed and simulated features are measured alike; otherwise the
+//                            tracker's period_s and max_tilt_deg (oscillation found)
 //   hanging, balance, stand  target_roll_deg ← equilibrium_deg                   (the camera looks along
 //                            world x, so the image angle is the roll about x; equilibrium measured)
 //   finger                   bend_angle_deg ← bending_angle_deg                  (bending measured)
@@ -12,6 +17,7 @@
 #include <vector>
 
 #include "topo_gaussian/MotionFeatures.h"
+#include "topo_gaussian/inference/task_config.h"
 
 namespace topo_gaussian::topo_ros {
 
@@ -20,7 +26,7 @@ struct MotionTargets {
   std::string note;  ///< why nothing (or not everything) was taken, empty when all was
 };
 
-/// The targets `task` can take from `features` (see the table above).
-MotionTargets targetsFromMotion(const std::string& task, const topo_gaussian::MotionFeatures& features);
+/// The targets the task of `config` can take from `features` (see the table above).
+MotionTargets targetsFromMotion(const inference::TaskConfig& config, const topo_gaussian::MotionFeatures& features);
 
 }  // namespace topo_gaussian::topo_ros
