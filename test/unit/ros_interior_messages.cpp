@@ -1,0 +1,192 @@
+// The interior_inference node's library pieces without a ROS master: the interior cloud layout and
+// its colours, the markers of a result, the targets taken from motion features (the same oscillation
+// analysis as the task), and the replay's pose interpolation.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "test_clouds.h"
+#include "test_util.h"
+#include "topo_gaussian/inference/body_motion.h"
+#include "topo_gaussian/inference/pipeline.h"
+#include "topo_gaussian/ros/conversions.h"
+#include "topo_gaussian/ros/interior_markers.h"
+#include "topo_gaussian/ros/motion_targets.h"
+
+using namespace topo_gaussian;
+using topo_test::errorOf;
+
+namespace {
+
+std::uint32_t rgbAt(const sensor_msgs::PointCloud2& m, std::size_t i) {
+  int off = -1;
+  for (const auto& f : m.fields)
+    if (f.name == "rgb") off = int(f.offset);
+  std::uint32_t v = 0;
+  std::memcpy(&v, m.data.data() + i * m.point_step + std::size_t(off), 4);
+  return v;
+}
+
+}  // namespace
+
+TEST(InteriorCloud, LayoutColoursAndRoundTrip) {
+  const VolumeCloud cloud = topo_test::boxCloud(0.04, 0.04, 0.04, 0.01);
+  std::vector<double> r(cloud.size()), rho(cloud.size()), e;
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    r[i] = double(i % 5) / 4.0;
+    rho[i] = 1 + 999 * r[i];
+  }
+  const auto msg = topo_ros::toInteriorCloud(cloud, r, rho, e, "object_simulated", ros::Time(3.0));
+  EXPECT_EQ(msg.width, cloud.size());
+  EXPECT_EQ(msg.header.frame_id, "object_simulated");
+  for (const char* f : {"x", "y", "z", "solid", "density", "stiffness", "rgb"}) EXPECT_TRUE(topo_ros::hasField(msg, f)) << f;
+  EXPECT_EQ(rgbAt(msg, 0), topo_ros::kHollowRgb);  // r = 0
+  EXPECT_EQ(rgbAt(msg, 4), topo_ros::kSolidRgb);   // r = 1
+  EXPECT_EQ(topo_ros::interiorRgb(0.5), 0x824682u) << std::hex << topo_ros::interiorRgb(0.5);  // midway per channel
+  const auto back = topo_ros::fromInteriorCloud(msg, "test");
+  ASSERT_EQ(back.r.size(), r.size());
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    EXPECT_NEAR(back.r[i], r[i], 1e-7);
+    EXPECT_NEAR((back.X[i] - cloud.X[i]).norm(), 0.0, 1e-8);
+  }
+  // wrong sizes and bad values are named
+  EXPECT_NE(errorOf([&] { topo_ros::toInteriorCloud(cloud, {0.5}, rho, e, "o", ros::Time()); }).find("1 indicator"),
+            std::string::npos);
+  auto bad = msg;
+  float nan = std::nanf("");
+  int off = 0;
+  for (const auto& f : bad.fields)
+    if (f.name == "solid") off = int(f.offset);
+  std::memcpy(bad.data.data() + 2 * bad.point_step + off, &nan, 4);
+  EXPECT_NE(errorOf([&] { topo_ros::fromInteriorCloud(bad, "~simulate interior"); }).find("point 2 has solid"),
+            std::string::npos);
+  auto none = topo_ros::toPointCloud2(cloud, "object", ros::Time());
+  EXPECT_NE(errorOf([&] { topo_ros::fromInteriorCloud(none, "goal"); }).find("no field 'solid'"), std::string::npos);
+}
+
+TEST(InteriorMarkers, CentreOfMassSolidCubesGravityAndText) {
+  const VolumeCloud cloud = topo_test::boxCloud(0.1, 0.1, 0.1, 0.01);
+  std::vector<double> r(cloud.size());
+  std::size_t solid = 0;
+  for (std::size_t i = 0; i < r.size(); ++i) solid += (r[i] = cloud.X[i].z() < 0 ? 1.0 : 0.1) >= 0.5;
+  topo_ros::InteriorMarkerInput in;
+  in.cloud = &cloud;
+  in.r = &r;
+  in.mass.mass = 2.0;
+  in.mass.com = Eigen::Vector3d(0, 0, -0.02);
+  in.mass.inertia = Eigen::Vector3d(1, 2, 3).asDiagonal();
+  in.geometry.has_point = true;
+  in.geometry.point = Eigen::Vector3d(0, 0, 0.05);
+  in.features = {inference::Feature{"period_s", 0.3, "s", true, 0.31}};
+  in.object_in_world = Eigen::Translation3d(0, 0, 1.0) * Eigen::Quaterniond::Identity();
+  const auto arr = topo_ros::makeInteriorMarkers(in, ros::Time(1.0));
+  ASSERT_GE(arr.markers.size(), 8u);
+  EXPECT_EQ(arr.markers[0].action, visualization_msgs::Marker::DELETEALL);
+  const visualization_msgs::Marker* cubes = nullptr;
+  const visualization_msgs::Marker* gravity = nullptr;
+  const visualization_msgs::Marker* text = nullptr;
+  for (const auto& m : arr.markers) {
+    if (m.type == visualization_msgs::Marker::CUBE_LIST) cubes = &m;
+    if (m.type == visualization_msgs::Marker::ARROW && m.header.frame_id == "world") gravity = &m;
+    if (m.type == visualization_msgs::Marker::TEXT_VIEW_FACING) text = &m;
+    if (m.id == 1) EXPECT_NEAR(m.pose.position.z, -0.02, 1e-12);  // com sphere
+    if (m.id == 2) EXPECT_NEAR(m.pose.position.z, 0.05, 1e-12);   // hanging point
+  }
+  ASSERT_TRUE(cubes && gravity && text);
+  EXPECT_EQ(cubes->points.size(), solid);
+  EXPECT_NEAR(cubes->scale.x, 0.01, 1e-12);
+  EXPECT_NEAR(gravity->points[0].z, 1.0 - 0.02, 1e-12) << "starts at the com placed in the world";
+  EXPECT_LT(gravity->points[1].z, gravity->points[0].z) << "points down";
+  EXPECT_EQ(text->text, "period_s = 0.3 s (target 0.31)");
+  std::vector<double> short_r(3, 1.0);
+  in.r = &short_r;
+  EXPECT_NE(errorOf([&] { topo_ros::makeInteriorMarkers(in, ros::Time()); }).find("one indicator value"), std::string::npos);
+}
+
+TEST(MotionTargets, TumblerSignalGetsTheTasksOwnAnalysis) {
+  // The simulated tilt of a tumbler, sampled as a 60 fps tracker would, must give back the task's own
+  // period and max tilt (same analysis), not the tracker's whole-window numbers.
+  const VolumeCloud cloud = topo_test::tumblerCloud(0.05, 0.4, 0.006);
+  inference::TaskConfig c = inference::TaskConfig::defaults("tumbler");
+  c.set("dt_s", "0.0166666666666667");
+  const inference::ProblemEvaluation ev = inference::simulateInterior(c, cloud, {});
+  double period = 0, tilt = 0;
+  for (const auto& f : ev.task.features) {
+    if (f.name == "period_s") period = f.value;
+    if (f.name == "max_tilt_deg") tilt = f.value;
+  }
+  topo_gaussian::MotionFeatures m;
+  m.kind = "tilt";
+  m.oscillation_found = true;
+  m.period_s = 0.5 * period;  // a different whole-window number the mapping must not use
+  m.max_tilt_deg = 1.0;
+  m.amplitude_confidence = 1.0;
+  for (std::size_t k = 0; k < ev.task.signal.size(); ++k) {
+    m.time_s.push_back(100.0 + ev.task.signal_time_s[k]);  // stamps need not start at 0
+    m.angle_deg.push_back(-ev.task.signal[k]);           // the image angle may have the other sign
+  }
+  const topo_ros::MotionTargets t = topo_ros::targetsFromMotion(c, m);
+  ASSERT_EQ(t.targets.size(), 2u) << t.note;
+  EXPECT_EQ(t.targets[0].first, "period_s");
+  EXPECT_NEAR(t.targets[0].second, period, 1e-9 * period);
+  EXPECT_EQ(t.targets[1].first, "max_tilt_deg");
+  EXPECT_NEAR(t.targets[1].second, tilt, 1e-9);
+  std::printf("[targets] tumbler: task %.5f s %.4f deg; from the observed signal %.5f s %.4f deg\n", period, tilt,
+              t.targets[0].second, t.targets[1].second);
+  // without a signal: the tracker's numbers; without an oscillation: nothing, with the reason
+  m.time_s.clear();
+  m.angle_deg.clear();
+  const auto scalar = topo_ros::targetsFromMotion(c, m);
+  ASSERT_EQ(scalar.targets.size(), 2u);
+  EXPECT_DOUBLE_EQ(scalar.targets[0].second, 0.5 * period);
+  m.oscillation_found = false;
+  m.message = "stale: no image";
+  const auto none = topo_ros::targetsFromMotion(c, m);
+  EXPECT_TRUE(none.targets.empty());
+  EXPECT_NE(none.note.find("stale: no image"), std::string::npos) << none.note;
+  // other tasks
+  topo_gaussian::MotionFeatures bend;
+  bend.bending_angle_deg = 12.5;
+  bend.bending_confidence = 0.9;
+  const auto finger = topo_ros::targetsFromMotion(inference::TaskConfig::defaults("finger"), bend);
+  ASSERT_EQ(finger.targets.size(), 1u);
+  EXPECT_EQ(finger.targets[0].first, "bend_angle_deg");
+  EXPECT_DOUBLE_EQ(finger.targets[0].second, 12.5);
+  EXPECT_NE(topo_ros::targetsFromMotion(inference::TaskConfig::defaults("qiqi"), bend).note.find("goal's targets"),
+            std::string::npos);
+}
+
+TEST(BodyMotion, PoseInterpolationAndClamping) {
+  std::vector<inference::BodyPose> m(3);
+  for (int k = 0; k < 3; ++k) {
+    m[k].t = 0.1 * k;
+    m[k].translation = Eigen::Vector3d(k, 0, 0);
+    m[k].rotation = Eigen::Quaterniond(Eigen::AngleAxisd(0.2 * k, Eigen::Vector3d::UnitX()));
+  }
+  const auto p = inference::poseAt(m, 0.15);
+  EXPECT_NEAR(p.translation.x(), 1.5, 1e-12);
+  EXPECT_NEAR(Eigen::AngleAxisd(p.rotation).angle(), 0.3, 1e-12);
+  EXPECT_NEAR(inference::poseAt(m, -1).translation.x(), 0.0, 0.0);
+  EXPECT_NEAR(inference::poseAt(m, 9).translation.x(), 2.0, 0.0);
+  EXPECT_NE(errorOf([] { inference::poseAt({}, 0.0); }).find("no samples"), std::string::npos);
+}
+
+TEST(BodyMotion, TumblerMotionPlacesTheComAtTheSimulatedState) {
+  // The reported pose maps the body-frame centre of mass onto the rigid state's position, and the
+  // lowest surface particle of the resting start touches the ground (z ≈ 0).
+  const VolumeCloud cloud = topo_test::tumblerCloud(0.05, 0.4, 0.006);
+  const inference::TaskConfig c = inference::TaskConfig::defaults("tumbler");
+  const inference::ProblemEvaluation ev = inference::simulateInterior(c, cloud, {});
+  ASSERT_EQ(ev.task.motion.size(), ev.task.signal.size());
+  double zmin = 1e9;
+  const auto& p0 = ev.task.motion.front();
+  for (const auto& x : cloud.X) zmin = std::min(zmin, (p0.rotation * x + p0.translation).z());
+  EXPECT_NEAR(zmin, 0.0, 0.006) << "rests on the ground within a spacing";
+  // the tilt of the pose about the rocking axis (x) equals the task's signal
+  for (std::size_t k = 0; k < ev.task.motion.size(); k += 37) {
+    const Eigen::Vector3d up = ev.task.motion[k].rotation * Eigen::Vector3d::UnitZ();
+    const double tilt = std::atan2(-up.y(), up.z()) * 180 / M_PI;
+    EXPECT_NEAR(std::abs(tilt), std::abs(ev.task.signal[k]), 1e-6) << k;
+  }
+}
