@@ -104,6 +104,9 @@ InteriorInferenceParams loadInteriorInferenceParams(const ::ros::NodeHandle& pnh
   pnh.param("replay_speed", p.replay_speed, p.replay_speed);
   pnh.param("export_on_finish", p.export_on_finish, p.export_on_finish);
   pnh.param("max_features_age_s", p.max_features_age_s, p.max_features_age_s);
+  pnh.param("volume_wait_s", p.volume_wait_s, p.volume_wait_s);
+  if (!(p.volume_wait_s >= 0 && p.volume_wait_s <= 3600))
+    throw TopoError("~volume_wait_s", "is " + std::to_string(p.volume_wait_s) + ", outside [0, 3600]", "use e.g. 15 [s]");
   if (!(p.replay_rate_hz >= 0 && p.replay_rate_hz <= 1000))
     throw TopoError("~replay_rate_hz", "is " + std::to_string(p.replay_rate_hz) + ", outside [0, 1000]",
                     "use e.g. 30 (0 turns the tf replay off)");
@@ -184,13 +187,25 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
   std::shared_ptr<VolumeCloud> cloud;
   std::shared_ptr<topo_gaussian::MotionFeatures> latest_features;
   ::ros::Time features_time;
+  const bool goal_volume = std::size_t(rq.volume.width) * rq.volume.height > 0;
+  if (!goal_volume && inference::defaultShapeForTask(config.task()).empty()) {
+    // A goal sent right after launch may arrive before the first volume: wait a little for it.
+    const ::ros::WallTime until = ::ros::WallTime::now() + ::ros::WallDuration(params_.volume_wait_s);
+    while (::ros::ok() && ::ros::WallTime::now() < until) {
+      {
+        std::lock_guard<std::mutex> lock(state_mutex_);
+        if (volume_) break;
+      }
+      ::ros::WallDuration(0.1).sleep();
+    }
+  }
   {
     std::lock_guard<std::mutex> lock(state_mutex_);
     cloud = volume_;
     latest_features = features_;
     features_time = features_received_;
   }
-  if (std::size_t(rq.volume.width) * rq.volume.height > 0) {
+  if (goal_volume) {
     cloud = std::make_shared<VolumeCloud>(fromPointCloud2(rq.volume, "goal volume"));
     cloud->validate("goal volume");
   }
@@ -202,7 +217,8 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
       notes.push_back("no volume received: used the default " + shape + " shape (" + std::to_string(cloud->size()) +
                       " particles)");
     } else {
-      throw TopoError("goal", "has no volume cloud and none was received on " + volume_sub_.getTopic(),
+      throw TopoError("goal", "has no volume cloud and none was received on " + volume_sub_.getTopic() + " (waited " +
+                                  std::to_string(params_.volume_wait_s) + " s)",
                       "start cloud_ingest with a surface (e.g. roslaunch topo_gaussian cloud_ingest.launch "
                       "surface_file:=...) or put a cloud in the goal's volume");
     }
@@ -338,10 +354,12 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
 void InteriorInferenceNode::show(const VolumeCloud& cloud, const inference::TaskConfig& config,
                                  const std::vector<double>& r, const inference::ProblemEvaluation& ev,
                                  const inference::TaskGeometry& geometry) {
-  const ::ros::Time stamp = ::ros::Time::now();
+  // Stamp 0: latched messages stay usable for a late subscriber (rviz transforms them with the latest
+  // tf, not with a stamp older than its tf buffer).
+  const ::ros::Time stamp(0);
   std::vector<double> density;
   inference::makeTask(config, cloud)->density().apply(r, &density, nullptr);
-  interior_pub_.publish(
+  auto interior = boost::make_shared<sensor_msgs::PointCloud2>(
       toInteriorCloud(cloud, r, density, inference::particleStiffness(config, r), params_.object_frame, stamp));
   InteriorMarkerInput mi;
   mi.cloud = &cloud;
@@ -354,10 +372,23 @@ void InteriorInferenceNode::show(const VolumeCloud& cloud, const inference::Task
   std::vector<inference::BodyPose> motion = ev.task.motion;
   if (motion.empty()) motion.push_back(inference::BodyPose{});  // no rigid motion: the object frame sits at the world origin
   mi.object_in_world = Eigen::Translation3d(motion.front().translation) * motion.front().rotation;
-  markers_pub_.publish(makeInteriorMarkers(mi, stamp));
-  std::lock_guard<std::mutex> lock(state_mutex_);
-  replay_ = std::move(motion);
-  replay_start_ = ::ros::WallTime::now();
+  auto markers = boost::make_shared<visualization_msgs::MarkerArray>(makeInteriorMarkers(mi, stamp));
+  {
+    std::lock_guard<std::mutex> lock(state_mutex_);
+    replay_ = std::move(motion);
+    replay_start_ = ::ros::WallTime::now();
+  }
+  interior_pub_.publish(interior);
+  markers_pub_.publish(markers);
+  // Once more after a second of tf replay: a viewer that got the first copy before it had heard of
+  // ~object_frame (rviz drops such messages) gets a second chance; the latched copy stays the same.
+  republish_timer_ = nh_.createWallTimer(
+      ::ros::WallDuration(1.0),
+      [this, interior, markers](const ::ros::WallTimerEvent&) {
+        interior_pub_.publish(interior);
+        markers_pub_.publish(markers);
+      },
+      true);
 }
 
 void InteriorInferenceNode::onReplay(const ::ros::WallTimerEvent&) {

@@ -40,6 +40,7 @@ Marker base(const std::string& frame, const ::ros::Time& stamp, int id, int type
   m.type = type;
   m.action = Marker::ADD;
   m.pose.orientation.w = 1.0;
+  m.frame_locked = true;  // follow the frame as the replay moves it
   return m;
 }
 
@@ -130,8 +131,8 @@ visualization_msgs::MarkerArray makeInteriorMarkers(const InteriorMarkerInput& i
   if (!solid.points.empty()) out.markers.push_back(solid);
 
   Marker text = base(in.object_frame, stamp, 8, Marker::TEXT_VIEW_FACING);
-  text.pose.position = point(Eigen::Vector3d(0.5 * (lo.x() + hi.x()), 0.5 * (lo.y() + hi.y()), hi.z() + 0.25 * size));
-  text.scale.z = 0.06 * size;
+  text.pose.position = point(Eigen::Vector3d(0.5 * (lo.x() + hi.x()), 0.5 * (lo.y() + hi.y()), hi.z() + 0.3 * size));
+  text.scale.z = 0.035 * size;
   text.color = colour(0xFFFFFF, 1.0);
   text.text = featuresText(in.features);
   if (!text.text.empty()) out.markers.push_back(text);

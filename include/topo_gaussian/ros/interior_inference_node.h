@@ -46,6 +46,7 @@ struct InteriorInferenceParams {
   double replay_speed = 1.0;                      ///< ~replay_speed: simulated seconds per wall second
   bool export_on_finish = true;                   ///< ~export_on_finish: STL + pictures after every run
   double max_features_age_s = 0.0;                ///< ~max_features_age_s: older motion features are refused (0: any age)
+  double volume_wait_s = 15.0;                    ///< ~volume_wait_s: a goal before any `volume` waits this long for one
 };
 
 /// Reads and validates the private parameters; throws TopoError naming the parameter and the fix.
@@ -104,7 +105,7 @@ class InteriorInferenceNode {
   ::ros::Publisher interior_pub_, markers_pub_;
   ::ros::Subscriber volume_sub_, features_sub_;
   ::ros::ServiceServer infer_srv_, simulate_srv_, export_srv_;
-  ::ros::WallTimer replay_timer_;
+  ::ros::WallTimer replay_timer_, republish_timer_;
   tf2_ros::TransformBroadcaster tf_;
   std::unique_ptr<actionlib::SimpleActionServer<topo_gaussian::InferInteriorAction>> server_;
 

@@ -6,6 +6,7 @@
 //   principal_axes three arrows along the principal axes of inertia, length ∝ the object size
 //   solid          cube list of the solid particles (r ≥ 0.5), one spacing wide, in the solid colour
 //   features       text above the object: the achieved features and their targets
+// Markers in the object frame are frame_locked, so rviz moves them with the tf replay.
 #pragma once
 
 #include <visualization_msgs/MarkerArray.h>
