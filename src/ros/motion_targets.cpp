@@ -44,13 +44,18 @@ MotionTargets targetsFromMotion(const inference::TaskConfig& config, const topo_
     double dt = 0;
     if (uniformSignal(f.time_s, f.angle_deg, &y, &dt)) {
       const int cycles = config.has("measured_cycles") ? config.integer("measured_cycles") : 2;
-      const inference::OscillationFeatures<double> o = inference::analyseOscillation(y, 0.0, dt, cycles, true);
+      // Released at rest (a window that starts at the release) when the first sample is a turning
+      // point (the first step is small against the range) far from the centre.
+      double lo = y[0], hi = y[0], peak = 0;
+      for (double v : y) lo = std::min(lo, v), hi = std::max(hi, v), peak = std::max(peak, std::abs(v));
+      const bool at_rest = std::abs(y[1] - y[0]) < 0.05 * (hi - lo) && std::abs(y[0]) >= 0.5 * peak;
+      const inference::OscillationFeatures<double> o = inference::analyseOscillation(y, 0.0, dt, cycles, at_rest);
       if (o.valid && o.period > 0) {
         out.targets.emplace_back("period_s", o.period);
         out.targets.emplace_back("max_tilt_deg", o.max_abs);
         std::ostringstream os;
         os << "the task's analysis of the observed signal (" << y.size() << " samples, first " << cycles
-           << " cycles) gives period " << o.period << " s, max tilt " << o.max_abs << " deg; the tracker's own: "
+           << " cycles, " << (at_rest ? "released at rest" : "already swinging") << ") gives period " << o.period << " s, max tilt " << o.max_abs << " deg; the tracker's own: "
            << f.period_s << " s, " << f.max_tilt_deg << " deg";
         out.note = os.str();
         return out;

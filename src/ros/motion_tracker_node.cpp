@@ -69,7 +69,6 @@ MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh) {
   p.publish_period_s = param(pnh, "publish_period_s", 1.0);
   if (!(p.window_s > 0) || !(p.publish_period_s > 0))
     throw TopoError("~window_s/~publish_period_s", "must be positive [s]", "e.g. 20 and 1");
-  p.align_windows = param(pnh, "align_windows", false);
   p.stale_after_s = param(pnh, "stale_after_s", 5.0);
   if (!(p.stale_after_s >= 0)) throw TopoError("~stale_after_s", "must be >= 0 [s]", "e.g. 5 (0: never report a stale camera)");
   vision::MotionTracker check(p.options);  // validates kind and method (throws TopoError)
@@ -212,15 +211,7 @@ void MotionTrackerNode::onImage(const sensor_msgs::ImageConstPtr& msg) {
     return;
   }
   try {
-    if (params_.align_windows) {
-      const long k = static_cast<long>(std::floor(t / params_.window_s));
-      if (live_ && k != live_window_) finishLive();  // the previous window is complete
-      if (!live_ || k != live_window_) {
-        live_ = std::make_unique<vision::MotionTracker>(params_.options);
-        live_window_ = k;
-        live_start_s_ = k * params_.window_s;
-      }
-    } else if (!live_ || t - live_start_s_ > params_.window_s) {
+    if (!live_ || t - live_start_s_ > params_.window_s) {
       live_ = std::make_unique<vision::MotionTracker>(params_.options);
       live_start_s_ = t;
     }
@@ -271,7 +262,7 @@ void MotionTrackerNode::onTimer(const ::ros::TimerEvent&) {
       live_dirty_ = false;
     }
   }
-  if (!params_.align_windows) finishLive();  // aligned windows are published when complete
+  finishLive();
 }
 
 bool MotionTrackerNode::onExtractMotion(topo_gaussian::ExtractMotion::Request& req,

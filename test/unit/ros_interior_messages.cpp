@@ -134,6 +134,22 @@ TEST(MotionTargets, TumblerSignalGetsTheTasksOwnAnalysis) {
   EXPECT_NEAR(t.targets[1].second, tilt, 1e-9);
   std::printf("[targets] tumbler: task %.5f s %.4f deg; from the observed signal %.5f s %.4f deg\n", period, tilt,
               t.targets[0].second, t.targets[1].second);
+  // a window that starts mid-swing (a steady rocking seen from a quarter period in) is analysed as
+  // already swinging
+  auto later = m;
+  later.time_s.clear();
+  later.angle_deg.clear();
+  for (int k = 0; k < 180; ++k) {
+    const double tk = k / 60.0;
+    later.time_s.push_back(tk);
+    later.angle_deg.push_back(1.0 + 8.0 * std::sin(2 * M_PI * tk / 0.4));
+  }
+  const topo_ros::MotionTargets mid = topo_ros::targetsFromMotion(c, later);
+  ASSERT_EQ(mid.targets.size(), 2u) << mid.note;
+  EXPECT_NE(mid.note.find("already swinging"), std::string::npos) << mid.note;
+  EXPECT_NE(t.note.find("released at rest"), std::string::npos) << t.note;
+  EXPECT_NEAR(mid.targets[0].second, 0.4, 0.002) << mid.note;
+  EXPECT_NEAR(mid.targets[1].second, 9.0, 0.05) << mid.note;
   // without a signal: the tracker's numbers; without an oscillation: nothing, with the reason
   m.time_s.clear();
   m.angle_deg.clear();

@@ -25,11 +25,6 @@ struct MotionTrackerParams {
   vision::TrackOptions options;    ///< ~method, ~kind, ~foreground, ~roi [x,y,w,h], ~start_s, ~end_s, ~stride, ~pivot [x,y]
   double window_s = 20.0;          ///< ~window_s: live stream analysed over windows this long [s]
   double publish_period_s = 1.0;   ///< ~publish_period_s: live features published this often [s]
-  /// ~align_windows: windows are [k·window_s, (k+1)·window_s) in image-stamp time and each is
-  /// published once, when complete (a rig that restarts its motion every window_s seconds, like
-  /// rig_simulator, then gives one whole motion per window); false: windows start at the first
-  /// frame and the growing window is published every publish_period_s.
-  bool align_windows = false;
   /// ~stale_after_s: no image for this long → the camera is reported stale (log + a features
   /// message saying so); 0 = never
   double stale_after_s = 5.0;
@@ -69,7 +64,6 @@ class MotionTrackerNode {
   ::ros::Timer timer_;
   std::unique_ptr<vision::MotionTracker> live_;
   double live_start_s_ = 0.0, last_t_s_ = -1.0;
-  long live_window_ = 0;                  ///< align_windows: index of the current window
   ::ros::WallTime last_image_wall_;       ///< for the stale-camera check
   bool stale_reported_ = false;
   void finishLive();
