@@ -1,4 +1,5 @@
-# topo_gaussian: `make demo` runs the main job on an embedded default, `make test` runs every test.
+# topo_gaussian: `make demo` runs the full lab loop headless on the digital twin (demo.launch),
+# `make test` runs every test.
 # Both install the Debian packages they need (scripts/install_deps.sh) and build into build/.
 SHELL := /bin/bash
 export PATH := /usr/bin:$(PATH)
@@ -24,11 +25,7 @@ test: build
 	@./scripts/run_tests.sh $(BUILD)
 
 demo: build
-	@mkdir -p $(DEMO_DIR)
-	$(BUILD)/devel/lib/topo_gaussian/topo generate --shape torus --size 0.1 --output $(DEMO_DIR)/torus.obj
-	$(BUILD)/devel/lib/topo_gaussian/topo fill --input $(DEMO_DIR)/torus.obj --output $(DEMO_DIR)/torus_volume.ply \
-	    --png $(DEMO_DIR)/torus_volume.png --json
-	@echo "[make demo] volume: $(DEMO_DIR)/torus_volume.ply  picture: $(DEMO_DIR)/torus_volume.png"
+	@./scripts/demo.sh $(BUILD) $(DEMO_DIR)
 
 bench: build
 	@./bench/fill $(BUILD)
