@@ -15,6 +15,7 @@
 #include "topo_gaussian/inference/interior_export.h"
 #include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/ros/body_pose_msg.h"
 #include "topo_gaussian/ros/conversions.h"
 #include "topo_gaussian/ros/interior_markers.h"
 #include "topo_gaussian/ros/motion_targets.h"
@@ -401,18 +402,7 @@ void InteriorInferenceNode::onReplay(const ::ros::WallTimerEvent&) {
     t = span > 0 ? replay_.front().t + std::fmod(t, span) : replay_.front().t;
     p = inference::poseAt(replay_, t);
   }
-  geometry_msgs::TransformStamped tf;
-  tf.header.stamp = ::ros::Time::now();
-  tf.header.frame_id = params_.world_frame;
-  tf.child_frame_id = params_.object_frame;
-  tf.transform.translation.x = p.translation.x();
-  tf.transform.translation.y = p.translation.y();
-  tf.transform.translation.z = p.translation.z();
-  tf.transform.rotation.w = p.rotation.w();
-  tf.transform.rotation.x = p.rotation.x();
-  tf.transform.rotation.y = p.rotation.y();
-  tf.transform.rotation.z = p.rotation.z();
-  tf_.sendTransform(tf);
+  tf_.sendTransform(toTransformStamped(p, params_.world_frame, params_.object_frame, ::ros::Time::now()));
 }
 
 void InteriorInferenceNode::execute(const topo_gaussian::InferInteriorGoalConstPtr& goal) {

@@ -36,7 +36,8 @@ const char* kTrackHelp =
     "  --fps F                frame rate of an image sequence (default 30)\n"
     "  --pivot x,y            pendulum pivot in pixels (default: circle fit to the marker's path)\n"
     "  --hsv-lower h,s,v --hsv-upper h,s,v   marker colour (OpenCV HSV, H 0..180; default red)\n"
-    "  --foreground F         silhouette foreground: mog2 (default) | otsu\n"
+    "  --foreground F         silhouette foreground: auto (default: otsu for --kind tilt/finger, mog2\n"
+    "                         otherwise) | mog2 | otsu\n"
     "  --min-area PX          smallest blob accepted (default 30)\n"
     "  --json                 print the features as one JSON object\n"
     "  --series               with --json: include the time series\n"
@@ -146,7 +147,7 @@ int trackCommand(const std::vector<std::string>& argv) {
   vision::TrackOptions o;
   o.kind = a.str("kind", "pendulum");
   o.tracker.method = a.str("method", "marker");
-  o.tracker.foreground = a.str("foreground", "mog2");
+  o.tracker.foreground = a.str("foreground", "auto");
   o.tracker.min_area_px = a.num("min-area", 30.0);
   if (a.has("roi")) {
     const auto v = numbers(a, "roi", 4);

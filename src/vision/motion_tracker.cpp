@@ -123,6 +123,21 @@ EndFit fitEnds(const cv::Mat& mask, const cv::Point& offset, cv::Vec2d& u_prev) 
   return f;
 }
 
+/// Tilt axis of a silhouette: of its two principal axes (the major one at `major_deg`, both taken
+/// pointing image-up, degrees from image-up), the one nearest image vertical at the first frame and
+/// after that the one nearest the previous frame's axis, unwrapped by ±180° for continuity. So an
+/// object wider than tall (a tumbler) is followed by its upright (minor) axis.
+double followTiltAxis(double major_deg, bool have_prev, double prev_deg) {
+  const double candidates[2] = {major_deg, major_deg > 0 ? major_deg - 90.0 : major_deg + 90.0};
+  const double ref = have_prev ? prev_deg : 0.0;
+  double best = candidates[0], best_d = 1e300;
+  for (double c : candidates) {
+    const double a = c + 180.0 * std::round((ref - c) / 180.0);  // an axis is a line: c ≡ c ± 180°
+    if (std::abs(a - ref) < best_d) best_d = std::abs(a - ref), best = a;
+  }
+  return best;
+}
+
 double spread(const std::vector<cv::Point2d>& pts) {
   if (pts.empty()) return 0.0;
   cv::Point2d m(0, 0);
@@ -181,6 +196,8 @@ struct MotionTracker::Impl {
   std::vector<EndFit> ends;
   std::map<int, std::vector<TrajectorySample>> klt_tracks;
   cv::Vec2d u_prev{0, 0};
+  bool have_tilt_axis = false;  ///< tilt: the axis followed so far (followTiltAxis)
+  double tilt_axis_deg = 0.0;
   cv::Mat last_frame;
   Measurement last;
   double last_t = 0;
@@ -218,6 +235,7 @@ void MotionTracker::addFrame(const cv::Mat& bgr, double t_s) {
     s.frame_size = bgr.size();
     TrackerOptions to = s.opt.tracker;
     if (s.opt.kind == "finger" && to.method == "silhouette") to.foreground = "otsu";
+    if (to.foreground == "auto") to.foreground = s.opt.kind == "tilt" ? "otsu" : "mog2";
     s.tracker = makeTracker(to, s.frame_size);
     s.roi = validRoi(to.roi, s.frame_size, to.roi_given || to.roi != cv::Rect());
   } else if (bgr.size() != s.frame_size) {
@@ -226,6 +244,11 @@ void MotionTracker::addFrame(const cv::Mat& bgr, double t_s) {
                     "keep the frame size constant");
   }
   Measurement me = s.tracker->track(bgr);
+  if (me.found && s.opt.kind == "tilt") {
+    me.axis_angle_deg = followTiltAxis(me.axis_angle_deg, s.have_tilt_axis, s.tilt_axis_deg);
+    s.have_tilt_axis = true;
+    s.tilt_axis_deg = me.axis_angle_deg;
+  }
   s.t_all.push_back(t_s);
   s.found.push_back(me.found ? 1 : 0);
   s.centroid.push_back(me.centroid);

@@ -459,10 +459,15 @@ SignalFeatures analyseSignal(const std::vector<double>& t_in, const std::vector<
     return f;
   }
 
-  // Least-squares fit of crossing times against their half-cycle index.
+  // Least-squares fit of crossing times against their half-cycle index. The index is counted from
+  // one crossing to the next (a gap of about two half cycles is a missed crossing), not from the
+  // first one: T_rough comes from the hysteresis runs about the median, which alternate long and
+  // short when the clip holds a fractional number of cycles (the median is then off the centre),
+  // and a few % of error in it would misnumber crossings after ten half cycles.
   double half = 0.5 * T_rough;
-  std::vector<double> idx(crossings.size());
-  for (size_t j = 0; j < crossings.size(); ++j) idx[j] = std::round((crossings[j] - crossings[0]) / half);
+  std::vector<double> idx(crossings.size(), 0.0);
+  for (size_t j = 1; j < crossings.size(); ++j)
+    idx[j] = idx[j - 1] + std::max(1.0, std::round((crossings[j] - crossings[j - 1]) / half));
   double period = 0.0, fit_rms = 0.0;
   {
     Eigen::VectorXd c;

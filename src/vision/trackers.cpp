@@ -94,8 +94,9 @@ class MarkerTracker : public Tracker {
 class SilhouetteTracker : public Tracker {
  public:
   SilhouetteTracker(const TrackerOptions& o, const cv::Rect& roi) : o_(o), roi_(roi) {
+    if (o_.foreground == "auto") o_.foreground = "mog2";  // MotionTracker resolves auto per kind first
     if (o_.foreground != "mog2" && o_.foreground != "otsu")
-      throw TopoError("foreground '" + o_.foreground + "'", "is not a silhouette method", "use mog2 or otsu");
+      throw TopoError("foreground '" + o_.foreground + "'", "is not a silhouette method", "use mog2, otsu or auto");
     if (o_.foreground == "mog2") mog_ = cv::createBackgroundSubtractorMOG2(200, 16.0, false);
     if (o_.morph_kernel_px > 0)
       kernel_ = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(o_.morph_kernel_px, o_.morph_kernel_px));

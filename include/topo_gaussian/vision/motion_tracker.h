@@ -3,7 +3,11 @@
 //  - kind "pendulum":   angle of the marker/centroid about a pivot (given, or a Kåsa least-squares
 //                       circle fit to the trajectory); angle = atan2(dx, dy) in image coordinates,
 //                       0 = hanging straight down, + towards image-right, degrees;
-//  - kind "tilt":       silhouette principal axis from image vertical (tumbler / standing object);
+//  - kind "tilt":       silhouette principal axis from image vertical (tumbler / standing object):
+//                       of the two principal axes, the one nearest image vertical in the first frame,
+//                       then followed continuously frame to frame (an object wider than tall, like
+//                       the default tumbler, is followed by its upright minor axis); + towards
+//                       image-right, degrees;
 //  - kind "trajectory": point trajectories in pixels; bounces (local maxima of image y) and apexes
 //                       (local minima) with sub-frame parabolic refinement; apex height = floor_y − apex_y
 //                       with floor_y the mean y of the bounces;

@@ -30,7 +30,10 @@ struct TrackerOptions {
   std::vector<HsvRange> hsv;          ///< marker colour; empty = defaultRedRanges()
   double min_area_px = 30.0;          ///< smallest blob / contour accepted
   int morph_kernel_px = 5;            ///< opening kernel (0 = none)
-  std::string foreground = "mog2";    ///< silhouette: mog2 | otsu
+  /// silhouette: mog2 | otsu | auto. auto = otsu for MotionTracker kinds tilt and finger (an object
+  /// that rocks or bends in place stays where it was, so a background model would absorb it), mog2
+  /// otherwise; finger always uses otsu.
+  std::string foreground = "auto";
   int klt_max_points = 40;
   int klt_min_points = 8;             ///< re-seed below this
   double klt_fb_max_px = 1.0;         ///< forward–backward error limit

@@ -1,0 +1,105 @@
+// RigSimulatorNode: the ROS face of the rig twin (inference::RigTwin + vision::renderSplats), a
+// digital twin of a lab rig that stands in for the camera, so every launch file and integration
+// test runs with no hardware.
+//   in : tf world_frame → camera_frame (the camera pose, e.g. a static_transform_publisher in the
+//        launch file; after ~camera_pose_timeout_s without it: ~default_camera_pose, warned once)
+//   out: `image` (sensor_msgs/Image bgr8, frame camera_frame) and `camera_info` (same stamp) at ~fps,
+//        as a camera driver publishes them; tf world_frame → object_frame (the true pose) per frame;
+//        `surface_cloud` (PointCloud2 latched: x y z normal_x normal_y normal_z, a scan of the object's
+//        surface at ~scan_spacing_m in object_frame; cloud_ingest fills it);
+//        ~ground_truth (RigGroundTruth latched: the true interior and its features, for tests only).
+// The node owns handles and parameters; the library renders and simulates.
+#pragma once
+
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "topo_gaussian/RigGroundTruth.h"
+#include "topo_gaussian/inference/rig_twin.h"
+#include "topo_gaussian/vision/splat_renderer.h"
+
+namespace topo_gaussian::topo_ros {
+
+struct RigSimulatorParams {
+  /// ~object (tumbler), ~spacing_m (0.0025), ~task (the object's task), ~task_dir, ~set ["KEY=VALUE"],
+  /// ~interior_quadric (10 numbers; unset = the default cavity), ~loop_cycles (8), ~undamped (true),
+  /// ~scan_spacing_m (0.001: point spacing of `surface_cloud`)
+  inference::RigTwinOptions twin;
+  int width = 640, height = 480;            ///< ~width, ~height [px]
+  double fps = 30.0;                        ///< ~fps [frames/s]
+  double horizontal_fov_deg = 8.0;          ///< ~horizontal_fov_deg: gives fx = fy when ~fx/~fy are 0
+  double fx = 0, fy = 0, cx = 0, cy = 0;    ///< ~fx ~fy ~cx ~cy [px]; 0 = from the FOV / image centre
+  double noise_sigma = 2.0;                 ///< ~noise_sigma: Gaussian pixel noise [grey levels]
+  int seed = 1;                             ///< ~seed: noise of frame k uses seed + k
+  std::string world_frame = "world";        ///< ~world_frame
+  std::string camera_frame = "camera_optical";  ///< ~camera_frame (optical: x right, y down, z forward)
+  std::string object_frame = "object_true"; ///< ~object_frame: the true body frame
+  double camera_pose_timeout_s = 2.0;       ///< ~camera_pose_timeout_s
+  /// ~default_camera_pose [x y z qx qy qz qw]: camera_frame in world_frame; 1.5 m in front of the
+  /// object along −x (its rocking axis), looking horizontally at 4 cm height.
+  std::vector<double> default_camera_pose = {-1.5, 0.0, 0.04, -0.5, 0.5, -0.5, 0.5};
+  std::vector<double> object_bgr = {40, 40, 150};       ///< ~object_bgr: a dark red doll
+  std::vector<double> background_bgr = {235, 235, 235}; ///< ~background_bgr: a light backdrop
+  std::vector<double> light_direction = {-1, 0, 1};     ///< ~light_direction (world, towards the light)
+  double splat_radius_m = 0.0;              ///< ~splat_radius_m: 0 = 0.8 × spacing
+};
+
+/// Reads and validates the private parameters (the ~set entries against the task, ~object against
+/// the shapes); throws TopoError naming the parameter, its value and the fix.
+RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh);
+
+/// The pinhole camera of the parameters (intrinsics resolved, pose left at the origin).
+vision::SplatCamera cameraFor(const RigSimulatorParams& params);
+/// CameraInfo of that camera: K, P, R = identity, D zeros (plumb_bob).
+sensor_msgs::CameraInfo cameraInfoFor(const vision::SplatCamera& camera, const std::string& frame_id,
+                                      const ::ros::Time& stamp);
+/// Points with normals (float32 x y z normal_x normal_y normal_z) as an unorganised PointCloud2.
+/// Throws TopoError when the sizes differ.
+sensor_msgs::PointCloud2 toSurfaceCloud(const std::vector<Eigen::Vector3d>& points,
+                                        const std::vector<Eigen::Vector3d>& normals, const std::string& frame_id,
+                                        const ::ros::Time& stamp);
+/// The twin's ground truth (features, solid fraction, loop length, interior in object_frame).
+topo_gaussian::RigGroundTruth toGroundTruthMsg(const inference::RigTwin& twin, const std::string& object_frame,
+                                               const ::ros::Time& stamp);
+
+class RigSimulatorNode {
+ public:
+  /// Loads the parameters and builds the twin (both throw TopoError: bad parameters, a failed
+  /// simulation), publishes the latched topics and starts the camera timer.
+  RigSimulatorNode(const ::ros::NodeHandle& nh, const ::ros::NodeHandle& pnh);
+
+  const inference::RigTwin& twin() const { return *twin_; }
+  std::size_t framesPublished() const { return frames_; }
+
+ private:
+  void onTimer(const ::ros::TimerEvent& event);
+  /// The camera pose from tf, or the default after the timeout; false while still waiting.
+  bool cameraPose(const ::ros::Time& now, vision::SplatCamera* camera);
+
+  ::ros::NodeHandle nh_, pnh_;
+  RigSimulatorParams params_;
+  std::unique_ptr<inference::RigTwin> twin_;
+  vision::SplatCamera camera_;
+  vision::SplatShading shading_;
+  vision::Splats body_;  ///< the surface in the body frame (posed per frame)
+  ::ros::Publisher image_pub_, info_pub_, surface_pub_, truth_pub_;
+  ::ros::Timer timer_;
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  tf2_ros::TransformBroadcaster tf_broadcaster_;
+  ::ros::Time start_;
+  bool pose_from_tf_ = false, fallback_warned_ = false;
+  std::size_t frames_ = 0;
+  double render_s_ = 0.0;
+};
+
+}  // namespace topo_gaussian::topo_ros

@@ -1,0 +1,241 @@
+// RigTwin: a default shape with a known interior, simulated once and replayed as a seamless loop.
+#include "topo_gaussian/inference/rig_twin.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "topo_gaussian/inference/body_motion.h"
+#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/physics/number_text.h"
+#include "topo_gaussian/vision/particle_normals.h"
+
+namespace topo_gaussian {
+namespace inference {
+namespace {
+
+constexpr double kDeg = 180.0 / M_PI;
+
+/// The parameter that sets how long the task's motion is simulated, and the feature holding its period.
+struct MotionKeys {
+  std::string duration, period;
+};
+
+MotionKeys motionKeys(const TaskConfig& c) {
+  if (c.task() == "tumbler") return {"duration_s", "period_s"};
+  if (c.task() == "hanging") return {"swing_duration_s", "swing_period_s"};
+  throw TopoError("rig twin task '" + c.task() + "'", "has no motion the twin can replay",
+                  "use the tumbler or hanging task (e.g. task tumbler for the tumbler shape)");
+}
+
+const Feature* findFeature(const ProblemEvaluation& ev, const std::string& name) {
+  for (const auto& f : ev.task.features)
+    if (f.name == name) return &f;
+  return nullptr;
+}
+
+double rotationDeg(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b) {
+  return 2.0 * std::acos(std::min(1.0, std::abs(a.dot(b)))) * kDeg;
+}
+
+/// Moves the surface particles of `cloud` along their estimated outward normal onto the shape's
+/// boundary (bisection on its inside test) and returns their positions and normals.
+void projectSurface(const DefaultShape& shape, VolumeCloud* cloud, std::vector<Eigen::Vector3d>* points,
+                    std::vector<Eigen::Vector3d>* normals) {
+  std::vector<std::size_t> index;
+  for (std::size_t i = 0; i < cloud->size(); ++i)
+    if (cloud->surface[i]) index.push_back(i);
+  const double h = cloud->spacing;
+  points->resize(index.size());
+  for (std::size_t k = 0; k < index.size(); ++k) (*points)[k] = cloud->X[index[k]];
+  *normals = vision::estimateOutwardNormals(cloud->X, *points, 2.5 * h);
+  for (std::size_t k = 0; k < index.size(); ++k) {
+    const Eigen::Vector3d p = (*points)[k], n = (*normals)[k];
+    if (n.squaredNorm() == 0 || !shape.inside(p) || shape.inside(p + 2.0 * h * n)) continue;
+    double lo = 0, hi = 2.0 * h;  // inside at lo, outside at hi
+    for (int it = 0; it < 30; ++it) {
+      const double mid = 0.5 * (lo + hi);
+      (shape.inside(p + mid * n) ? lo : hi) = mid;
+    }
+    (*points)[k] = cloud->X[index[k]] = p + lo * n;
+  }
+}
+
+}  // namespace
+
+std::string RigTwin::defaultTaskFor(const std::string& shape) { return shape == "tumbler" ? "tumbler" : "hanging"; }
+
+Eigen::VectorXd RigTwin::defaultInteriorQuadric(const std::string& task) {
+  Eigen::Vector3d u0;
+  if (task == "tumbler") u0 = Eigen::Vector3d(0.0, 0.0, 0.4);
+  else if (task == "hanging") u0 = Eigen::Vector3d(0.0, 0.0, 0.3);
+  else
+    throw TopoError("rig twin task '" + task + "'", "has no default interior",
+                    "give the interior quadric (10 numbers) or use the tumbler or hanging task");
+  const double rho = task == "tumbler" ? 0.5 : 0.4;
+  Eigen::VectorXd theta(10);
+  theta << 1, 1, 1, 0, 0, 0, -2 * u0.x(), -2 * u0.y(), -2 * u0.z(), u0.squaredNorm() - rho * rho;
+  return theta;
+}
+
+RigTwin::RigTwin(const RigTwinOptions& options) : options_(options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (options_.loop_cycles < 2 || options_.loop_cycles > 1000)
+    throw TopoError("rig twin loop cycles " + std::to_string(options_.loop_cycles), "must be 2..1000",
+                    "use about 8 periods per loop");
+  shape_ = defaultShape(options_.shape);  // unknown shape: lists the valid names
+  cloud_ = defaultShapeCloud(shape_, options_.spacing_m);
+  buildSurface();
+  if (options_.task.empty()) options_.task = defaultTaskFor(shape_.name);
+  config_ = TaskConfig::load(options_.task, options_.task_dir);
+  if (options_.undamped && config_.has("contact_damping_ratio")) config_.setNumber("contact_damping_ratio", 0.0);
+  for (const auto& a : options_.overrides) config_.setAssignment(a, "rig twin set");
+  const MotionKeys keys = motionKeys(config_);
+  if (config_.task() == "hanging" && !(config_.number(keys.duration) > 0)) config_.setNumber(keys.duration, 3.0);
+
+  Eigen::VectorXd theta = options_.interior_quadric;
+  if (theta.size() == 0) theta = defaultInteriorQuadric(config_.task());
+  if (theta.size() != 10 || !theta.allFinite())
+    throw TopoError("rig twin interior quadric", "must be 10 finite numbers [a_xx a_yy a_zz a_xy a_xz a_yz b_x b_y b_z c] (got " +
+                                                     std::to_string(theta.size()) + ")",
+                    "give θ of s(u) = uᵀAu + bᵀu + c in normalised coordinates, or leave it empty for the default cavity");
+  options_.interior_quadric = theta;
+  TaskConfig quadric = config_;
+  quadric.set("representation", "quadric", "rig twin");
+
+  // Truth: the task exactly as configured.
+  try {
+    const InteriorProblem problem(quadric, cloud_);
+    problem.indicator(theta, &r_);
+    truth_ = problem.evaluateIndicator(r_, nullptr);
+    std::vector<double> m;
+    problem.task().masses(r_, &m, nullptr);
+    density_.resize(m.size());
+    for (std::size_t i = 0; i < m.size(); ++i) density_[i] = m[i] / cloud_.V[i];
+  } catch (const TopoError& e) {
+    throw TopoError(std::string("rig twin: simulating the true interior of the ") + shape_.name + " (" + config_.task() +
+                    " task) failed: " + e.what());
+  }
+  const Feature* period = findFeature(truth_, keys.period);
+  if (!period || !(period->value > 0))
+    throw TopoError("rig twin: the true interior of the " + shape_.name, "produces no oscillation period (" + keys.period +
+                                                                             ") in " + config_.valueText(keys.duration),
+                    "raise " + keys.duration + " or choose an interior that oscillates (e.g. the default)");
+
+  // The loop: a longer run of the same motion when the configured one is too short.
+  const double need_s = (options_.loop_cycles + 1.5) * period->value;
+  if (need_s > config_.number(keys.duration)) {
+    TaskConfig longer = quadric;
+    longer.setNumber(keys.duration, need_s);
+    try {
+      buildLoop(InteriorProblem(longer, cloud_).evaluateIndicator(r_, nullptr).task, period->value);
+    } catch (const TopoError& e) {
+      throw TopoError(std::string("rig twin: the ") + numberText(need_s) + " s loop simulation of the " + shape_.name +
+                      " failed: " + e.what());
+    }
+  } else {
+    buildLoop(truth_.task, period->value);
+  }
+  simulation_s_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+double RigTwin::feature(const std::string& name) const {
+  if (const Feature* f = findFeature(truth_, name)) return f->value;
+  std::string names;
+  for (const auto& f : truth_.task.features) names += (names.empty() ? "" : ", ") + f.name;
+  throw TopoError("rig twin feature '" + name + "'", "is not a feature of the " + config_.task() + " task",
+                  "use one of " + names);
+}
+
+void RigTwin::buildLoop(const TaskEvaluation& run, double period_s) {
+  const std::vector<double>& y = run.signal;
+  const std::vector<double>& t = run.signal_time_s;
+  if (y.size() < 5 || t.size() != y.size() || run.motion.size() != y.size())
+    throw TopoError("rig twin: the " + config_.task() + " simulation", "returned no sampled motion to replay",
+                    "this task cannot drive the twin; use tumbler or hanging");
+  // Released at rest: the first sample is a turning point; the equilibrium is about the mean of a
+  // (nearly undamped) oscillation. Release-side turning points are the local extrema on that side
+  // beyond half the release amplitude, one per period (contact jitter merges into the larger one).
+  double eq = 0;
+  for (double v : y) eq += v / static_cast<double>(y.size());
+  const double side = y[0] >= eq ? 1.0 : -1.0;  // +1: released on the high side
+  const double a0 = side * (y[0] - eq);
+  if (!(a0 > 0))
+    throw TopoError("rig twin: the " + config_.task() + " motion", "does not swing (amplitude 0)",
+                    "release it off its equilibrium (initial_tilt_deg / swing_tilt_deg)");
+  struct Turn {
+    double t, amplitude;
+  };
+  std::vector<Turn> turns;  // release-side turning points after the release
+  for (std::size_t k = 1; k + 1 < y.size(); ++k) {
+    const double a = side * (y[k - 1] - eq), b = side * (y[k] - eq), c = side * (y[k + 1] - eq);
+    if (!(b >= a && b > c && b > 0.5 * a0) || t[k] < 0.5 * period_s) continue;
+    const double den = a - 2 * b + c;
+    const double delta = std::abs(den) > 1e-300 ? 0.5 * (a - c) / den : 0.0;
+    const Turn turn{t[k] + delta * (t[k + 1] - t[k]), b - 0.25 * (a - c) * delta};
+    if (!turns.empty() && turn.t - turns.back().t < 0.5 * period_s) {
+      if (turn.amplitude > turns.back().amplitude) turns.back() = turn;
+      continue;
+    }
+    turns.push_back(turn);
+  }
+  if (turns.empty())
+    throw TopoError("rig twin: the " + config_.task() + " motion", "never returns to its release side",
+                    "check the interior: the object must oscillate about a stable equilibrium");
+  // The last turning point that returns to the release state within 0.5 % of the amplitude in angle
+  // and 0.2 spacings in position; else the one with the smallest jump. Every swing of the loop then
+  // reaches at least 99.5 % of the release amplitude, so a tracker window that misses the seam still
+  // sees the maximum tilt within 0.5 %.
+  motion_ = run.motion;
+  const BodyPose& p0 = motion_.front();
+  const double tol_rot = std::max(0.005 * a0, 0.01), tol_pos = 0.2 * cloud_.spacing;
+  int chosen = -1, best = 0;
+  double best_score = 1e300;
+  std::vector<double> rot(turns.size()), pos(turns.size());
+  for (std::size_t j = 0; j < turns.size(); ++j) {
+    const BodyPose p = inference::poseAt(motion_, turns[j].t);
+    rot[j] = rotationDeg(p.rotation, p0.rotation);
+    pos[j] = (p.translation - p0.translation).norm();
+    if (rot[j] <= tol_rot && pos[j] <= tol_pos) chosen = static_cast<int>(j);
+    const double score = rot[j] / tol_rot + pos[j] / tol_pos;
+    if (score < best_score) best_score = score, best = static_cast<int>(j);
+  }
+  if (chosen < 0) chosen = best;
+  loop_s_ = turns[chosen].t;
+  loop_periods_ = chosen + 1;
+  seam_rotation_deg_ = rot[chosen];
+  seam_translation_m_ = pos[chosen];
+  decay_per_cycle_ = (1.0 - turns.back().amplitude / a0) / static_cast<double>(turns.size());
+  loop_signal_.clear();
+  loop_time_.clear();
+  for (std::size_t k = 0; k < y.size() && t[k] <= loop_s_; ++k) {
+    loop_time_.push_back(t[k]);
+    loop_signal_.push_back(y[k]);
+  }
+}
+
+void RigTwin::buildSurface() {
+  projectSurface(shape_, &cloud_, &surface_points_, &surface_normals_);
+  if (options_.scan_spacing_m > 0 && options_.scan_spacing_m != cloud_.spacing) {
+    VolumeCloud scan;
+    try {
+      scan = defaultShapeCloud(shape_, options_.scan_spacing_m);
+    } catch (const TopoError& e) {
+      throw TopoError(std::string("rig twin scan spacing: ") + e.what());
+    }
+    projectSurface(shape_, &scan, &scan_points_, &scan_normals_);
+  } else {
+    scan_points_ = surface_points_;
+    scan_normals_ = surface_normals_;
+  }
+}
+
+BodyPose RigTwin::poseAt(double t_s) const {
+  double tau = t_s > 0 && std::isfinite(t_s) ? std::fmod(t_s, loop_s_) : 0.0;
+  BodyPose p = inference::poseAt(motion_, tau);
+  p.t = t_s;
+  return p;
+}
+
+}  // namespace inference
+}  // namespace topo_gaussian

@@ -1,0 +1,348 @@
+#include "topo_gaussian/ros/rig_simulator_node.h"
+
+#include <cv_bridge/cv_bridge.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <sstream>
+
+#include "topo_gaussian/inference/pipeline.h"
+#include "topo_gaussian/physics/default_shapes.h"
+#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/physics/number_text.h"
+#include "topo_gaussian/ros/body_pose_msg.h"
+#include "topo_gaussian/ros/conversions.h"
+
+namespace topo_gaussian::topo_ros {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+/// A list-of-numbers parameter (unset: `fallback`); `size` > 0 requires that many entries.
+std::vector<double> numbers(const ::ros::NodeHandle& pnh, const std::string& name, const std::vector<double>& fallback,
+                            std::size_t size, const std::string& example) {
+  if (!pnh.hasParam(name)) return fallback;
+  std::vector<double> v;
+  std::string text;  // `_name:=[1, 2, 3]` on a command line arrives as a string
+  bool ok = pnh.getParam(name, v);
+  if (!ok && pnh.getParam(name, text)) {
+    for (char& ch : text)
+      if (ch == '[' || ch == ']' || ch == ',') ch = ' ';
+    std::istringstream in(text);
+    std::string tok;
+    ok = true;
+    while (ok && in >> tok) {
+      char* end = nullptr;
+      v.push_back(std::strtod(tok.c_str(), &end));
+      ok = end != tok.c_str() && *end == '\0';
+    }
+  }
+  if (!ok || (size > 0 && v.size() != size))
+    throw TopoError("~" + name, "must be a list of " + (size > 0 ? std::to_string(size) + " " : std::string()) + "numbers",
+                    "e.g. " + example);
+  for (double x : v)
+    if (!std::isfinite(x)) throw TopoError("~" + name + " " + listText(v), "holds a non-finite number", "e.g. " + example);
+  return v;
+}
+
+void requireRange(const std::string& name, double value, double lo, double hi, const std::string& fix) {
+  if (!(value >= lo && value <= hi))
+    throw TopoError("~" + name + " = " + numberText(value, 6), "is outside [" + numberText(lo) + ", " + numberText(hi) + "]", fix);
+}
+
+void requireColour(const std::string& name, const std::vector<double>& bgr) {
+  for (double c : bgr)
+    if (!(c >= 0 && c <= 255)) throw TopoError("~" + name + " " + listText(bgr), "must be three numbers 0..255 (B, G, R)", "e.g. [40, 40, 150]");
+}
+
+}  // namespace
+
+RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
+  RigSimulatorParams p;
+  inference::RigTwinOptions& t = p.twin;
+  pnh.param<std::string>("object", t.shape, t.shape);
+  try {
+    defaultShape(t.shape);
+  } catch (const TopoError& e) {
+    throw TopoError(std::string("~object: ") + e.what());
+  }
+  pnh.param("spacing_m", t.spacing_m, t.spacing_m);
+  const DefaultShape shape = defaultShape(t.shape);
+  requireRange("spacing_m", t.spacing_m, 1e-4, shape.thickness_m / 3.0,
+               "use e.g. 0.0025 (at most a third of the " + t.shape + "'s thinnest dimension, " + numberText(shape.thickness_m) + " m)");
+  pnh.param<std::string>("task", t.task, "");
+  pnh.param<std::string>("task_dir", t.task_dir,
+#ifdef TOPO_DEFAULT_TASK_DIR
+                         TOPO_DEFAULT_TASK_DIR
+#else
+                         ""
+#endif
+  );
+  if (pnh.hasParam("set") && !pnh.getParam("set", t.overrides)) {
+    // one string (`_set:=...` on a command line): assignments separated by spaces or semicolons,
+    // list brackets and quotes ignored
+    std::string text;
+    if (!pnh.getParam("set", text))
+      throw TopoError("~set", "must be a list of \"KEY=VALUE\" strings", "e.g. ['initial_tilt_deg=8', 'density_solid=4000']");
+    for (char& ch : text)
+      if (ch == ';' || ch == '[' || ch == ']' || ch == '\'' || ch == '"') ch = ' ';
+    std::istringstream in(text);
+    for (std::string a; in >> a;) {
+      if (a.back() == ',') a.pop_back();
+      if (!a.empty()) t.overrides.push_back(a);
+    }
+  }
+  // The task and its overrides, checked here so the message names the parameter.
+  try {
+    inference::TaskConfig c = inference::TaskConfig::load(t.task.empty() ? inference::RigTwin::defaultTaskFor(t.shape) : t.task,
+                                                          t.task_dir);
+    for (const auto& a : t.overrides) c.setAssignment(a, "~set");
+  } catch (const TopoError& e) {
+    throw TopoError(std::string("~task/~set: ") + e.what());
+  }
+  const std::vector<double> theta = numbers(pnh, "interior_quadric", {}, 10, "[1, 1, 1, 0, 0, 0, 0, 0, -0.8, -0.09]");
+  if (!theta.empty()) t.interior_quadric = Eigen::Map<const Eigen::VectorXd>(theta.data(), 10);
+  pnh.param("loop_cycles", t.loop_cycles, t.loop_cycles);
+  requireRange("loop_cycles", t.loop_cycles, 2, 1000, "use about 8");
+  pnh.param("undamped", t.undamped, t.undamped);
+  pnh.param("scan_spacing_m", t.scan_spacing_m, t.scan_spacing_m);
+  if (t.scan_spacing_m != 0)
+    requireRange("scan_spacing_m", t.scan_spacing_m, 2e-4, shape.thickness_m / 3.0,
+                 "use e.g. 0.001 (a finer scan fills closer to the true volume), or 0 for the surface particles");
+
+  pnh.param("width", p.width, p.width);
+  pnh.param("height", p.height, p.height);
+  requireRange("width", p.width, 16, 8192, "give the image width in pixels, e.g. 640");
+  requireRange("height", p.height, 16, 8192, "give the image height in pixels, e.g. 480");
+  pnh.param("fps", p.fps, p.fps);
+  requireRange("fps", p.fps, 0.1, 240, "e.g. 30");
+  pnh.param("horizontal_fov_deg", p.horizontal_fov_deg, p.horizontal_fov_deg);
+  requireRange("horizontal_fov_deg", p.horizontal_fov_deg, 0.1, 170, "e.g. 8 for the default 1.5 m camera distance");
+  const std::pair<const char*, double*> intrinsics[] = {{"fx", &p.fx}, {"fy", &p.fy}, {"cx", &p.cx}, {"cy", &p.cy}};
+  for (const auto& [name, v] : intrinsics) {
+    pnh.param(name, *v, *v);
+    requireRange(name, *v, 0, 1e6, "give pixels, or 0 to derive it (fx, fy from ~horizontal_fov_deg; cx, cy the image centre)");
+  }
+  pnh.param("noise_sigma", p.noise_sigma, p.noise_sigma);
+  requireRange("noise_sigma", p.noise_sigma, 0, 100, "grey levels of Gaussian pixel noise, e.g. 2 (0 = none)");
+  pnh.param("seed", p.seed, p.seed);
+  requireRange("seed", p.seed, 0, 2147483647, "any non-negative integer");
+  pnh.param<std::string>("world_frame", p.world_frame, p.world_frame);
+  pnh.param<std::string>("camera_frame", p.camera_frame, p.camera_frame);
+  pnh.param<std::string>("object_frame", p.object_frame, p.object_frame);
+  if (p.world_frame.empty() || p.camera_frame.empty() || p.object_frame.empty() || p.world_frame == p.camera_frame ||
+      p.world_frame == p.object_frame || p.camera_frame == p.object_frame)
+    throw TopoError("~world_frame/~camera_frame/~object_frame ('" + p.world_frame + "', '" + p.camera_frame + "', '" +
+                        p.object_frame + "')",
+                    "must be three different, non-empty frame names", "e.g. world, camera_optical and object_true");
+  pnh.param("camera_pose_timeout_s", p.camera_pose_timeout_s, p.camera_pose_timeout_s);
+  requireRange("camera_pose_timeout_s", p.camera_pose_timeout_s, 0, 3600, "seconds to wait for the tf camera pose, e.g. 2");
+  p.default_camera_pose = numbers(pnh, "default_camera_pose", p.default_camera_pose, 7, "[-1.5, 0, 0.04, -0.5, 0.5, -0.5, 0.5]");
+  if (!(Eigen::Vector4d(p.default_camera_pose[3], p.default_camera_pose[4], p.default_camera_pose[5], p.default_camera_pose[6]).norm() > 0))
+    throw TopoError("~default_camera_pose " + listText(p.default_camera_pose), "has a zero quaternion",
+                    "give [x, y, z, qx, qy, qz, qw] of the optical frame in the world");
+  p.object_bgr = numbers(pnh, "object_bgr", p.object_bgr, 3, "[40, 40, 150]");
+  p.background_bgr = numbers(pnh, "background_bgr", p.background_bgr, 3, "[235, 235, 235]");
+  requireColour("object_bgr", p.object_bgr);
+  requireColour("background_bgr", p.background_bgr);
+  p.light_direction = numbers(pnh, "light_direction", p.light_direction, 3, "[-1, 0, 1]");
+  if (!(Eigen::Vector3d(p.light_direction[0], p.light_direction[1], p.light_direction[2]).norm() > 0))
+    throw TopoError("~light_direction", "is zero", "give the direction towards the light in the world, e.g. [-1, 0, 1]");
+  pnh.param("splat_radius_m", p.splat_radius_m, p.splat_radius_m);
+  requireRange("splat_radius_m", p.splat_radius_m, 0, 0.1, "use 0 for 0.8 particle spacings");
+  return p;
+}
+
+vision::SplatCamera cameraFor(const RigSimulatorParams& p) {
+  vision::SplatCamera c;
+  c.width = p.width;
+  c.height = p.height;
+  c.fx = p.fx > 0 ? p.fx : 0.5 * p.width / std::tan(0.5 * p.horizontal_fov_deg * kPi / 180.0);
+  c.fy = p.fy > 0 ? p.fy : c.fx;
+  c.cx = p.cx > 0 ? p.cx : 0.5 * (p.width - 1);
+  c.cy = p.cy > 0 ? p.cy : 0.5 * (p.height - 1);
+  return c;
+}
+
+sensor_msgs::CameraInfo cameraInfoFor(const vision::SplatCamera& c, const std::string& frame_id, const ::ros::Time& stamp) {
+  sensor_msgs::CameraInfo info;
+  info.header.frame_id = frame_id;
+  info.header.stamp = stamp;
+  info.width = static_cast<std::uint32_t>(c.width);
+  info.height = static_cast<std::uint32_t>(c.height);
+  info.distortion_model = "plumb_bob";
+  info.D.assign(5, 0.0);
+  info.K = {c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1};
+  info.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  info.P = {c.fx, 0, c.cx, 0, 0, c.fy, c.cy, 0, 0, 0, 1, 0};
+  return info;
+}
+
+sensor_msgs::PointCloud2 toSurfaceCloud(const std::vector<Eigen::Vector3d>& points, const std::vector<Eigen::Vector3d>& normals,
+                                        const std::string& frame_id, const ::ros::Time& stamp) {
+  if (points.size() != normals.size())
+    throw TopoError("surface cloud", "has " + std::to_string(normals.size()) + " normals for " + std::to_string(points.size()) + " points",
+                    "give one normal per point");
+  sensor_msgs::PointCloud2 msg;
+  msg.header.frame_id = frame_id;
+  msg.header.stamp = stamp;
+  sensor_msgs::PointCloud2Modifier mod(msg);
+  mod.setPointCloud2Fields(6, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1, sensor_msgs::PointField::FLOAT32, "z", 1,
+                           sensor_msgs::PointField::FLOAT32, "normal_x", 1, sensor_msgs::PointField::FLOAT32, "normal_y", 1,
+                           sensor_msgs::PointField::FLOAT32, "normal_z", 1, sensor_msgs::PointField::FLOAT32);
+  mod.resize(points.size());
+  sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), n(msg, "normal_x");
+  for (std::size_t i = 0; i < points.size(); ++i, ++x, ++n)
+    for (int k = 0; k < 3; ++k) {
+      x[k] = static_cast<float>(points[i][k]);
+      n[k] = static_cast<float>(normals[i][k]);
+    }
+  return msg;
+}
+
+topo_gaussian::RigGroundTruth toGroundTruthMsg(const inference::RigTwin& twin, const std::string& object_frame,
+                                               const ::ros::Time& stamp) {
+  topo_gaussian::RigGroundTruth m;
+  m.header.frame_id = object_frame;
+  m.header.stamp = stamp;
+  m.object = twin.shape().name;
+  m.task = twin.config().task();
+  for (const auto& f : twin.truth().task.features) {
+    m.feature_names.push_back(f.name);
+    m.feature_values.push_back(f.value);
+    m.units.push_back(f.unit);
+  }
+  m.solid_fraction = twin.solidFraction();
+  m.loop_s = twin.loopSeconds();
+  m.interior = toInteriorCloud(twin.cloud(), twin.indicator(), twin.density(),
+                               inference::particleStiffness(twin.config(), twin.indicator()), object_frame, stamp);
+  return m;
+}
+
+RigSimulatorNode::RigSimulatorNode(const ::ros::NodeHandle& nh, const ::ros::NodeHandle& pnh)
+    : nh_(nh), pnh_(pnh), params_(loadRigSimulatorParams(pnh)), tf_listener_(tf_buffer_) {
+  const inference::RigTwinOptions& o = params_.twin;
+  ROS_INFO("rig_simulator: simulating the %s twin (spacing %s m, task '%s') ...", o.shape.c_str(), numberText(o.spacing_m).c_str(),
+           o.task.empty() ? inference::RigTwin::defaultTaskFor(o.shape).c_str() : o.task.c_str());
+  twin_ = std::make_unique<inference::RigTwin>(o);  // TopoError: the simulation failed (main reports it)
+  const inference::RigTwin& tw = *twin_;
+  std::string features;
+  for (const auto& f : tw.truth().task.features) features += (features.empty() ? "" : ", ") + f.name + " " + numberText(f.value, 6) + " " + f.unit;
+  std::vector<double> theta(tw.options().interior_quadric.data(), tw.options().interior_quadric.data() + 10);
+  ROS_INFO("rig_simulator: %s twin, task %s: %zu particles (%zu on the surface), solid fraction %.3f, interior quadric %s%s; "
+           "scan of %zu points on surface_cloud",
+           tw.shape().name.c_str(), tw.config().task().c_str(), tw.cloud().size(), tw.surfacePoints().size(), tw.solidFraction(),
+           listText(theta).c_str(), o.interior_quadric.size() ? "" : " (default cavity)", tw.scanPoints().size());
+  ROS_INFO("rig_simulator: ground truth: %s", features.c_str());
+  ROS_INFO("rig_simulator: motion loops every %.4f s (%d periods; seam %.3f deg / %.3f mm; amplitude decay %.3f %% per "
+           "period%s); set up in %.2f s",
+           tw.loopSeconds(), tw.loopCycles(), tw.seamRotationDeg(), 1e3 * tw.seamTranslationM(),
+           100 * tw.amplitudeDecayPerCycle(), o.undamped ? ", contact damping off" : "", tw.simulationSeconds());
+
+  camera_ = cameraFor(params_);
+  shading_.background_bgr = cv::Scalar(params_.background_bgr[0], params_.background_bgr[1], params_.background_bgr[2]);
+  shading_.light_dir_world = Eigen::Vector3d(params_.light_direction[0], params_.light_direction[1], params_.light_direction[2]);
+  shading_.noise_sigma = params_.noise_sigma;
+  body_.positions = tw.surfacePoints();
+  body_.normals = tw.surfaceNormals();
+  body_.colours.assign(1, cv::Vec3b::all(0));
+  for (int k = 0; k < 3; ++k) body_.colours[0][k] = cv::saturate_cast<uchar>(params_.object_bgr[k]);
+  body_.radius_m = params_.splat_radius_m > 0 ? params_.splat_radius_m : 0.8 * tw.cloud().spacing;
+  ROS_INFO("rig_simulator: camera %dx%d at %.1f fps, fx %.1f fy %.1f cx %.1f cy %.1f px (%.2f deg horizontal FOV), noise "
+           "%.1f; pose from tf %s -> %s (default %s after %.1f s)",
+           camera_.width, camera_.height, params_.fps, camera_.fx, camera_.fy, camera_.cx, camera_.cy,
+           2 * std::atan(0.5 * camera_.width / camera_.fx) * 180 / kPi, params_.noise_sigma, params_.world_frame.c_str(),
+           params_.camera_frame.c_str(), listText(params_.default_camera_pose).c_str(), params_.camera_pose_timeout_s);
+
+  image_pub_ = nh_.advertise<sensor_msgs::Image>("image", 2);
+  info_pub_ = nh_.advertise<sensor_msgs::CameraInfo>("camera_info", 2);
+  surface_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("surface_cloud", 1, true);
+  truth_pub_ = pnh_.advertise<topo_gaussian::RigGroundTruth>("ground_truth", 1, true);
+  const ::ros::Time now = ::ros::Time::now();
+  surface_pub_.publish(toSurfaceCloud(tw.scanPoints(), tw.scanNormals(), params_.object_frame, now));
+  truth_pub_.publish(toGroundTruthMsg(tw, params_.object_frame, now));
+  start_ = now;
+  timer_ = nh_.createTimer(::ros::Duration(1.0 / params_.fps), &RigSimulatorNode::onTimer, this);
+}
+
+bool RigSimulatorNode::cameraPose(const ::ros::Time& now, vision::SplatCamera* camera) {
+  try {
+    const geometry_msgs::TransformStamped tf = tf_buffer_.lookupTransform(params_.world_frame, params_.camera_frame, ::ros::Time(0));
+    const auto& q = tf.transform.rotation;
+    const auto& v = tf.transform.translation;
+    camera->R_wc = Eigen::Quaterniond(q.w, q.x, q.y, q.z).normalized().toRotationMatrix();
+    camera->t_wc = Eigen::Vector3d(v.x, v.y, v.z);
+    if (!pose_from_tf_)
+      ROS_INFO("rig_simulator: camera pose from tf %s -> %s: [%.4f, %.4f, %.4f, %.4f, %.4f, %.4f, %.4f]",
+               params_.world_frame.c_str(), params_.camera_frame.c_str(), v.x, v.y, v.z, q.x, q.y, q.z, q.w);
+    pose_from_tf_ = true;
+    return true;
+  } catch (const tf2::TransformException& e) {
+    if (pose_from_tf_) {  // it was there: keep the last pose
+      ROS_WARN_THROTTLE(10.0, "rig_simulator: tf %s -> %s lost (%s); keeping the last camera pose", params_.world_frame.c_str(),
+                        params_.camera_frame.c_str(), e.what());
+      return true;
+    }
+    if ((now - start_).toSec() < params_.camera_pose_timeout_s) return false;
+    if (!fallback_warned_) {
+      const auto& d = params_.default_camera_pose;
+      camera->t_wc = Eigen::Vector3d(d[0], d[1], d[2]);
+      camera->R_wc = Eigen::Quaterniond(d[6], d[3], d[4], d[5]).normalized().toRotationMatrix();
+      std::string args;
+      for (double v : d) args += (args.empty() ? "" : " ") + numberText(v, 6);
+      ROS_WARN("rig_simulator: no tf %s -> %s after %.1f s (%s); rendering from ~default_camera_pose %s. Fix: publish the "
+               "camera pose, e.g. `rosrun tf2_ros static_transform_publisher %s %s %s`, or set ~default_camera_pose",
+               params_.world_frame.c_str(), params_.camera_frame.c_str(), params_.camera_pose_timeout_s, e.what(),
+               listText(d).c_str(), args.c_str(), params_.world_frame.c_str(), params_.camera_frame.c_str());
+      fallback_warned_ = true;
+    }
+    return true;
+  }
+}
+
+void RigSimulatorNode::onTimer(const ::ros::TimerEvent&) {
+  const ::ros::Time now = ::ros::Time::now();
+  if (!cameraPose(now, &camera_)) {
+    ROS_INFO_THROTTLE(5.0, "rig_simulator: waiting for tf %s -> %s (up to %.1f s)", params_.world_frame.c_str(),
+                      params_.camera_frame.c_str(), params_.camera_pose_timeout_s);
+    return;
+  }
+  const inference::BodyPose pose = twin_->poseAt((now - start_).toSec());
+  tf_broadcaster_.sendTransform(toTransformStamped(pose, params_.world_frame, params_.object_frame, now));
+
+  const auto t0 = std::chrono::steady_clock::now();
+  vision::Splats world = body_;
+  for (std::size_t i = 0; i < world.positions.size(); ++i) {
+    world.positions[i] = pose.rotation * body_.positions[i] + pose.translation;
+    world.normals[i] = pose.rotation * body_.normals[i];
+  }
+  shading_.noise_seed = static_cast<unsigned>(params_.seed) + static_cast<unsigned>(frames_);
+  cv::Mat img;
+  try {
+    img = vision::renderSplats(camera_, world, shading_);
+  } catch (const std::exception& e) {
+    ROS_ERROR_THROTTLE(5.0, "rig_simulator: rendering failed: %s", e.what());
+    return;
+  }
+  render_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std_msgs::Header header;
+  header.stamp = now;
+  header.frame_id = params_.camera_frame;
+  image_pub_.publish(cv_bridge::CvImage(header, "bgr8", img).toImageMsg());
+  info_pub_.publish(cameraInfoFor(camera_, params_.camera_frame, now));
+  if (++frames_ == 100) {
+    const double ms = 1e3 * render_s_ / frames_;
+    if (ms > 1e3 / params_.fps)
+      ROS_WARN("rig_simulator: rendering takes %.1f ms per frame, longer than the frame period at %.1f fps: lower ~fps or "
+               "~width/~height, or raise ~spacing_m",
+               ms, params_.fps);
+    else
+      ROS_INFO("rig_simulator: %zu frames published; rendering %.1f ms per frame (%zu splats)", frames_, ms,
+               body_.positions.size());
+  }
+}
+
+}  // namespace topo_gaussian::topo_ros
