@@ -4,7 +4,7 @@
 # the infer_interior goal (infer_client prints feedback lines), writes the outputs, and prints the
 # recovered features next to the twin's ground truth. Exit 0 when they agree within 2 %.
 #   scripts/demo.sh [BUILD_DIR] [OUTPUT_DIR]
-set -uo pipefail
+set -o pipefail
 BUILD=${1:-build}
 OUT=${2:-$BUILD/demo}
 export PATH=/usr/bin:$PATH
@@ -21,8 +21,8 @@ LAUNCH=$!
 cleanup() { kill -INT "$LAUNCH" 2>/dev/null; wait "$LAUNCH" 2>/dev/null; }
 trap cleanup EXIT
 echo "[make demo] demo.launch started (log: $LOG); waiting for the tracker to measure the twin ..."
-rosrun topo_gaussian infer_client _ground_truth_topic:=/rig_simulator/ground_truth \
-    _overrides:="['contact_damping_ratio=0']" _wait_for_features_s:=120 _timeout_s:=900
+"$BUILD/devel/lib/topo_gaussian/infer_client" _ground_truth_topic:=/rig_simulator/ground_truth \
+    _overrides:="contact_damping_ratio=0;measured_cycles=1" _wait_for_features_s:=120 _timeout_s:=900
 rc=$?
 if [ $rc -ne 0 ]; then
   echo "[make demo] infer_client exited $rc; last lines of $LOG:"

@@ -1,6 +1,8 @@
 // RigTwin: a default shape with a known interior, simulated once and replayed as a seamless loop.
 #include "topo_gaussian/inference/rig_twin.h"
 
+#include "topo_gaussian/geometry/ingest.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -84,8 +86,20 @@ RigTwin::RigTwin(const RigTwinOptions& options) : options_(options) {
     throw TopoError("rig twin loop cycles " + std::to_string(options_.loop_cycles), "must be 2..1000",
                     "use about 8 periods per loop");
   shape_ = defaultShape(options_.shape);  // unknown shape: lists the valid names
-  cloud_ = defaultShapeCloud(shape_, options_.spacing_m);
-  buildSurface();
+  if (options_.surface_file.empty()) {
+    cloud_ = defaultShapeCloud(shape_, options_.spacing_m);
+    buildSurface();
+  } else {
+    geometry::IngestOptions io;  // what cloud_ingest does with ~surface_file and ~spacing_m
+    io.fill.spacing_m = options_.spacing_m;
+    cloud_ = geometry::ingestFile(options_.surface_file, io).cloud;
+    surface_points_.clear();
+    for (std::size_t i = 0; i < cloud_.size(); ++i)
+      if (cloud_.surface[i]) surface_points_.push_back(cloud_.X[i]);
+    surface_normals_ = vision::estimateOutwardNormals(cloud_.X, surface_points_, 2.5 * cloud_.spacing);
+    scan_points_ = surface_points_;
+    scan_normals_ = surface_normals_;
+  }
   if (options_.task.empty()) options_.task = defaultTaskFor(shape_.name);
   config_ = TaskConfig::load(options_.task, options_.task_dir);
   if (options_.undamped && config_.has("contact_damping_ratio")) config_.setNumber("contact_damping_ratio", 0.0);

@@ -2,7 +2,7 @@
 // ~ground_truth_topic (a rig_simulator's ~ground_truth) it also prints the recovered features next to
 // the twin's truth and exits 0 only when every truth feature is reproduced within ~tolerance.
 // What `make demo` runs against demo.launch. Parameters (private):
-//   ~task (tumbler), ~representation (""), ~overrides [], ~targets [], ~max_iterations (0),
+//   ~task (tumbler), ~representation (""), ~overrides [], ~targets [] (lists, or "A=1;B=2"), ~max_iterations (0),
 //   ~output_dir (""), ~wait_for_features_s (120: wait for motion_features with a measured motion
 //   before sending; 0 = send at once), ~ground_truth_topic (""), ~tolerance (0.02), ~timeout_s (900)
 // Exit codes: 0 done (and within tolerance of the truth), 1 aborted / timed out / bad parameters,
@@ -43,8 +43,20 @@ int main(int argc, char** argv) {
   topo_gaussian::InferInteriorGoal goal;
   pnh.param<std::string>("task", goal.task, "tumbler");
   pnh.param<std::string>("representation", goal.representation, "");
-  pnh.param("overrides", goal.overrides, std::vector<std::string>());
-  pnh.param("targets", goal.targets, std::vector<std::string>());
+  // Lists, or one string with ';' between entries (what `_overrides:="a=1;b=2"` on a command line gives).
+  for (auto [name, list] : {std::pair<const char*, std::vector<std::string>*>{"overrides", &goal.overrides},
+                            {"targets", &goal.targets}}) {
+    if (pnh.getParam(name, *list)) continue;
+    std::string text;
+    if (!pnh.getParam(name, text)) continue;
+    std::size_t start = 0;
+    while (start <= text.size()) {
+      const std::size_t end = std::min(text.find(';', start), text.size());
+      const std::string item = text.substr(start, end - start);
+      if (!item.empty()) list->push_back(item);
+      start = end + 1;
+    }
+  }
   pnh.param("max_iterations", goal.max_iterations, 0);
   pnh.param<std::string>("output_dir", goal.output_dir, "");
   double wait_s = 120, tolerance = 0.02, timeout_s = 900;

@@ -40,30 +40,44 @@ MotionTargets targetsFromMotion(const inference::TaskConfig& config, const topo_
       out.note = from + " hold no oscillation" + (f.message.empty() ? "" : ": " + f.message);
       return out;
     }
+    // Released at rest at initial_tilt_deg, the doll's largest tilt is at least the release tilt: an
+    // observed maximum at or below it (within 1 %: tracking error) says the swing never went past the
+    // release, so the target is the release tilt itself (anything below is unreachable).
+    const double release = config.has("initial_tilt_deg") ? std::abs(config.number("initial_tilt_deg")) : 0.0;
+    std::ostringstream os;
+    double period = f.period_s, tilt = f.amplitude_confidence > 0 ? f.max_tilt_deg : 0.0;
     std::vector<double> y;
     double dt = 0;
     if (uniformSignal(f.time_s, f.angle_deg, &y, &dt)) {
-      const int cycles = config.has("measured_cycles") ? config.integer("measured_cycles") : 2;
-      // Released at rest (a window that starts at the release) when the first sample is a turning
-      // point (the first step is small against the range) far from the centre.
+      // A window that starts at the release (the first sample a turning point, the first step small
+      // against the range, far from the centre) is measured as the task measures its simulation.
       double lo = y[0], hi = y[0], peak = 0;
       for (double v : y) lo = std::min(lo, v), hi = std::max(hi, v), peak = std::max(peak, std::abs(v));
       const bool at_rest = std::abs(y[1] - y[0]) < 0.05 * (hi - lo) && std::abs(y[0]) >= 0.5 * peak;
-      const inference::OscillationFeatures<double> o = inference::analyseOscillation(y, 0.0, dt, cycles, at_rest);
+      const int cycles = config.has("measured_cycles") ? config.integer("measured_cycles") : 2;
+      const inference::OscillationFeatures<double> o =
+          at_rest ? inference::analyseOscillation(y, 0.0, dt, cycles, true) : inference::OscillationFeatures<double>{};
       if (o.valid && o.period > 0) {
-        out.targets.emplace_back("period_s", o.period);
-        out.targets.emplace_back("max_tilt_deg", o.max_abs);
-        std::ostringstream os;
-        os << "the task's analysis of the observed signal (" << y.size() << " samples, first " << cycles
-           << " cycles, " << (at_rest ? "released at rest" : "already swinging") << ") gives period " << o.period << " s, max tilt " << o.max_abs << " deg; the tracker's own: "
-           << f.period_s << " s, " << f.max_tilt_deg << " deg";
-        out.note = os.str();
-        return out;
+        period = o.period;
+        tilt = o.max_abs;
+        os << "the window starts at a release: the task's analysis of the observed signal (" << y.size()
+           << " samples, first " << cycles << " cycles) gives period " << o.period << " s, max tilt " << o.max_abs
+           << " deg (the tracker's own over the window: " << f.period_s << " s, " << f.max_tilt_deg << " deg)";
+      } else {
+        os << "the window starts mid-swing: the tracker's period and max tilt over the window are used";
       }
     }
-    out.targets.emplace_back("period_s", f.period_s);
-    if (f.max_tilt_deg > 0 && f.amplitude_confidence > 0) out.targets.emplace_back("max_tilt_deg", f.max_tilt_deg);
-    else out.note = from + ": the tilt was not measured, only the period is used";
+    out.targets.emplace_back("period_s", period);
+    if (tilt > 1.01 * release) {
+      out.targets.emplace_back("max_tilt_deg", tilt);
+    } else if (release > 0) {
+      out.targets.emplace_back("max_tilt_deg", release);
+      os << "; the max tilt " << tilt << " deg does not exceed the release tilt, so its target is the release tilt "
+         << release << " deg";
+    } else {
+      os << "; the tilt was not measured, only the period is used";
+    }
+    out.note = os.str();
   } else if (task == "hanging" || task == "balance" || task == "stand") {
     if (f.equilibrium_confidence > 0) out.targets.emplace_back("target_roll_deg", f.equilibrium_deg);
     else out.note = from + " hold no measured equilibrium angle";

@@ -108,6 +108,7 @@ RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
   pnh.param("loop_cycles", t.loop_cycles, t.loop_cycles);
   requireRange("loop_cycles", t.loop_cycles, 2, 1000, "use about 8");
   pnh.param("undamped", t.undamped, t.undamped);
+  pnh.param<std::string>("surface_file", t.surface_file, "");
   pnh.param("scan_spacing_m", t.scan_spacing_m, t.scan_spacing_m);
   if (t.scan_spacing_m != 0)
     requireRange("scan_spacing_m", t.scan_spacing_m, 2e-4, shape.thickness_m / 3.0,

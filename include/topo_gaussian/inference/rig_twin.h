@@ -45,6 +45,12 @@ struct RigTwinOptions {
   Eigen::VectorXd interior_quadric;        ///< θ (10); empty = defaultInteriorQuadric(task)
   int loop_cycles = 8;                     ///< the loop is cut within the first loop_cycles periods (≥ 2)
   bool undamped = true;                    ///< contact_damping_ratio = 0 (before the overrides), for a seamless loop
+  /// A surface file (mesh, points, 3DGS) of the object, filled exactly as cloud_ingest / `topo fill`
+  /// fill it (geometry::ingestFile at spacing_m, default cleaning): the twin then simulates the very
+  /// particle cloud the lab pipeline will infer on (a plain lattice, contact on its staircase), so
+  /// its truth is reachable by construction. Empty: the default shape `shape` with its surface on
+  /// the true boundary (above).
+  std::string surface_file;
   double scan_spacing_m = 0.001;           ///< point spacing of the simulated scan (scanPoints); 0 = spacing_m
 };
 

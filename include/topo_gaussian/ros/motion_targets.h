@@ -1,10 +1,11 @@
 // Observed motion (MotionFeatures from motion_tracker) → the targets of an inference task:
-//   tumbler                  period_s, max_tilt_deg: when the features carry the sampled tilt signal
-//                            (time_s, angle_deg), the task's own analysis (inference/oscillation.h, the
-//                            first measured_cycles cycles; "released at rest" when the signal starts
-//                            at a turning point at least half its largest tilt) is applied to it, so observed
-//                            and simulated features are measured alike; otherwise the tracker's
-//                            period_s and max_tilt_deg (oscillation found)
+//   tumbler                  period_s, max_tilt_deg: the tracker's values over its window; when the
+//                            window starts at a release (the sampled signal's first sample is a turning
+//                            point at least half its largest tilt), the task's own analysis
+//                            (inference/oscillation.h, the first measured_cycles cycles) of the signal,
+//                            so observed and simulated features are measured alike. A maximum tilt that
+//                            does not exceed the release tilt (initial_tilt_deg) by 1 % becomes the
+//                            release tilt: a doll released at rest always reaches it, never less.
 //   hanging, balance, stand  target_roll_deg ← equilibrium_deg                   (the camera looks along
 //                            world x, so the image angle is the roll about x; equilibrium measured)
 //   finger                   bend_angle_deg ← bending_angle_deg                  (bending measured)

@@ -32,6 +32,8 @@ namespace topo_gaussian::topo_ros {
 struct RigSimulatorParams {
   /// ~object (tumbler), ~spacing_m (0.0025), ~task (the object's task), ~task_dir, ~set ["KEY=VALUE"],
   /// ~interior_quadric (10 numbers; unset = the default cavity), ~loop_cycles (8), ~undamped (true),
+  /// ~surface_file ("": the default shape with its surface on the true boundary; a file: filled as
+  /// cloud_ingest fills it, so the twin simulates the cloud the inference will see),
   /// ~scan_spacing_m (0.001: point spacing of `surface_cloud`)
   inference::RigTwinOptions twin;
   int width = 640, height = 480;            ///< ~width, ~height [px]
