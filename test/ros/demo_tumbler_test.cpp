@@ -1,0 +1,190 @@
+// rostest node for the whole lab loop (test/ros/demo_tumbler.test = demo.launch, the tumbler twin):
+//  - an unknown task aborts with a reason that names it;
+//  - end to end: motion_tracker measures the twin's images, the infer_interior goal (volume and
+//    targets from the topics) sends feedback every iteration, and the result reproduces the twin's
+//    ground-truth period and maximum tilt within 2 %; ~simulate replays it; ~export writes a
+//    watertight STL whose volume matches the solid particles' within 3 %;
+//  - a goal cancelled after its first feedback is PREEMPTED with the best design so far and its files;
+//  - the README's `rosservice call /interior_inference/infer ...` works from a shell.
+#include <actionlib/client/simple_action_client.h>
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <ros/topic.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include <sensor_msgs/PointCloud2.h>
+#include <tf2_msgs/TFMessage.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include "topo_gaussian/ExportInterior.h"
+#include "topo_gaussian/InferInteriorAction.h"
+#include "topo_gaussian/MotionFeatures.h"
+#include "topo_gaussian/RigGroundTruth.h"
+#include "topo_gaussian/SimulateInterior.h"
+
+namespace {
+
+using Client = actionlib::SimpleActionClient<topo_gaussian::InferInteriorAction>;
+
+std::unique_ptr<Client> client() {
+  auto c = std::make_unique<Client>("infer_interior", false);
+  EXPECT_TRUE(c->waitForServer(ros::Duration(60.0))) << "no infer_interior action server";
+  return c;
+}
+
+double valueOf(const std::vector<std::string>& names, const std::vector<double>& values, const std::string& name) {
+  for (std::size_t k = 0; k < names.size() && k < values.size(); ++k)
+    if (names[k] == name) return values[k];
+  return NAN;
+}
+
+/// The overrides the twin runs with (config/rigs/tumbler_twin.yaml: undamped contact, one cycle).
+const std::vector<std::string> kTwinOverrides{"contact_damping_ratio=0", "measured_cycles=1"};
+
+topo_gaussian::InferInteriorGoal tumblerGoal() {
+  topo_gaussian::InferInteriorGoal g;
+  g.task = "tumbler";
+  g.overrides = kTwinOverrides;
+  return g;
+}
+
+}  // namespace
+
+TEST(DemoTumbler, UnknownTaskAbortsWithAReason) {
+  auto c = client();
+  topo_gaussian::InferInteriorGoal g;
+  g.task = "wobbly_pear_of_doom";
+  c->sendGoal(g);
+  ASSERT_TRUE(c->waitForResult(ros::Duration(30.0)));
+  EXPECT_EQ(c->getState(), actionlib::SimpleClientGoalState::ABORTED);
+  const std::string why = c->getResult()->message;
+  EXPECT_NE(why.find("wobbly_pear_of_doom"), std::string::npos) << why;
+  EXPECT_NE(why.find("tumbler"), std::string::npos) << "lists the known tasks: " << why;
+}
+
+TEST(DemoTumbler, EndToEndReproducesTheTwinsGroundTruth) {
+  const auto truth = ros::topic::waitForMessage<topo_gaussian::RigGroundTruth>("/rig_simulator/ground_truth",
+                                                                               ros::Duration(60.0));
+  ASSERT_TRUE(truth) << "no ground truth from rig_simulator";
+  const double T = valueOf(truth->feature_names, truth->feature_values, "period_s");
+  const double tilt = valueOf(truth->feature_names, truth->feature_values, "max_tilt_deg");
+  ASSERT_TRUE(T > 0 && tilt > 0);
+  // the tracker has measured the twin (one analysis window of images)
+  topo_gaussian::MotionFeatures::ConstPtr f;
+  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(90.0);
+  while (ros::ok() && ros::WallTime::now() < until) {
+    f = ros::topic::waitForMessage<topo_gaussian::MotionFeatures>("/motion_features", ros::Duration(2.0));
+    if (f && f->oscillation_found && f->end_time_s - f->start_time_s > 3.0) break;
+    f.reset();
+  }
+  ASSERT_TRUE(f) << "motion_tracker published no oscillation of the twin";
+  std::printf("[demo] twin truth: period %.4f s, max tilt %.3f deg; tracker: %.4f s, %.3f deg\n", T, tilt, f->period_s,
+              f->max_tilt_deg);
+
+  auto c = client();
+  std::atomic<int> feedbacks{0};
+  std::atomic<bool> with_features{false};
+  c->sendGoal(tumblerGoal(), {}, {}, [&](const topo_gaussian::InferInteriorFeedbackConstPtr& fb) {
+    ++feedbacks;
+    if (!fb->feature_names.empty() && fb->feature_names.size() == fb->feature_values.size()) with_features = true;
+  });
+  ASSERT_TRUE(c->waitForResult(ros::Duration(400.0))) << "no result in 400 s";
+  ASSERT_EQ(c->getState(), actionlib::SimpleClientGoalState::SUCCEEDED) << c->getResult()->message;
+  const auto res = c->getResult();
+  const double T1 = valueOf(res->feature_names, res->achieved, "period_s");
+  const double tilt1 = valueOf(res->feature_names, res->achieved, "max_tilt_deg");
+  std::printf("[demo] recovered: period %.4f s (%+.2f %%), max tilt %.3f deg (%+.2f %%), %d evaluations, %d feedbacks\n",
+              T1, 100 * (T1 / T - 1), tilt1, 100 * (tilt1 / tilt - 1), res->iterations, feedbacks.load());
+  EXPECT_GE(feedbacks.load(), 1);
+  EXPECT_TRUE(with_features.load()) << "feedback carries the current features";
+  EXPECT_NEAR(T1, T, 0.02 * T) << res->message;
+  EXPECT_NEAR(tilt1, tilt, 0.02 * tilt) << res->message;
+  EXPECT_GT(res->interior.width, 1000u);
+  for (const auto& file : res->files) EXPECT_TRUE(std::filesystem::exists(file)) << file;
+  EXPECT_GE(res->files.size(), 4u);
+
+  // the latched topics for rviz: the interior (solid and hollow colours) and its markers
+  const auto interior = ros::topic::waitForMessage<sensor_msgs::PointCloud2>("/interior", ros::Duration(10.0));
+  ASSERT_TRUE(interior);
+  EXPECT_EQ(interior->width, res->interior.width);
+  EXPECT_EQ(interior->header.frame_id, "object_simulated");
+  const auto markers = ros::topic::waitForMessage<visualization_msgs::MarkerArray>("/interior_markers", ros::Duration(10.0));
+  ASSERT_TRUE(markers);
+  EXPECT_GE(markers->markers.size(), 6u);
+  // the replay of the simulated motion on tf
+  const auto tf = ros::topic::waitForMessage<tf2_msgs::TFMessage>("/tf", ros::Duration(10.0));
+  ASSERT_TRUE(tf);
+
+  // ~simulate of the result gives its features back
+  topo_gaussian::SimulateInterior sim;
+  sim.request.overrides = kTwinOverrides;
+  ASSERT_TRUE(ros::service::call("/interior_inference/simulate", sim));
+  ASSERT_TRUE(sim.response.success) << sim.response.message;
+  EXPECT_NEAR(valueOf(sim.response.feature_names, sim.response.values, "period_s"), T1, 1e-9 * T1);
+
+  // ~export: a watertight STL of the solid region, volume within 3 % of the solid particles'
+  topo_gaussian::ExportInterior ex;
+  ex.request.output_dir = "/tmp/topo_rostest_demo_export";
+  ASSERT_TRUE(ros::service::call("/interior_inference/export", ex));
+  ASSERT_TRUE(ex.response.success) << ex.response.message;
+  EXPECT_TRUE(ex.response.watertight);
+  EXPECT_LT(std::abs(ex.response.volume_difference), 0.03) << ex.response.message;
+  EXPECT_TRUE(std::filesystem::exists("/tmp/topo_rostest_demo_export/interior.stl"));
+  EXPECT_TRUE(std::filesystem::exists("/tmp/topo_rostest_demo_export/slices.png"));
+  std::printf("[demo] export: %s\n", ex.response.message.c_str());
+}
+
+TEST(DemoTumbler, CancelReturnsTheBestDesignSoFar) {
+  auto c = client();
+  topo_gaussian::InferInteriorGoal g = tumblerGoal();
+  g.targets = {"period_s=0.2", "max_tilt_deg=11"};  // keeps the optimiser busy
+  g.ignore_motion_features = true;
+  g.max_iterations = 200;
+  std::atomic<int> feedbacks{0};
+  c->sendGoal(g, {}, {}, [&](const topo_gaussian::InferInteriorFeedbackConstPtr&) { ++feedbacks; });
+  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(120.0);
+  while (feedbacks.load() < 1 && ros::WallTime::now() < until) ros::WallDuration(0.05).sleep();
+  ASSERT_GE(feedbacks.load(), 1) << "no feedback before the cancel";
+  c->cancelGoal();
+  ASSERT_TRUE(c->waitForResult(ros::Duration(120.0)));
+  EXPECT_EQ(c->getState(), actionlib::SimpleClientGoalState::PREEMPTED);
+  const auto res = c->getResult();
+  EXPECT_TRUE(res->preempted);
+  EXPECT_NE(res->message.find("Preempted"), std::string::npos) << res->message;
+  EXPECT_GT(res->interior.width, 1000u) << "the best design so far comes back";
+  EXPECT_LE(res->final_loss, res->initial_loss);
+  EXPECT_LT(res->iterations, 200);
+  for (const auto& file : res->files) EXPECT_TRUE(std::filesystem::exists(file)) << file;
+  EXPECT_FALSE(res->files.empty()) << "no lost result files";
+}
+
+TEST(DemoTumbler, InferServiceFromAShell) {
+  // The command as the README gives it.
+  const std::string cmd =
+      "rosservice call /interior_inference/infer \"{task: tumbler, overrides: ['contact_damping_ratio=0', 'measured_cycles=1'], "
+      "targets: ['period_s=0.3'], ignore_motion_features: true, max_iterations: 3}\" 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  ASSERT_TRUE(p);
+  std::string out;
+  char buf[512];
+  while (fgets(buf, sizeof buf, p)) out += buf;
+  EXPECT_EQ(pclose(p), 0) << out;
+  EXPECT_NE(out.find("success: True"), std::string::npos) << out;
+  EXPECT_NE(out.find("interior.stl"), std::string::npos) << out;
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "demo_tumbler_test");
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+  const int rc = RUN_ALL_TESTS();
+  ros::shutdown();
+  return rc;
+}
