@@ -1,0 +1,102 @@
+// rostest node for interior_inference's bad input (test/ros/inference_faults.test): no volume, no
+// targets, an unknown parameter, ~export/~simulate before any result; every answer names the cause
+// and the fix, and the node survives all of them (a last valid goal succeeds).
+#include <actionlib/client/simple_action_client.h>
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+
+#include <string>
+
+#include "topo_gaussian/ExportInterior.h"
+#include "topo_gaussian/InferInteriorAction.h"
+#include "topo_gaussian/SimulateInterior.h"
+#include "topo_gaussian/physics/default_shapes.h"
+#include "topo_gaussian/ros/conversions.h"
+
+namespace {
+
+using Client = actionlib::SimpleActionClient<topo_gaussian::InferInteriorAction>;
+
+std::string abortReason(const topo_gaussian::InferInteriorGoal& goal) {
+  Client c("infer_interior", false);
+  EXPECT_TRUE(c.waitForServer(ros::Duration(30.0)));
+  c.sendGoal(goal);
+  EXPECT_TRUE(c.waitForResult(ros::Duration(60.0)));
+  EXPECT_EQ(c.getState(), actionlib::SimpleClientGoalState::ABORTED) << c.getResult()->message;
+  return c.getResult()->message;
+}
+
+sensor_msgs::PointCloud2 tumblerVolume() {
+  return topo_gaussian::topo_ros::toPointCloud2(topo_gaussian::defaultShapeCloud("tumbler", 0.006), "object", ros::Time());
+}
+
+}  // namespace
+
+TEST(InferenceFaults, GoalWithoutAVolumeAborts) {
+  topo_gaussian::InferInteriorGoal g;
+  g.task = "tumbler";
+  g.targets = {"period_s=0.5"};
+  const std::string why = abortReason(g);
+  EXPECT_NE(why.find("no volume cloud"), std::string::npos) << why;
+  EXPECT_NE(why.find("cloud_ingest"), std::string::npos) << "names the fix: " << why;
+}
+
+TEST(InferenceFaults, GoalWithoutTargetsAborts) {
+  topo_gaussian::InferInteriorGoal g;
+  g.task = "tumbler";
+  g.volume = tumblerVolume();
+  const std::string why = abortReason(g);
+  EXPECT_NE(why.find("period_s"), std::string::npos) << why;
+  EXPECT_NE(why.find("motion_features"), std::string::npos) << "says none arrived: " << why;
+}
+
+TEST(InferenceFaults, UnknownOverrideAndNegativeIterationsAreNamed) {
+  topo_gaussian::InferInteriorGoal g;
+  g.task = "tumbler";
+  g.volume = tumblerVolume();
+  g.targets = {"period_s=0.5"};
+  g.overrides = {"initial_tilt_degs=5"};
+  std::string why = abortReason(g);
+  EXPECT_NE(why.find("initial_tilt_degs"), std::string::npos) << why;
+  EXPECT_NE(why.find("initial_tilt_deg"), std::string::npos) << "suggests the nearest key: " << why;
+  g.overrides.clear();
+  g.max_iterations = -3;
+  why = abortReason(g);
+  EXPECT_NE(why.find("max_iterations"), std::string::npos) << why;
+}
+
+TEST(InferenceFaults, ServicesBeforeAnyResultAnswerWithAReason) {
+  topo_gaussian::ExportInterior ex;
+  ASSERT_TRUE(ros::service::waitForService("/interior_inference/export", ros::Duration(30.0)));
+  ASSERT_TRUE(ros::service::call("/interior_inference/export", ex));
+  EXPECT_FALSE(ex.response.success);
+  EXPECT_NE(ex.response.message.find("no inference has finished"), std::string::npos) << ex.response.message;
+  topo_gaussian::SimulateInterior sim;
+  ASSERT_TRUE(ros::service::call("/interior_inference/simulate", sim));
+  EXPECT_FALSE(sim.response.success);
+  EXPECT_NE(sim.response.message.find("no inference has run"), std::string::npos) << sim.response.message;
+}
+
+TEST(InferenceFaults, TheNodeStillServesAValidGoal) {
+  Client c("infer_interior", false);
+  ASSERT_TRUE(c.waitForServer(ros::Duration(30.0)));
+  topo_gaussian::InferInteriorGoal g;
+  g.task = "tumbler";
+  g.volume = tumblerVolume();
+  g.targets = {"period_s=0.5"};
+  g.max_iterations = 3;
+  c.sendGoal(g);
+  ASSERT_TRUE(c.waitForResult(ros::Duration(120.0)));
+  EXPECT_EQ(c.getState(), actionlib::SimpleClientGoalState::SUCCEEDED) << c.getResult()->message;
+  EXPECT_FALSE(c.getResult()->files.empty());
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "inference_faults_test");
+  ros::AsyncSpinner spinner(1);
+  spinner.start();
+  const int rc = RUN_ALL_TESTS();
+  ros::shutdown();
+  return rc;
+}
