@@ -5,6 +5,9 @@
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 
+#include <sys/wait.h>
+
+#include <cstdio>
 #include <string>
 
 #include "topo_gaussian/ExportInterior.h"
@@ -89,6 +92,32 @@ TEST(InferenceFaults, TheNodeStillServesAValidGoal) {
   ASSERT_TRUE(c.waitForResult(ros::Duration(120.0)));
   EXPECT_EQ(c.getState(), actionlib::SimpleClientGoalState::SUCCEEDED) << c.getResult()->message;
   EXPECT_FALSE(c.getResult()->files.empty());
+}
+
+/// Runs a node binary of this package with one bad private parameter; returns its exit status and
+/// output (it must stop at start, naming the parameter).
+int runNode(const std::string& node, const std::string& args, std::string* out) {
+  static int run = 0;  // a new name each time: private parameters persist on the parameter server
+  const std::string cmd = std::string(TOPO_NODE_DIR) + "/" + node + " __name:=bad_" + node + std::to_string(++run) + " " +
+                          args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return -1;
+  char buf[512];
+  while (fgets(buf, sizeof buf, p)) *out += buf;
+  const int st = pclose(p);
+  return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+TEST(InferenceFaults, ParametersOutOfRangeStopTheNodesAtStartNamingThem) {
+  std::string out;
+  EXPECT_EQ(runNode("interior_inference", "_replay_rate_hz:=-5", &out), 1) << out;
+  EXPECT_NE(out.find("~replay_rate_hz"), std::string::npos) << out;
+  out.clear();
+  EXPECT_EQ(runNode("interior_inference", "_default_task:=no_such_task", &out), 1) << out;
+  EXPECT_NE(out.find("no_such_task"), std::string::npos) << out;
+  out.clear();
+  EXPECT_EQ(runNode("rig_simulator", "_fps:=-30", &out), 1) << out;
+  EXPECT_NE(out.find("~fps"), std::string::npos) << out;
 }
 
 int main(int argc, char** argv) {
