@@ -74,9 +74,14 @@ TEST(MotionTrackerNode, ImageStreamGivesTheSamePeriod) {
   std::mutex mu;
   topo_gaussian::MotionFeatures last;
   bool got = false;
+  std::string stale;  // the "stale: ..." message once the stream stops
   ros::Subscriber sub = nh.subscribe<topo_gaussian::MotionFeatures>(
       "/motion_features", 10, [&](const topo_gaussian::MotionFeaturesConstPtr& m) {
         std::lock_guard<std::mutex> l(mu);
+        if (m->message.rfind("stale:", 0) == 0) {
+          stale = m->message;
+          return;
+        }
         if (m->source == "/image") {
           last = *m;
           got = true;
@@ -127,6 +132,17 @@ TEST(MotionTrackerNode, ImageStreamGivesTheSamePeriod) {
   // Still serving after the bad image.
   topo_gaussian::ExtractMotion srv;
   EXPECT_TRUE(callExtract("/tmp/no_such_video.mp4", srv));
+  // The camera stopped: after ~stale_after_s (2 s in the .test) the tracker says so.
+  const ros::Time stale_deadline = ros::Time::now() + ros::Duration(10.0);
+  std::string why;
+  while (ros::Time::now() < stale_deadline && why.empty()) {
+    {
+      std::lock_guard<std::mutex> l(mu);
+      why = stale;
+    }
+    ros::Duration(0.1).sleep();
+  }
+  EXPECT_NE(why.find("no image on /image"), std::string::npos) << "no stale-camera report: '" << why << "'";
 }
 
 int main(int argc, char** argv) {
