@@ -4,7 +4,8 @@
 //    targets from the topics) sends feedback every iteration, and the result reproduces the twin's
 //    ground-truth period and maximum tilt within 2 %; ~simulate replays it; ~export writes a
 //    watertight STL whose volume matches the solid particles' within 3 %;
-//  - a goal cancelled after its first feedback is PREEMPTED with the best design so far and its files;
+//  - a goal cancelled after its first feedback is PREEMPTED with the best design so far and its files,
+//    and so is a running goal when a new one arrives (which then succeeds);
 //  - the README's `rosservice call /interior_inference/infer ...` works from a shell.
 #include <actionlib/client/simple_action_client.h>
 #include <gtest/gtest.h>
@@ -162,6 +163,33 @@ TEST(DemoTumbler, CancelReturnsTheBestDesignSoFar) {
   EXPECT_LT(res->iterations, 200);
   for (const auto& file : res->files) EXPECT_TRUE(std::filesystem::exists(file)) << file;
   EXPECT_FALSE(res->files.empty()) << "no lost result files";
+}
+
+TEST(DemoTumbler, ANewGoalPreemptsTheRunningOne) {
+  // actionlib's simple server: the newer goal wins; the running one comes back PREEMPTED with its
+  // best design so far, then the new one runs to the end.
+  auto first = client();
+  auto second = client();
+  topo_gaussian::InferInteriorGoal busy = tumblerGoal();
+  busy.targets = {"period_s=0.2", "max_tilt_deg=11"};
+  busy.ignore_motion_features = true;
+  busy.max_iterations = 200;
+  std::atomic<int> feedbacks{0};
+  first->sendGoal(busy, {}, {}, [&](const topo_gaussian::InferInteriorFeedbackConstPtr&) { ++feedbacks; });
+  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(120.0);
+  while (feedbacks.load() < 1 && ros::WallTime::now() < until) ros::WallDuration(0.05).sleep();
+  ASSERT_GE(feedbacks.load(), 1);
+  topo_gaussian::InferInteriorGoal quick = tumblerGoal();
+  quick.targets = {"period_s=0.8"};
+  quick.ignore_motion_features = true;
+  quick.max_iterations = 3;
+  second->sendGoal(quick);
+  ASSERT_TRUE(first->waitForResult(ros::Duration(120.0)));
+  EXPECT_EQ(first->getState(), actionlib::SimpleClientGoalState::PREEMPTED);
+  EXPECT_TRUE(first->getResult()->preempted);
+  EXPECT_FALSE(first->getResult()->files.empty());
+  ASSERT_TRUE(second->waitForResult(ros::Duration(120.0)));
+  EXPECT_EQ(second->getState(), actionlib::SimpleClientGoalState::SUCCEEDED) << second->getResult()->message;
 }
 
 TEST(DemoTumbler, InferServiceFromAShell) {
