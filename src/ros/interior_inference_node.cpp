@@ -8,10 +8,12 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <iomanip>
 #include <limits>
 #include <sstream>
 
+#include "topo_gaussian/geometry/volume_io.h"
 #include "topo_gaussian/inference/interior_export.h"
 #include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/physics/error.h"
@@ -106,6 +108,7 @@ InteriorInferenceParams loadInteriorInferenceParams(const ::ros::NodeHandle& pnh
   pnh.param("export_on_finish", p.export_on_finish, p.export_on_finish);
   pnh.param("max_features_age_s", p.max_features_age_s, p.max_features_age_s);
   pnh.param("volume_wait_s", p.volume_wait_s, p.volume_wait_s);
+  pnh.param("restore_latest", p.restore_latest, p.restore_latest);
   if (!(p.volume_wait_s >= 0 && p.volume_wait_s <= 3600))
     throw TopoError("~volume_wait_s", "is " + std::to_string(p.volume_wait_s) + ", outside [0, 3600]", "use e.g. 15 [s]");
   if (!(p.replay_rate_hz >= 0 && p.replay_rate_hz <= 1000))
@@ -137,6 +140,7 @@ InteriorInferenceNode::InteriorInferenceNode(const ::ros::NodeHandle& nh, const 
   server_ = std::make_unique<actionlib::SimpleActionServer<topo_gaussian::InferInteriorAction>>(
       nh_, "infer_interior", [this](const topo_gaussian::InferInteriorGoalConstPtr& g) { execute(g); }, false);
   server_->start();
+  if (params_.restore_latest) restoreLatest();
   ROS_INFO("interior_inference: action %s/infer_interior, services %s %s %s; waiting for %s and %s; results in %s",
            nh_.getNamespace() == "/" ? "" : nh_.getNamespace().c_str(), infer_srv_.getService().c_str(),
            simulate_srv_.getService().c_str(), export_srv_.getService().c_str(), volume_sub_.getTopic().c_str(),
@@ -333,6 +337,8 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
     writeText(dir + "/signal.csv", signalCsv(res.final.task));
     out.files.push_back(dir + "/signal.csv");
   }
+  geometry::writeVolumePly(*cloud, dir + "/volume.ply");  // with interior.ply and report.json: the run can be reloaded
+  out.files.push_back(dir + "/volume.ply");
   std::ostringstream msg;
   msg << (out.preempted ? "Preempted: best design so far. " : "") << res.message;
   for (const auto& n : notes) msg << " [" << n << "]";
@@ -403,6 +409,48 @@ void InteriorInferenceNode::onReplay(const ::ros::WallTimerEvent&) {
     p = inference::poseAt(replay_, t);
   }
   tf_.sendTransform(toTransformStamped(p, params_.world_frame, params_.object_frame, ::ros::Time::now()));
+}
+
+void InteriorInferenceNode::restoreLatest() {
+  // The newest run directory under ~output_dir that holds volume.ply, interior.ply and report.json.
+  std::error_code ec;
+  fs::path best;
+  fs::file_time_type best_time{};
+  for (const auto& e : fs::directory_iterator(params_.output_dir, ec)) {
+    const fs::path d = e.path();
+    if (!fs::exists(d / "volume.ply") || !fs::exists(d / "interior.ply") || !fs::exists(d / "report.json")) continue;
+    const auto t = fs::last_write_time(d / "report.json", ec);
+    if (best.empty() || t > best_time) best = d, best_time = t;
+  }
+  if (best.empty()) return;
+  try {
+    auto cloud = std::make_shared<VolumeCloud>(geometry::readVolumePly((best / "volume.ply").string()));
+    const inference::InteriorPly ply = inference::readInteriorPlyData((best / "interior.ply").string(), cloud->size());
+    std::ifstream in(best / "report.json");
+    const std::string report((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string task = inference::jsonStringField(report, "task");
+    const inference::TaskConfig config = inference::TaskConfig::load(task.empty() ? params_.default_task : task, params_.task_dir);
+    {
+      std::lock_guard<std::mutex> lock(state_mutex_);
+      has_result_ = true;
+      result_cloud_ = cloud;
+      result_ = inference::InferenceResult{};
+      result_.task = config.task();
+      result_.r = ply.r;
+      result_.density = ply.density;
+      result_task_ = config.task();
+      result_dir_ = best.string();
+      result_report_ = report;
+      result_continuous_ = ply.continuous;
+    }
+    // Its features with the task's default parameters (the goal's overrides are not in the files).
+    const inference::ProblemEvaluation ev = inference::simulateInterior(config, *cloud, ply.r);
+    show(*cloud, config, ply.r, ev, inference::makeTask(config, *cloud)->geometry());
+    ROS_INFO("interior_inference: restored the latest result from %s (task %s, %zu particles): published on %s",
+             best.c_str(), config.task().c_str(), cloud->size(), interior_pub_.getTopic().c_str());
+  } catch (const std::exception& e) {
+    ROS_WARN("interior_inference: could not restore the latest result from %s: %s", best.c_str(), e.what());
+  }
 }
 
 void InteriorInferenceNode::execute(const topo_gaussian::InferInteriorGoalConstPtr& goal) {

@@ -5,6 +5,9 @@
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 
+#include <ros/topic.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <signal.h>
 #include <sys/wait.h>
 
 #include <cstdio>
@@ -80,6 +83,8 @@ TEST(InferenceFaults, ServicesBeforeAnyResultAnswerWithAReason) {
   EXPECT_NE(sim.response.message.find("no inference has run"), std::string::npos) << sim.response.message;
 }
 
+std::uint32_t g_valid_result_points = 0;  // set by the valid goal, checked after the restart
+
 TEST(InferenceFaults, TheNodeStillServesAValidGoal) {
   Client c("infer_interior", false);
   ASSERT_TRUE(c.waitForServer(ros::Duration(30.0)));
@@ -92,6 +97,26 @@ TEST(InferenceFaults, TheNodeStillServesAValidGoal) {
   ASSERT_TRUE(c.waitForResult(ros::Duration(120.0)));
   EXPECT_EQ(c.getState(), actionlib::SimpleClientGoalState::SUCCEEDED) << c.getResult()->message;
   EXPECT_FALSE(c.getResult()->files.empty());
+  g_valid_result_points = c.getResult()->interior.width;
+}
+
+TEST(InferenceFaults, ARestartedNodeRestoresTheLatestResult) {
+  // A second instance on the same output directory (as after a crash or a restart) publishes the
+  // newest run again on its latched `interior`, so rviz gets it back.
+  ASSERT_GT(g_valid_result_points, 0u) << "needs the valid goal's run";
+  const std::string cmd = std::string(TOPO_NODE_DIR) +
+                          "/interior_inference __ns:=/restarted _output_dir:=/tmp/topo_rostest_faults "
+                          "> /tmp/topo_rostest_restarted.log 2>&1 & echo $!";
+  FILE* p = popen(cmd.c_str(), "r");
+  ASSERT_TRUE(p);
+  int pid = 0;
+  ASSERT_EQ(fscanf(p, "%d", &pid), 1);
+  pclose(p);
+  const auto cloud = ros::topic::waitForMessage<sensor_msgs::PointCloud2>("/restarted/interior", ros::Duration(60.0));
+  kill(pid, SIGINT);
+  ASSERT_TRUE(cloud) << "the restarted node published no interior (see /tmp/topo_rostest_restarted.log)";
+  EXPECT_EQ(cloud->width, g_valid_result_points);
+  EXPECT_TRUE(topo_gaussian::topo_ros::hasField(*cloud, "solid"));
 }
 
 /// Runs a node binary of this package with one bad private parameter; returns its exit status and

@@ -9,6 +9,8 @@
 //        tf ~world_frame → ~object_frame: the simulated motion of the latest result, replayed in a loop
 //        services ~infer (Infer.srv, the blocking form of the action), ~simulate (SimulateInterior.srv),
 //        ~export (ExportInterior.srv)
+// Every run writes its files (and volume.ply) to ~output_dir/<task>_<time>/; a restarted node
+// reloads the newest run and publishes it again (~restore_latest).
 // The node owns handles, parameters and the latest result; runInference / simulateInterior /
 // exportInterior do the work. Callbacks may run concurrently (AsyncSpinner): one inference runs at a
 // time, state is guarded by a mutex.
@@ -47,6 +49,9 @@ struct InteriorInferenceParams {
   bool export_on_finish = true;                   ///< ~export_on_finish: STL + pictures after every run
   double max_features_age_s = 0.0;                ///< ~max_features_age_s: older motion features are refused (0: any age)
   double volume_wait_s = 15.0;                    ///< ~volume_wait_s: a goal before any `volume` waits this long for one
+  /// ~restore_latest: at start, reload the newest run under output_dir (volume.ply, interior.ply,
+  /// report.json) and publish it, so a restarted node restores rviz and ~export / ~simulate
+  bool restore_latest = true;
 };
 
 /// Reads and validates the private parameters; throws TopoError naming the parameter and the fix.
@@ -94,6 +99,7 @@ class InteriorInferenceNode {
   bool onSimulate(topo_gaussian::SimulateInterior::Request& req, topo_gaussian::SimulateInterior::Response& res);
   bool onExport(topo_gaussian::ExportInterior::Request& req, topo_gaussian::ExportInterior::Response& res);
   void onReplay(const ::ros::WallTimerEvent&);
+  void restoreLatest();
   /// Publishes `interior` and `interior_markers` for a design and starts replaying its motion.
   void show(const VolumeCloud& cloud, const inference::TaskConfig& config, const std::vector<double>& r,
             const inference::ProblemEvaluation& ev, const inference::TaskGeometry& geometry);
