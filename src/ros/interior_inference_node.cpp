@@ -59,10 +59,29 @@ std::vector<inference::SignalSeries> signalsOf(const topo_gaussian::MotionFeatur
   if (observed && !observed->time_s.empty() && observed->time_s.size() == observed->angle_deg.size()) {
     inference::SignalSeries s;
     s.label = "observed " + (observed->kind.empty() ? std::string("angle") : observed->kind) + " [deg]";
-    const double t0 = observed->time_s.front();
-    for (std::size_t i = 0; i < observed->time_s.size(); ++i) {
-      s.t.push_back(observed->time_s[i] - t0);
-      s.value.push_back(observed->angle_deg[i]);
+    const auto& t = observed->time_s;
+    const auto& y = observed->angle_deg;
+    double t0 = t.front();
+    // A simulation released at rest starts at a turning point; a camera window usually starts
+    // mid-swing. Start the observed series at its first turning point on the release side, so the
+    // two can be compared by eye and by their RMS difference.
+    const auto& sim = simulated.signal;
+    if (!sim.empty() && std::abs(sim.front()) > 0) {
+      double peak = 0;
+      for (double v : y) peak = std::max(peak, std::abs(v));
+      for (std::size_t i = 1; i + 1 < y.size(); ++i) {
+        const bool turning = (y[i] - y[i - 1]) * (y[i + 1] - y[i]) <= 0;
+        if (turning && y[i] * sim.front() > 0 && std::abs(y[i]) >= 0.8 * peak) {
+          t0 = t[i];
+          s.label += ", aligned";
+          break;
+        }
+      }
+    }
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      if (t[i] < t0) continue;
+      s.t.push_back(t[i] - t0);
+      s.value.push_back(y[i]);
     }
     out.push_back(std::move(s));
   }
