@@ -15,6 +15,7 @@
 
 #include "topo_gaussian/geometry/volume_io.h"
 #include "topo_gaussian/inference/interior_export.h"
+#include "topo_gaussian/inference/interior_problem.h"
 #include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/physics/error.h"
 #include "topo_gaussian/ros/body_pose_msg.h"
@@ -373,18 +374,30 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
     result_signals_ = signals;
     result_continuous_ = config.boolean("continuous_material");
   }
-  show(*cloud, config, res.r, res.final, res.geometry);
+  out.interior = show(*cloud, config, res.r, res.density, res.final, res.geometry);
   return out;
 }
 
-void InteriorInferenceNode::show(const VolumeCloud& cloud, const inference::TaskConfig& config,
-                                 const std::vector<double>& r, const inference::ProblemEvaluation& ev,
-                                 const inference::TaskGeometry& geometry) {
+inference::ProblemEvaluation InteriorInferenceNode::simulateAndShow(const VolumeCloud& cloud,
+                                                                    const inference::TaskConfig& config,
+                                                                    const std::vector<double>& r, bool show_it) {
+  const inference::InteriorProblem problem(config, cloud);
+  const inference::ProblemEvaluation ev = problem.evaluateIndicator(r, nullptr);
+  if (show_it) {
+    std::vector<double> density;
+    problem.task().density().apply(r, &density, nullptr);
+    show(cloud, config, r, density, ev, problem.task().geometry());
+  }
+  return ev;
+}
+
+sensor_msgs::PointCloud2 InteriorInferenceNode::show(const VolumeCloud& cloud, const inference::TaskConfig& config,
+                                                     const std::vector<double>& r, const std::vector<double>& density,
+                                                     const inference::ProblemEvaluation& ev,
+                                                     const inference::TaskGeometry& geometry) {
   // Stamp 0: latched messages stay usable for a late subscriber (rviz transforms them with the latest
   // tf, not with a stamp older than its tf buffer).
   const ::ros::Time stamp(0);
-  std::vector<double> density;
-  inference::makeTask(config, cloud)->density().apply(r, &density, nullptr);
   auto interior = boost::make_shared<sensor_msgs::PointCloud2>(
       toInteriorCloud(cloud, r, density, inference::particleStiffness(config, r), params_.object_frame, stamp));
   InteriorMarkerInput mi;
@@ -415,6 +428,7 @@ void InteriorInferenceNode::show(const VolumeCloud& cloud, const inference::Task
         markers_pub_.publish(markers);
       },
       true);
+  return *interior;
 }
 
 void InteriorInferenceNode::onReplay(const ::ros::WallTimerEvent&) {
@@ -463,8 +477,7 @@ void InteriorInferenceNode::restoreLatest() {
       result_continuous_ = ply.continuous;
     }
     // Its features with the task's default parameters (the goal's overrides are not in the files).
-    const inference::ProblemEvaluation ev = inference::simulateInterior(config, *cloud, ply.r);
-    show(*cloud, config, ply.r, ev, inference::makeTask(config, *cloud)->geometry());
+    simulateAndShow(*cloud, config, ply.r, true);
     ROS_INFO("interior_inference: restored the latest result from %s (task %s, %zu particles): published on %s",
              best.c_str(), config.task().c_str(), cloud->size(), interior_pub_.getTopic().c_str());
   } catch (const std::exception& e) {
@@ -500,11 +513,7 @@ void InteriorInferenceNode::execute(const topo_gaussian::InferInteriorGoalConstP
     result.converged = res.converged;
     result.preempted = out.preempted;
     result.message = out.message;
-    {
-      std::lock_guard<std::mutex> lock(state_mutex_);
-      std::vector<double> density = res.density;
-      result.interior = toInteriorCloud(*result_cloud_, res.r, density, {}, params_.object_frame, ::ros::Time::now());
-    }
+    result.interior = out.interior;
     fillFeatures(res.final.task.features, &result.feature_names, &result.achieved, &result.target, &result.units);
     result.initial_loss = res.initial.loss;
     result.final_loss = res.final.loss;
@@ -600,7 +609,7 @@ bool InteriorInferenceNode::onSimulate(topo_gaussian::SimulateInterior::Request&
     }
     inference::TaskConfig config = configFor(task, "", req.overrides, "~simulate");
     for (const auto& t : req.targets) config.setAssignment(t, "~simulate targets");
-    const inference::ProblemEvaluation ev = inference::simulateInterior(config, *cloud, r);
+    const inference::ProblemEvaluation ev = simulateAndShow(*cloud, config, r, req.replay);
     fillFeatures(ev.task.features, &res.feature_names, &res.values, nullptr, &res.units);
     res.loss = ev.loss;
     res.mass_kg = ev.task.mass.mass;
@@ -613,7 +622,6 @@ bool InteriorInferenceNode::onSimulate(topo_gaussian::SimulateInterior::Request&
     res.message = os.str();
     for (auto& c : res.message)
       if (c == '\n') c = ';';
-    if (req.replay) show(*cloud, config, r, ev, inference::makeTask(config, *cloud)->geometry());
     ROS_INFO("interior_inference: ~simulate: %s", res.message.c_str());
   } catch (const std::exception& e) {
     res.success = false;

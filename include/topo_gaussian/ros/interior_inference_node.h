@@ -74,6 +74,7 @@ struct InferenceOutcome {
   std::vector<std::string> files;
   std::string output_dir;
   std::string message;                            ///< result message + notes (targets used, export)
+  sensor_msgs::PointCloud2 interior;              ///< as published on `interior`
   bool preempted = false;
 };
 
@@ -100,9 +101,14 @@ class InteriorInferenceNode {
   bool onExport(topo_gaussian::ExportInterior::Request& req, topo_gaussian::ExportInterior::Response& res);
   void onReplay(const ::ros::WallTimerEvent&);
   void restoreLatest();
-  /// Publishes `interior` and `interior_markers` for a design and starts replaying its motion.
-  void show(const VolumeCloud& cloud, const inference::TaskConfig& config, const std::vector<double>& r,
-            const inference::ProblemEvaluation& ev, const inference::TaskGeometry& geometry);
+  /// Publishes `interior` and `interior_markers` for a design (r and density per particle) and
+  /// starts replaying its motion; returns the interior cloud it published.
+  sensor_msgs::PointCloud2 show(const VolumeCloud& cloud, const inference::TaskConfig& config,
+                                const std::vector<double>& r, const std::vector<double>& density,
+                                const inference::ProblemEvaluation& ev, const inference::TaskGeometry& geometry);
+  /// Simulates a design and shows it (one InteriorProblem for the features, density and geometry).
+  inference::ProblemEvaluation simulateAndShow(const VolumeCloud& cloud, const inference::TaskConfig& config,
+                                               const std::vector<double>& r, bool show_it);
   inference::TaskConfig configFor(const std::string& task, const std::string& representation,
                                   const std::vector<std::string>& overrides, const std::string& origin) const;
 
