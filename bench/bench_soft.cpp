@@ -14,7 +14,8 @@
 //   rollout_explicit / rollout_implicit  SoftRollout with gradient: backward_s / forward_s (goal
 //       ≤ 3). Baseline: the same rollout forward-only (no checkpoints stored).
 //   memory_checkpointed  a 1000-step explicit rollout with gradient and checkpoint_every = ⌈√1000⌉:
-//       peak stored states, their bytes (peak_states × N × 48) and the process max RSS (getrusage)
+//       peak stored states, their bytes (SoftRolloutResult::peak_state_bytes: 48 B per particle and
+//       state, 72 in the recomputed segment, which keeps the forces) and the process max RSS (getrusage)
 //       before/after the rollout. Baseline: checkpoint_every = 1000 (every state stored). The two
 //       runs are done side by side in forked children (started before this process starts any
 //       OpenMP thread), each on half the threads, so that each max RSS is its own and not inherited
@@ -302,7 +303,7 @@ void rolloutCase(const std::string& name, int nx, int ny, int nz, SoftIntegrator
 
 struct MemoryRun {
   int ok = 0, threads = 0;
-  std::size_t particles = 0, peak_states = 0;
+  std::size_t particles = 0, peak_states = 0, peak_state_bytes = 0;
   int checkpoint_every = 0;
   long rss_before_kib = 0, rss_after_kib = 0;
   double forward_s = 0.0, backward_s = 0.0, neighbours = 0.0, cpu_per_wall = 0.0;
@@ -328,6 +329,7 @@ MemoryRun memoryRunChild(const VolumeCloud& c, int steps, int K) {
     m.rss_after_kib = maxRssKiB();
     m.cpu_per_wall = meter.ratio();
     m.peak_states = r.peak_states;
+    m.peak_state_bytes = r.peak_state_bytes;
     m.forward_s = r.forward_s;
     m.backward_s = r.backward_s;
     m.ok = 1;
@@ -404,7 +406,7 @@ std::string memoryLine(int steps, const MemoryRun& ck, const MemoryRun& all) {
       if (ch == '"' || ch == '\\' || ch == '\n') ch = '\'';
     return "{\"case\": \"memory_checkpointed\", \"error\": \"" + e + "\"}\n";
   }
-  auto bytes = [](const MemoryRun& m) { return double(m.peak_states) * double(m.particles) * 48.0; };
+  auto bytes = [](const MemoryRun& m) { return double(m.peak_state_bytes); };
   auto delta = [](const MemoryRun& m) { return double(m.rss_after_kib - m.rss_before_kib) * 1024.0; };
   char buf[2048];
   std::snprintf(
@@ -450,8 +452,8 @@ int main(int argc, char** argv) {
       memory = memoryLine(steps, ck, all);
     }
     // 1. explicit: 40×25×20 = 20k and 80×50×25 = 100k particles.
-    explicitCase("explicit_20k", 40, 25, 20, quick ? 5 : 40);
-    explicitCase("explicit_100k", 80, 50, 25, quick ? 2 : 12);
+    explicitCase("explicit_20k", 40, 25, 20, quick ? 5 : 200);
+    explicitCase("explicit_100k", 80, 50, 25, quick ? 2 : 40);
     // 2. implicit at 20k.
     implicitCase("implicit_20k", 40, 25, 20, quick ? 1 : 2, 1e-3);
     // 3. rollout gradients: explicit 200 steps at 8k (40×20×10), implicit 20 steps at 2k (20×10×10).

@@ -325,8 +325,8 @@ CorotatedSph::CorotatedSph(const std::vector<Eigen::Vector3d>& X, const std::vec
   P_.assign(n, Eigen::Matrix3d::Zero());
   f_.assign(n, Eigen::Vector3d::Zero());
   x_ = X_;
-  // C_i = Σ_j V_j W_ij X_ji X_jiᵀ: with the hourglass sweep gives A_pq without its own sweep.
-  if (opt_.rotation == SphRotationSource::ShapeMatchingApq && opt_.hourglass_alpha > 0.0) {
+  // C_i = Σ_j V_j W_ij X_ji X_jiᵀ: the hourglass matrix H_i = 2(F̃_i C_i − D_i) (see evaluate()).
+  if (opt_.hourglass_alpha > 0.0) {
     moment_.resize(n);
 #pragma omp parallel for schedule(static)
     for (long long ii = 0; ii < static_cast<long long>(n); ++ii) {
@@ -361,6 +361,19 @@ void CorotatedSph::prepareGatherConstants() {
     }
     gsum_[i] = gs;
     hgsum_[i] = hs;
+  }
+  // Per CSR entry k→j, the gather's hourglass weights (rest constants for the material):
+  // (W_kj c_j X_jk, W_kj (c_k V_j + c_j V_k)), streamed in row order.
+  hgw_.resize(nbr_.indices.size());
+#pragma omp parallel for schedule(static)
+  for (long long kk = 0; kk < static_cast<long long>(n); ++kk) {
+    const std::size_t k = static_cast<std::size_t>(kk);
+    for (int e = nbr_.offsets[k]; e < nbr_.offsets[k + 1]; ++e) {
+      const int j = nbr_.indices[e];
+      const double w = W_[e], wc = w * c_[j];
+      hgw_[e] = {wc * (X_[j].x() - X_[k].x()), wc * (X_[j].y() - X_[k].y()), wc * (X_[j].z() - X_[k].z()),
+                 w * (c_[k] * V_[j] + c_[j] * V_[k])};
+    }
   }
 }
 
@@ -458,29 +471,44 @@ inline Eigen::Matrix3d rowGradient(const int* idx, int e0, int e1, const Eigen::
   return G;
 }
 
-/// A_pq = Σ_e m_j W_e (x_j − x_i)(X_j − X_i)ᵀ over row i (a separate sweep of the row, now in
-/// cache: fused with rowGradient the 18 accumulators spill).
-inline Eigen::Matrix3d rowApq(const int* idx, int e0, int e1, const Eigen::Vector3d* x, const Eigen::Vector3d* X,
-                              const double* m, const double* W, const Eigen::Vector3d& xi, const Eigen::Vector3d& Xi) {
-  double a00 = 0, a01 = 0, a02 = 0, a10 = 0, a11 = 0, a12 = 0, a20 = 0, a21 = 0, a22 = 0;
+/// One sweep of row i for both linear sums of the evaluation: G = Σ_e V_j d_e ĝ_eᵀ (F̃_i for u = x)
+/// and D = Σ_e V_j W_e d_e X_jiᵀ, d_e = u_j − u_i. D gives the hourglass matrix without a second
+/// sweep, H_i = Σ_e 2 V_j W_e (G X_ji − d_e) X_jiᵀ = 2(G C_i − D) with the rest moment
+/// C_i = Σ_e V_j W_e X_ji X_jiᵀ, and the paper's A_pq,i = Σ_e m_j W_e x_ji X_jiᵀ = ρ D.
+inline void rowGradientMoment(const int* idx, int e0, int e1, const Eigen::Vector3d* x, const Eigen::Vector3d* X,
+                              const double* V, const Eigen::Vector3d* gh, const double* W, const Eigen::Vector3d& xi,
+                              const Eigen::Vector3d& Xi, Eigen::Matrix3d* G, Eigen::Matrix3d* D) {
+  Pair c0 = Pair::Zero(), c1 = Pair::Zero(), c2 = Pair::Zero();  // G rows 0-1, by column
+  Pair p0 = Pair::Zero(), p1 = Pair::Zero(), p2 = Pair::Zero();  // D rows 0-1, by column
+  double g20 = 0, g21 = 0, g22 = 0, d20 = 0, d21 = 0, d22 = 0;
+  const Pair xi01 = head2(xi);
   for (int e = e0; e < e1; ++e) {
     const int j = idx[e];
-    const double mw = m[j] * W[e];
-    const double b0 = mw * (x[j].x() - xi.x()), b1 = mw * (x[j].y() - xi.y()), b2 = mw * (x[j].z() - xi.z());
+    const double v = V[j];
+    const Pair u01 = head2(x[j]) - xi01;
+    const double u2 = x[j].z() - xi.z();
+    const Pair d01 = v * u01;
+    const double d2 = v * u2;
+    const double* g = gh[e].data();
+    c0 += d01 * g[0];
+    c1 += d01 * g[1];
+    c2 += d01 * g[2];
+    g20 += d2 * g[0];
+    g21 += d2 * g[1];
+    g22 += d2 * g[2];
+    const double w = W[e];
+    const Pair b01 = w * d01;
+    const double b2 = w * d2;
     const double X0 = X[j].x() - Xi.x(), X1 = X[j].y() - Xi.y(), X2 = X[j].z() - Xi.z();
-    a00 += b0 * X0;
-    a01 += b0 * X1;
-    a02 += b0 * X2;
-    a10 += b1 * X0;
-    a11 += b1 * X1;
-    a12 += b1 * X2;
-    a20 += b2 * X0;
-    a21 += b2 * X1;
-    a22 += b2 * X2;
+    p0 += b01 * X0;
+    p1 += b01 * X1;
+    p2 += b01 * X2;
+    d20 += b2 * X0;
+    d21 += b2 * X1;
+    d22 += b2 * X2;
   }
-  Eigen::Matrix3d A;
-  A << a00, a01, a02, a10, a11, a12, a20, a21, a22;
-  return A;
+  *G << c0(0), c1(0), c2(0), c0(1), c1(1), c2(1), g20, g21, g22;
+  *D << p0(0), p1(0), p2(0), p0(1), p1(1), p2(1), d20, d21, d22;
 }
 
 /// Hourglass sums of row i: Σ_e w_e |e_e|² and (kH) H = Σ_e 2 w_e e_e X_jiᵀ, e_e = F̃ X_ji − x_ji,
@@ -534,12 +562,13 @@ std::vector<Eigen::Matrix3d> CorotatedSph::computeRotations(const std::vector<Ei
   checkPositions(x);
   Eval ev;
   std::vector<Eigen::Matrix3d> R;
-  evaluate(x, nullptr, &R, &ev, false);
+  evaluate(x, nullptr, &R, &ev, EvalMode::State);
   return R;
 }
 
 void CorotatedSph::evaluate(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>* R_given,
-                            std::vector<Eigen::Matrix3d>* R_out, Eval* ev, bool need_M) const {
+                            std::vector<Eigen::Matrix3d>* R_out, Eval* ev, EvalMode mode) const {
+  const bool need_M = mode == EvalMode::Forces;
   const std::size_t n = X_.size();
   if (R_given && R_given->size() != n)
     throw TopoError("corotated SPH rotations", std::to_string(R_given->size()) + " rotations for " +
@@ -560,7 +589,7 @@ void CorotatedSph::evaluate(const std::vector<Eigen::Vector3d>& x, const std::ve
   for (long long pp = 0; pp < pairs; ++pp) {
     const std::size_t i0 = static_cast<std::size_t>(2 * pp);
     const int lanes = i0 + 1 < n ? 2 : 1;
-    Eigen::Matrix3d Ft[2], H[2], A[2], R[2];
+    Eigen::Matrix3d Ft[2], H[2], A[2], R[2], D;
     double ehg[2] = {0.0, 0.0};
     bool polar[2] = {false, false};
     const int* idx = nbr_.indices.data();
@@ -568,29 +597,29 @@ void CorotatedSph::evaluate(const std::vector<Eigen::Vector3d>& x, const std::ve
       const std::size_t i = i0 + l;
       const int e0 = nbr_.offsets[i], e1 = nbr_.offsets[i + 1];
       const Eigen::Vector3d xi = x[i], Xi = X_[i];
-      // F̃_i = Σ_j V_j x_ji ĝ_ijᵀ (same arithmetic as computeFtilde).
-      Ft[l] = rowGradient(idx, e0, e1, x.data(), V_.data(), gh_.data(), xi);
-      // Hourglass: second sweep of row i (now in cache), e_ij = F̃_i X_ji − x_ji,
-      // H_i = Σ_j 2 V_j W_ij e_ij X_jiᵀ.
-      H[l].setZero();
       const bool hg_row = hourglass && c_[i] > 0.0;
-      if (hg_row) {
-        ehg[l] = need_M || shape_matching
-                     ? rowHourglass<true>(idx, e0, e1, x.data(), X_.data(), V_.data(), W_.data(), Ft[l], xi, Xi, &H[l])
-                     : rowHourglass<false>(idx, e0, e1, x.data(), X_.data(), V_.data(), W_.data(), Ft[l], xi, Xi,
-                                           nullptr);
+      // F̃_i = Σ_j V_j x_ji ĝ_ijᵀ (same arithmetic as computeFtilde), and in the same sweep, where
+      // the forces' hourglass term or the paper's rotation needs it, D_i = Σ_j V_j W_ij x_ji X_jiᵀ:
+      // H_i = Σ_j 2 V_j W_ij e_ij X_jiᵀ = 2(F̃_i C_i − D_i) with e_ij = F̃_i X_ji − x_ji, and
+      // A_pq,i = ρ D_i (the polar factor is scale invariant).
+      const bool need_D = (need_M && hg_row) || shape_matching;
+      if (need_D) {
+        rowGradientMoment(idx, e0, e1, x.data(), X_.data(), V_.data(), gh_.data(), W_.data(), xi, Xi, &Ft[l], &D);
+      } else {
+        Ft[l] = rowGradient(idx, e0, e1, x.data(), V_.data(), gh_.data(), xi);
       }
-      // Rotation: polar decomposition of F̃_i, or of the paper's A_pq,i = Σ_j m_j W_ij x_ji X_jiᵀ.
-      // With m_j = ρ V_j, A_pq,i = ρ D_i with D_i = Σ_j V_j W_ij x_ji X_jiᵀ = F̃_i C_i − ½H_i
-      // (C_i = Σ_j V_j W_ij X_ji X_jiᵀ, a rest constant), and the polar factor is scale invariant:
-      // when the hourglass sweep ran, no third sweep of the row is needed.
+      H[l].setZero();
+      if (hg_row && need_M) H[l] = 2.0 * (Ft[l] * moment_[i] - D);
+      // For the energy alone the hourglass energy Σ_j V_j W_ij |e_ij|² is summed directly (no
+      // cancellation); update() and updateState() leave it to hourglassEnergy().
+      if (hg_row && mode == EvalMode::Energy)
+        ehg[l] = rowHourglass<false>(idx, e0, e1, x.data(), X_.data(), V_.data(), W_.data(), Ft[l], xi, Xi, nullptr);
+      // Rotation: polar decomposition of F̃_i, or of the paper's A_pq,i.
       if (R_given) {
         R[l] = (*R_given)[i];
       } else {
         polar[l] = true;
-        if (!shape_matching) A[l] = Ft[l];
-        else if (hg_row) A[l] = Ft[l] * moment_[i] - 0.5 * H[l];
-        else A[l] = rowApq(idx, e0, e1, x.data(), X_.data(), m_.data(), W_.data(), xi, Xi);
+        A[l] = shape_matching ? D : Ft[l];
       }
     }
     if (lanes == 2 && polar[0] && polar[1]) {
@@ -655,8 +684,7 @@ void CorotatedSph::gather(const std::vector<Eigen::Vector3d>& x, const std::vect
     double a2 = 0;  // Σ_j M_j ĝ_jk (component 2; 0-1 in a01)
     Eigen::Vector3d g;
     if (hg) {
-      const double ck = c_[k];
-      const Eigen::Vector3d xk = x[k], Xk = X_[k];
+      const Eigen::Vector3d xk = x[k];
       Pair a01 = Pair::Zero(), t01 = Pair::Zero(), u01 = Pair::Zero();  // components 0-1
       double t2 = 0, u2 = 0;
       const Pair xk01 = head2(xk);
@@ -666,15 +694,12 @@ void CorotatedSph::gather(const std::vector<Eigen::Vector3d>& x, const std::vect
         const double* r = ghr_[e].data();
         a01 += head2(m) * r[0] + head2(m + 3) * r[1] + head2(m + 6) * r[2];
         a2 += m[2] * r[0] + m[5] * r[1] + m[8] * r[2];
-        const double w = W_[e], cj = c_[j];
-        const double wc = w * cj;
-        const double X0 = wc * (X_[j].x() - Xk.x()), X1 = wc * (X_[j].y() - Xk.y()), X2 = wc * (X_[j].z() - Xk.z());
+        const double* y = hgw_[e].data();  // W_kj c_j X_jk, then W_kj (c_k V_j + c_j V_k)
         const double* f = Ft[j].data();
-        t01 += head2(f) * X0 + head2(f + 3) * X1 + head2(f + 6) * X2;
-        t2 += f[2] * X0 + f[5] * X1 + f[8] * X2;
-        const double s = w * (ck * V_[j] + cj * Vk);
-        u01 += s * (head2(x[j]) - xk01);
-        u2 += s * (x[j].z() - xk.z());
+        t01 += head2(f) * y[0] + head2(f + 3) * y[1] + head2(f + 6) * y[2];
+        t2 += f[2] * y[0] + f[5] * y[1] + f[8] * y[2];
+        u01 += y[3] * (head2(x[j]) - xk01);
+        u2 += y[3] * (x[j].z() - xk.z());
       }
       g = Vk * Eigen::Vector3d(a01(0), a01(1), a2) - M[k] * gsum_[k] + Ft[k] * hgsum_[k] +
           (2.0 * Vk) * Eigen::Vector3d(t01(0), t01(1), t2) - 2.0 * Eigen::Vector3d(u01(0), u01(1), u2);
@@ -741,22 +766,26 @@ Eigen::Matrix3d piolaDifferential(SphEnergyModel model, bool exact_rotation, con
 std::vector<Eigen::Vector3d> CorotatedSph::hessianProduct(const std::vector<Eigen::Vector3d>& dx) const {
   checkPositions(dx);
   const std::size_t n = X_.size();
-  std::vector<Eigen::Matrix3d> dFt, dM(n);
-  computeFtilde(dx, &dFt);
+  std::vector<Eigen::Matrix3d> dFt(n), dM(n);
   const bool exact = opt_.rotation == SphRotationSource::CorrectedGradient;
+  const bool hourglass = opt_.hourglass_alpha > 0.0;
+  const int* idx = nbr_.indices.data();
 #pragma omp parallel for schedule(static)
   for (long long ii = 0; ii < static_cast<long long>(n); ++ii) {
     const std::size_t i = static_cast<std::size_t>(ii);
-    Eigen::Matrix3d m = V_[i] * piolaDifferential(opt_.model, exact, Ft_[i], R_[i], dFt[i], mu_[i], lambda_[i]);
+    const int e0 = nbr_.offsets[i], e1 = nbr_.offsets[i + 1];
     const double c = c_[i];
-    if (opt_.hourglass_alpha > 0.0 && c > 0.0) {
-      // dH_i = Σ_j 2 V_j W_ij (dF̃_i X_ji − dx_ji) X_jiᵀ: the hourglass sweep with (dx, dF̃).
-      Eigen::Matrix3d H;
-      rowHourglass<true>(nbr_.indices.data(), nbr_.offsets[i], nbr_.offsets[i + 1], dx.data(), X_.data(), V_.data(),
-                         W_.data(), dFt[i], dx[i], X_[i], &H);
-      m += c * H;
+    Eigen::Matrix3d dH = Eigen::Matrix3d::Zero();
+    if (hourglass && c > 0.0) {
+      // dF̃_i and, in the same sweep, dD_i: dH_i = Σ_j 2 V_j W_ij (dF̃_i X_ji − dx_ji) X_jiᵀ = 2(dF̃_i C_i − dD_i).
+      Eigen::Matrix3d dD;
+      rowGradientMoment(idx, e0, e1, dx.data(), X_.data(), V_.data(), gh_.data(), W_.data(), dx[i], X_[i], &dFt[i],
+                        &dD);
+      dH = (2.0 * c) * (dFt[i] * moment_[i] - dD);
+    } else {
+      dFt[i] = rowGradient(idx, e0, e1, dx.data(), V_.data(), gh_.data(), dx[i]);
     }
-    dM[i] = m;
+    dM[i] = V_[i] * piolaDifferential(opt_.model, exact, Ft_[i], R_[i], dFt[i], mu_[i], lambda_[i]) + dH;
   }
   std::vector<Eigen::Vector3d> out;
   gather(dx, dFt, dM, true, &out);
@@ -829,43 +858,79 @@ void CorotatedSph::setMaterial(const std::vector<double>& mu, const std::vector<
   update(x_);
 }
 
-void CorotatedSph::store(const std::vector<Eigen::Vector3d>& x) {
+void CorotatedSph::store(const std::vector<Eigen::Vector3d>& x, bool with_forces) {
   Eval& ev = scratch_.ev;
-  gather(x, ev.Ft, ev.M, true, &f_, true);  // f = −∂E/∂x
+  if (with_forces) gather(x, ev.Ft, ev.M, true, &f_, true);  // f = −∂E/∂x
+  forces_valid_ = with_forces;
   x_ = x;
   F_.swap(ev.F);  // the previous state's buffers become the next call's scratch
   Ft_.swap(ev.Ft);
   P_.swap(ev.P);
-  double eel = 0.0, ehg = 0.0;  // serial sums: deterministic
-  for (std::size_t i = 0; i < X_.size(); ++i) {
-    eel += ev.e_el[i];
-    ehg += ev.e_hg[i];
-  }
+  double eel = 0.0;  // serial sum: deterministic
+  for (std::size_t i = 0; i < X_.size(); ++i) eel += ev.e_el[i];
   elastic_energy_ = eel;
+  hourglass_valid_ = opt_.hourglass_alpha <= 0.0;  // summed on request (hourglassEnergy())
+  hourglass_energy_ = 0.0;
+}
+
+const std::vector<Eigen::Vector3d>& CorotatedSph::forces() const {
+  if (!forces_valid_)
+    throw TopoError("corotated SPH forces", "requested after updateState(), which does not compute them",
+                    "call update(x) for the forces at x");
+  return f_;
+}
+
+double CorotatedSph::hourglassEnergy() const {
+  if (hourglass_valid_) return hourglass_energy_;
+  // E_hg = Σ_i c_i Σ_j V_j W_ij |F̃_i X_ji − x_ji|² at the last update(), summed directly: the
+  // forces' form 2(F̃_i C_i − D_i) would cancel to round-off of |x_ji|² here.
+  const std::size_t n = X_.size();
+  std::vector<double>& e = scratch_.ev.e_hg;
+  e.resize(n);
+  const int* idx = nbr_.indices.data();
+#pragma omp parallel for schedule(static)
+  for (long long ii = 0; ii < static_cast<long long>(n); ++ii) {
+    const std::size_t i = static_cast<std::size_t>(ii);
+    e[i] = c_[i] > 0.0 ? c_[i] * rowHourglass<false>(idx, nbr_.offsets[i], nbr_.offsets[i + 1], x_.data(), X_.data(),
+                                                      V_.data(), W_.data(), Ft_[i], x_[i], X_[i], nullptr)
+                       : 0.0;
+  }
+  double ehg = 0.0;  // serial sum: deterministic
+  for (std::size_t i = 0; i < n; ++i) ehg += e[i];
   hourglass_energy_ = ehg;
+  hourglass_valid_ = true;
+  return ehg;
 }
 
 void CorotatedSph::update(const std::vector<Eigen::Vector3d>& x) {
   checkPositions(x);
-  evaluate(x, nullptr, &scratch_.R, &scratch_.ev, true);
+  evaluate(x, nullptr, &scratch_.R, &scratch_.ev, EvalMode::Forces);
   checkInversion(x, scratch_.ev);
   R_.swap(scratch_.R);
-  store(x);
+  store(x, true);
+}
+
+void CorotatedSph::updateState(const std::vector<Eigen::Vector3d>& x) {
+  checkPositions(x);
+  evaluate(x, nullptr, &scratch_.R, &scratch_.ev, EvalMode::State);
+  checkInversion(x, scratch_.ev);
+  R_.swap(scratch_.R);
+  store(x, false);
 }
 
 void CorotatedSph::updateWithRotations(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& R) {
   checkPositions(x);
-  evaluate(x, &R, nullptr, &scratch_.ev, true);
+  evaluate(x, &R, nullptr, &scratch_.ev, EvalMode::Forces);
   checkInversion(x, scratch_.ev);
   R_ = R;
-  store(x);
+  store(x, true);
 }
 
 double CorotatedSph::energyWithRotations(const std::vector<Eigen::Vector3d>& x,
                                          const std::vector<Eigen::Matrix3d>& R) const {
   checkPositions(x);
   Eval ev;
-  evaluate(x, &R, nullptr, &ev, false);
+  evaluate(x, &R, nullptr, &ev, EvalMode::Energy);
   checkInversion(x, ev);
   double e = 0.0;
   for (std::size_t i = 0; i < X_.size(); ++i) e += ev.e_el[i] + ev.e_hg[i];

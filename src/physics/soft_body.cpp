@@ -190,6 +190,25 @@ void SoftBodySimulator::evaluateAt(const std::vector<Eigen::Vector3d>& x, double
   refreshForces("evaluateAt t = " + std::to_string(t) + " s");
 }
 
+void SoftBodySimulator::evaluateStateAt(const std::vector<Eigen::Vector3d>& x, double t,
+                                        const std::vector<Eigen::Vector3d>& f_cons) {
+  if (f_cons.size() != size())
+    throw TopoError("SoftBodySimulator::evaluateStateAt",
+                    std::to_string(f_cons.size()) + " forces for " + std::to_string(size()) + " particles",
+                    "pass the conservative forces of the forward pass at x");
+  x_ = x;
+  time_ = t;
+  enforceClamp();
+  const std::string where = "evaluateStateAt t = " + std::to_string(t) + " s";
+  try {
+    sph_.updateState(x_);
+  } catch (const TopoError& e) {
+    throw TopoError("SoftBodySimulator (" + where + ")", e.what(),
+                    "reduce the time step (e.g. 0.5 x stableTimeStep()), add damping, or check the loads");
+  }
+  f_cons_ = f_cons;
+}
+
 std::vector<Eigen::Vector3d> SoftBodySimulator::stiffnessProduct(const std::vector<Eigen::Vector3d>& dx_in) const {
   std::vector<Eigen::Vector3d> dx = dx_in;
   for (std::size_t i = 0; i < size(); ++i)

@@ -120,6 +120,7 @@ SoftRolloutResult SoftRollout::run(const SoftStepLoss& loss, bool with_gradient)
   }
   res.forward_s = since(tf);
   res.peak_states = checkpoints.size();
+  res.peak_state_bytes = checkpoints.size() * n * 48;
   if (!with_gradient) return res;
 
   auto tb = std::chrono::steady_clock::now();
@@ -140,22 +141,30 @@ SoftRolloutResult SoftRollout::run(const SoftStepLoss& loss, bool with_gradient)
   for (int seg = static_cast<int>(checkpoints.size()) - 1; seg >= 0; --seg) {
     const int k0 = seg * K, k1 = std::min(k0 + K, N);
     // Recompute the segment from its checkpoint.
+    // Explicit steps also keep each state's conservative forces, so that the adjoint step below
+    // needs the SPH state at x_k only (evaluateStateAt: no second force gather).
+    const bool keep_forces = opt_.integrator == SoftIntegrator::SymplecticEuler;
     std::vector<std::pair<Vec3s, Vec3s>> states;
+    std::vector<Vec3s> forces;
     states.reserve(k1 - k0 + 1);
+    if (keep_forces) forces.reserve(k1 - k0 + 1);
     s.evaluateAt(checkpoints[seg].first, t0 + k0 * dt);
     s.setVelocities(checkpoints[seg].second);
     states.emplace_back(s.positions(), s.velocities());
+    if (keep_forces) forces.push_back(s.conservativeForces());
     for (int k = k0; k < k1; ++k) {
       stepForward(k);
       states.emplace_back(s.positions(), s.velocities());
+      if (keep_forces) forces.push_back(s.conservativeForces());
     }
     res.peak_states = std::max(res.peak_states, checkpoints.size() + states.size());
+    res.peak_state_bytes = std::max(res.peak_state_bytes, (checkpoints.size() * 48 + states.size() * (keep_forces ? 72 : 48)) * n);
     for (int k = k1 - 1; k >= k0; --k) {
       const Vec3s& xk = states[k - k0].first;
       const Vec3s& vk = states[k - k0].second;
       Vec3s xbn(n, Eigen::Vector3d::Zero()), vbn(n, Eigen::Vector3d::Zero());
       if (opt_.integrator == SoftIntegrator::SymplecticEuler) {
-        s.evaluateAt(xk, t0 + k * dt);
+        s.evaluateStateAt(xk, t0 + k * dt, forces[k - k0]);
         s.setVelocities(vk);
         const Vec3s& f = s.conservativeForces();
         const Vec3s ffr = s.frictionForces(vk);

@@ -83,17 +83,19 @@ void taskGradientCheck(TaskConfig c, const VolumeCloud& cloud, const std::vector
   for (double v : g) gmax = std::max(gmax, std::abs(v));
   const std::size_t n = cloud.size();
   for (std::size_t i : {n / 3, n / 2, (2 * n) / 3, n / 5}) {
-    const double h = 1e-6;
+    // Step 1e-4 (r is in [0, 1]): a bouncing pear's loss carries ~1e-16 of chaotic noise (contact
+    // onsets move by a step with the last bits of the forces), which at h = 1e-6 is 1e-10 in the
+    // quotient, i.e. 1e-3 of a 1e-7 entry; at 1e-4 it is 100× smaller and the truncation error
+    // O(h²) is still far below it (measured on the pear: worst entry 3.3e-5 at h = 1e-4, 1.5e-3 at 1e-6).
+    const double h = 1e-4;
     auto rp = r0, rm = r0;
     rp[i] += h;
     rm[i] -= h;
     const double fd = (task->evaluate(rp, nullptr).loss - task->evaluate(rm, nullptr).loss) / (2 * h);
-    // Relative to max(|fd|, 1 % of the largest component): entries 1e-4 of the largest are FD noise
-    // (contact onsets between the ± evaluations). The whole-task check allows 1e-3 (the physics
-    // kernels are checked to 1e-4 and better in core_soft_adjoint).
-    const double rel = std::abs(fd - g[i]) / std::max(std::abs(fd), 1e-2 * gmax);
+    // Relative to max(|fd|, 0.1 % of the largest component), to the 1e-4.
+    const double rel = std::abs(fd - g[i]) / std::max(std::abs(fd), 1e-3 * gmax);
     std::printf("[task fd %s] r_%zu: adjoint %.8g fd %.8g rel %.2g\n", name, i, g[i], fd, rel);
-    EXPECT_LT(rel, 1e-3) << name << " particle " << i;
+    EXPECT_LT(rel, 1e-4) << name << " particle " << i;
   }
 }
 

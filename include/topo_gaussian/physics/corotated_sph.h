@@ -11,6 +11,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
 #include <string>
 #include <vector>
 
@@ -116,6 +117,10 @@ class CorotatedSph {
   /// Evaluates R, F, P, energies and forces at x. Throws TopoError for a size mismatch, a
   /// non-finite position or an inverted particle (det F_i ≤ 0).
   void update(const std::vector<Eigen::Vector3d>& x);
+  /// As update() but without the forces (the gather, about a third of update()'s time): the state
+  /// at x for hessianProduct(), materialDirectional() and the energies, where the forces at x are
+  /// already known (adjoint sweeps). forces() throws until the next update().
+  void updateState(const std::vector<Eigen::Vector3d>& x);
   /// As update() but with the rotations given (held fixed).
   void updateWithRotations(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& R);
   /// Total energy (elastic + hourglass) at x with rotations R held fixed; does not touch the state.
@@ -143,11 +148,13 @@ class CorotatedSph {
   /// Positions of the last update().
   const std::vector<Eigen::Vector3d>& positions() const { return x_; }
 
-  double energy() const { return elastic_energy_ + hourglass_energy_; }
+  double energy() const { return elastic_energy_ + hourglassEnergy(); }
   double elasticEnergy() const { return elastic_energy_; }
-  double hourglassEnergy() const { return hourglass_energy_; }
-  /// f = −∂E/∂x with R held fixed.
-  const std::vector<Eigen::Vector3d>& forces() const { return f_; }
+  /// Summed on the first request after an update() (one sweep of the neighbourhoods; the forces
+  /// do not need it), then cached.
+  double hourglassEnergy() const;
+  /// f = −∂E/∂x with R held fixed (at the last update(); throws after updateState()).
+  const std::vector<Eigen::Vector3d>& forces() const;
   const Eigen::Matrix3d& F(std::size_t i) const { return F_[i]; }        ///< unrotated F_i = I + ∇u_i
   const Eigen::Matrix3d& R(std::size_t i) const { return R_[i]; }
   const Eigen::Matrix3d& stress(std::size_t i) const { return P_[i]; }   ///< P_i = ∂ψ/∂F (unrotated)
@@ -170,20 +177,23 @@ class CorotatedSph {
     Scratch(Scratch&&) = default;
     Scratch& operator=(Scratch&&) = default;
   };
+  /// What evaluate() computes besides F̃, R, F, P and the elastic energies: M_i for the forces'
+  /// gather, the hourglass energy summed directly, or nothing more (the state alone).
+  enum class EvalMode { Forces, Energy, State };
   bool quadraticGradient(std::size_t i);
   /// Per-particle constants of the force gather (c_, gsum_, hgsum_); rebuilt when μ changes.
   void prepareGatherConstants();
   void checkPositions(const std::vector<Eigen::Vector3d>& x) const;
   void computeFtilde(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Matrix3d>* Ft) const;
   /// One pass over the particles: F̃_i, the rotation R_i (from F̃_i or A_pq,i when R_given is null,
-  /// written to *R_out; else R_given is used), F_i, P_i, energies and, with need_M, M_i (the
-  /// hourglass sweep revisits row i while it is still in cache). Does not check det F_i.
+  /// written to *R_out; else R_given is used), F_i, P_i, energies and what the mode asks for (see
+  /// EvalMode). Does not check det F_i.
   void evaluate(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>* R_given,
-                std::vector<Eigen::Matrix3d>* R_out, Eval* ev, bool need_M) const;
+                std::vector<Eigen::Matrix3d>* R_out, Eval* ev, EvalMode mode) const;
   /// Throws for the first particle with det F_i ≤ 0.
   void checkInversion(const std::vector<Eigen::Vector3d>& x, const Eval& ev) const;
-  /// Moves the scratch evaluation (and rotations) into the state; forces from ev.M.
-  void store(const std::vector<Eigen::Vector3d>& x);
+  /// Moves the scratch evaluation (and rotations) into the state; with_forces: forces from ev.M.
+  void store(const std::vector<Eigen::Vector3d>& x, bool with_forces);
   void gather(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& Ft,
               const std::vector<Eigen::Matrix3d>& M, bool hourglass, std::vector<Eigen::Vector3d>* out,
               bool negate = false) const;
@@ -204,12 +214,17 @@ class CorotatedSph {
   // gather streams it instead of looking it up in row j.
   std::vector<double> c_;
   std::vector<Eigen::Vector3d> gsum_, hgsum_, ghr_;
-  std::vector<Eigen::Matrix3d> moment_;  ///< C_i = Σ_j V_j W_ij X_ji X_jiᵀ (shape matching with hourglass)
-  Scratch scratch_;
+  /// Per CSR entry (k→j): the gather's hourglass weights (W_kj c_j X_jk, W_kj (c_k V_j + c_j V_k)).
+  std::vector<std::array<double, 4>> hgw_;
+  std::vector<Eigen::Matrix3d> moment_;  ///< C_i = Σ_j V_j W_ij X_ji X_jiᵀ (with the hourglass term)
+  mutable Scratch scratch_;  ///< mutable: hourglassEnergy() sums into scratch_.ev.e_hg
 
   std::vector<Eigen::Matrix3d> R_, F_, Ft_, P_;
   std::vector<Eigen::Vector3d> f_, x_;
-  double elastic_energy_ = 0.0, hourglass_energy_ = 0.0;
+  double elastic_energy_ = 0.0;
+  bool forces_valid_ = true;
+  mutable double hourglass_energy_ = 0.0;  ///< valid when hourglass_valid_ (see hourglassEnergy())
+  mutable bool hourglass_valid_ = true;
 };
 
 }  // namespace topo_gaussian

@@ -131,6 +131,10 @@ class SoftBodySimulator {
   // ------------------------------------------------------------ kernels for the adjoint (soft_rollout.h)
   /// Evaluate the state at positions x (clamped particles forced to rest) and time t.
   void evaluateAt(const std::vector<Eigen::Vector3d>& x, double t_s);
+  /// As evaluateAt() for a state whose conservative forces are already known (a forward pass
+  /// computed them at the same x and t): the SPH state only (no force gather), conservativeForces()
+  /// set to f_cons. For the adjoint sweep of SoftRollout; elasticForces() throws until the next step.
+  void evaluateStateAt(const std::vector<Eigen::Vector3d>& x, double t_s, const std::vector<Eigen::Vector3d>& f_cons);
   /// (∂²Φ/∂x²) dx at the current state, Φ = elastic + actuation + contact normal potential; rows and
   /// columns of clamped particles are zero.
   std::vector<Eigen::Vector3d> stiffnessProduct(const std::vector<Eigen::Vector3d>& dx) const;

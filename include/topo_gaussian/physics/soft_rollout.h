@@ -51,6 +51,9 @@ struct SoftRolloutResult {
   double loss = 0.0;
   SoftDesignGradient gradient;   ///< empty unless requested
   std::size_t peak_states = 0;   ///< most (x, v) states held at once (checkpoints + one segment)
+  /// Their bytes at that peak: 48 per particle and state; an explicit rollout's recomputed segment
+  /// also keeps each state's forces (72 per particle and state there).
+  std::size_t peak_state_bytes = 0;
   double forward_s = 0.0, backward_s = 0.0;
 };
 
