@@ -764,8 +764,19 @@ Eigen::Matrix3d piolaDifferential(SphEnergyModel model, bool exact_rotation, con
 }  // namespace
 
 std::vector<Eigen::Vector3d> CorotatedSph::hessianProduct(const std::vector<Eigen::Vector3d>& dx) const {
+  return hessianProduct(dx, nullptr, nullptr);
+}
+
+std::vector<Eigen::Vector3d> CorotatedSph::hessianProduct(const std::vector<Eigen::Vector3d>& dx,
+                                                          std::vector<double>* d_mu,
+                                                          std::vector<double>* d_lambda) const {
   checkPositions(dx);
   const std::size_t n = X_.size();
+  const bool material = d_mu && d_lambda;
+  if (material) {
+    d_mu->assign(n, 0.0);
+    d_lambda->assign(n, 0.0);
+  }
   std::vector<Eigen::Matrix3d> dFt(n), dM(n);
   const bool exact = opt_.rotation == SphRotationSource::CorrectedGradient;
   const bool hourglass = opt_.hourglass_alpha > 0.0;
@@ -786,10 +797,31 @@ std::vector<Eigen::Vector3d> CorotatedSph::hessianProduct(const std::vector<Eige
       dFt[i] = rowGradient(idx, e0, e1, dx.data(), V_.data(), gh_.data(), dx[i]);
     }
     dM[i] = V_[i] * piolaDifferential(opt_.model, exact, Ft_[i], R_[i], dFt[i], mu_[i], lambda_[i]) + dH;
+    if (material) materialRow(i, dFt[i], dx, &(*d_mu)[i], &(*d_lambda)[i]);  // row i still in cache
   }
   std::vector<Eigen::Vector3d> out;
   gather(dx, dFt, dM, true, &out);
   return out;
+}
+
+void CorotatedSph::materialRow(std::size_t i, const Eigen::Matrix3d& dFt, const std::vector<Eigen::Vector3d>& w,
+                               double* d_mu, double* d_lambda) const {
+  // ∂E_i/∂μ_i and ∂E_i/∂λ_i as functions of x; their derivative along w. M̂ = R P(F) per unit modulus.
+  const Eigen::Matrix3d Pmu = R_[i] * sphFirstPiola(opt_.model, F_[i], 1.0, 0.0);
+  const Eigen::Matrix3d Plam = R_[i] * sphFirstPiola(opt_.model, F_[i], 0.0, 1.0);
+  double hg = 0.0;
+  const double c = opt_.hourglass_alpha * V_[i] / (h_ * h_);
+  if (c > 0.0) {
+    for (int e = nbr_.offsets[i]; e < nbr_.offsets[i + 1]; ++e) {
+      const int j = nbr_.indices[e];
+      const Eigen::Vector3d Xji = X_[j] - X_[i];
+      const Eigen::Vector3d err = Ft_[i] * Xji - (x_[j] - x_[i]);
+      const Eigen::Vector3d derr = dFt * Xji - (w[j] - w[i]);
+      hg += 2.0 * V_[j] * W_[e] * err.dot(derr);
+    }
+  }
+  *d_mu = V_[i] * (Pmu.array() * dFt.array()).sum() + c * hg;
+  *d_lambda = V_[i] * (Plam.array() * dFt.array()).sum();
 }
 
 void CorotatedSph::materialDirectional(const std::vector<Eigen::Vector3d>& w, std::vector<double>* d_mu,
@@ -800,26 +832,10 @@ void CorotatedSph::materialDirectional(const std::vector<Eigen::Vector3d>& w, st
   computeFtilde(w, &dFt);
   d_mu->assign(n, 0.0);
   d_lambda->assign(n, 0.0);
-  const double inv_h2 = 1.0 / (h_ * h_);
 #pragma omp parallel for schedule(static)
   for (long long ii = 0; ii < static_cast<long long>(n); ++ii) {
     const std::size_t i = static_cast<std::size_t>(ii);
-    // ∂E_i/∂μ_i and ∂E_i/∂λ_i as functions of x; their derivative along w. M̂ = R P(F) per unit modulus.
-    const Eigen::Matrix3d Pmu = R_[i] * sphFirstPiola(opt_.model, F_[i], 1.0, 0.0);
-    const Eigen::Matrix3d Plam = R_[i] * sphFirstPiola(opt_.model, F_[i], 0.0, 1.0);
-    double hg = 0.0;
-    const double c = opt_.hourglass_alpha * V_[i] * inv_h2;
-    if (c > 0.0) {
-      for (int e = nbr_.offsets[i]; e < nbr_.offsets[i + 1]; ++e) {
-        const int j = nbr_.indices[e];
-        const Eigen::Vector3d Xji = X_[j] - X_[i];
-        const Eigen::Vector3d err = Ft_[i] * Xji - (x_[j] - x_[i]);
-        const Eigen::Vector3d derr = dFt[i] * Xji - (w[j] - w[i]);
-        hg += 2.0 * V_[j] * W_[e] * err.dot(derr);
-      }
-    }
-    (*d_mu)[i] = V_[i] * (Pmu.array() * dFt[i].array()).sum() + c * hg;
-    (*d_lambda)[i] = V_[i] * (Plam.array() * dFt[i].array()).sum();
+    materialRow(i, dFt[i], w, &(*d_mu)[i], &(*d_lambda)[i]);
   }
 }
 

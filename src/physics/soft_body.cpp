@@ -209,11 +209,17 @@ void SoftBodySimulator::evaluateStateAt(const std::vector<Eigen::Vector3d>& x, d
   f_cons_ = f_cons;
 }
 
-std::vector<Eigen::Vector3d> SoftBodySimulator::stiffnessProduct(const std::vector<Eigen::Vector3d>& dx_in) const {
+std::vector<Eigen::Vector3d> SoftBodySimulator::stiffnessProduct(const std::vector<Eigen::Vector3d>& dx) const {
+  return stiffnessProduct(dx, nullptr, nullptr);
+}
+
+std::vector<Eigen::Vector3d> SoftBodySimulator::stiffnessProduct(const std::vector<Eigen::Vector3d>& dx_in,
+                                                                 std::vector<double>* d_mu,
+                                                                 std::vector<double>* d_lambda) const {
   std::vector<Eigen::Vector3d> dx = dx_in;
   for (std::size_t i = 0; i < size(); ++i)
     if (clamped_[i]) dx[i].setZero();
-  std::vector<Eigen::Vector3d> out = sph_.hessianProduct(dx);
+  std::vector<Eigen::Vector3d> out = sph_.hessianProduct(dx, d_mu, d_lambda);
   act_.addHessianProduct(sph_, pressureNow(), dx, &out);
   if (!contact_.empty()) contact_.addHessianProduct(x_, dx, &out);
   for (std::size_t i = 0; i < size(); ++i)
@@ -533,8 +539,9 @@ void SoftBodySimulator::step(double dt) {
   // Per-particle updates, each element computed exactly as serially (deterministic); threaded only
   // for large bodies, where they are worth a parallel region.
   const bool par = nn >= kParallelUpdateMin;
-  // Returns false if a velocity became non-finite.
-  auto kick = [&](double h) {
+  // Returns false if a velocity became non-finite. With drift, x_i += dt v_i follows each particle's
+  // kick in the same loop (the first half kick and the drift in one pass over the particles).
+  auto kick = [&](double h, bool drift) {
     const auto& f = f_cons_;
     std::vector<Eigen::Vector3d> ffr;
     if (friction) ffr = frictionForces(v_);
@@ -542,18 +549,15 @@ void SoftBodySimulator::step(double dt) {
 #pragma omp parallel for schedule(static) reduction(&& : finite) if (par)
     for (long long ii = 0; ii < nn; ++ii) {
       const std::size_t i = static_cast<std::size_t>(ii);
-      if (!clamped_[i])
+      if (!clamped_[i]) {
         v_[i] += h * ((friction ? Eigen::Vector3d(f[i] + ffr[i]) : f[i]) / m_[i] + g - c * v_[i]);
+        if (drift) x_[i] += dt * v_[i];
+      }
       finite = finite && finite3(v_[i]);
     }
     return finite;
   };
-  kick(0.5 * dt);
-#pragma omp parallel for schedule(static) if (par)
-  for (long long ii = 0; ii < nn; ++ii) {
-    const std::size_t i = static_cast<std::size_t>(ii);
-    if (!clamped_[i]) x_[i] += dt * v_[i];
-  }
+  kick(0.5 * dt, true);
   const double t0 = time_;
   time_ = t0 + dt;
   try {
@@ -562,7 +566,7 @@ void SoftBodySimulator::step(double dt) {
     time_ = t0;
     throw;
   }
-  if (!kick(0.5 * dt)) {
+  if (!kick(0.5 * dt, false)) {
     for (std::size_t i = 0; i < n; ++i)
       if (!finite3(v_[i])) {
         std::ostringstream s;

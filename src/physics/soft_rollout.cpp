@@ -15,10 +15,14 @@ namespace {
 using Vec3s = std::vector<Eigen::Vector3d>;
 
 /// G.μ −= a·∂²E/∂x∂μ (likewise λ) and G.w −= a·∂²E_a/∂x∂w at the simulator's state: the material
-/// part of every adjoint (explicit: a = dt w/m; implicit and static: a = λ).
-void subtractMaterialTerms(const SoftBodySimulator& s, const Vec3s& a, SoftDesignGradient* G) {
-  std::vector<double> d_mu, d_lam;
-  s.sph().materialDirectional(a, &d_mu, &d_lam);
+/// part of every adjoint (explicit: a = dt w/m; implicit and static: a = λ). d_mu_in / d_lam_in:
+/// the SPH part when already computed (SoftBodySimulator::stiffnessProduct(a, ...)).
+void subtractMaterialTerms(const SoftBodySimulator& s, const Vec3s& a, SoftDesignGradient* G,
+                           const std::vector<double>* d_mu_in = nullptr, const std::vector<double>* d_lam_in = nullptr) {
+  std::vector<double> d_mu_own, d_lam_own;
+  if (!d_mu_in || !d_lam_in) s.sph().materialDirectional(a, &d_mu_own, &d_lam_own);
+  const std::vector<double>& d_mu = d_mu_in && d_lam_in ? *d_mu_in : d_mu_own;
+  const std::vector<double>& d_lam = d_mu_in && d_lam_in ? *d_lam_in : d_lam_own;
   for (std::size_t i = 0; i < a.size(); ++i) {
     G->mu[i] -= d_mu[i];
     G->lambda[i] -= d_lam[i];
@@ -176,14 +180,15 @@ SoftRolloutResult SoftRollout::run(const SoftStepLoss& loss, bool with_gradient)
           a[i] = dt * w[i] / s.masses()[i];
           G.mass[i] -= a[i].dot(f[i] + ffr[i]) / s.masses()[i];
         }
-        const Vec3s Ha = s.stiffnessProduct(a);
+        std::vector<double> d_mu, d_lam;
+        const Vec3s Ha = s.stiffnessProduct(a, &d_mu, &d_lam);
         for (std::size_t i = 0; i < n; ++i) {
           if (clamped[i]) continue;
           xbn[i] = xb[i] - Ha[i];
           vbn[i] = (1.0 - c * dt) * w[i];
         }
         if (!s.contact().empty()) s.contact().frictionAdjoint(xk, vk, a, &xbn, &vbn);
-        subtractMaterialTerms(s, a, &G);
+        subtractMaterialTerms(s, a, &G, &d_mu, &d_lam);
       } else {
         const Vec3s& x1 = states[k - k0 + 1].first;
         s.evaluateAt(x1, t0 + (k + 1) * dt);

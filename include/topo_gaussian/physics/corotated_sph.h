@@ -138,6 +138,10 @@ class CorotatedSph {
   /// derivative of the polar rotation is included); with ShapeMatchingApq rotations it holds R
   /// fixed (the rotation's derivative is not available), an approximation.
   std::vector<Eigen::Vector3d> hessianProduct(const std::vector<Eigen::Vector3d>& dx) const;
+  /// hessianProduct(dx) and, in the same pass (F̃ of dx swept once), materialDirectional(dx, d_mu,
+  /// d_lambda): what an explicit adjoint step needs for one vector.
+  std::vector<Eigen::Vector3d> hessianProduct(const std::vector<Eigen::Vector3d>& dx, std::vector<double>* d_mu,
+                                              std::vector<double>* d_lambda) const;
   /// Mixed derivatives for adjoints: d_mu[i] = w · ∂²E/∂x∂μ_i, d_lambda[i] = w · ∂²E/∂x∂λ_i.
   void materialDirectional(const std::vector<Eigen::Vector3d>& w, std::vector<double>* d_mu,
                            std::vector<double>* d_lambda) const;
@@ -181,6 +185,9 @@ class CorotatedSph {
   /// gather, the hourglass energy summed directly, or nothing more (the state alone).
   enum class EvalMode { Forces, Energy, State };
   bool quadraticGradient(std::size_t i);
+  /// materialDirectional()'s entry i, given dF̃_i = F̃(w)_i.
+  void materialRow(std::size_t i, const Eigen::Matrix3d& dFt, const std::vector<Eigen::Vector3d>& w, double* d_mu,
+                   double* d_lambda) const;
   /// Per-particle constants of the force gather (c_, gsum_, hgsum_); rebuilt when μ changes.
   void prepareGatherConstants();
   void checkPositions(const std::vector<Eigen::Vector3d>& x) const;

@@ -47,10 +47,17 @@ class RestStiffnessPreconditioner {
   double factorSeconds() const { return seconds_; }
   /// "cholmod-supernodal" or "eigen-simplicial-ldlt".
   static std::string backend();
+  /// True when the symbolic analysis (ordering) was taken over from a destroyed preconditioner of
+  /// the same sparsity pattern (one is kept process-wide), so only the numeric factorisation ran.
+  bool reusedAnalysis() const { return reused_analysis_; }
+
+  struct Factor;   ///< the factorisation (backend-specific)
+  struct Pattern;  ///< a sparsity pattern (the key of the symbolic analysis)
 
  private:
-  struct Factor;
   std::unique_ptr<Factor> factor_;
+  std::unique_ptr<Pattern> pattern_;
+  bool reused_analysis_ = false;
   std::size_t nnz_ = 0;
   double seconds_ = 0.0;
 };

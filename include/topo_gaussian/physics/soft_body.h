@@ -138,6 +138,10 @@ class SoftBodySimulator {
   /// (∂²Φ/∂x²) dx at the current state, Φ = elastic + actuation + contact normal potential; rows and
   /// columns of clamped particles are zero.
   std::vector<Eigen::Vector3d> stiffnessProduct(const std::vector<Eigen::Vector3d>& dx) const;
+  /// stiffnessProduct(dx) and the SPH material directional derivatives along the same (clamp-zeroed)
+  /// dx (CorotatedSph::materialDirectional) in one pass.
+  std::vector<Eigen::Vector3d> stiffnessProduct(const std::vector<Eigen::Vector3d>& dx, std::vector<double>* d_mu,
+                                                std::vector<double>* d_lambda) const;
   /// Flat (3N) form for linear solves: out = (∂²Φ/∂x² + inertia·M) p, clamped rows zero.
   void systemProduct(const Eigen::VectorXd& p, double inertia, Eigen::VectorXd* out) const;
   /// Jacobi approximation of that system's diagonal: inertia·m_i + (λ_i+2μ_i)V_i/h² + the contact
