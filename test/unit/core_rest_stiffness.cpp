@@ -106,3 +106,38 @@ TEST(RestStiffness, PreconditionerInvertsTheShiftedStiffnessWithFixedParticles) 
   // An unsupported body without shift has rigid modes: a clear error, not garbage.
   EXPECT_THROW(RestStiffnessPreconditioner(sph, Eigen::VectorXd(), {}), TopoError);
 }
+
+// Every evaluation of an inference factorises the same body with another material: the second
+// preconditioner of a pattern takes over the first one's symbolic analysis (ordering) and only
+// refactorises numerically, and still inverts its own K0 + shift exactly. Another pattern (other
+// clamps) gets an analysis of its own.
+TEST(RestStiffness, PreconditionerReusesTheAnalysisOfTheSamePattern) {
+  CorotatedSph sph = makeSph(SphEnergyModel::StVK, 1);
+  const std::size_t n = sph.size();
+  std::vector<std::uint8_t> fixed(n, 0);
+  for (std::size_t i = 0; i < n; ++i) fixed[i] = sph.restPositions()[i].x() < 1e-9;
+  const Eigen::VectorXd shift = Eigen::VectorXd::Constant(3 * n, 10.0);
+  { const RestStiffnessPreconditioner first(sph, shift, fixed); }  // leaves its analysis behind
+  std::vector<double> mu = sph.shearModuli(), la = sph.lameLambdas();
+  for (std::size_t i = 0; i < n; ++i) {
+    mu[i] *= 1.0 + 3.0 * (i % 5 == 0);  // a stiffer fifth: another material, same pattern
+    la[i] *= 0.5;
+  }
+  sph.setMaterial(mu, la);
+  const RestStiffnessPreconditioner P(sph, shift, fixed);
+  EXPECT_TRUE(P.reusedAnalysis());
+  Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(3 * n, -1.0, 2.0), z;
+  for (std::size_t i = 0; i < n; ++i)
+    if (fixed[i]) b.segment<3>(3 * i).setZero();
+  P.apply(b, &z);
+  Eigen::VectorXd Kz = restStiffness(sph) * z + shift.cwiseProduct(z);
+  for (std::size_t i = 0; i < n; ++i)
+    if (fixed[i]) Kz.segment<3>(3 * i).setZero();
+  const double rel = (Kz - b).norm() / b.norm();
+  std::printf("[rest stiffness] reused analysis: solve residual %.2e\n", rel);
+  EXPECT_LT(rel, 1e-10);
+  std::vector<std::uint8_t> other(n, 0);
+  for (std::size_t i = 0; i < n; ++i) other[i] = sph.restPositions()[i].y() < 1e-9;
+  const RestStiffnessPreconditioner Q(sph, shift, other);
+  EXPECT_FALSE(Q.reusedAnalysis());
+}
