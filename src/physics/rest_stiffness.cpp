@@ -183,7 +183,19 @@ struct RestStiffnessPreconditioner::Pattern {
 
 #ifdef TOPO_HAVE_CHOLMOD
 struct RestStiffnessPreconditioner::Factor {
-  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt;
+  /// Eigen's CHOLMOD wrapper, plus freeing the numerical values while keeping the analysis.
+  struct SupernodalLLT : Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> {
+    void dropNumeric() {
+      if (m_cholmodFactor) cholmod_change_factor(CHOLMOD_PATTERN, 1, 1, 1, 1, m_cholmodFactor, &this->cholmod());
+      m_factorizationIsOk = false;
+    }
+  };
+  SupernodalLLT llt;
+  /// Keeps the symbolic analysis only (the numerical factor is freed); true: worth keeping.
+  bool release() {
+    llt.dropNumeric();
+    return true;
+  }
   static void blasThreads(int n) {
     if (openblas_set_num_threads) openblas_set_num_threads(n);
   }
@@ -202,6 +214,8 @@ std::string RestStiffnessPreconditioner::backend() { return "cholmod-supernodal"
 #else
 struct RestStiffnessPreconditioner::Factor {
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> ldlt;
+  /// Eigen's SimplicialLDLT cannot free its values alone: not kept (its AMD analysis is cheap).
+  bool release() { return false; }
   void analyze(const Eigen::SparseMatrix<double>& K) { ldlt.analyzePattern(K); }
   bool factorize(const Eigen::SparseMatrix<double>& K) {
     ldlt.factorize(K);
@@ -213,18 +227,19 @@ std::string RestStiffnessPreconditioner::backend() { return "eigen-simplicial-ld
 #endif
 
 namespace {
-// One spare factor, with the pattern it was analysed for: a preconditioner of the same pattern
-// (same body, neighbourhoods and clamps; another material, as in every evaluation of an
-// inference) takes it and only refactorises numerically, skipping the fill-reducing ordering and
-// the symbolic analysis (1.5 s of 7 s for the 9212-particle finger). A preconditioner gives its
-// factor back when it is destroyed.
+// One spare symbolic factor (CHOLMOD: the ordering and supernodal structure, its numerical values
+// freed), with the pattern it was analysed for: a preconditioner of the same pattern (same body,
+// neighbourhoods and clamps; another material, as in every evaluation of an inference) takes it
+// and only refactorises numerically, skipping the fill-reducing ordering and the symbolic analysis
+// (1.5 s of 7 s for the 9212-particle finger). A preconditioner gives its factor back when it is
+// destroyed; what stays between inferences is the analysis (integers), not the factor.
 std::mutex g_spare_mutex;
 std::unique_ptr<RestStiffnessPreconditioner::Factor> g_spare;
 RestStiffnessPreconditioner::Pattern g_spare_pattern;
 }  // namespace
 
 RestStiffnessPreconditioner::~RestStiffnessPreconditioner() {
-  if (!factor_ || !pattern_) return;
+  if (!factor_ || !pattern_ || !factor_->release()) return;
   std::lock_guard<std::mutex> lock(g_spare_mutex);
   g_spare = std::move(factor_);
   g_spare_pattern = std::move(*pattern_);
