@@ -446,35 +446,12 @@ using Pair = Eigen::Array2d;
 inline Pair head2(const Eigen::Vector3d& v) { return Eigen::Map<const Pair>(v.data()); }
 inline Pair head2(const double* v) { return Eigen::Map<const Pair>(v); }
 
-/// Σ_e V_j (x_j − x_i) ĝ_eᵀ over the entries [e0, e1) of row i (F̃_i for u = x).
-inline Eigen::Matrix3d rowGradient(const int* idx, int e0, int e1, const Eigen::Vector3d* x, const double* V,
-                                   const Eigen::Vector3d* gh, const Eigen::Vector3d& xi) {
-  // Rows 0-1 of each column as a pair, row 2 scalar.
-  Pair c0 = Pair::Zero(), c1 = Pair::Zero(), c2 = Pair::Zero();
-  double g20 = 0, g21 = 0, g22 = 0;
-  const Pair xi01 = head2(xi);
-  for (int e = e0; e < e1; ++e) {
-    const int j = idx[e];
-    const double v = V[j];
-    const Pair d01 = v * (head2(x[j]) - xi01);
-    const double d2 = v * (x[j].z() - xi.z());
-    const double* g = gh[e].data();
-    c0 += d01 * g[0];
-    c1 += d01 * g[1];
-    c2 += d01 * g[2];
-    g20 += d2 * g[0];
-    g21 += d2 * g[1];
-    g22 += d2 * g[2];
-  }
-  Eigen::Matrix3d G;
-  G << c0(0), c1(0), c2(0), c0(1), c1(1), c2(1), g20, g21, g22;
-  return G;
-}
-
 /// One sweep of row i for both linear sums of the evaluation: G = Σ_e V_j d_e ĝ_eᵀ (F̃_i for u = x)
 /// and D = Σ_e V_j W_e d_e X_jiᵀ, d_e = u_j − u_i. D gives the hourglass matrix without a second
 /// sweep, H_i = Σ_e 2 V_j W_e (G X_ji − d_e) X_jiᵀ = 2(G C_i − D) with the rest moment
 /// C_i = Σ_e V_j W_e X_ji X_jiᵀ, and the paper's A_pq,i = Σ_e m_j W_e x_ji X_jiᵀ = ρ D.
+/// kD = false: G alone (X, W, Xi and D unused). Rows 0-1 of each column as a pair, row 2 scalar.
+template <bool kD>
 inline void rowGradientMoment(const int* idx, int e0, int e1, const Eigen::Vector3d* x, const Eigen::Vector3d* X,
                               const double* V, const Eigen::Vector3d* gh, const double* W, const Eigen::Vector3d& xi,
                               const Eigen::Vector3d& Xi, Eigen::Matrix3d* G, Eigen::Matrix3d* D) {
@@ -496,6 +473,7 @@ inline void rowGradientMoment(const int* idx, int e0, int e1, const Eigen::Vecto
     g20 += d2 * g[0];
     g21 += d2 * g[1];
     g22 += d2 * g[2];
+    if (!kD) continue;
     const double w = W[e];
     const Pair b01 = w * d01;
     const double b2 = w * d2;
@@ -508,7 +486,15 @@ inline void rowGradientMoment(const int* idx, int e0, int e1, const Eigen::Vecto
     d22 += b2 * X2;
   }
   *G << c0(0), c1(0), c2(0), c0(1), c1(1), c2(1), g20, g21, g22;
-  *D << p0(0), p1(0), p2(0), p0(1), p1(1), p2(1), d20, d21, d22;
+  if (kD) *D << p0(0), p1(0), p2(0), p0(1), p1(1), p2(1), d20, d21, d22;
+}
+
+/// Σ_e V_j (x_j − x_i) ĝ_eᵀ over the entries [e0, e1) of row i (F̃_i for u = x).
+inline Eigen::Matrix3d rowGradient(const int* idx, int e0, int e1, const Eigen::Vector3d* x, const double* V,
+                                   const Eigen::Vector3d* gh, const Eigen::Vector3d& xi) {
+  Eigen::Matrix3d G;
+  rowGradientMoment<false>(idx, e0, e1, x, nullptr, V, gh, nullptr, xi, xi, &G, nullptr);
+  return G;
 }
 
 /// Hourglass sums of row i: Σ_e w_e |e_e|² and (kH) H = Σ_e 2 w_e e_e X_jiᵀ, e_e = F̃ X_ji − x_ji,
@@ -604,7 +590,7 @@ void CorotatedSph::evaluate(const std::vector<Eigen::Vector3d>& x, const std::ve
       // A_pq,i = ρ D_i (the polar factor is scale invariant).
       const bool need_D = (need_M && hg_row) || shape_matching;
       if (need_D) {
-        rowGradientMoment(idx, e0, e1, x.data(), X_.data(), V_.data(), gh_.data(), W_.data(), xi, Xi, &Ft[l], &D);
+        rowGradientMoment<true>(idx, e0, e1, x.data(), X_.data(), V_.data(), gh_.data(), W_.data(), xi, Xi, &Ft[l], &D);
       } else {
         Ft[l] = rowGradient(idx, e0, e1, x.data(), V_.data(), gh_.data(), xi);
       }
@@ -790,7 +776,7 @@ std::vector<Eigen::Vector3d> CorotatedSph::hessianProduct(const std::vector<Eige
     if (hourglass && c > 0.0) {
       // dF̃_i and, in the same sweep, dD_i: dH_i = Σ_j 2 V_j W_ij (dF̃_i X_ji − dx_ji) X_jiᵀ = 2(dF̃_i C_i − dD_i).
       Eigen::Matrix3d dD;
-      rowGradientMoment(idx, e0, e1, dx.data(), X_.data(), V_.data(), gh_.data(), W_.data(), dx[i], X_[i], &dFt[i],
+      rowGradientMoment<true>(idx, e0, e1, dx.data(), X_.data(), V_.data(), gh_.data(), W_.data(), dx[i], X_[i], &dFt[i],
                         &dD);
       dH = (2.0 * c) * (dFt[i] * moment_[i] - dD);
     } else {
@@ -918,20 +904,16 @@ double CorotatedSph::hourglassEnergy() const {
   return ehg;
 }
 
-void CorotatedSph::update(const std::vector<Eigen::Vector3d>& x) {
-  checkPositions(x);
-  evaluate(x, nullptr, &scratch_.R, &scratch_.ev, EvalMode::Forces);
-  checkInversion(x, scratch_.ev);
-  R_.swap(scratch_.R);
-  store(x, true);
-}
+void CorotatedSph::update(const std::vector<Eigen::Vector3d>& x) { evaluateAndStore(x, EvalMode::Forces); }
 
-void CorotatedSph::updateState(const std::vector<Eigen::Vector3d>& x) {
+void CorotatedSph::updateState(const std::vector<Eigen::Vector3d>& x) { evaluateAndStore(x, EvalMode::State); }
+
+void CorotatedSph::evaluateAndStore(const std::vector<Eigen::Vector3d>& x, EvalMode mode) {
   checkPositions(x);
-  evaluate(x, nullptr, &scratch_.R, &scratch_.ev, EvalMode::State);
+  evaluate(x, nullptr, &scratch_.R, &scratch_.ev, mode);
   checkInversion(x, scratch_.ev);
   R_.swap(scratch_.R);
-  store(x, false);
+  store(x, mode == EvalMode::Forces);
 }
 
 void CorotatedSph::updateWithRotations(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& R) {

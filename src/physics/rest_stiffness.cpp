@@ -164,7 +164,6 @@ Eigen::SparseMatrix<double> toSparse(const std::vector<std::vector<Block>>& rows
   return K;
 }
 
-
 }  // namespace
 
 /// The sparsity pattern of a compressed matrix (its symbolic factorisation's key).

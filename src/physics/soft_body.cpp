@@ -171,12 +171,17 @@ void SoftBodySimulator::setVelocities(const std::vector<Eigen::Vector3d>& v) {
   enforceClamp();
 }
 
-void SoftBodySimulator::refreshForces(const std::string& where) {
+void SoftBodySimulator::refreshForces(const std::string& where, const std::vector<Eigen::Vector3d>* known_forces) {
   try {
-    sph_.update(x_);
+    if (known_forces) sph_.updateState(x_);
+    else sph_.update(x_);
   } catch (const TopoError& e) {
     throw TopoError("SoftBodySimulator (" + where + ")", e.what(),
                     "reduce the time step (e.g. 0.5 x stableTimeStep()), add damping, or check the loads");
+  }
+  if (known_forces) {
+    f_cons_ = *known_forces;
+    return;
   }
   f_cons_ = sph_.forces();
   act_.addForces(sph_, pressureNow(), &f_cons_);
@@ -199,14 +204,7 @@ void SoftBodySimulator::evaluateStateAt(const std::vector<Eigen::Vector3d>& x, d
   x_ = x;
   time_ = t;
   enforceClamp();
-  const std::string where = "evaluateStateAt t = " + std::to_string(t) + " s";
-  try {
-    sph_.updateState(x_);
-  } catch (const TopoError& e) {
-    throw TopoError("SoftBodySimulator (" + where + ")", e.what(),
-                    "reduce the time step (e.g. 0.5 x stableTimeStep()), add damping, or check the loads");
-  }
-  f_cons_ = f_cons;
+  refreshForces("evaluateStateAt t = " + std::to_string(t) + " s", &f_cons);
 }
 
 std::vector<Eigen::Vector3d> SoftBodySimulator::stiffnessProduct(const std::vector<Eigen::Vector3d>& dx) const {

@@ -15,14 +15,10 @@ namespace {
 using Vec3s = std::vector<Eigen::Vector3d>;
 
 /// G.μ −= a·∂²E/∂x∂μ (likewise λ) and G.w −= a·∂²E_a/∂x∂w at the simulator's state: the material
-/// part of every adjoint (explicit: a = dt w/m; implicit and static: a = λ). d_mu_in / d_lam_in:
-/// the SPH part when already computed (SoftBodySimulator::stiffnessProduct(a, ...)).
-void subtractMaterialTerms(const SoftBodySimulator& s, const Vec3s& a, SoftDesignGradient* G,
-                           const std::vector<double>* d_mu_in = nullptr, const std::vector<double>* d_lam_in = nullptr) {
-  std::vector<double> d_mu_own, d_lam_own;
-  if (!d_mu_in || !d_lam_in) s.sph().materialDirectional(a, &d_mu_own, &d_lam_own);
-  const std::vector<double>& d_mu = d_mu_in && d_lam_in ? *d_mu_in : d_mu_own;
-  const std::vector<double>& d_lam = d_mu_in && d_lam_in ? *d_lam_in : d_lam_own;
+/// part of every adjoint (explicit: a = dt w/m; implicit and static: a = λ). d_mu, d_lam: the SPH
+/// part, CorotatedSph::materialDirectional(a) (or from SoftBodySimulator::stiffnessProduct(a, ...)).
+void subtractMaterialTerms(const SoftBodySimulator& s, const Vec3s& a, const std::vector<double>& d_mu,
+                           const std::vector<double>& d_lam, SoftDesignGradient* G) {
   for (std::size_t i = 0; i < a.size(); ++i) {
     G->mu[i] -= d_mu[i];
     G->lambda[i] -= d_lam[i];
@@ -30,6 +26,12 @@ void subtractMaterialTerms(const SoftBodySimulator& s, const Vec3s& a, SoftDesig
   if (s.actuation().chamber.empty()) return;
   const std::vector<double> dch = s.actuation().chamberDirectional(s.sph(), s.pressureNow(), a);
   for (std::size_t i = 0; i < a.size(); ++i) G->chamber[i] -= dch[i];
+}
+
+void subtractMaterialTerms(const SoftBodySimulator& s, const Vec3s& a, SoftDesignGradient* G) {
+  std::vector<double> d_mu, d_lam;
+  s.sph().materialDirectional(a, &d_mu, &d_lam);
+  subtractMaterialTerms(s, a, d_mu, d_lam, G);
 }
 
 /// Solves (K + inertia·M) λ = b by PCG at the simulator's state; throws naming `what` on failure.
@@ -124,7 +126,8 @@ SoftRolloutResult SoftRollout::run(const SoftStepLoss& loss, bool with_gradient)
   }
   res.forward_s = since(tf);
   res.peak_states = checkpoints.size();
-  res.peak_state_bytes = checkpoints.size() * n * 48;
+  constexpr std::size_t kState = 2 * sizeof(Eigen::Vector3d), kStateWithForces = 3 * sizeof(Eigen::Vector3d);
+  res.peak_state_bytes = checkpoints.size() * n * kState;
   if (!with_gradient) return res;
 
   auto tb = std::chrono::steady_clock::now();
@@ -162,7 +165,8 @@ SoftRolloutResult SoftRollout::run(const SoftStepLoss& loss, bool with_gradient)
       if (keep_forces) forces.push_back(s.conservativeForces());
     }
     res.peak_states = std::max(res.peak_states, checkpoints.size() + states.size());
-    res.peak_state_bytes = std::max(res.peak_state_bytes, (checkpoints.size() * 48 + states.size() * (keep_forces ? 72 : 48)) * n);
+    const std::size_t segment_bytes = states.size() * (keep_forces ? kStateWithForces : kState);
+    res.peak_state_bytes = std::max(res.peak_state_bytes, (checkpoints.size() * kState + segment_bytes) * n);
     for (int k = k1 - 1; k >= k0; --k) {
       const Vec3s& xk = states[k - k0].first;
       const Vec3s& vk = states[k - k0].second;
@@ -188,7 +192,7 @@ SoftRolloutResult SoftRollout::run(const SoftStepLoss& loss, bool with_gradient)
           vbn[i] = (1.0 - c * dt) * w[i];
         }
         if (!s.contact().empty()) s.contact().frictionAdjoint(xk, vk, a, &xbn, &vbn);
-        subtractMaterialTerms(s, a, &G, &d_mu, &d_lam);
+        subtractMaterialTerms(s, a, d_mu, d_lam, &G);
       } else {
         const Vec3s& x1 = states[k - k0 + 1].first;
         s.evaluateAt(x1, t0 + (k + 1) * dt);

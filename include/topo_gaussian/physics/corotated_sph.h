@@ -199,6 +199,8 @@ class CorotatedSph {
                 std::vector<Eigen::Matrix3d>* R_out, Eval* ev, EvalMode mode) const;
   /// Throws for the first particle with det F_i ≤ 0.
   void checkInversion(const std::vector<Eigen::Vector3d>& x, const Eval& ev) const;
+  /// update() (Forces) and updateState() (State): evaluate at x, check, store.
+  void evaluateAndStore(const std::vector<Eigen::Vector3d>& x, EvalMode mode);
   /// Moves the scratch evaluation (and rotations) into the state; with_forces: forces from ev.M.
   void store(const std::vector<Eigen::Vector3d>& x, bool with_forces);
   void gather(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& Ft,

@@ -193,7 +193,9 @@ class SoftBodySimulator {
   RelaxResult relaxToEquilibrium(double tolerance = 1e-6, int max_steps = 200000);
 
  private:
-  void refreshForces(const std::string& where);
+  /// The SPH state and conservative forces at x_; with known_forces (evaluateStateAt) the SPH state
+  /// only, and those forces.
+  void refreshForces(const std::string& where, const std::vector<Eigen::Vector3d>* known_forces = nullptr);
   void invalidateRestFactor() {
     rest_factor_.reset();
     rest_factor_inertia_ = -1.0;
