@@ -19,7 +19,7 @@
 #include "topo_gaussian/geometry/mesh_fill.h"
 #include "topo_gaussian/geometry/mesh_metrics.h"
 #include "topo_gaussian/geometry/surface_reader.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::geometry;

@@ -1,4 +1,4 @@
-// Inference benchmark (issue 3 §7): per task and representation, one JSON line with particles,
+// Inference benchmark: per task and representation, one JSON line with particles,
 // iterations, end-to-end time, time per loss+gradient evaluation, and the ratio of one analytic
 // gradient to one finite-difference gradient (central differences, 2·P loss evaluations) measured
 // in the same run (projected from one loss evaluation when 2·P evaluations would take too long).

@@ -1,4 +1,4 @@
-// Soft-body benchmark (issue "Speed and memory"): one JSON line per case, each with a ratio against a
+// Soft-body benchmark: one JSON line per case, each with a ratio against a
 // baseline measured in the same process.
 //   explicit_20k / explicit_100k  leapfrog steps of a clamped box (E = 1e6, ν = 0.3, ρ = 1e3, 5 mm
 //       lattice, h = 1.0 × spacing, order-1 gradients, StVK) at dt = 0.5 × stableTimeStep():
@@ -44,7 +44,7 @@
 #include <Eigen/Geometry>
 
 #include "../test/unit/test_clouds.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/physics/soft_rollout.h"
 
 using namespace topo_gaussian;

@@ -6,7 +6,7 @@
 
 #include <cmath>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
 namespace topo_gaussian::geometry {
 

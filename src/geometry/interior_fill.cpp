@@ -12,18 +12,12 @@
 #include <sstream>
 
 #include "topo_gaussian/geometry/mesh_metrics.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 
 namespace topo_gaussian::geometry {
 
 namespace {
-
-std::string fmt(double v, int precision = 3) {
-  std::ostringstream s;
-  s.precision(precision);
-  s << v;
-  return s.str();
-}
 
 // Distance to the nearest other point over a subsample, at the given quantile (0.5: the typical
 // sampling spacing; 0.9: the spacing in the sparse parts of the surface).
@@ -78,8 +72,8 @@ Occupancy resample(const Lattice& grid, const std::vector<std::uint8_t>& solid, 
 void checkCells(double cells, double max_cells, double h, const std::string& name, const char* what) {
   if (cells > max_cells)
     throw TopoError(name,
-                    std::string("spacing ") + fmt(h) + " m would create " + fmt(cells) + " " + what +
-                        " (limit " + fmt(max_cells) + ")",
+                    std::string("spacing ") + numberText(h, 3) + " m would create " + numberText(cells, 3) + " " + what +
+                        " (limit " + numberText(max_cells, 3) + ")",
                     "use a larger spacing (--spacing) or a smaller particle count (--count)");
 }
 
@@ -155,18 +149,18 @@ class Filler {
   }
 
   [[noreturn]] void throwOpen(double g) {
-    std::string detail = fmt(100.0 * r_.open_fraction) + " % of the interior found by ray casting (" +
+    std::string detail = numberText(100.0 * r_.open_fraction, 3) + " % of the interior found by ray casting (" +
                          std::to_string(r_.leaked_cells) + " of " + std::to_string(r_.ray_filled_cells) +
                          " grid cells) is connected to the outside through gaps in the surface";
     if (s_.kind == SurfaceKind::Mesh)
       detail += "; the mesh has " + std::to_string(r_.topology.boundary_edges) + " boundary edges (" +
-                fmt(100.0 * r_.topology.openFraction()) + " % of its edges, " + fmt(r_.topology.boundary_length) +
+                numberText(100.0 * r_.topology.openFraction(), 3) + " % of its edges, " + numberText(r_.topology.boundary_length, 3) +
                 " m of open boundary)";
     throw TopoError(s_.source, "the surface is open: " + detail,
                     "close the holes (e.g. MeshLab: Close Holes, or scan the missing sides), or seal gaps up to "
-                    "2·N grid cells (" + fmt(g) + " m each; N was " + std::to_string(r_.closing_cells) +
+                    "2·N grid cells (" + numberText(g, 3) + " m each; N was " + std::to_string(r_.closing_cells) +
                         ") with closing_cells = N (CLI --closing-cells N), "
-                    "or accept a partial fill by raising max_open_fraction above " + fmt(r_.open_fraction));
+                    "or accept a partial fill by raising max_open_fraction above " + numberText(r_.open_fraction, 3));
   }
 
   const SurfaceData& s_;
@@ -206,9 +200,9 @@ VolumeCloud toCloud(const Occupancy& occ, const FillOptions& o) {
 
 void validateFillOptions(const FillOptions& o, const std::string& what) {
   auto bad = [&](const std::string& problem, const std::string& fix) { throw TopoError(what, problem, fix); };
-  if (o.spacing_m < 0.0 || !std::isfinite(o.spacing_m)) bad("spacing " + fmt(o.spacing_m) + " m is negative or not finite", "give a positive spacing in metres, or 0 to use the particle count");
+  if (o.spacing_m < 0.0 || !std::isfinite(o.spacing_m)) bad("spacing " + numberText(o.spacing_m, 3) + " m is negative or not finite", "give a positive spacing in metres, or 0 to use the particle count");
   if (o.spacing_m == 0.0 && o.target_count < 8) bad("particle count " + std::to_string(o.target_count) + " is too small", "ask for at least 8 particles (default 50000)");
-  if (o.jitter < 0.0 || o.jitter > 0.5) bad("jitter " + fmt(o.jitter) + " is outside [0, 0.5]", "use 0 for a regular lattice or up to 0.5 of the spacing");
+  if (o.jitter < 0.0 || o.jitter > 0.5) bad("jitter " + numberText(o.jitter, 3) + " is outside [0, 0.5]", "use 0 for a regular lattice or up to 0.5 of the spacing");
   if (o.grid_resolution < 0 || o.grid_resolution > 4096) bad("grid resolution " + std::to_string(o.grid_resolution) + " is outside [0, 4096]", "use 0 (the lattice spacing) or e.g. 100 cells");
   const auto& d = o.density;
   if (!(d.density_threshold > 0.0) || !(d.search_threshold > 0.0)) bad("density and search thresholds must be positive", "use PhysGaussian's 2.0 and 1.0");
@@ -216,7 +210,7 @@ void validateFillOptions(const FillOptions& o, const std::string& what) {
     bad("direction codes must be 0..5 (+x −x +y −y +z −z; exclude may be −1 for none)", "use PhysGaussian's exclude 5, ray 4");
   if (d.min_sigma_cells < 0.0 || d.closing_cells < -1 || d.closing_cells > 64 || d.leak_check_closing_cells < 0)
     bad("min_sigma_cells must be >= 0 and closing_cells in -1..64", "use the defaults 0.5 and -1 (automatic)");
-  if (o.max_open_fraction < 0.0 || o.max_open_fraction > 1.0) bad("max_open_fraction " + fmt(o.max_open_fraction) + " is outside [0, 1]", "use the default 0.02");
+  if (o.max_open_fraction < 0.0 || o.max_open_fraction > 1.0) bad("max_open_fraction " + numberText(o.max_open_fraction, 3) + " is outside [0, 1]", "use the default 0.02");
 }
 
 VolumeCloud fillInterior(const SurfaceData& s, const FillOptions& o, FillReport* report) {
@@ -239,7 +233,7 @@ VolumeCloud fillInterior(const SurfaceData& s, const FillOptions& o, FillReport*
                     "give a surface sampled all around the object");
   if (ext.minCoeff() <= 0.0)
     throw TopoError(s.source, "has zero extent along " + std::string(ext.x() <= 0 ? "x" : ext.y() <= 0 ? "y" : "z") +
-                                  " (bounding box " + fmt(ext.x()) + " × " + fmt(ext.y()) + " × " + fmt(ext.z()) + " m): it encloses no volume",
+                                  " (bounding box " + numberText(ext.x(), 3) + " × " + numberText(ext.y(), 3) + " × " + numberText(ext.z(), 3) + " m): it encloses no volume",
                     "give a surface that surrounds a solid, not a flat patch");
   if (s.kind == SurfaceKind::Mesh) r.topology = analyseMesh(s);
 
@@ -261,7 +255,7 @@ VolumeCloud fillInterior(const SurfaceData& s, const FillOptions& o, FillReport*
   }
   VolumeCloud cloud = toCloud(occ, o);
   if (cloud.empty())
-    throw TopoError(s.source, "encloses no volume at spacing " + fmt(h) + " m (" + r.method + ")",
+    throw TopoError(s.source, "encloses no volume at spacing " + numberText(h, 3) + " m (" + r.method + ")",
                     "check that the surface is closed (a partial scan has no inside), or use a finer spacing");
   r.spacing_m = cloud.spacing;
   r.particles_out = cloud.size();

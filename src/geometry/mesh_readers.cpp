@@ -12,10 +12,10 @@
 #include <unordered_map>
 #include <vector>
 
-#include "topo_gaussian/geometry/detail/byte_cursor.h"
-#include "topo_gaussian/geometry/detail/reader_common.h"
+#include "byte_cursor.h"
+#include "reader_common.h"
 #include "topo_gaussian/geometry/surface_reader.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
 namespace topo_gaussian::geometry {
 

@@ -13,10 +13,11 @@
 #include <string_view>
 #include <vector>
 
-#include "topo_gaussian/geometry/detail/byte_cursor.h"
-#include "topo_gaussian/geometry/detail/reader_common.h"
+#include "byte_cursor.h"
+#include "reader_common.h"
 #include "topo_gaussian/geometry/surface_reader.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 
 namespace topo_gaussian::geometry {
 
@@ -308,12 +309,6 @@ int shDegreeFromRestCount(int count, const std::string& name) {
   }
 }
 
-/// A number for a message: integers without a fractional part.
-std::string numberText(double d) {
-  if (std::isfinite(d) && std::fabs(d) < 9e15 && d == std::floor(d)) return std::to_string(static_cast<long long>(d));
-  return std::to_string(d);
-}
-
 double sigmoid(double x) { return 1.0 / (1.0 + std::exp(-x)); }
 
 /// Checks before reading an element that the remaining data could hold `count` records.
@@ -474,7 +469,7 @@ void readFaces(Source& src, const PlyElement& el, std::uint64_t vertex_count, Su
         long long idx;
         if (!detail::asIndex(d, 0.0, static_cast<double>(vertex_count) - 1.0, idx) || idx > 2147483647LL) {
           throw TopoError(name,
-                          "face " + std::to_string(r) + " refers to vertex " + numberText(d) +
+                          "face " + std::to_string(r) + " refers to vertex " + numberText(d, 15) +
                               ", which is out of range (the file has " + std::to_string(vertex_count) + " vertices)",
                           "repair the mesh (e.g. re-export it from a mesh editor); face indices must be 0.." +
                               std::to_string(vertex_count == 0 ? 0 : vertex_count - 1));

@@ -5,7 +5,7 @@
 #include <fstream>
 
 #include "topo_gaussian/physics/default_shapes.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
 namespace topo_gaussian::geometry {
 

@@ -8,7 +8,8 @@
 #include <sstream>
 #include <unordered_map>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 
 namespace topo_gaussian::geometry {
 
@@ -31,14 +32,7 @@ double logit(double r) {
   return std::clamp(std::log(r / (1.0 - r)), -kLogitMax, kLogitMax);
 }
 
-std::string fmt(double v) {
-  std::ostringstream s;
-  s.precision(6);
-  s << v;
-  return s.str();
-}
-
-std::string point(const Eigen::Vector3d& p) { return "(" + fmt(p.x()) + ", " + fmt(p.y()) + ", " + fmt(p.z()) + ")"; }
+std::string point(const Eigen::Vector3d& p) { return "(" + numberText(p.x(), 6) + ", " + numberText(p.y(), 6) + ", " + numberText(p.z(), 6) + ")"; }
 
 /// Cube corners are numbered x + 2y + 4z. The 12 cube edges as corner pairs.
 constexpr int kEdges[12][2] = {{0, 1}, {2, 3}, {4, 5}, {6, 7}, {0, 2}, {1, 3}, {4, 6}, {5, 7}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
@@ -218,7 +212,7 @@ SurfaceData solidRegionMesh(const VolumeCloud& cloud, const std::vector<double>&
                                     std::to_string(cloud.size()) + " particles",
                     "use the interior computed on this volume");
   if (!(o.iso > 0.0 && o.iso <= 1.0))
-    throw TopoError("iso-value " + fmt(o.iso), "is outside (0, 1]", "use 0.5 (the solid threshold of interior.ply)");
+    throw TopoError("iso-value " + numberText(o.iso, 6), "is outside (0, 1]", "use 0.5 (the solid threshold of interior.ply)");
   std::size_t solid = 0;
   for (std::size_t i = 0; i < r.size(); ++i) {
     if (!std::isfinite(r[i]))
@@ -227,7 +221,7 @@ SurfaceData solidRegionMesh(const VolumeCloud& cloud, const std::vector<double>&
     solid += r[i] >= o.iso ? 1 : 0;
   }
   if (solid == 0)
-    throw TopoError("interior", "has no solid particle (every r < " + fmt(o.iso) + "), so there is nothing to print",
+    throw TopoError("interior", "has no solid particle (every r < " + numberText(o.iso, 6) + "), so there is nothing to print",
                     "check that the interior belongs to this volume, or lower the iso-value");
 
   // Lattice nodes: particle i sits on node round((X_i - lo) / h), one padding layer on each side.
@@ -238,15 +232,15 @@ SurfaceData solidRegionMesh(const VolumeCloud& cloud, const std::vector<double>&
   for (int a = 0; a < 3; ++a) {
     const double cells = std::floor((hi[a] - lo[a]) / h + 0.5) + 3.0;
     if (cells > 2e9)
-      throw TopoError("volume cloud", "spacing " + fmt(h) + " m is far smaller than its extent",
+      throw TopoError("volume cloud", "spacing " + numberText(h, 6) + " m is far smaller than its extent",
                       "write the volume with topo fill (its spacing is in the file)");
     n[a] = int(cells);
   }
   const double nodes = double(n[0]) * n[1] * n[2];
   if (nodes > o.max_nodes)
     throw TopoError("volume cloud",
-                    "its lattice of spacing " + fmt(h) + " m would need " + fmt(nodes) + " nodes (more than " +
-                        fmt(o.max_nodes) + ")",
+                    "its lattice of spacing " + numberText(h, 6) + " m would need " + numberText(nodes, 6) + " nodes (more than " +
+                        numberText(o.max_nodes, 6) + ")",
                     "check the spacing of the volume (topo fill writes it), or use a coarser volume");
   const Eigen::Vector3d origin = lo - Eigen::Vector3d::Constant(h);
   const std::size_t N = std::size_t(nodes);
@@ -261,14 +255,14 @@ SurfaceData solidRegionMesh(const VolumeCloud& cloud, const std::vector<double>&
     if ((a - idx).cwiseAbs().maxCoeff() > o.lattice_tolerance + 1e-6)
       throw TopoError("volume cloud",
                       "particle " + std::to_string(i) + " at " + point(cloud.X[i]) + " is " +
-                          fmt((a - idx).cwiseAbs().maxCoeff()) + " spacings off the lattice of spacing " + fmt(h) + " m",
+                          numberText((a - idx).cwiseAbs().maxCoeff(), 6) + " spacings off the lattice of spacing " + numberText(h, 6) + " m",
                       "export needs a lattice volume as topo fill writes it (its spacing is in the file)");
     const std::size_t id =
         (std::size_t(idx.z() + 1) * n[1] + std::size_t(idx.y() + 1)) * n[0] + std::size_t(idx.x() + 1);
     if (owner[id] >= 0)
       throw TopoError("volume cloud",
                       "particles " + std::to_string(owner[id]) + " and " + std::to_string(i) +
-                          " fall on the same lattice node at spacing " + fmt(h) + " m",
+                          " fall on the same lattice node at spacing " + numberText(h, 6) + " m",
                       "export needs a lattice volume with one particle per cell, as topo fill writes it");
     owner[id] = std::int32_t(i);
     field[id] = value(r[i]);

@@ -5,9 +5,9 @@
 #include <fstream>
 #include <system_error>
 
-#include "topo_gaussian/geometry/detail/byte_cursor.h"
-#include "topo_gaussian/geometry/detail/reader_common.h"
-#include "topo_gaussian/physics/error.h"
+#include "byte_cursor.h"
+#include "reader_common.h"
+#include "topo_gaussian/common/error.h"
 
 namespace topo_gaussian::geometry {
 

@@ -5,7 +5,7 @@
 #include <sstream>
 
 #include "topo_gaussian/geometry/surface_reader.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
 namespace topo_gaussian::geometry {
 

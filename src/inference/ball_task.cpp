@@ -11,11 +11,10 @@
 #include "rigid_options.h"
 #include "task_factories.h"
 #include "trajectory_csv.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/physics/rigid_body.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 namespace {
 
 class BallTask : public Task {
@@ -140,5 +139,4 @@ std::unique_ptr<Task> makeBallTask(const TaskConfig& config, const VolumeCloud& 
   return std::make_unique<BallTask>(config, cloud);
 }
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

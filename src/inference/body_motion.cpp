@@ -2,10 +2,9 @@
 
 #include <algorithm>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 BodyPose poseAt(const std::vector<BodyPose>& motion, double t) {
   if (motion.empty()) throw TopoError("body motion", "has no samples", "simulate a rigid task with a motion first");
@@ -23,5 +22,4 @@ BodyPose poseAt(const std::vector<BodyPose>& motion, double t) {
   return p;
 }
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -8,10 +8,9 @@
 
 #include "soft_task.h"
 #include "task_factories.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 namespace {
 
 class CantileverTask : public SoftTask {
@@ -109,5 +108,4 @@ std::unique_ptr<Task> makeCantileverTask(const TaskConfig& config, const VolumeC
   return std::make_unique<CantileverTask>(config, cloud);
 }
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -11,10 +11,9 @@
 
 #include "soft_task.h"
 #include "task_factories.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 namespace {
 
 constexpr double kDeg = 180.0 / M_PI;
@@ -166,5 +165,4 @@ std::unique_ptr<Task> makeFingerTask(const TaskConfig& config, const VolumeCloud
   return std::make_unique<FingerTask>(config, cloud);
 }
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -13,21 +13,21 @@
 #include "topo_gaussian/geometry/solid_mesh.h"
 #include "topo_gaussian/geometry/stl_writer.h"
 #include "topo_gaussian/inference/pipeline.h"
-#include "topo_gaussian/physics/error.h"
-#include "json_text.h"
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/common/json.h"
+#include "topo_gaussian/common/stopwatch.h"
 #include "topo_gaussian/vision/figure.h"
 #include "topo_gaussian/vision/line_plot.h"
 #include "topo_gaussian/vision/slice_picture.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 namespace {
 
-using json_text::Clock;
-using json_text::num;
-using json_text::quote;
-using json_text::since;
+using topo_gaussian::Clock;
+using json::num;
+using json::quote;
 
 const char* boolean(bool b) { return b ? "true" : "false"; }
 
@@ -70,7 +70,7 @@ InterfaceQuality measureInterface(const VolumeCloud& cloud, const std::vector<do
   q.volume_difference = (q.mesh_volume_m3 - q.solid_volume_m3) / q.solid_volume_m3;
   q.smoothness = geometry::normalSmoothness(mesh);
   q.interface_smoothness = geometry::normalSmoothness(mesh, &interface_vertex);
-  q.mesh_s = since(t0);
+  q.mesh_s = secondsSince(t0);
   if (mesh_out) *mesh_out = std::move(mesh);
   return q;
 }
@@ -174,8 +174,8 @@ ExportSummary exportInterior(const VolumeCloud& cloud, const std::vector<double>
         if (std::isfinite(h.loss)) best = std::min(best, h.loss);
       }
       p.series.push_back(line);
-      p.notes.push_back(std::to_string(history.size()) + " iterations, first " + vision::compactNumber(history.front().loss) +
-                        ", best " + vision::compactNumber(best));
+      p.notes.push_back(std::to_string(history.size()) + " iterations, first " + numberText(history.front().loss) +
+                        ", best " + numberText(best));
       try {
         vision::writePng(vision::drawLinePlot(p), dir + "loss.png");
         s.files.push_back("loss.png");
@@ -207,20 +207,20 @@ ExportSummary exportInterior(const VolumeCloud& cloud, const std::vector<double>
       s.signal_rms_difference = rmsDifference(o.signals[0], o.signals[1], &n);
       if (std::isfinite(s.signal_rms_difference))
         p.notes.push_back("RMS of " + o.signals[1].label + " - " + o.signals[0].label + ": " +
-                          vision::compactNumber(s.signal_rms_difference) + " over " + std::to_string(n) + " samples of " +
+                          numberText(s.signal_rms_difference) + " over " + std::to_string(n) + " samples of " +
                           o.signals[0].label);
     }
     vision::writePng(vision::drawLinePlot(p), dir + "signal.png");
     s.files.push_back("signal.png");
   }
-  s.pictures_s = since(tp);
+  s.pictures_s = secondsSince(tp);
 
   if (!o.report_json.empty()) {
     writeText(dir + "report.json", withInterfaceSection(o.report_json, s.interface, o.report_source));
     s.files.push_back("report.json");
   }
   s.files.push_back("export.json");
-  s.total_s = since(t0);
+  s.total_s = secondsSince(t0);
   writeText(dir + "export.json", exportJson(s));
   return s;
 }
@@ -253,5 +253,4 @@ std::string exportJson(const ExportSummary& s) {
   return j.str();
 }
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

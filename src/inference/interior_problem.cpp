@@ -2,10 +2,9 @@
 
 #include <cmath>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 InteriorProblem::InteriorProblem(const TaskConfig& config, const VolumeCloud& cloud)
     : config_(config), cloud_(cloud) {
@@ -105,5 +104,4 @@ double InteriorProblem::evaluate(const Eigen::VectorXd& theta, Eigen::VectorXd* 
   return ev.loss;
 }
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -6,10 +6,9 @@
 #include <cmath>
 #include <limits>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 namespace {
 
 struct Tracker {
@@ -228,5 +227,4 @@ OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, cons
   return r;
 }
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -11,10 +11,9 @@
 #include "soft_task.h"
 #include "task_factories.h"
 #include "trajectory_csv.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 namespace {
 
 class PearTask : public SoftTask {
@@ -153,5 +152,4 @@ std::unique_ptr<Task> makePearTask(const TaskConfig& config, const VolumeCloud& 
   return std::make_unique<PearTask>(config, cloud);
 }
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

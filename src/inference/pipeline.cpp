@@ -7,17 +7,16 @@
 #include <iomanip>
 #include <sstream>
 
-#include "topo_gaussian/physics/error.h"
-#include "json_text.h"
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/json.h"
+#include "topo_gaussian/common/stopwatch.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 namespace {
 
-using json_text::Clock;
-using json_text::num;
-using json_text::quote;
-using json_text::since;
+using topo_gaussian::Clock;
+using json::num;
+using json::quote;
 
 std::string vec3(const Eigen::Vector3d& v) { return "[" + num(v[0]) + ", " + num(v[1]) + ", " + num(v[2]) + "]"; }
 
@@ -102,8 +101,8 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   problem.bounds(&lo, &hi);
   const auto te = Clock::now();
   problem.evaluate(theta0, &g, &res.initial);
-  res.evaluation_s = since(te);
-  res.setup_s = since(t0) - res.evaluation_s;
+  res.evaluation_s = secondsSince(te);
+  res.setup_s = secondsSince(t0) - res.evaluation_s;
   OptimizerOptions oo;
   oo.method = config.text("optimizer");
   oo.max_iterations = config.integer("max_iterations");
@@ -120,7 +119,7 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
     return loss;
   };
   res.optimizer = minimize(objective, theta0, lo, hi, oo, progress);
-  res.optimize_s = since(to);
+  res.optimize_s = secondsSince(to);
   if (res.optimizer.iterations > 0) res.evaluation_s = res.optimize_s / res.optimizer.iterations;
   res.theta = res.optimizer.theta;
   problem.evaluate(res.theta, nullptr, &res.final);
@@ -257,5 +256,4 @@ std::string reportJson(const InferenceResult& r, const TaskConfig& config) {
   return s.str();
 }
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -10,11 +10,10 @@
 #include <cmath>
 
 #include "task_factories.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/topology/indicator.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 namespace {
 
 constexpr double kDeg = 180.0 / M_PI;
@@ -224,5 +223,4 @@ std::unique_ptr<Task> makeQiqiTask(const TaskConfig& config, const VolumeCloud& 
   return std::make_unique<QiqiTask>(config, cloud);
 }
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -8,12 +8,11 @@
 #include <cmath>
 
 #include "topo_gaussian/inference/body_motion.h"
-#include "topo_gaussian/physics/error.h"
-#include "topo_gaussian/physics/number_text.h"
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/vision/particle_normals.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 namespace {
 
 constexpr double kDeg = 180.0 / M_PI;
@@ -251,5 +250,4 @@ BodyPose RigTwin::poseAt(double t_s) const {
   return p;
 }
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -4,8 +4,7 @@
 #include "topo_gaussian/inference/task_config.h"
 #include "topo_gaussian/physics/rigid_body.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 inline RigidSimOptions rigidOptionsFromConfig(const TaskConfig& c, const Eigen::Vector3d& gravity) {
   RigidSimOptions o;
@@ -22,5 +21,4 @@ inline RigidSimOptions rigidOptionsFromConfig(const TaskConfig& c, const Eigen::
   return o;
 }
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

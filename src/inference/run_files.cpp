@@ -8,10 +8,9 @@
 #include <limits>
 #include <numeric>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 namespace {
 
@@ -180,5 +179,4 @@ double rmsDifference(const SignalSeries& a, const SignalSeries& b, std::size_t* 
   return n >= 2 ? std::sqrt(sum / double(n)) : std::numeric_limits<double>::quiet_NaN();
 }
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -3,10 +3,9 @@
 
 #include <cmath>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 CorotatedSphOptions sphOptionsFromConfig(const TaskConfig& c, double spacing) {
   CorotatedSphOptions o;
@@ -89,5 +88,4 @@ void SoftTask::chain(const Materials& m, const SoftDesignGradient& g, bool with_
   }
 }
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -10,8 +10,7 @@
 #include "topo_gaussian/inference/task.h"
 #include "topo_gaussian/physics/soft_rollout.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 class SoftTask : public Task {
  protected:
@@ -37,5 +36,4 @@ class SoftTask : public Task {
 /// ½ Σ (x − X)·… helpers are per task; this one is shared: the CorotatedSph options of a config.
 CorotatedSphOptions sphOptionsFromConfig(const TaskConfig& c, double spacing);
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -9,11 +9,10 @@
 
 #include "task_factories.h"
 #include "topo_gaussian/inference/oscillation.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/physics/rigid_body.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 namespace {
 
 // Convex hull (monotone chain) of 2D points, counter-clockwise.
@@ -190,5 +189,4 @@ std::unique_ptr<Task> makeStaticTask(const TaskConfig& config, const VolumeCloud
   return std::make_unique<StaticTask>(config, cloud);
 }
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -4,10 +4,9 @@
 #include <cmath>
 
 #include "task_factories.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 bool Feature::reached() const {
   if (!has_target) return true;
@@ -82,5 +81,4 @@ std::unique_ptr<Task> makeTask(const TaskConfig& config, const VolumeCloud& clou
   throw TopoError("task '" + t + "'", "has no implementation", "use one of the task names of TaskConfig::taskNames()");
 }
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

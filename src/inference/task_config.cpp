@@ -7,10 +7,9 @@
 #include <fstream>
 #include <sstream>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 struct TaskConfigBuilder {
   TaskConfig& c;
@@ -520,5 +519,4 @@ TaskConfig TaskConfig::load(const std::string& name_or_path, const std::string& 
   return defaults(name_or_path);
 }
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

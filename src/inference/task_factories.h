@@ -5,8 +5,7 @@
 
 #include "topo_gaussian/inference/task.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 std::unique_ptr<Task> makeStaticTask(const TaskConfig& config, const VolumeCloud& cloud);
 std::unique_ptr<Task> makeTumblerTask(const TaskConfig& config, const VolumeCloud& cloud);
@@ -16,5 +15,4 @@ std::unique_ptr<Task> makeFingerTask(const TaskConfig& config, const VolumeCloud
 std::unique_ptr<Task> makePearTask(const TaskConfig& config, const VolumeCloud& cloud);
 std::unique_ptr<Task> makeCantileverTask(const TaskConfig& config, const VolumeCloud& cloud);
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

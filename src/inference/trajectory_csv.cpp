@@ -4,10 +4,9 @@
 #include <fstream>
 #include <sstream>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 void readTrajectoryCsv(const std::string& path, std::size_t points, std::vector<double>* t,
                        std::vector<std::vector<Eigen::Vector3d>>* samples) {
@@ -38,5 +37,4 @@ void readTrajectoryCsv(const std::string& path, std::size_t points, std::vector<
   if (t->empty()) throw TopoError(path, "holds no samples", "write one row per observed frame");
 }
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -6,12 +6,10 @@
 #include <string>
 #include <vector>
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 /// Throws TopoError naming the file and row for unreadable files, wrong column counts or no rows.
 void readTrajectoryCsv(const std::string& path, std::size_t points, std::vector<double>* t,
                        std::vector<std::vector<Eigen::Vector3d>>* samples);
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

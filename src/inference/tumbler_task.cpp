@@ -8,11 +8,10 @@
 #include "rigid_options.h"
 #include "task_factories.h"
 #include "topo_gaussian/inference/oscillation.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/physics/rigid_body.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 namespace {
 
 constexpr double kDeg = 180.0 / M_PI;
@@ -147,5 +146,4 @@ std::unique_ptr<Task> makeTumblerTask(const TaskConfig& config, const VolumeClou
   return std::make_unique<TumblerTask>(config, cloud);
 }
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -1,10 +1,10 @@
 // cloud_ingest: surface (~surface_file, `surface_cloud`, ~fill_interior) -> latched `volume`.
-// Thin main: the node class (topo_gaussian/ros/cloud_ingest.h) and the geometry library do the work.
+// Thin main: the node class (topo_gaussian/ros/cloud_ingest_node.h) and the geometry library do the work.
 #include <ros/ros.h>
 
 #include <exception>
 
-#include "topo_gaussian/ros/cloud_ingest.h"
+#include "topo_gaussian/ros/cloud_ingest_node.h"
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "cloud_ingest");

@@ -23,7 +23,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/physics/sph_kernel.h"
 
 namespace topo_gaussian {

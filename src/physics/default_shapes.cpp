@@ -4,7 +4,8 @@
 #include <cmath>
 #include <sstream>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 
 namespace topo_gaussian {
 
@@ -20,12 +21,7 @@ std::string joinedNames() {
   return s;
 }
 
-std::string metres(double v) {
-  std::ostringstream o;
-  o.precision(4);
-  o << v << " m";
-  return o.str();
-}
+std::string metres(double v) { return numberText(v, 4) + " m"; }
 
 double pearVolume() {
   // Composite Simpson on the cross-section area π r(z)²: r² ~ z near the poles, so the integrand

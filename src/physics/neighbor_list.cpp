@@ -5,7 +5,7 @@
 #include <string>
 #include <utility>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
 namespace topo_gaussian {
 

@@ -7,7 +7,7 @@
 #include <string>
 #include <utility>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
 #ifdef TOPO_HAVE_CHOLMOD
 #include <Eigen/CholmodSupport>

@@ -63,7 +63,8 @@
 
 #include <Eigen/Eigenvalues>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 
 namespace topo_gaussian {
 
@@ -94,13 +95,6 @@ RigidInertia<Dual10> seedInertia(const MassProperties& props) {
 namespace {
 
 using std::sqrt;
-
-std::string num(double x) {
-  std::ostringstream os;
-  os.precision(4);
-  os << x;
-  return os.str();
-}
 
 template <typename S>
 Eigen::Vector3d val(const Vec3<S>& v) {
@@ -166,7 +160,7 @@ template <typename S>
 void validateInertia(const RigidInertia<S>& in) {
   const double m = valueOf(in.mass);
   if (!(finite(m) && m > 0.0))
-    throw TopoError("rigid inertia: mass", "must be positive and finite, got " + num(m),
+    throw TopoError("rigid inertia: mass", "must be positive and finite, got " + numberText(m, 4),
                     "pass the MassProperties of a non-empty object (mass > 0 kg)");
   const Eigen::Vector3d c = val(in.com);
   if (!c.allFinite())
@@ -184,8 +178,8 @@ void validateInertia(const RigidInertia<S>& in) {
   const Eigen::Vector3d ev = es.eigenvalues();
   if (!(ev(0) > 1e-12 * std::max(ev(2), 0.0)) || !(ev(0) > 0.0))
     throw TopoError("rigid inertia: inertia tensor",
-                    "is not positive definite (principal moments " + num(ev(0)) + ", " + num(ev(1)) + ", " +
-                        num(ev(2)) + " kg m^2)",
+                    "is not positive definite (principal moments " + numberText(ev(0), 4) + ", " + numberText(ev(1), 4) + ", " +
+                        numberText(ev(2), 4) + " kg m^2)",
                     "compute it about the centre of mass from positive particle masses (every principal "
                     "moment must be > 0)");
 }
@@ -193,34 +187,34 @@ void validateInertia(const RigidInertia<S>& in) {
 void validateOptions(const RigidSimOptions& o, bool need_time) {
   if (need_time) {
     if (!(finite(o.duration_s) && o.duration_s > 0.0))
-      throw TopoError("rigid options: duration_s", "must be positive and finite, got " + num(o.duration_s),
+      throw TopoError("rigid options: duration_s", "must be positive and finite, got " + numberText(o.duration_s, 4),
                       "set duration_s > 0 (seconds of motion to simulate)");
     if (!(finite(o.output_dt_s) && o.output_dt_s > 0.0))
-      throw TopoError("rigid options: output_dt_s", "must be positive and finite, got " + num(o.output_dt_s),
+      throw TopoError("rigid options: output_dt_s", "must be positive and finite, got " + numberText(o.output_dt_s, 4),
                       "set output_dt_s > 0 (e.g. 5e-3 s)");
     if (!(finite(o.max_substep_s) && o.max_substep_s >= 0.0))
-      throw TopoError("rigid options: max_substep_s", "must be >= 0 and finite, got " + num(o.max_substep_s),
+      throw TopoError("rigid options: max_substep_s", "must be >= 0 and finite, got " + numberText(o.max_substep_s, 4),
                       "use 0 for the automatic step or a positive step in seconds");
   }
   if (!o.gravity.allFinite())
     throw TopoError("rigid options: gravity", "is not finite", "set gravity to e.g. (0, 0, -9.81) m/s^2");
   if (!(finite(o.linear_damping_per_s) && o.linear_damping_per_s >= 0.0))
-    throw TopoError("rigid options: linear_damping_per_s", "must be >= 0, got " + num(o.linear_damping_per_s),
+    throw TopoError("rigid options: linear_damping_per_s", "must be >= 0, got " + numberText(o.linear_damping_per_s, 4),
                     "use 0 for no damping");
   if (!(finite(o.angular_damping_per_s) && o.angular_damping_per_s >= 0.0))
-    throw TopoError("rigid options: angular_damping_per_s", "must be >= 0, got " + num(o.angular_damping_per_s),
+    throw TopoError("rigid options: angular_damping_per_s", "must be >= 0, got " + numberText(o.angular_damping_per_s, 4),
                     "use 0 for no damping");
   const GroundContact& g = o.ground;
   if (!finite(g.height_m)) throw TopoError("rigid options: ground.height_m", "is not finite", "set a finite height");
   if (!(finite(g.stiffness_n_per_m) && g.stiffness_n_per_m >= 0.0))
-    throw TopoError("rigid options: ground.stiffness_n_per_m", "must be >= 0, got " + num(g.stiffness_n_per_m),
+    throw TopoError("rigid options: ground.stiffness_n_per_m", "must be >= 0, got " + numberText(g.stiffness_n_per_m, 4),
                     "use 0 for the automatic stiffness");
   if (!finite(g.offset_m)) throw TopoError("rigid options: ground.offset_m", "is not finite", "use e.g. 0");
   if (!(finite(g.damping_ratio) && g.damping_ratio >= 0.0))
-    throw TopoError("rigid options: ground.damping_ratio", "must be >= 0, got " + num(g.damping_ratio),
+    throw TopoError("rigid options: ground.damping_ratio", "must be >= 0, got " + numberText(g.damping_ratio, 4),
                     "use a fraction of critical damping such as 0.1");
   if (!(finite(g.friction_mu) && g.friction_mu >= 0.0))
-    throw TopoError("rigid options: ground.friction_mu", "must be >= 0, got " + num(g.friction_mu),
+    throw TopoError("rigid options: ground.friction_mu", "must be >= 0, got " + numberText(g.friction_mu, 4),
                     "use a Coulomb coefficient such as 1");
   if (o.pivot && !(o.pivot_body.allFinite() && o.pivot_world.allFinite()))
     throw TopoError("rigid options: pivot_body/pivot_world", "is not finite", "give finite pivot points");
@@ -740,15 +734,15 @@ RigidTrajectory<S> simulateRigid(const RigidInertia<S>& inertia, const RigidStat
   double t_now = 0.0;
   auto diverged = [&](long step, double t, const std::string& what) {
     std::ostringstream problem;
-    problem << "the simulation diverged at step " << step << " (t = " << num(t) << " s, substep dt = " << num(dt)
+    problem << "the simulation diverged at step " << step << " (t = " << numberText(t, 4) << " s, substep dt = " << numberText(dt, 4)
             << " s): " << what;
     std::ostringstream fix;
     if (cs.active) {
       const double wc = std::sqrt(cs.k_value * cs.n_near * (1.0 / m + cs.lever * cs.lever / Imin_com));
-      problem << ". Likely cause: the contact stiffness k = " << num(cs.k_value)
-              << " N/m per point is too high for the time step (contact frequency x dt = " << num(wc * dt)
+      problem << ". Likely cause: the contact stiffness k = " << numberText(cs.k_value, 4)
+              << " N/m per point is too high for the time step (contact frequency x dt = " << numberText(wc * dt, 4)
               << ", stable below about 0.2), or the time step is too large";
-      fix << "use a smaller time step (options.max_substep_s <= " << num(0.2 / wc)
+      fix << "use a smaller time step (options.max_substep_s <= " << numberText(0.2 / wc, 4)
           << " s, or 0 for the automatic step) or a lower ground.stiffness_n_per_m (0 = automatic)";
     } else {
       problem << ". Likely cause: the time step is too large for the motion";
@@ -773,7 +767,7 @@ RigidTrajectory<S> simulateRigid(const RigidInertia<S>& inertia, const RigidStat
     const double e = valueOf(sim.energy(state));
     if (!std::isfinite(e) || e - e0 > e_tol) {
       diverged(step, t_now,
-               "the total energy grew from " + num(e0) + " J to " + num(e) + " J although the motion is passive");
+               "the total energy grew from " + numberText(e0, 4) + " J to " + numberText(e, 4) + " J although the motion is passive");
     }
     traj.time_s.push_back(k * out_dt);
     traj.states.push_back(state);

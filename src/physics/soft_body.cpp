@@ -7,7 +7,7 @@
 #include <sstream>
 #include <utility>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
 namespace topo_gaussian {
 

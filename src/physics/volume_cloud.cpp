@@ -3,7 +3,7 @@
 #include <cmath>
 #include <limits>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
 namespace topo_gaussian {
 

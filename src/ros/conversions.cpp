@@ -10,7 +10,7 @@
 #include <sstream>
 #include <vector>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
 namespace topo_gaussian::topo_ros {
 

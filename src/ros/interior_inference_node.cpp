@@ -17,7 +17,7 @@
 #include "topo_gaussian/inference/interior_export.h"
 #include "topo_gaussian/inference/interior_problem.h"
 #include "topo_gaussian/physics/default_shapes.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/ros/body_pose_msg.h"
 #include "topo_gaussian/ros/conversions.h"
 #include "topo_gaussian/ros/interior_markers.h"

@@ -6,7 +6,7 @@
 #include <iomanip>
 #include <sstream>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/ros/conversions.h"
 
 namespace topo_gaussian::topo_ros {

@@ -5,7 +5,7 @@
 
 #include <cmath>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/vision/camera_model.h"
 
 namespace topo_gaussian::topo_ros {

@@ -11,8 +11,8 @@
 
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/physics/default_shapes.h"
-#include "topo_gaussian/physics/error.h"
-#include "topo_gaussian/physics/number_text.h"
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/ros/body_pose_msg.h"
 #include "topo_gaussian/ros/conversions.h"
 

@@ -10,7 +10,8 @@
 #include "topo_gaussian/geometry/volume_io.h"
 #include "topo_gaussian/inference/interior_export.h"
 #include "topo_gaussian/inference/pipeline.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/vision/figure.h"
 
 namespace topo_gaussian::tools {
@@ -119,7 +120,7 @@ int exportCommand(const std::vector<std::string>& argv) {
                "of the unit normal|) %s on the solid/hollow interface, %.4f on the whole mesh; %.2f s\n",
                q.particles, q.solid_particles, q.check.triangles, q.check.vertices, q.check.summary().c_str(), q.mesh_volume_m3, q.solid_volume_m3,
                100.0 * q.volume_difference,
-               q.interface_smoothness.vertices ? vision::compactNumber(q.interface_smoothness.mean).c_str()
+               q.interface_smoothness.vertices ? numberText(q.interface_smoothness.mean).c_str()
                                                : "none (no hollow part)",
                q.smoothness.mean, s.total_s);
   for (const auto& n : s.notes) std::cerr << "[topo export] " << n << "\n";

@@ -14,7 +14,7 @@
 #include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/inference/interior_export.h"
 #include "topo_gaussian/inference/pipeline.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
 #ifndef TOPO_DEFAULT_TASK_DIR
 #define TOPO_DEFAULT_TASK_DIR ""

@@ -5,7 +5,7 @@
 
 #include "args.h"
 #include "commands.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
 namespace {
 

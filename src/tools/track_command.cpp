@@ -12,7 +12,7 @@
 
 #include "args.h"
 #include "commands.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/vision/camera_model.h"
 #include "topo_gaussian/vision/motion_tracker.h"
 

@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/physics/neighbor_list.h"
 
 namespace topo_gaussian {

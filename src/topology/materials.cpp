@@ -4,7 +4,7 @@
 #include <cmath>
 #include <string>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
 namespace topo_gaussian {
 

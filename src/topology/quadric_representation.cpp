@@ -7,7 +7,7 @@
 #include <omp.h>
 #endif
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
 namespace topo_gaussian {
 

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/topology/neural_representation.h"
 #include "topo_gaussian/topology/point_representation.h"
 #include "topo_gaussian/topology/quadric_representation.h"

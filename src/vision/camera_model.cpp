@@ -3,10 +3,9 @@
 
 #include <cmath>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 namespace {
 
 /// OpenCV's forward distortion of normalised coordinates (k1 k2 p1 p2 k3 k4 k5 k6, missing = 0).
@@ -102,5 +101,4 @@ std::vector<cv::Point2d> CameraModel::project(const std::vector<cv::Vec3d>& worl
 
 cv::Point2d CameraModel::project(const cv::Vec3d& world) const { return project(std::vector<cv::Vec3d>{world})[0]; }
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

@@ -5,10 +5,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 
 void writePng(const cv::Mat& img, const std::string& path) {
   bool ok = false;
@@ -36,23 +36,16 @@ double niceStepAbove(double limit) {
   return 10 * p;
 }
 
-std::string compactNumber(double v, int digits) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
-  return buf;
-}
-
 std::string lengthText(double m) {
   const double a = std::abs(m);
-  if (a >= 1.0) return compactNumber(m, 3) + " m";
-  if (a >= 0.01) return compactNumber(m * 100, 3) + " cm";
-  if (a >= 1e-3) return compactNumber(m * 1e3, 3) + " mm";
-  return compactNumber(m * 1e6, 3) + " um";
+  if (a >= 1.0) return numberText(m, 3) + " m";
+  if (a >= 0.01) return numberText(m * 100, 3) + " cm";
+  if (a >= 1e-3) return numberText(m * 1e3, 3) + " mm";
+  return numberText(m * 1e6, 3) + " um";
 }
 
 void drawText(cv::Mat& img, const std::string& text, cv::Point at, double scale, const cv::Scalar& bgr, int thickness) {
   cv::putText(img, text, at, cv::FONT_HERSHEY_SIMPLEX, scale, bgr, thickness, cv::LINE_AA);
 }
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

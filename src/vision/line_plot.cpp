@@ -5,11 +5,11 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/vision/figure.h"
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 
 namespace {
 
@@ -68,7 +68,7 @@ cv::Mat drawLinePlot(const LinePlot& p) {
   const double xs = niceStepAbove((x1 - x0) / 8.0);
   for (double x = std::ceil(x0 / xs - 1e-9) * xs; x <= x1 + 1e-9 * xs; x += xs) {
     cv::line(img, cv::Point(px(x), T), cv::Point(px(x), H - B), kGrid, 1);
-    const std::string t = compactNumber(std::abs(x) < 1e-12 * xs ? 0.0 : x);
+    const std::string t = numberText(std::abs(x) < 1e-12 * xs ? 0.0 : x);
     drawText(img, t, cv::Point(px(x) - 4 * int(t.size()), H - B + 20), 0.45, kInk);
   }
   if (p.log_y) {
@@ -80,13 +80,13 @@ cv::Mat drawLinePlot(const LinePlot& p) {
           if (k + std::log10(m) < y1) cv::line(img, cv::Point(L, py(k + std::log10(m))), cv::Point(W - R, py(k + std::log10(m))), kGrid, 1);
       if ((k - int(y0)) % every) continue;
       cv::line(img, cv::Point(L, py(k)), cv::Point(W - R, py(k)), kGrid, 1);
-      drawText(img, compactNumber(std::pow(10.0, k), 3), cv::Point(8, py(k) + 5), 0.45, kInk);
+      drawText(img, numberText(std::pow(10.0, k), 3), cv::Point(8, py(k) + 5), 0.45, kInk);
     }
   } else {
     const double ys = niceStepAbove((y1 - y0) / 6.0);
     for (double y = std::ceil(y0 / ys - 1e-9) * ys; y <= y1 + 1e-9 * ys; y += ys) {
       cv::line(img, cv::Point(L, py(y)), cv::Point(W - R, py(y)), kGrid, 1);
-      drawText(img, compactNumber(std::abs(y) < 1e-12 * ys ? 0.0 : y), cv::Point(8, py(y) + 5), 0.45, kInk);
+      drawText(img, numberText(std::abs(y) < 1e-12 * ys ? 0.0 : y), cv::Point(8, py(y) + 5), 0.45, kInk);
     }
   }
   cv::rectangle(img, cv::Point(L, T), cv::Point(W - R, H - B), kInk, 1);
@@ -125,5 +125,4 @@ cv::Mat drawLinePlot(const LinePlot& p) {
   return img;
 }
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

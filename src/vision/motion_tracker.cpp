@@ -8,10 +8,11 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/common/statistics.h"
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -21,18 +22,6 @@ double wrapDeg(double a) {
   while (a > 180.0) a -= 360.0;
   while (a <= -180.0) a += 360.0;
   return a;
-}
-
-std::string fmt(double v, int prec = 3) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.*f", prec, v);
-  return buf;
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
 }
 
 /// Vertex of the parabola through three (t, y) samples; falls back to the middle sample.
@@ -227,9 +216,9 @@ int MotionTracker::framesAdded() const { return static_cast<int>(impl_->t_all.si
 void MotionTracker::addFrame(const cv::Mat& bgr, double t_s) {
   Impl& s = *impl_;
   if (bgr.empty() || bgr.type() != CV_8UC3)
-    throw TopoError("frame at t = " + fmt(t_s) + " s", "is not an 8-bit BGR image", "pass CV_8UC3 frames");
+    throw TopoError("frame at t = " + fixedText(t_s, 3) + " s", "is not an 8-bit BGR image", "pass CV_8UC3 frames");
   if (!s.t_all.empty() && !(t_s > s.t_all.back()))
-    throw TopoError("frame at t = " + fmt(t_s) + " s", "timestamps must increase (previous " + fmt(s.t_all.back()) + " s)",
+    throw TopoError("frame at t = " + fixedText(t_s, 3) + " s", "timestamps must increase (previous " + fixedText(s.t_all.back(), 3) + " s)",
                     "pass frames in time order");
   if (!s.tracker) {
     s.frame_size = bgr.size();
@@ -239,7 +228,7 @@ void MotionTracker::addFrame(const cv::Mat& bgr, double t_s) {
     s.tracker = makeTracker(to, s.frame_size);
     s.roi = validRoi(to.roi, s.frame_size, to.roi_given || to.roi != cv::Rect());
   } else if (bgr.size() != s.frame_size) {
-    throw TopoError("frame at t = " + fmt(t_s) + " s", "changes size from " + std::to_string(s.frame_size.width) + "x" +
+    throw TopoError("frame at t = " + fixedText(t_s, 3) + " s", "changes size from " + std::to_string(s.frame_size.width) + "x" +
                         std::to_string(s.frame_size.height),
                     "keep the frame size constant");
   }
@@ -271,7 +260,7 @@ cv::Mat MotionTracker::overlay() const {
   if (s.last_frame.empty()) return cv::Mat();
   cv::Mat img = s.last_frame.clone();
   cv::rectangle(img, s.roi, cv::Scalar(255, 128, 0), 1);
-  std::string text = "t " + fmt(s.last_t, 2) + " s";
+  std::string text = "t " + fixedText(s.last_t, 2) + " s";
   // trail of the last centroids
   const int n = static_cast<int>(s.t_all.size());
   for (int i = std::max(1, n - 60); i < n; ++i)
@@ -295,13 +284,13 @@ cv::Mat MotionTracker::overlay() const {
       if (have) {
         cv::circle(img, pivot, 5, cv::Scalar(255, 0, 255), cv::FILLED);
         cv::line(img, pivot, s.last.centroid, cv::Scalar(255, 0, 255), 1, cv::LINE_AA);
-        text += "  angle " + fmt(s.currentAngle(s.last.centroid, pivot), 1) + " deg";
+        text += "  angle " + fixedText(s.currentAngle(s.last.centroid, pivot), 1) + " deg";
       }
     } else if (s.opt.kind == "tilt") {
       const double a = s.last.axis_angle_deg / kDeg;
       const cv::Point2d d(std::sin(a), -std::cos(a));
       cv::line(img, s.last.centroid - 100 * d, s.last.centroid + 100 * d, cv::Scalar(255, 0, 0), 2, cv::LINE_AA);
-      text += "  tilt " + fmt(s.last.axis_angle_deg, 1) + " deg";
+      text += "  tilt " + fixedText(s.last.axis_angle_deg, 1) + " deg";
     } else if (s.opt.kind == "finger" && !s.ends.empty() && s.ends.back().ok) {
       const EndFit& f = s.ends.back();
       for (int e = 0; e < 2; ++e) {
@@ -310,9 +299,9 @@ cv::Mat MotionTracker::overlay() const {
         cv::line(img, p - 80 * cv::Point2d(v[0], v[1]), p + 80 * cv::Point2d(v[0], v[1]), cv::Scalar(255, 0, 0), 2,
                  cv::LINE_AA);
       }
-      text += "  bend " + fmt(std::abs(f.bend_a), 1) + " deg";
+      text += "  bend " + fixedText(std::abs(f.bend_a), 1) + " deg";
     } else if (s.opt.kind == "trajectory") {
-      text += "  y " + fmt(s.last.centroid.y, 1) + " px";
+      text += "  y " + fixedText(s.last.centroid.y, 1) + " px";
     }
   } else {
     text += "  (lost)";
@@ -367,8 +356,8 @@ TrackResult MotionTracker::finish() const {
   r.object_found = !t.empty();
   r.confidence["tracking"] = n ? 1.0 - double(r.lost_frames) / n : 0.0;
   if (!r.object_found) {
-    r.message = "object never found in " + std::to_string(n) + " frames (" + fmt(r.t_start_s, 2) + "–" +
-                fmt(r.t_end_s, 2) + " s) by the " + r.method +
+    r.message = "object never found in " + std::to_string(n) + " frames (" + fixedText(r.t_start_s, 2) + "–" +
+                fixedText(r.t_end_s, 2) + " s) by the " + r.method +
                 " tracker; check the colour range (--hsv-lower/--hsv-upper), the --roi or try another --method";
     return r;
   }
@@ -383,13 +372,13 @@ TrackResult MotionTracker::finish() const {
       }
       int j = i;
       while (j < n && !s.found[j]) ++j;
-      if (shown < 4) runs += std::string(shown ? ", " : "") + fmt(s.t_all[i], 2) + "–" + fmt(s.t_all[j - 1], 2) + " s";
+      if (shown < 4) runs += std::string(shown ? ", " : "") + fixedText(s.t_all[i], 2) + "–" + fixedText(s.t_all[j - 1], 2) + " s";
       ++shown;
       i = j;
     }
     if (shown > 4) runs += " and " + std::to_string(shown - 4) + " more";
     notes.push_back("object lost (left the frame or hidden) in " + std::to_string(r.lost_frames) + " of " +
-                    std::to_string(n) + " frames (" + fmt(100.0 * r.lost_frames / n, 1) + " %): " + runs);
+                    std::to_string(n) + " frames (" + fixedText(100.0 * r.lost_frames / n, 1) + " %): " + runs);
   }
   // trajectories
   if (s.opt.tracker.method == "klt") {
@@ -414,14 +403,14 @@ TrackResult MotionTracker::finish() const {
     r.confidence["amplitude_deg"] = r.signal.oscillation_found ? r.signal.confidence : 0.0;
     r.confidence["static_angle_deg"] = r.static_pose.confidence;
     if (r.signal.oscillation_found) {
-      notes.insert(notes.begin(), "period " + fmt(r.signal.period_s, 4) + " s over " + std::to_string(r.signal.cycles) +
-                                      " cycles, amplitude " + fmt(r.signal.amplitude_deg, 2) + " deg, equilibrium " +
-                                      fmt(r.signal.equilibrium_deg, 2) + " deg" +
+      notes.insert(notes.begin(), "period " + fixedText(r.signal.period_s, 4) + " s over " + std::to_string(r.signal.cycles) +
+                                      " cycles, amplitude " + fixedText(r.signal.amplitude_deg, 2) + " deg, equilibrium " +
+                                      fixedText(r.signal.equilibrium_deg, 2) + " deg" +
                                       (r.signal.message.empty() ? "" : " (" + r.signal.message + ")"));
     } else {
       const bool said = r.signal.message.find("no oscillation") != std::string::npos;
       notes.insert(notes.begin(), std::string(said ? "" : "no oscillation found: ") + r.signal.message + "; static angle " +
-                                      fmt(r.static_pose.angle_deg, 2) + " deg");
+                                      fixedText(r.static_pose.angle_deg, 2) + " deg");
     }
   };
 
@@ -505,13 +494,13 @@ TrackResult MotionTracker::finish() const {
     std::string b = std::to_string(r.bounce_times_s.size()) + " bounce(s)";
     if (!r.bounce_times_s.empty()) {
       b += " at";
-      for (double v : r.bounce_times_s) b += " " + fmt(v, 3);
+      for (double v : r.bounce_times_s) b += " " + fixedText(v, 3);
       b += " s";
     }
     b += ", " + std::to_string(r.apex_times_s.size()) + " apex(es)";
     if (!r.apex_heights_px.empty()) {
       b += " of height";
-      for (double v : r.apex_heights_px) b += " " + fmt(v, 1);
+      for (double v : r.apex_heights_px) b += " " + fixedText(v, 1);
       b += " px above the bounce level";
     }
     notes.insert(notes.begin(), b);
@@ -541,7 +530,7 @@ TrackResult MotionTracker::finish() const {
       for (double v : tail) mad += std::abs(v - r.bend_final_deg);
       mad /= tail.size();
       r.confidence["bend_deg"] = r.confidence["tracking"] * std::max(0.0, 1.0 - mad / 5.0);
-      notes.insert(notes.begin(), "final bending angle " + fmt(r.bend_final_deg, 2) + " deg (tip minus base direction; base = the " +
+      notes.insert(notes.begin(), "final bending angle " + fixedText(r.bend_final_deg, 2) + " deg (tip minus base direction; base = the " +
                                       std::string(base_is_a ? "first" : "second") + " end along the principal axis, the one that moves least)");
     }
   }
@@ -562,8 +551,8 @@ TrackResult trackVideo(const std::string& path, const TrackOptions& options,
     if (overlay_sink) overlay_sink(mt.overlay());
   }
   if (mt.framesAdded() == 0)
-    throw TopoError(path, "no frames in the requested time range (" + fmt(options.video.start_s, 2) + " s to " +
-                              (options.video.end_s < 0 ? std::string("end") : fmt(options.video.end_s, 2) + " s") + ")",
+    throw TopoError(path, "no frames in the requested time range (" + fixedText(options.video.start_s, 2) + " s to " +
+                              (options.video.end_s < 0 ? std::string("end") : fixedText(options.video.end_s, 2) + " s") + ")",
                     "check --start/--end against the video's length");
   TrackResult r = mt.finish();
   r.source = path;
@@ -658,5 +647,4 @@ std::string toJson(const TrackResult& r, bool with_series) {
   return o.str();
 }
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

@@ -5,10 +5,9 @@
 #include <string>
 #include <unordered_map>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 namespace {
 
 struct CellKeyHash {
@@ -64,5 +63,4 @@ std::vector<Eigen::Vector3d> estimateOutwardNormals(const std::vector<Eigen::Vec
   return normals;
 }
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

@@ -1,14 +1,13 @@
-// Tracked pixels → 3D points on a known plane through the camera model (issue 4 §1: trajectories
+// Tracked pixels → 3D points on a known plane through the camera model (trajectories
 // "as rays/3D points on a known plane, so the inference can compare simulated points").
 #include <cmath>
 #include <limits>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/vision/camera_model.h"
 #include "topo_gaussian/vision/motion_tracker.h"
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 
 void placeOnPlane(const CameraModel& camera, const cv::Vec3d& n, double d, TrackResult& result) {
   if (!(cv::norm(n) > 0) || !std::isfinite(d))
@@ -28,5 +27,4 @@ void placeOnPlane(const CameraModel& camera, const cv::Vec3d& n, double d, Track
   }
 }
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

@@ -11,32 +11,15 @@
 #include <limits>
 #include <numeric>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/common/statistics.h"
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-std::string fmt(double v, int digits = 3) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.*g", digits, v);
-  return buf;
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const size_t m = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + m, v.end());
-  double med = v[m];
-  if (v.size() % 2 == 0) {
-    const double lo = *std::max_element(v.begin(), v.begin() + m);
-    med = 0.5 * (med + lo);
-  }
-  return med;
-}
 
 double mad(const std::vector<double>& v, double centre) {
   std::vector<double> d(v.size());
@@ -201,7 +184,7 @@ void validate(const std::vector<double>& t, const std::vector<double>& y) {
     if (i > 0 && !(t[i] > t[i - 1]))
       throw TopoError("signal",
                       "time stamps are not strictly increasing at sample " + std::to_string(i) + " (" +
-                          fmt(t[i - 1], 8) + " then " + fmt(t[i], 8) + ")",
+                          numberText(t[i - 1], 8) + " then " + numberText(t[i], 8) + ")",
                       "sort the samples by time and remove duplicates");
   }
 }
@@ -267,8 +250,8 @@ SignalFeatures analyseSignal(const std::vector<double>& t_in, const std::vector<
   };
 
   if (half_range < min_amp || half_range < 3.0 * sigma)
-    return notFoundStatic("the signal swings only ±" + fmt(half_range) + " deg (noise " + fmt(sigma) +
-                          " deg), below min_amplitude_deg = " + fmt(min_amp) + " or the noise level");
+    return notFoundStatic("the signal swings only ±" + numberText(half_range, 3) + " deg (noise " + numberText(sigma, 3) +
+                          " deg), below min_amplitude_deg = " + numberText(min_amp, 3) + " or the noise level");
 
   // Hysteresis segmentation about the median.
   const double H = std::max({4.0 * sigma, 0.5 * min_amp, 0.1 * half_range});
@@ -491,8 +474,8 @@ SignalFeatures analyseSignal(const std::vector<double>& t_in, const std::vector<
     f.period_s = 0.0;
     f.cycles = cycles;
     f.message = "oscillation too short: fewer than " + std::to_string(min_cycles) +
-                " full periods in the clip (" + fmt(periods_seen, 2) + " periods of about " +
-                fmt(period, 3) + " s seen); record a longer clip";
+                " full periods in the clip (" + numberText(periods_seen, 2) + " periods of about " +
+                numberText(period, 3) + " s seen); record a longer clip";
     f.confidence = 0.1;
     return f;
   }
@@ -543,7 +526,7 @@ SignalFeatures analyseSignal(const std::vector<double>& t_in, const std::vector<
     ac_factor = std::exp(-(rel / 0.03) * (rel / 0.03));
     ac_factor = std::max(0.3, ac_factor);
     if (rel > 0.03)
-      note = "; autocorrelation period " + fmt(T_ac, 4) + " s differs by " + fmt(100.0 * rel, 2) + " %";
+      note = "; autocorrelation period " + numberText(T_ac, 4) + " s differs by " + numberText(100.0 * rel, 2) + " %";
   } else {
     note = "; autocorrelation check not available";
   }
@@ -568,9 +551,9 @@ SignalFeatures analyseSignal(const std::vector<double>& t_in, const std::vector<
   const double cycle_factor = std::min(1.0, periods_seen / (1.5 * min_cycles));
   f.confidence = std::max(0.0, std::min(1.0, regularity * snr_factor * cycle_factor * ac_factor *
                                                  (missed ? 0.8 : 1.0)));
-  f.message = "oscillation: " + std::to_string(f.cycles) + " full cycles, period " + fmt(period, 5) +
-              " s (crossing fit rms " + fmt(1000.0 * fit_rms, 3) + " ms), amplitude " +
-              fmt(f.amplitude_deg) + " deg, noise " + fmt(sigma) + " deg" + note +
+  f.message = "oscillation: " + std::to_string(f.cycles) + " full cycles, period " + numberText(period, 5) +
+              " s (crossing fit rms " + numberText(1000.0 * fit_rms, 3) + " ms), amplitude " +
+              numberText(f.amplitude_deg, 3) + " deg, noise " + numberText(sigma, 3) + " deg" + note +
               (missed ? "; some crossings were missed" : "");
   return f;
 }
@@ -591,5 +574,4 @@ StaticPose analyseStatic(const std::vector<double>& y) {
   return p;
 }
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

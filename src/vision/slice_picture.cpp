@@ -5,11 +5,11 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/vision/figure.h"
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 
 namespace {
 
@@ -93,7 +93,7 @@ std::string planeCaption(int axis, double coord, double extent) {
   int u, v;
   planeAxes(axis, &u, &v);
   if (std::abs(coord) < 1e-6 * extent) coord = 0.0;
-  const std::string at = extent < 2.0 ? compactNumber(coord * 1e3, 4) + " mm" : compactNumber(coord, 4) + " m";
+  const std::string at = extent < 2.0 ? numberText(coord * 1e3, 4) + " mm" : numberText(coord, 4) + " m";
   return std::string(kAxisName[u]) + kAxisName[v] + " slice, " + kAxisName[axis] + " = " + at;
 }
 
@@ -106,7 +106,7 @@ cv::Mat drawInteriorSlices(const std::vector<Eigen::Vector3d>& X, const std::vec
     throw TopoError("slice picture", std::to_string(X.size()) + " positions but " + std::to_string(r.size()) + " values of r",
                     "give one indicator value per particle");
   if (!(spacing > 0.0) || !std::isfinite(spacing))
-    throw TopoError("slice picture", "spacing " + compactNumber(spacing) + " is not positive", "give the lattice spacing");
+    throw TopoError("slice picture", "spacing " + numberText(spacing) + " is not positive", "give the lattice spacing");
   Lattice L;
   L.h = spacing;
   L.lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
@@ -161,12 +161,12 @@ cv::Mat drawInteriorSlices(const std::vector<Eigen::Vector3d>& X, const std::vec
   // Title and legend.
   drawText(img, title, cv::Point(14, 28), 0.7, kInk, 2);
   const std::string counts = std::to_string(X.size()) + " particles, " + std::to_string(solid) + " solid (" +
-                             compactNumber(100.0 * double(solid) / double(X.size()), 3) + " %), spacing " +
+                             numberText(100.0 * double(solid) / double(X.size()), 3) + " %), spacing " +
                              lengthText(spacing);
   drawText(img, counts, cv::Point(14, 56), 0.5, kInk);
   int x = W - 520;
   for (const auto& [colour, label] : std::vector<std::pair<cv::Scalar, std::string>>{
-           {kSliceSolidBgr, "solid (r >= " + compactNumber(o.iso) + ")"}, {kSliceHollowBgr, "hollow (r < " + compactNumber(o.iso) + ")"}, {kSliceOutsideBgr, "outside"}}) {
+           {kSliceSolidBgr, "solid (r >= " + numberText(o.iso) + ")"}, {kSliceHollowBgr, "hollow (r < " + numberText(o.iso) + ")"}, {kSliceOutsideBgr, "outside"}}) {
     cv::rectangle(img, cv::Rect(x, 40, 18, 18), colour, cv::FILLED);
     cv::rectangle(img, cv::Rect(x, 40, 18, 18), kInk, 1);
     drawText(img, label, cv::Point(x + 24, 55), 0.5, kInk);
@@ -175,5 +175,4 @@ cv::Mat drawInteriorSlices(const std::vector<Eigen::Vector3d>& X, const std::vec
   return img;
 }
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

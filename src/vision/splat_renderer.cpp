@@ -6,10 +6,9 @@
 #include <limits>
 #include <string>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 
 void SplatCamera::validate() const {
   if (width <= 0 || height <= 0)
@@ -105,5 +104,4 @@ cv::Mat renderSplats(const SplatCamera& cam, const Splats& s, const SplatShading
   return img;
 }
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

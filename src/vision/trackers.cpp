@@ -6,10 +6,9 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video.hpp>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -254,5 +253,4 @@ std::unique_ptr<Tracker> makeTracker(const TrackerOptions& options, const cv::Si
   throw TopoError("--method " + options.method, "is not a tracking method", "use marker, silhouette or klt");
 }
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

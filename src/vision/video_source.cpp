@@ -10,10 +10,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 namespace {
 
 bool isDirectory(const std::string& p) {
@@ -176,5 +175,4 @@ bool VideoSource::read(cv::Mat& bgr, double& t_s) {
   return false;
 }
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

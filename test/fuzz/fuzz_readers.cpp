@@ -8,7 +8,7 @@
 #include <string>
 
 #include "topo_gaussian/geometry/surface_reader.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
 namespace {
 

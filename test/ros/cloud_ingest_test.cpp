@@ -22,8 +22,8 @@
 
 #include "topo_gaussian/FillInterior.h"
 #include "topo_gaussian/geometry/ingest.h"
-#include "topo_gaussian/physics/error.h"
-#include "topo_gaussian/ros/cloud_ingest.h"
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/ros/cloud_ingest_node.h"
 #include "topo_gaussian/ros/conversions.h"
 
 namespace {

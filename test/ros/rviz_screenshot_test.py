@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""rviz under Xvfb shows the inferred interior (issue 6 §5).
+"""rviz under Xvfb shows the inferred interior.
 
 Starts a virtual X server and rviz with rviz/topo_gaussian.rviz, takes a screenshot (xwd +
 ImageMagick) before any interior exists, then asks interior_inference for one (~infer), and takes

@@ -9,7 +9,7 @@
 #include <random>
 
 #include "topo_gaussian/physics/corotated_sph.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/physics/sph_kernel.h"
 
 using namespace topo_gaussian;

@@ -10,7 +10,7 @@
 #include "test_clouds.h"
 #include "test_util.h"
 #include "topo_gaussian/physics/default_shapes.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
 using namespace topo_gaussian;
 using topo_test::errorOf;

@@ -1,10 +1,10 @@
 // MassProperties: closed forms on a lattice box, and finite-difference checks of the derivatives
-// w.r.t. the particle masses (issue: relative error < 1e-6).
+// w.r.t. the particle masses (relative error < 1e-6).
 #include <gtest/gtest.h>
 
 #include <random>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/physics/mass_properties.h"
 
 using namespace topo_gaussian;

@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <random>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/physics/rest_stiffness.h"
 
 using namespace topo_gaussian;

@@ -10,7 +10,7 @@
 #include <limits>
 #include <vector>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/physics/mass_properties.h"
 #include "topo_gaussian/physics/rigid_body.h"
 

@@ -10,7 +10,7 @@
 #include <cstdio>
 #include <random>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/physics/soft_rollout.h"
 #include "topo_gaussian/topology/materials.h"
 

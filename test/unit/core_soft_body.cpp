@@ -13,7 +13,7 @@
 #include <sstream>
 #include <string>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/physics/soft_body.h"
 
 using namespace topo_gaussian;

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/physics/neighbor_list.h"
 #include "topo_gaussian/topology/indicator.h"
 #include "topo_gaussian/topology/materials.h"

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/physics/volume_cloud.h"
 
 using topo_gaussian::TopoError;

@@ -16,7 +16,7 @@
 #include "topo_gaussian/geometry/surface_reader.h"
 #include "topo_gaussian/geometry/volume_io.h"
 #include "topo_gaussian/physics/default_shapes.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::geometry;

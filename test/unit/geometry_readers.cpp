@@ -28,7 +28,7 @@
 
 #include "topo_gaussian/geometry/surface_data.h"
 #include "topo_gaussian/geometry/surface_reader.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "shared_data.h"  // TOPO_SHARED_FILE: skip (or fail in CI) without ../shared/data
 
 

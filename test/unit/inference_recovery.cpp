@@ -1,4 +1,4 @@
-// Recovery (issue 3 §6): make a ground-truth interior, compute its features, start from a fully
+// Recovery: make a ground-truth interior, compute its features, start from a fully
 // solid object and infer; the inferred interior must reproduce the features.
 //  - hanging on the shared meshes spot, fish, penguin, bunny, with quadric and neural: CoM offset
 //    from the vertical through the hanging point < 1e-3 of the object size;

@@ -1,4 +1,4 @@
-// The rig twin (issue 6 §2): the splat renderer (projection, z-buffer, noise), the outward normals,
+// The rig twin: the splat renderer (projection, z-buffer, noise), the outward normals,
 // the twin's ground truth and seamless loop, and — what the end-to-end test relies on — the tilt
 // tracker measuring the twin's true period and maximum tilt from rendered frames within 1 %.
 #include <gtest/gtest.h>

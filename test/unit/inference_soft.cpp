@@ -1,4 +1,4 @@
-// Soft-body tasks (issue 5 §2–3): the pneumatic finger (static and implicit modes) and the bouncing
+// Soft-body tasks: the pneumatic finger (static and implicit modes) and the bouncing
 // pear on their default shapes. Physics checks: a closed chamber inflates monotonically with the
 // pressure; a chamber offset to one side bends the finger towards the other side. Whole-task
 // gradients dL/dr against central differences. Recovery from a known design: the finger's bending

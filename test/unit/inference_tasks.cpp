@@ -1,4 +1,4 @@
-// Task configuration, whole-task gradients (finite differences, issue: < 1e-4), optimisers, and
+// Task configuration, whole-task gradients (finite differences, < 1e-4), optimisers, and
 // bad input for topo_inference.
 #include <gtest/gtest.h>
 
@@ -12,7 +12,7 @@
 #include "topo_gaussian/inference/optimizer.h"
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/inference/task_config.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::inference;

@@ -1,6 +1,6 @@
 // Test helpers shared by the unit tests: the message of a TopoError a call throws, and running a
 // command-line tool (the `topo` executable) and collecting its exit code and output. Standard
-// library and topo_gaussian/physics/error.h only, so the core_* tests (topo_physics alone) can use it.
+// library and topo_gaussian/common/error.h only, so the core_* tests (topo_physics alone) can use it.
 #pragma once
 
 #include <sys/wait.h>
@@ -10,7 +10,7 @@
 #include <functional>
 #include <string>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
 namespace topo_test {
 

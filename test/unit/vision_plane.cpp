@@ -1,11 +1,11 @@
-// Trajectories as 3D points on a known plane (issue 4 §1): a generated pendulum video is tracked
+// Trajectories as 3D points on a known plane: a generated pendulum video is tracked
 // and its marker placed on the plane z = 2 m in front of a pinhole camera; the points must lie
 // where the rendered bob was, back-projected analytically.
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/vision/camera_model.h"
 #include "topo_gaussian/vision/motion_tracker.h"
 #include "topo_gaussian/vision/synthetic_video.h"

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/vision/signal_analysis.h"
 #include "topo_gaussian/vision/synthetic_video.h"
 

@@ -1,5 +1,5 @@
 // Tilt tracking of objects wider than tall and period estimates over clips of a fractional number of
-// cycles (issue 6 §2: the rig twin's tumbler is 0.1 m wide and 0.07 m high; the tracker's window
+// cycles (the rig twin's tumbler is 0.1 m wide and 0.07 m high; the tracker's window
 // never holds whole cycles).
 #include <gtest/gtest.h>
 

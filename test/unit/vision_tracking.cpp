@@ -11,7 +11,7 @@
 
 #include "shared_data.h"
 #include "test_util.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/vision/camera_model.h"
 #include "topo_gaussian/vision/motion_tracker.h"
 #include "topo_gaussian/vision/synthetic_video.h"

@@ -9,8 +9,7 @@
 
 #include "topo_gaussian/physics/rigid_body.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 /// Pose of the object's body (cloud) frame in the world at one time: world = rotation · X + translation,
 /// X a particle position as stored in the volume cloud. What the rig twin renders and the inference
@@ -38,5 +37,4 @@ BodyPose bodyPoseOf(double t, const State& s, const Eigen::Vector3d& com) {
 /// time; throws TopoError when it is empty.
 BodyPose poseAt(const std::vector<BodyPose>& motion, double t);
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -1,4 +1,4 @@
-// Export of an interior (issue 6 §4, what `topo export` and the inference node's ~export service
+// Export of an interior (what `topo export` and the inference node's ~export service
 // call): into one directory
 //   interior.ply   the interior (x y z r solid density), as topo infer writes it
 //   interior.stl   binary STL of the solid region (r ≥ iso), watertight by construction (marching
@@ -21,8 +21,7 @@
 #include "topo_gaussian/inference/run_files.h"
 #include "topo_gaussian/physics/volume_cloud.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 /// The solid region's mesh and its quality.
 struct InterfaceQuality {
@@ -88,5 +87,4 @@ ExportSummary exportInterior(const VolumeCloud& cloud, const std::vector<double>
 /// export.json.
 std::string exportJson(const ExportSummary& s);
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

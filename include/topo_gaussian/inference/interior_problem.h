@@ -13,8 +13,7 @@
 #include "topo_gaussian/topology/indicator.h"
 #include "topo_gaussian/topology/representation.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 struct ProblemEvaluation {
   double loss = 0.0;          ///< task loss + regularisers
@@ -57,5 +56,4 @@ class InteriorProblem {
   double w_volume_ = 0, target_fraction_ = -1, w_smooth_ = 0, total_volume_ = 1;
 };
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -8,8 +8,7 @@
 #include <string>
 #include <vector>
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 struct OptimizerOptions {
   std::string method = "lbfgs";     ///< lbfgs | adam
@@ -51,5 +50,4 @@ OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, cons
                          const Eigen::VectorXd& upper, const OptimizerOptions& options,
                          const ProgressCallback& progress = nullptr);
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -11,8 +11,7 @@
 #include <string>
 #include <vector>
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 template <typename S>
 struct Extremum {
@@ -137,5 +136,4 @@ OscillationFeatures<S> analyseOscillation(const std::vector<S>& y, double t0, do
   return f;
 }
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -12,8 +12,7 @@
 #include "topo_gaussian/inference/task_config.h"
 #include "topo_gaussian/physics/volume_cloud.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 struct InferenceResult {
   std::string task, representation;
@@ -72,5 +71,4 @@ std::string reportJson(const InferenceResult& result, const TaskConfig& config);
 /// JSON of a simulated design (features, mass properties, geometry).
 std::string simulationJson(const ProblemEvaluation& ev, const TaskConfig& config, const TaskGeometry& geometry);
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -33,8 +33,7 @@
 #include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/physics/volume_cloud.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 struct RigTwinOptions {
   std::string shape = "tumbler";           ///< a default shape (defaultShapeNames())
@@ -128,5 +127,4 @@ class RigTwin {
   int loop_periods_ = 0;
 };
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -17,8 +17,7 @@
 #include "topo_gaussian/physics/volume_cloud.h"
 #include "topo_gaussian/topology/materials.h"
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 struct Feature {
   std::string name;
@@ -99,5 +98,4 @@ std::unique_ptr<Task> makeTask(const TaskConfig& config, const VolumeCloud& clou
 /// Rotation of the target pose: roll about world x, then pitch about world y (degrees).
 Eigen::Matrix3d targetRotation(double roll_deg, double pitch_deg);
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

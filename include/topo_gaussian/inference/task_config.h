@@ -9,8 +9,7 @@
 #include <string>
 #include <vector>
 
-namespace topo_gaussian {
-namespace inference {
+namespace topo_gaussian::inference {
 
 enum class ParamType { Number, Integer, Boolean, Text, Vector3, List };
 
@@ -82,5 +81,4 @@ class TaskConfig {
   friend struct TaskConfigBuilder;
 };
 
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::inference

@@ -9,8 +9,7 @@
 #include <opencv2/core.hpp>
 #include <vector>
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 
 class CameraModel {
  public:
@@ -45,5 +44,4 @@ class CameraModel {
   cv::Vec3d t_wc_{0, 0, 0};
 };
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

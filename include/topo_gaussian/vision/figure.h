@@ -1,13 +1,12 @@
 // Helpers shared by the figures topo_gaussian draws for people (interior slices, loss and signal
 // plots): writing a PNG with an error that names the file, "nice" steps for ticks and scale bars
-// (1, 2 or 5 × 10^k), compact number text and a length with its unit.
+// (1, 2 or 5 × 10^k) and a length with its unit.
 #pragma once
 
 #include <opencv2/core.hpp>
 #include <string>
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 
 /// Writes img as PNG. Throws TopoError naming the path when it cannot be written.
 void writePng(const cv::Mat& img, const std::string& path);
@@ -17,8 +16,6 @@ double niceStepBelow(double limit);
 /// The smallest 1, 2 or 5 × 10^k that is ≥ limit (limit > 0).
 double niceStepAbove(double limit);
 
-/// A number in at most `digits` significant digits, without trailing zeros ("0.25", "1e-06").
-std::string compactNumber(double v, int digits = 4);
 /// A length in metres as people read it: "5 mm", "2 cm", "0.5 m".
 std::string lengthText(double metres);
 
@@ -26,5 +23,4 @@ std::string lengthText(double metres);
 void drawText(cv::Mat& img, const std::string& text, cv::Point at, double scale = 0.5,
               const cv::Scalar& bgr = cv::Scalar(20, 20, 20), int thickness = 1);
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

@@ -7,8 +7,7 @@
 #include <string>
 #include <vector>
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 
 struct PlotSeries {
   std::string label;
@@ -29,5 +28,4 @@ struct LinePlot {
 /// on a log axis no positive y).
 cv::Mat drawLinePlot(const LinePlot& plot);
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

@@ -29,8 +29,7 @@
 #include "topo_gaussian/vision/trackers.h"
 #include "topo_gaussian/vision/video_source.h"
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 
 struct TrackOptions {
   std::string kind = "pendulum";     ///< pendulum | tilt | trajectory | finger
@@ -114,5 +113,4 @@ void placeOnPlane(const CameraModel& camera, const cv::Vec3d& plane_normal, doub
 /// Features, confidences, frame range, source and message as one JSON object (series when keep_series).
 std::string toJson(const TrackResult& result, bool with_series = false);
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

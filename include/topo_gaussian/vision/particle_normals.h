@@ -7,8 +7,7 @@
 #include <Eigen/Core>
 #include <vector>
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 
 /// Unit outward normals at `query` points, from the neighbours among `particles` within
 /// `radius_m` (about 2–3 particle spacings; the query point itself may be one of the particles).
@@ -17,5 +16,4 @@ namespace vision {
 std::vector<Eigen::Vector3d> estimateOutwardNormals(const std::vector<Eigen::Vector3d>& particles,
                                                     const std::vector<Eigen::Vector3d>& query, double radius_m);
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

@@ -9,8 +9,7 @@
 #include <string>
 #include <vector>
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 
 struct SignalOptions {
   double min_amplitude_deg = 1.0;   ///< swings smaller than this (half peak-to-peak) are "no oscillation"
@@ -47,5 +46,4 @@ struct StaticPose {
 };
 StaticPose analyseStatic(const std::vector<double>& y);
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

@@ -13,8 +13,7 @@
 #include <string>
 #include <vector>
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 
 /// The colours of the slice picture (BGR), exact so that tests can count them.
 const cv::Scalar kSliceSolidBgr(40, 40, 205);     ///< red
@@ -31,5 +30,4 @@ struct SliceOptions {
 cv::Mat drawInteriorSlices(const std::vector<Eigen::Vector3d>& X, const std::vector<double>& r, double spacing,
                            const std::string& title, const SliceOptions& options = SliceOptions());
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

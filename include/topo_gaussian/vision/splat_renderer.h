@@ -16,8 +16,7 @@
 #include <opencv2/core.hpp>
 #include <vector>
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 
 struct SplatCamera {
   int width = 640, height = 480;
@@ -66,5 +65,4 @@ struct Splats {
 cv::Mat renderSplats(const SplatCamera& camera, const Splats& splats, const SplatShading& shading,
                      cv::Mat* depth_out = nullptr);
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

@@ -7,8 +7,7 @@
 #include <string>
 #include <vector>
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 
 struct PendulumScene {
   int width = 640, height = 480;
@@ -56,5 +55,4 @@ std::vector<cv::Mat> renderFinger(const FingerScene& scene);
 /// the path when the writer cannot open it.
 void writeVideo(const std::vector<cv::Mat>& frames, double fps, const std::string& path);
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

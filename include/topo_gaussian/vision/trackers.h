@@ -13,8 +13,7 @@
 #include <string>
 #include <vector>
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 
 struct HsvRange {
   cv::Scalar lower, upper;  ///< OpenCV HSV: H 0..180, S and V 0..255 (inclusive)
@@ -65,5 +64,4 @@ std::unique_ptr<Tracker> makeTracker(const TrackerOptions& options, const cv::Si
 /// The ROI clipped/validated against the frame (empty ROI → whole frame); throws as above.
 cv::Rect validRoi(const cv::Rect& roi, const cv::Size& frame_size, bool roi_given);
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

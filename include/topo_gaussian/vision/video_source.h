@@ -10,8 +10,7 @@
 #include <string>
 #include <vector>
 
-namespace topo_gaussian {
-namespace vision {
+namespace topo_gaussian::vision {
 
 struct VideoOptions {
   double start_s = 0.0;        ///< first time used
@@ -68,5 +67,4 @@ class VideoSource {
   std::vector<int> indices_;
 };
 
-}  // namespace vision
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::vision

@@ -1,23 +1,17 @@
-#include "topo_gaussian/ros/cloud_ingest.h"
+#include "topo_gaussian/ros/cloud_ingest_node.h"
 
 #include <cmath>
 #include <exception>
 #include <limits>
 #include <sstream>
 
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/ros/conversions.h"
+#include "topo_gaussian/common/number_text.h"
 
 namespace topo_gaussian::topo_ros {
 
 namespace {
-
-std::string num(double v) {
-  std::ostringstream s;
-  s.precision(6);
-  s << v;
-  return s.str();
-}
 
 /// "~name (/resolved/name)" for messages.
 std::string paramName(const ::ros::NodeHandle& pnh, const std::string& name) {
@@ -46,7 +40,7 @@ double getDouble(const ::ros::NodeHandle& pnh, const std::string& name, double f
   if (!pnh.hasParam(name)) return fallback;
   double v = fallback;
   if (!pnh.getParam(name, v)) wrongType(pnh, name, "a number");  // ints are accepted as numbers
-  if (!std::isfinite(v)) throw TopoError(paramName(pnh, name), "is " + num(v), "give a finite number");
+  if (!std::isfinite(v)) throw TopoError(paramName(pnh, name), "is " + numberText(v, 6), "give a finite number");
   return v;
 }
 
@@ -57,7 +51,7 @@ long getInt(const ::ros::NodeHandle& pnh, const std::string& name, long fallback
   if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble) {  // YAML writes 5e4 as a double: accept whole numbers
     const double d = static_cast<double>(v);
     if (std::isfinite(d) && d == std::floor(d) && std::abs(d) < 2e9) return long(d);
-    throw TopoError(paramName(pnh, name), "is " + num(d) + ", not a whole number", "give a whole number");
+    throw TopoError(paramName(pnh, name), "is " + numberText(d, 6) + ", not a whole number", "give a whole number");
   }
   wrongType(pnh, name, "a whole number");
 }
@@ -91,16 +85,16 @@ CloudIngestParams loadCloudIngestParams(const ::ros::NodeHandle& pnh) {
   if (p.frame_id.empty()) bad("frame_id", "is empty", "name the object's body frame, e.g. object");
 
   fill.spacing_m = getDouble(pnh, "spacing_m", fill.spacing_m);
-  if (fill.spacing_m < 0.0) bad("spacing_m", "is " + num(fill.spacing_m) + " m, a negative spacing", "give a positive lattice spacing in metres, or 0 to use ~fill_count");
+  if (fill.spacing_m < 0.0) bad("spacing_m", "is " + numberText(fill.spacing_m, 6) + " m, a negative spacing", "give a positive lattice spacing in metres, or 0 to use ~fill_count");
   const long count = getInt(pnh, "fill_count", long(fill.target_count));
   if (count < 8) bad("fill_count", "is " + std::to_string(count) + ": too few particles", "ask for at least 8 particles (default 50000)");
   fill.target_count = std::size_t(count);
   clean.scale = getDouble(pnh, "scale", clean.scale);
-  if (!(clean.scale > 0.0)) bad("scale", "is " + num(clean.scale) + ", not a positive factor", "use 1 for metres, 0.001 for millimetres");
+  if (!(clean.scale > 0.0)) bad("scale", "is " + numberText(clean.scale, 6) + ", not a positive factor", "use 1 for metres, 0.001 for millimetres");
   clean.recenter = getBool(pnh, "recenter", clean.recenter);
   clean.opacity_threshold = getDouble(pnh, "opacity_threshold", clean.opacity_threshold);
   if (clean.opacity_threshold < 0.0 || clean.opacity_threshold >= 1.0)
-    bad("opacity_threshold", "is " + num(clean.opacity_threshold) + ", outside [0, 1)", "use the default 0.02, or 0 to keep every Gaussian");
+    bad("opacity_threshold", "is " + numberText(clean.opacity_threshold, 6) + ", outside [0, 1)", "use the default 0.02, or 0 to keep every Gaussian");
   const long k = getInt(pnh, "outlier_neighbours", clean.outlier_neighbours);
   if (k < 0 || k > 1000) bad("outlier_neighbours", "is " + std::to_string(k) + ", outside [0, 1000]", "use 16, or 0 to turn outlier removal off");
   clean.outlier_neighbours = int(k);
@@ -113,7 +107,7 @@ CloudIngestParams loadCloudIngestParams(const ::ros::NodeHandle& pnh) {
   fill.grid_resolution = int(grid);
   fill.max_open_fraction = getDouble(pnh, "max_open_fraction", fill.max_open_fraction);
   if (fill.max_open_fraction < 0.0 || fill.max_open_fraction > 1.0)
-    bad("max_open_fraction", "is " + num(fill.max_open_fraction) + ", outside [0, 1]", "use the default 0.02");
+    bad("max_open_fraction", "is " + numberText(fill.max_open_fraction, 6) + ", outside [0, 1]", "use the default 0.02");
   geometry::validateFillOptions(fill, pnh.getNamespace() + " parameters");  // the library's own checks too
   return p;
 }
@@ -122,7 +116,7 @@ geometry::IngestOptions requestOptions(const topo_gaussian::FillInterior::Reques
                                        const geometry::IngestOptions& defaults, const std::string& service) {
   geometry::IngestOptions o = defaults;
   if (!std::isfinite(req.spacing_m) || req.spacing_m < 0.0)
-    throw TopoError(service, "spacing_m " + num(req.spacing_m) + " is negative or not finite",
+    throw TopoError(service, "spacing_m " + numberText(req.spacing_m, 6) + " is negative or not finite",
                     "give a positive spacing in metres, or 0 to use target_count");
   if (req.spacing_m > 0.0) {
     o.fill.spacing_m = req.spacing_m;
@@ -131,7 +125,7 @@ geometry::IngestOptions requestOptions(const topo_gaussian::FillInterior::Reques
     o.fill.target_count = req.target_count;
   }
   if (!std::isfinite(req.scale) || req.scale < 0.0)
-    throw TopoError(service, "scale " + num(req.scale) + " is negative or not finite", "use 1 for metres, 0.001 for millimetres, 0 for the node's ~scale");
+    throw TopoError(service, "scale " + numberText(req.scale, 6) + " is negative or not finite", "use 1 for metres, 0.001 for millimetres, 0 for the node's ~scale");
   if (req.scale > 0.0) o.clean.scale = req.scale;
   if (req.recenter) o.clean.recenter = true;
   if (req.closing_cells < -1 || req.closing_cells > 64)

@@ -1,20 +1,16 @@
-// Small helpers shared by the JSON writers of the inference library (report.json, export.json):
-// numbers (non-finite → null), quoted strings, and a wall-clock stopwatch.
+// Small helpers for the JSON texts we write (report.json, export.json, `--json` output): numbers
+// (non-finite → null), quoted strings. Header-only, standard library only. Reading JSON goes through
+// io/json_reader.h (nlohmann::json), never through hand-written parsers.
 #pragma once
 
-#include <chrono>
 #include <cmath>
 #include <iomanip>
 #include <sstream>
 #include <string>
 
-namespace topo_gaussian {
-namespace inference {
-namespace json_text {
+namespace topo_gaussian::json {
 
-using Clock = std::chrono::steady_clock;
-inline double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
+/// A number with 10 significant digits; NaN and ±Inf become null.
 inline std::string num(double v) {
   if (!std::isfinite(v)) return "null";
   std::ostringstream os;
@@ -22,6 +18,7 @@ inline std::string num(double v) {
   return os.str();
 }
 
+/// A JSON string literal: quotes and backslashes escaped, newlines as \n, other control characters as spaces.
 inline std::string quote(const std::string& s) {
   std::string o = "\"";
   for (char c : s) {
@@ -33,6 +30,4 @@ inline std::string quote(const std::string& s) {
   return o + "\"";
 }
 
-}  // namespace json_text
-}  // namespace inference
-}  // namespace topo_gaussian
+}  // namespace topo_gaussian::json

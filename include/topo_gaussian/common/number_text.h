@@ -1,5 +1,5 @@
 // Numbers in messages for people (errors, log lines): a few significant digits, and lists of them.
-// Header-only, standard library only, so every module can use it (like error.h).
+// Header-only, standard library only, so every module uses it instead of a formatter of its own.
 #pragma once
 
 #include <cstdio>
@@ -12,6 +12,13 @@ namespace topo_gaussian {
 inline std::string numberText(double v, int digits = 4) {
   char buf[64];
   std::snprintf(buf, sizeof(buf), "%.*g", digits, v + 0.0);
+  return buf;
+}
+
+/// v with `decimals` digits after the point (printf "%.*f"), for labels with a fixed layout.
+inline std::string fixedText(double v, int decimals = 3) {
+  char buf[352];
+  std::snprintf(buf, sizeof(buf), "%.*f", decimals, v + 0.0);
   return buf;
 }
 

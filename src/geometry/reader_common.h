@@ -6,9 +6,9 @@
 #include <string>
 #include <vector>
 
-#include "topo_gaussian/geometry/detail/byte_cursor.h"
+#include "byte_cursor.h"
 #include "topo_gaussian/geometry/surface_data.h"
-#include "topo_gaussian/physics/error.h"
+#include "topo_gaussian/common/error.h"
 
 namespace topo_gaussian::geometry::detail {
 
