@@ -10,7 +10,7 @@ PACKAGES=(
   rviz xvfb x11-apps imagemagick
   libsensor-msgs-dev libvisualization-msgs-dev libgeometry-msgs-dev
   libpcl-dev libpcl-ros-dev libpcl-conversions-dev libcv-bridge-dev libopencv-dev
-  libeigen3-dev libnlopt-cxx-dev libyaml-cpp-dev libgtest-dev
+  libeigen3-dev libnlopt-cxx-dev libyaml-cpp-dev libgtest-dev nlohmann-json3-dev
   libbullet-dev
   libsuitesparse-dev libopenblas-dev
   libopenmpi-dev
