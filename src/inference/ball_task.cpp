@@ -10,7 +10,7 @@
 
 #include "rigid_options.h"
 #include "task_factories.h"
-#include "trajectory_csv.h"
+#include "topo_gaussian/io/trajectory_csv.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/physics/rigid_body.h"
 
@@ -56,7 +56,7 @@ class BallTask : public Task {
                       "give a CSV of t and x y z per pivot point: --target target_trajectory_file=FILE.csv");
   }
 
-  void readTrajectory(const std::string& path) { readTrajectoryCsv(path, pivots_.size(), &obs_t_, &obs_); }
+  void readTrajectory(const std::string& path) { io::readTrajectoryCsv(path, pivots_.size(), &obs_t_, &obs_); }
 
   TaskEvaluation evaluate(const std::vector<double>& r, std::vector<double>* dL_dr) const override {
     const RigidMass rm = rigidMass(r, dL_dr != nullptr);

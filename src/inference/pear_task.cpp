@@ -10,7 +10,7 @@
 
 #include "soft_task.h"
 #include "task_factories.h"
-#include "trajectory_csv.h"
+#include "topo_gaussian/io/trajectory_csv.h"
 #include "topo_gaussian/common/error.h"
 
 namespace topo_gaussian::inference {
@@ -55,7 +55,7 @@ class PearTask : public SoftTask {
       pivots_.push_back(best);
     }
     dt_user_ = c.number("dt_s");
-    if (c.has("target_trajectory_file")) readTrajectoryCsv(c.text("target_trajectory_file"), pivots_.size(), &obs_t_, &obs_);
+    if (c.has("target_trajectory_file")) io::readTrajectoryCsv(c.text("target_trajectory_file"), pivots_.size(), &obs_t_, &obs_);
     geometry_.has_point = false;
   }
 

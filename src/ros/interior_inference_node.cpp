@@ -2,106 +2,29 @@
 
 #include <geometry_msgs/TransformStamped.h>
 
-#include <chrono>
 #include <cmath>
 #include <cstdlib>
-#include <ctime>
-#include <filesystem>
-#include <fstream>
-#include <iterator>
-#include <iomanip>
 #include <limits>
 #include <sstream>
 
-#include "topo_gaussian/geometry/volume_io.h"
-#include "topo_gaussian/inference/interior_export.h"
-#include "topo_gaussian/inference/interior_problem.h"
-#include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/inference/interior_problem.h"
+#include "topo_gaussian/io/run_folder.h"
+#include "topo_gaussian/io/task_dir.h"
 #include "topo_gaussian/ros/body_pose_msg.h"
 #include "topo_gaussian/ros/conversions.h"
 #include "topo_gaussian/ros/interior_markers.h"
-#include "topo_gaussian/ros/motion_targets.h"
-
-#ifndef TOPO_DEFAULT_TASK_DIR
-#define TOPO_DEFAULT_TASK_DIR ""
-#endif
+#include "topo_gaussian/ros/motion_features_msg.h"
+#include "topo_gaussian/workflow/inference_run.h"
+#include "topo_gaussian/workflow/interior_export.h"
 
 namespace topo_gaussian::topo_ros {
 namespace {
-
-namespace fs = std::filesystem;
 
 std::string defaultOutputDir() {
   if (const char* h = std::getenv("ROS_HOME")) return std::string(h) + "/topo_gaussian";
   if (const char* h = std::getenv("HOME")) return std::string(h) + "/.ros/topo_gaussian";
   return "/tmp/topo_gaussian";
-}
-
-std::string timeTag() {
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  localtime_r(&now, &tm);
-  std::ostringstream os;
-  os << std::put_time(&tm, "%Y%m%d_%H%M%S");
-  return os.str();
-}
-
-void writeText(const std::string& path, const std::string& text) {
-  std::ofstream out(path);
-  if (!out) throw TopoError(path, "cannot be written", "check that ~output_dir is writable");
-  out << text;
-}
-
-/// The series an export draws: the observed signal of the motion features, the simulated one.
-std::vector<inference::SignalSeries> signalsOf(const topo_gaussian::MotionFeatures* observed,
-                                               const inference::TaskEvaluation& simulated) {
-  std::vector<inference::SignalSeries> out;
-  if (observed && !observed->time_s.empty() && observed->time_s.size() == observed->angle_deg.size()) {
-    inference::SignalSeries s;
-    s.label = "observed " + (observed->kind.empty() ? std::string("angle") : observed->kind) + " [deg]";
-    const auto& t = observed->time_s;
-    const auto& y = observed->angle_deg;
-    double t0 = t.front();
-    // A simulation released at rest starts at a turning point; a camera window usually starts
-    // mid-swing. Start the observed series at its first turning point on the release side, so the
-    // two can be compared by eye and by their RMS difference.
-    const auto& sim = simulated.signal;
-    if (!sim.empty() && std::abs(sim.front()) > 0) {
-      double peak = 0;
-      for (double v : y) peak = std::max(peak, std::abs(v));
-      for (std::size_t i = 1; i + 1 < y.size(); ++i) {
-        const bool turning = (y[i] - y[i - 1]) * (y[i + 1] - y[i]) <= 0;
-        if (turning && y[i] * sim.front() > 0 && std::abs(y[i]) >= 0.8 * peak) {
-          t0 = t[i];
-          s.label += ", aligned";
-          break;
-        }
-      }
-    }
-    for (std::size_t i = 0; i < t.size(); ++i) {
-      if (t[i] < t0) continue;
-      s.t.push_back(t[i] - t0);
-      s.value.push_back(y[i]);
-    }
-    out.push_back(std::move(s));
-  }
-  if (!simulated.signal.empty() && simulated.signal.size() == simulated.signal_time_s.size()) {
-    inference::SignalSeries s;
-    s.label = "simulated " + simulated.signal_name;
-    s.t = simulated.signal_time_s;
-    s.value = simulated.signal;
-    out.push_back(std::move(s));
-  }
-  return out;
-}
-
-std::string signalCsv(const inference::TaskEvaluation& ev) {
-  std::ostringstream os;
-  os << std::setprecision(10) << "time_s," << (ev.signal_name.empty() ? "value" : ev.signal_name) << "\n";
-  for (std::size_t i = 0; i < ev.signal.size() && i < ev.signal_time_s.size(); ++i)
-    os << ev.signal_time_s[i] << "," << ev.signal[i] << "\n";
-  return os.str();
 }
 
 void fillFeatures(const std::vector<inference::Feature>& fs, std::vector<std::string>* names, std::vector<double>* values,
@@ -118,7 +41,7 @@ void fillFeatures(const std::vector<inference::Feature>& fs, std::vector<std::st
 
 InteriorInferenceParams loadInteriorInferenceParams(const ::ros::NodeHandle& pnh) {
   InteriorInferenceParams p;
-  pnh.param<std::string>("task_dir", p.task_dir, TOPO_DEFAULT_TASK_DIR);
+  pnh.param<std::string>("task_dir", p.task_dir, io::defaultTaskDir());
   pnh.param<std::string>("default_task", p.default_task, p.default_task);
   pnh.param<std::string>("output_dir", p.output_dir, defaultOutputDir());
   pnh.param<std::string>("world_frame", p.world_frame, p.world_frame);
@@ -207,174 +130,106 @@ inference::TaskConfig InteriorInferenceNode::configFor(const std::string& task, 
 }
 
 InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Feedback& feedback) {
-  inference::TaskConfig config = configFor(rq.task, rq.representation, rq.overrides, "goal");
-  // The volume: the goal's, else the latest on `volume`, else a task's default shape.
-  std::shared_ptr<VolumeCloud> cloud;
-  std::shared_ptr<topo_gaussian::MotionFeatures> latest_features;
-  ::ros::Time features_time;
+  workflow::InferenceRunRequest run;
+  run.config = configFor(rq.task, rq.representation, rq.overrides, "goal");
+  if (rq.max_iterations < 0)
+    throw TopoError("goal max_iterations", "is negative", "use 0 for the task's default or a positive count");
+  if (rq.max_iterations > 0) run.config.setNumber("max_iterations", rq.max_iterations);
+  // The volume: the goal's, else the latest on `volume` (waiting a little for the first one after
+  // launch), else the task's default shape (the library's choice).
   const bool goal_volume = std::size_t(rq.volume.width) * rq.volume.height > 0;
-  if (!goal_volume && inference::defaultShapeForTask(config.task()).empty()) {
-    // A goal sent right after launch may arrive before the first volume: wait a little for it.
-    const ::ros::WallTime until = ::ros::WallTime::now() + ::ros::WallDuration(params_.volume_wait_s);
-    while (::ros::ok() && ::ros::WallTime::now() < until) {
+  const bool has_default_shape = !inference::defaultShapeForTask(run.config.task()).empty();
+  if (goal_volume) {
+    run.volume = std::make_shared<VolumeCloud>(fromPointCloud2(rq.volume, "goal volume"));
+  } else {
+    const ::ros::WallTime until = ::ros::WallTime::now() + ::ros::WallDuration(has_default_shape ? 0.0 : params_.volume_wait_s);
+    for (;;) {
       {
         std::lock_guard<std::mutex> lock(state_mutex_);
-        if (volume_) break;
+        run.volume = volume_;
       }
+      if (run.volume || !::ros::ok() || ::ros::WallTime::now() >= until) break;
       ::ros::WallDuration(0.1).sleep();
     }
-  }
-  {
-    std::lock_guard<std::mutex> lock(state_mutex_);
-    cloud = volume_;
-    latest_features = features_;
-    features_time = features_received_;
-  }
-  if (goal_volume) {
-    cloud = std::make_shared<VolumeCloud>(fromPointCloud2(rq.volume, "goal volume"));
-    cloud->validate("goal volume");
-  }
-  std::vector<std::string> notes;
-  if (!cloud) {
-    const std::string shape = inference::defaultShapeForTask(config.task());
-    if (!shape.empty()) {
-      cloud = std::make_shared<VolumeCloud>(defaultShapeCloud(shape, config.number("default_spacing_m")));
-      notes.push_back("no volume received: used the default " + shape + " shape (" + std::to_string(cloud->size()) +
-                      " particles)");
-    } else {
+    if (!run.volume && !has_default_shape)
       throw TopoError("goal", "has no volume cloud and none was received on " + volume_sub_.getTopic() + " (waited " +
                                   std::to_string(params_.volume_wait_s) + " s)",
                       "start cloud_ingest with a surface (e.g. roslaunch topo_gaussian cloud_ingest.launch "
                       "surface_file:=...) or put a cloud in the goal's volume");
-    }
   }
-  // Targets: from motion features (the goal's or the latest), then the goal's own.
-  const topo_gaussian::MotionFeatures* observed = nullptr;
+  // The observed motion: the goal's features, else the latest on `motion_features` (not too old).
   if (!rq.ignore_motion_features) {
     if (!rq.features.kind.empty()) {
-      observed = &rq.features;
-    } else if (latest_features) {
-      const double age = (::ros::Time::now() - features_time).toSec();
-      if (params_.max_features_age_s > 0 && age > params_.max_features_age_s)
-        throw TopoError("motion features on " + features_sub_.getTopic(),
-                        "are " + std::to_string(age) + " s old, more than ~max_features_age_s = " +
-                            std::to_string(params_.max_features_age_s) + " s (is the camera still publishing?)",
-                        "check the camera and motion_tracker, or give the targets in the goal");
-      observed = latest_features.get();
-    }
-    if (observed) {
-      const MotionTargets mt = targetsFromMotion(config, *observed);
-      for (const auto& [name, value] : mt.targets) {
-        config.setNumber(name, value);
-        std::ostringstream os;
-        os << name << " = " << value << " from motion features";
-        notes.push_back(os.str());
+      run.observed = std::make_shared<motion::MotionFeatures>(fromMotionFeaturesMsg(rq.features));
+    } else {
+      std::lock_guard<std::mutex> lock(state_mutex_);
+      if (features_) {
+        const double age = (::ros::Time::now() - features_received_).toSec();
+        if (params_.max_features_age_s > 0 && age > params_.max_features_age_s)
+          throw TopoError("motion features on " + features_sub_.getTopic(),
+                          "are " + std::to_string(age) + " s old, more than ~max_features_age_s = " +
+                              std::to_string(params_.max_features_age_s) + " s (is the camera still publishing?)",
+                          "check the camera and motion_tracker, or give the targets in the goal");
+        run.observed = std::make_shared<motion::MotionFeatures>(fromMotionFeaturesMsg(*features_));
       }
-      if (!mt.note.empty()) notes.push_back(mt.note);
     }
   }
-  for (const auto& t : rq.targets) {
-    config.setAssignment(t, "goal targets");
-    notes.push_back(t + " from the goal");
-  }
-  if (rq.max_iterations < 0)
-    throw TopoError("goal max_iterations", "is negative", "use 0 for the task's default or a positive count");
-  if (rq.max_iterations > 0) config.setNumber("max_iterations", rq.max_iterations);
-  try {
-    inference::makeTask(config, *cloud)->requireTargets();
-  } catch (const TopoError& e) {
-    throw TopoError("goal", std::string(e.what()) + (observed ? "" : " (and no motion features were received on " +
-                                                                         features_sub_.getTopic() + ")"),
-                    "give the targets in the goal, or run motion_tracker so that motion_features arrive");
-  }
-  // Output directory (created before the run, so a bad one fails early).
-  InferenceOutcome out;
-  out.output_dir = rq.output_dir.empty() ? params_.output_dir + "/" + config.task() + "_" + timeTag() : rq.output_dir;
-  std::error_code ec;
-  fs::create_directories(out.output_dir, ec);
-  if (!fs::is_directory(out.output_dir))
-    throw TopoError("output directory " + out.output_dir, "cannot be created" + (ec ? ": " + ec.message() : ""),
-                    "give a writable output_dir in the goal or set ~output_dir");
+  run.targets = rq.targets;
+  run.targets_origin = "goal targets";
+  run.parameters_origin = "goal overrides";
+  if (!run.observed)
+    run.missing_targets_hint = " (and no motion features were received on " + features_sub_.getTopic() +
+                               "): give the targets in the goal, or run motion_tracker so that motion_features arrive";
+  if (rq.output_dir.empty()) run.output_parent = params_.output_dir;
+  else run.output_dir = rq.output_dir;
+  run.export_files = params_.export_on_finish;
 
-  ROS_INFO("interior_inference: task %s (%s), representation %s, %zu particles, at most %d iterations; %s",
-           config.task().c_str(), config.source().c_str(), config.text("representation").c_str(), cloud->size(),
-           config.integer("max_iterations"), notes.empty() ? "" : notes.front().c_str());
   std::mutex eval_mutex;
   inference::ProblemEvaluation last;
   bool stopped = false;
-  out.result = inference::runInference(
-      config, *cloud,
-      [&](const inference::IterationInfo& it) {
-        topo_gaussian::InferInteriorFeedback fb;
-        fb.iteration = it.iteration;
-        fb.loss = it.loss;
-        fb.best_loss = it.best_loss;
-        fb.gradient_norm = it.gradient_norm;
-        fb.elapsed_s = it.elapsed_s;
-        {
-          std::lock_guard<std::mutex> lock(eval_mutex);
-          fillFeatures(last.task.features, &fb.feature_names, &fb.feature_values, nullptr, nullptr);
-        }
-        const bool go = feedback ? feedback(fb) : true;
-        if (!go) stopped = true;
-        return go && ::ros::ok();
-      },
-      [&](const inference::ProblemEvaluation& ev) {
-        std::lock_guard<std::mutex> lock(eval_mutex);
-        last = ev;
-      });
-  out.preempted = out.result.optimizer.cancelled || stopped;
-
-  // Files: everything `topo export` writes (interior.ply, report.json with the interface, STL,
-  // pictures), and signal.csv; on an export failure at least interior.ply and report.json.
-  const auto& res = out.result;
-  const std::vector<inference::SignalSeries> signals = signalsOf(observed, res.final.task);
-  std::string report = inference::reportJson(res, config);
-  const std::string dir = out.output_dir;
-  bool exported = false;
-  if (params_.export_on_finish) {
-    try {
-      inference::ExportOptions eo;
-      eo.output_dir = dir;
-      eo.report_json = report;
-      eo.signals = signals;
-      eo.continuous = config.boolean("continuous_material");
-      eo.title = config.task() + " interior";
-      const inference::ExportSummary s = inference::exportInterior(*cloud, res.r, res.density, eo);
-      for (const auto& f : s.files) out.files.push_back(dir + "/" + f);
-      exported = true;
-    } catch (const std::exception& e) {
-      notes.push_back(std::string("export failed (interior.ply and report.json written instead): ") + e.what());
+  run.progress = [&](const inference::IterationInfo& it) {
+    topo_gaussian::InferInteriorFeedback fb;
+    fb.iteration = it.iteration;
+    fb.loss = it.loss;
+    fb.best_loss = it.best_loss;
+    fb.gradient_norm = it.gradient_norm;
+    fb.elapsed_s = it.elapsed_s;
+    {
+      std::lock_guard<std::mutex> lock(eval_mutex);
+      fillFeatures(last.task.features, &fb.feature_names, &fb.feature_values, nullptr, nullptr);
     }
-  }
-  if (!exported) {
-    inference::writeInteriorPly(dir + "/interior.ply", *cloud, res.r, res.density, config.boolean("continuous_material"));
-    writeText(dir + "/report.json", report);
-    out.files.push_back(dir + "/interior.ply");
-    out.files.push_back(dir + "/report.json");
-  }
-  if (!res.final.task.signal.empty()) {
-    writeText(dir + "/signal.csv", signalCsv(res.final.task));
-    out.files.push_back(dir + "/signal.csv");
-  }
-  geometry::writeVolumePly(*cloud, dir + "/volume.ply");  // with interior.ply and report.json: the run can be reloaded
-  out.files.push_back(dir + "/volume.ply");
-  std::ostringstream msg;
-  msg << (out.preempted ? "Preempted: best design so far. " : "") << res.message;
-  for (const auto& n : notes) msg << " [" << n << "]";
-  out.message = msg.str();
+    const bool go = feedback ? feedback(fb) : true;
+    if (!go) stopped = true;
+    return go && ::ros::ok();
+  };
+  run.on_evaluation = [&](const inference::ProblemEvaluation& ev) {
+    std::lock_guard<std::mutex> lock(eval_mutex);
+    last = ev;
+  };
+  ROS_INFO("interior_inference: task %s (%s), representation %s, at most %d iterations",
+           run.config.task().c_str(), run.config.source().c_str(), run.config.text("representation").c_str(),
+           run.config.integer("max_iterations"));
+  const workflow::InferenceRunOutcome done = workflow::runInference(run);
+
+  InferenceOutcome out;
+  out.result = done.result;
+  out.preempted = done.cancelled || stopped;
+  out.output_dir = done.output_dir;
+  out.files = done.files;
+  out.message = (out.preempted ? "Preempted: best design so far. " : "") + done.message;
   {
     std::lock_guard<std::mutex> lock(state_mutex_);
     has_result_ = true;
-    result_cloud_ = cloud;
-    result_ = res;
-    result_task_ = rq.task;
-    result_dir_ = dir;
-    result_report_ = report;
-    result_signals_ = signals;
-    result_continuous_ = config.boolean("continuous_material");
+    result_cloud_ = done.volume;
+    result_ = done.result;
+    result_task_ = done.config.task();
+    result_dir_ = done.output_dir;
+    result_report_ = done.report_json;
+    result_signals_ = done.signals;
+    result_continuous_ = done.config.boolean("continuous_material");
   }
-  out.interior = show(*cloud, config, res.r, res.density, res.final, res.geometry);
+  const auto& res = done.result;
+  out.interior = show(*done.volume, done.config, res.r, res.density, res.final, res.geometry);
   return out;
 }
 
@@ -445,43 +300,34 @@ void InteriorInferenceNode::onReplay(const ::ros::WallTimerEvent&) {
 }
 
 void InteriorInferenceNode::restoreLatest() {
-  // The newest run directory under ~output_dir that holds volume.ply, interior.ply and report.json.
-  std::error_code ec;
-  fs::path best;
-  fs::file_time_type best_time{};
-  for (const auto& e : fs::directory_iterator(params_.output_dir, ec)) {
-    const fs::path d = e.path();
-    if (!fs::exists(d / "volume.ply") || !fs::exists(d / "interior.ply") || !fs::exists(d / "report.json")) continue;
-    const auto t = fs::last_write_time(d / "report.json", ec);
-    if (best.empty() || t > best_time) best = d, best_time = t;
-  }
-  if (best.empty()) return;
+  // The newest complete run under ~output_dir (volume.ply, interior.ply and a report.json naming
+  // its task); newer ones that do not load are skipped, each with the reason.
+  const io::LatestRun latest = io::findLatestRun(params_.output_dir);
+  for (const auto& why : latest.skipped) ROS_WARN("interior_inference: restore skipped %s", why.c_str());
+  if (!latest.found) return;
+  const io::RunFiles& run = latest.run;
   try {
-    auto cloud = std::make_shared<VolumeCloud>(geometry::readVolumePly((best / "volume.ply").string()));
-    const inference::InteriorPly ply = inference::readInteriorPlyData((best / "interior.ply").string(), cloud->size());
-    std::ifstream in(best / "report.json");
-    const std::string report((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    const std::string task = inference::jsonStringField(report, "task");
-    const inference::TaskConfig config = inference::TaskConfig::load(task.empty() ? params_.default_task : task, params_.task_dir);
+    auto cloud = std::make_shared<const VolumeCloud>(run.volume);
+    const inference::TaskConfig config = inference::TaskConfig::load(run.task, params_.task_dir);
     {
       std::lock_guard<std::mutex> lock(state_mutex_);
       has_result_ = true;
       result_cloud_ = cloud;
       result_ = inference::InferenceResult{};
       result_.task = config.task();
-      result_.r = ply.r;
-      result_.density = ply.density;
+      result_.r = run.interior.r;
+      result_.density = run.interior.density;
       result_task_ = config.task();
-      result_dir_ = best.string();
-      result_report_ = report;
-      result_continuous_ = ply.continuous;
+      result_dir_ = run.dir;
+      result_report_ = run.report_json;
+      result_continuous_ = run.interior.continuous;
     }
     // Its features with the task's default parameters (the goal's overrides are not in the files).
-    simulateAndShow(*cloud, config, ply.r, true);
+    simulateAndShow(*cloud, config, run.interior.r, true);
     ROS_INFO("interior_inference: restored the latest result from %s (task %s, %zu particles): published on %s",
-             best.c_str(), config.task().c_str(), cloud->size(), interior_pub_.getTopic().c_str());
+             run.dir.c_str(), config.task().c_str(), cloud->size(), interior_pub_.getTopic().c_str());
   } catch (const std::exception& e) {
-    ROS_WARN("interior_inference: could not restore the latest result from %s: %s", best.c_str(), e.what());
+    ROS_WARN("interior_inference: could not restore the latest result from %s: %s", run.dir.c_str(), e.what());
   }
 }
 
@@ -573,7 +419,7 @@ bool InteriorInferenceNode::onInfer(topo_gaussian::Infer::Request& req, topo_gau
 bool InteriorInferenceNode::onSimulate(topo_gaussian::SimulateInterior::Request& req,
                                        topo_gaussian::SimulateInterior::Response& res) {
   try {
-    std::shared_ptr<VolumeCloud> cloud;
+    std::shared_ptr<const VolumeCloud> cloud;
     std::vector<double> r;
     std::string task;
     {
@@ -634,8 +480,8 @@ bool InteriorInferenceNode::onSimulate(topo_gaussian::SimulateInterior::Request&
 bool InteriorInferenceNode::onExport(topo_gaussian::ExportInterior::Request& req,
                                      topo_gaussian::ExportInterior::Response& res) {
   try {
-    std::shared_ptr<VolumeCloud> cloud;
-    inference::ExportOptions eo;
+    std::shared_ptr<const VolumeCloud> cloud;
+    workflow::ExportOptions eo;
     std::vector<double> r, density;
     {
       std::lock_guard<std::mutex> lock(state_mutex_);
@@ -659,7 +505,7 @@ bool InteriorInferenceNode::onExport(topo_gaussian::ExportInterior::Request& req
     }
     if (req.iso < 0 || req.iso >= 1) throw TopoError("~export iso", "must be in (0, 1)", "use 0.5 (or 0 for the default)");
     if (req.iso > 0) eo.iso = req.iso;
-    const inference::ExportSummary s = inference::exportInterior(*cloud, r, density, eo);
+    const workflow::ExportSummary s = workflow::exportInterior(*cloud, r, density, eo);
     res.success = true;
     res.output_dir = s.output_dir;
     for (const auto& f : s.files) res.files.push_back(s.output_dir + "/" + f);

@@ -1,5 +1,5 @@
 // `topo export`: the printable and viewable output of an inferred interior (a thin front end of
-// inference::exportInterior, which the inference node's ~export service calls as well).
+// workflow::exportInterior, which the inference node's ~export service calls as well).
 #include <cmath>
 #include <fstream>
 #include <iostream>
@@ -7,9 +7,9 @@
 
 #include "args.h"
 #include "commands.h"
-#include "topo_gaussian/geometry/volume_io.h"
-#include "topo_gaussian/inference/interior_export.h"
-#include "topo_gaussian/inference/pipeline.h"
+#include "topo_gaussian/io/volume_ply.h"
+#include "topo_gaussian/workflow/interior_export.h"
+#include "topo_gaussian/io/interior_ply.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/vision/figure.h"
@@ -76,7 +76,7 @@ int exportCommand(const std::vector<std::string>& argv) {
   }
   for (const char* required : {"volume", "interior", "output"})
     if (!a.has(required)) throw UsageError(std::string("--") + required + " is required");
-  inference::ExportOptions o;
+  workflow::ExportOptions o;
   o.output_dir = a.str("output");
   const std::string unit = a.str("stl-unit", "mm");
   if (unit != "mm" && unit != "m") throw UsageError("--stl-unit must be mm or m, got '" + unit + "'");
@@ -86,8 +86,8 @@ int exportCommand(const std::vector<std::string>& argv) {
   if (!(o.iso > 0.0 && o.iso <= 1.0)) throw UsageError("--iso must be in (0, 1], got '" + a.str("iso") + "'");
 
   const std::string volume_path = a.str("volume"), interior_path = a.str("interior");
-  const VolumeCloud cloud = geometry::readVolumePly(volume_path);
-  const inference::InteriorPly interior = inference::readInteriorPlyData(interior_path, cloud.size());
+  const VolumeCloud cloud = io::readVolumePly(volume_path);
+  const io::InteriorPly interior = io::readInteriorPlyData(interior_path, cloud.size());
   // Same count is not enough: the interior must have been computed on these particles.
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     const double off = (interior.X[i] - cloud.X[i]).norm();
@@ -106,14 +106,14 @@ int exportCommand(const std::vector<std::string>& argv) {
   }
   const auto signal_files = a.all("signal");
   for (const auto& f : signal_files) {
-    for (auto& s : inference::readSignalCsv(f)) {
+    for (auto& s : io::readSignalCsv(f)) {
       if (signal_files.size() > 1) s.label = stem(f) + ": " + s.label;
       o.signals.push_back(std::move(s));
     }
   }
 
-  const inference::ExportSummary s = inference::exportInterior(cloud, interior.r, interior.density, o);
-  const inference::InterfaceQuality& q = s.interface;
+  const workflow::ExportSummary s = workflow::exportInterior(cloud, interior.r, interior.density, o);
+  const workflow::InterfaceQuality& q = s.interface;
   std::fprintf(stderr,
                "[topo export] %zu particles, %zu solid; mesh %zu triangles, %zu vertices: %s\n"
                "[topo export] STL volume %.6g m^3 vs solid particles %.6g m^3 (%+.2f %%); smoothness (mean |Laplacian "
@@ -127,7 +127,7 @@ int exportCommand(const std::vector<std::string>& argv) {
   std::cerr << "[topo export] wrote";
   for (const auto& f : s.files) std::cerr << " " << o.output_dir << "/" << f;
   std::cerr << "\n";
-  if (a.has("json")) std::cout << inference::exportJson(s);
+  if (a.has("json")) std::cout << workflow::exportJson(s);
   if (!q.check.watertight())
     throw TopoError(o.output_dir + "/interior.stl", "failed the manifold check (" + q.check.summary() + ")",
                     "this should not happen: please report it with the volume and interior files");

@@ -4,7 +4,7 @@
 #include "args.h"
 #include "commands.h"
 #include "topo_gaussian/geometry/ingest.h"
-#include "topo_gaussian/geometry/volume_io.h"
+#include "topo_gaussian/io/volume_ply.h"
 #include "volume_picture.h"
 
 namespace topo_gaussian::tools {
@@ -93,7 +93,7 @@ int fillCommand(const std::vector<std::string>& argv) {
   std::cerr << "[topo fill] " << toString(r.kind) << " (" << r.clean.points_in << " points) -> " << r.cloud.size()
             << " particles, volume " << r.cloud.totalVolume() << " m^3, spacing " << r.cloud.spacing << " m ("
             << r.fill.method << ", " << r.seconds << " s)" << std::endl;
-  geometry::writeVolumePly(r.cloud, output);
+  io::writeVolumePly(r.cloud, output);
   std::cerr << "[topo fill] wrote " << output << std::endl;
   if (a.has("png")) {
     writeVolumePicture(r.cloud, input, a.str("png"));

@@ -7,7 +7,7 @@
 #include "commands.h"
 #include "topo_gaussian/geometry/mesh_metrics.h"
 #include "topo_gaussian/geometry/shape_generator.h"
-#include "topo_gaussian/geometry/volume_io.h"
+#include "topo_gaussian/io/volume_ply.h"
 #include "topo_gaussian/physics/default_shapes.h"
 
 namespace topo_gaussian::tools {
@@ -68,7 +68,7 @@ int shapeCommand(const std::vector<std::string>& argv) {
   }
   if (a.has("volume")) {
     const VolumeCloud cloud = defaultShapeCloud(shape, spacing);
-    geometry::writeVolumePly(cloud, a.str("volume"));
+    io::writeVolumePly(cloud, a.str("volume"));
     std::cerr << "[topo shape] wrote " << a.str("volume") << " (" << name << ", " << cloud.size() << " particles, "
               << cloud.surfaceCount() << " on the surface, spacing " << spacing << " m, volume "
               << cloud.totalVolume() << " m^3)" << std::endl;

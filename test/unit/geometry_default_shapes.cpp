@@ -14,7 +14,7 @@
 #include "topo_gaussian/geometry/mesh_metrics.h"
 #include "topo_gaussian/geometry/shape_generator.h"
 #include "topo_gaussian/geometry/surface_reader.h"
-#include "topo_gaussian/geometry/volume_io.h"
+#include "topo_gaussian/io/volume_ply.h"
 #include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/common/error.h"
 
@@ -132,7 +132,7 @@ TEST(DefaultShapeCli, ShapeWritesMeshAndVolume) {
                             dir + "/tumbler.ply");
   ASSERT_EQ(v.code, 0) << v.out;
   EXPECT_TRUE(contains(v.out, "particles")) << v.out;
-  const VolumeCloud cloud = readVolumePly(dir + "/tumbler.ply");
+  const VolumeCloud cloud = io::readVolumePly(dir + "/tumbler.ply");
   const VolumeCloud expected = defaultShapeCloud("tumbler", 0.0025);
   EXPECT_EQ(cloud.size(), expected.size());
   EXPECT_NEAR(cloud.totalVolume() / expected.totalVolume(), 1.0, 1e-5);  // volumes stored as float

@@ -15,7 +15,7 @@
 #include "topo_gaussian/geometry/mesh_metrics.h"
 #include "topo_gaussian/geometry/shape_generator.h"
 #include "topo_gaussian/geometry/surface_reader.h"
-#include "topo_gaussian/geometry/volume_io.h"
+#include "topo_gaussian/io/volume_ply.h"
 #include "topo_gaussian/common/error.h"
 
 using namespace topo_gaussian;
@@ -319,8 +319,8 @@ TEST(VolumeIo, RoundTripKeepsEverything) {
   o.spacing_m = 0.01;
   const VolumeCloud c = fillInterior(makeSphere(0.05), o);
   const std::string path = testing::TempDir() + "/volume_roundtrip.ply";
-  writeVolumePly(c, path);
-  const VolumeCloud r = readVolumePly(path);
+  io::writeVolumePly(c, path);
+  const VolumeCloud r = io::readVolumePly(path);
   ASSERT_EQ(r.size(), c.size());
   EXPECT_DOUBLE_EQ(r.spacing, c.spacing);
   EXPECT_NEAR(r.totalVolume(), c.totalVolume(), 1e-6 * c.totalVolume());

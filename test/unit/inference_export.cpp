@@ -1,4 +1,4 @@
-// Export of an interior (`topo export`, inference::exportInterior): a recovered interior from a real
+// Export of an interior (`topo export`, workflow::exportInterior): a recovered interior from a real
 // `topo infer` run exports as a watertight STL whose volume is the solid particles' volume within
 // 3 %, the pictures show solid and hollow in their colours, the report gains an "interface" section,
 // and bad input exits non-zero naming the input and the fix.
@@ -21,14 +21,19 @@
 #include "topo_gaussian/geometry/mesh_metrics.h"
 #include "topo_gaussian/geometry/solid_mesh.h"
 #include "topo_gaussian/geometry/surface_reader.h"
-#include "topo_gaussian/geometry/volume_io.h"
-#include "topo_gaussian/inference/interior_export.h"
+#include "topo_gaussian/io/volume_ply.h"
+#include "topo_gaussian/workflow/interior_export.h"
 #include "topo_gaussian/inference/pipeline.h"
-#include "topo_gaussian/inference/run_files.h"
+#include "topo_gaussian/inference/report.h"
+#include "topo_gaussian/io/interior_ply.h"
+#include "topo_gaussian/io/run_files.h"
+#include "topo_gaussian/io/run_files.h"
 #include "topo_gaussian/vision/slice_picture.h"
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::inference;
+using namespace topo_gaussian::io;
+using namespace topo_gaussian::workflow;
 using topo_test::errorOf;
 using topo_test::runTopo;
 using topo_test::ToolRun;
@@ -114,7 +119,7 @@ TEST_F(ExportCli, RecoveredInteriorExportsWatertightWithTheSolidVolume) {
   for (const char* f : {"interior.ply", "interior.stl", "slices.png", "loss.png", "signal.png", "report.json", "export.json"})
     EXPECT_TRUE(exists(out + "/" + f)) << f << " missing";
 
-  const VolumeCloud cloud = geometry::readVolumePly(dir_ + "/sphere.ply");
+  const VolumeCloud cloud = io::readVolumePly(dir_ + "/sphere.ply");
   const std::vector<double> rr = readInteriorPly(out + "/interior.ply", cloud.size());
   EXPECT_EQ(rr, readInteriorPly(dir_ + "/run/interior.ply", cloud.size())) << "interior.ply is written unchanged";
   std::size_t hollow = 0;
@@ -155,7 +160,7 @@ TEST_F(ExportCli, RecoveredInteriorExportsWatertightWithTheSolidVolume) {
 
 TEST_F(ExportCli, MetresOnRequestAndAFullySolidInteriorHasNoInterface) {
   // The solid start of a run: every particle solid (r = 1) on the box; STL in metres.
-  const VolumeCloud cloud = geometry::readVolumePly(dir_ + "/box.ply");
+  const VolumeCloud cloud = io::readVolumePly(dir_ + "/box.ply");
   const std::vector<double> r(cloud.size(), 1.0), density(cloud.size(), 1000.0);
   writeInteriorPly(dir_ + "/solid_interior.ply", cloud, r, density, false);
   const ToolRun x = runTopo("export --volume " + dir_ + "/box.ply --interior " + dir_ + "/solid_interior.ply --output " +
@@ -185,9 +190,9 @@ TEST_F(ExportCli, BadInputExitsNonZeroNamingTheInputAndTheFix) {
   EXPECT_EQ(r.code, 1);
   EXPECT_TRUE(contains(r.out, "particles, the volume has")) << r.out;
   EXPECT_TRUE(contains(r.out, "Fix:")) << r.out;
-  VolumeCloud moved = geometry::readVolumePly(v);
+  VolumeCloud moved = io::readVolumePly(v);
   for (auto& x : moved.X) x += Eigen::Vector3d(0.5, 0, 0);
-  geometry::writeVolumePly(moved, dir_ + "/moved.ply");
+  io::writeVolumePly(moved, dir_ + "/moved.ply");
   r = runTopo("export --volume " + dir_ + "/moved.ply --interior " + in + o);
   EXPECT_EQ(r.code, 1);
   EXPECT_TRUE(contains(r.out, "computed on another volume")) << r.out;

@@ -1,5 +1,6 @@
-// Pipeline: one inference run (task + volume → optimised interior) and its report, plus the
-// forward "simulate a given interior" used by `topo simulate`, the action server and the tests.
+// Pipeline: one inference (task + volume → optimised interior, paper §5–7), plus the forward
+// "simulate a given interior" used by `topo simulate`, the node's ~simulate and the tests. No files:
+// the run folder around an inference is workflow/inference_run.h, the report inference/report.h.
 #pragma once
 
 #include <atomic>
@@ -49,26 +50,5 @@ std::vector<double> particleStiffness(const TaskConfig& config, const std::vecto
 
 /// Features of a given interior (r per particle; empty = fully solid).
 ProblemEvaluation simulateInterior(const TaskConfig& config, const VolumeCloud& cloud, const std::vector<double>& r);
-
-/// interior.ply: x y z solid density (binary little-endian PLY, float32 + uint8 solid).
-void writeInteriorPly(const std::string& path, const VolumeCloud& cloud, const std::vector<double>& r,
-                      const std::vector<double>& density, bool continuous);
-/// Reads the `solid` (or an `r`) property of an interior .ply back as r per particle, matched by
-/// index; throws TopoError naming the file when the count differs from the volume cloud.
-std::vector<double> readInteriorPly(const std::string& path, std::size_t expected_count);
-
-/// Everything an interior .ply holds (positions as stored, float32; r; density; the continuous flag
-/// from its comment). Same checks and messages as readInteriorPly.
-struct InteriorPly {
-  std::vector<Eigen::Vector3d> X;
-  std::vector<double> r, density;
-  bool continuous = false;
-};
-InteriorPly readInteriorPlyData(const std::string& path, std::size_t expected_count);
-
-/// report.json of a run (task, targets, achieved features, loss history, timings, geometry).
-std::string reportJson(const InferenceResult& result, const TaskConfig& config);
-/// JSON of a simulated design (features, mass properties, geometry).
-std::string simulationJson(const ProblemEvaluation& ev, const TaskConfig& config, const TaskGeometry& geometry);
 
 }  // namespace topo_gaussian::inference

@@ -11,7 +11,7 @@ namespace topo_gaussian::io {
 /// writable or the disk is full (the previous file, if any, is left as it was).
 void writeTextFile(const std::string& path, const std::string& text);
 
-/// The whole file. Throws TopoError naming the path when it cannot be read or is larger than
+/// The whole file (text or binary). Throws TopoError naming the path when it cannot be read or is larger than
 /// `max_bytes`.
 std::string readTextFile(const std::string& path, std::size_t max_bytes = 64u << 20);
 

@@ -9,10 +9,11 @@
 //        tf ~world_frame → ~object_frame: the simulated motion of the latest result, replayed in a loop
 //        services ~infer (Infer.srv, the blocking form of the action), ~simulate (SimulateInterior.srv),
 //        ~export (ExportInterior.srv)
-// Every run writes its files (and volume.ply) to ~output_dir/<task>_<time>/; a restarted node
-// reloads the newest run and publishes it again (~restore_latest).
-// The node owns handles, parameters and the latest result; runInference / simulateInterior /
-// exportInterior do the work. Callbacks may run concurrently (AsyncSpinner): one inference runs at a
+// Every run writes its run folder (io/run_folder.h) to ~output_dir/<task>_<time>[_N]/; a restarted
+// node reloads the newest complete run and publishes it again (~restore_latest); a `topo infer`
+// folder under ~output_dir loads the same way.
+// The node owns handles, parameters and the latest result; workflow::runInference (the run and its
+// folder, the same call as `topo infer`), simulateInterior and exportInterior do the work. Callbacks may run concurrently (AsyncSpinner): one inference runs at a
 // time, state is guarded by a mutex.
 #pragma once
 
@@ -33,7 +34,7 @@
 #include "topo_gaussian/MotionFeatures.h"
 #include "topo_gaussian/SimulateInterior.h"
 #include "topo_gaussian/inference/pipeline.h"
-#include "topo_gaussian/inference/run_files.h"
+#include "topo_gaussian/io/run_files.h"
 #include "topo_gaussian/inference/task_config.h"
 
 namespace topo_gaussian::topo_ros {
@@ -129,10 +130,10 @@ class InteriorInferenceNode {
   ::ros::Time features_received_;
   // the latest result (for ~export and ~simulate)
   bool has_result_ = false;
-  std::shared_ptr<VolumeCloud> result_cloud_;
+  std::shared_ptr<const VolumeCloud> result_cloud_;
   inference::InferenceResult result_;
   std::string result_task_, result_dir_, result_report_;
-  std::vector<inference::SignalSeries> result_signals_;
+  std::vector<io::SignalSeries> result_signals_;
   bool result_continuous_ = false;
   // the replayed motion
   std::vector<inference::BodyPose> replay_;

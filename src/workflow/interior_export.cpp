@@ -1,10 +1,9 @@
-#include "topo_gaussian/inference/interior_export.h"
+#include "topo_gaussian/workflow/interior_export.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <iomanip>
 #include <limits>
 #include <sstream>
@@ -13,6 +12,8 @@
 #include "topo_gaussian/geometry/solid_mesh.h"
 #include "topo_gaussian/geometry/stl_writer.h"
 #include "topo_gaussian/inference/pipeline.h"
+#include "topo_gaussian/io/interior_ply.h"
+#include "topo_gaussian/io/text_file.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/common/json.h"
@@ -21,7 +22,7 @@
 #include "topo_gaussian/vision/line_plot.h"
 #include "topo_gaussian/vision/slice_picture.h"
 
-namespace topo_gaussian::inference {
+namespace topo_gaussian::workflow {
 
 namespace {
 
@@ -30,13 +31,6 @@ using json::num;
 using json::quote;
 
 const char* boolean(bool b) { return b ? "true" : "false"; }
-
-void writeText(const std::string& path, const std::string& text) {
-  std::ofstream out(path);
-  if (!out) throw TopoError(path, "cannot be written", "check that the directory exists and is writable");
-  out << text;
-  if (!out) throw TopoError(path, "could not be written completely", "check the free disk space");
-}
 
 const char* const kSmoothnessDefinition =
     "mean over mesh vertices of |U_i|, U_i = mean of the neighbours' unit normals - n_i (uniform Laplacian of the "
@@ -116,8 +110,8 @@ ExportSummary exportInterior(const VolumeCloud& cloud, const std::vector<double>
   if (!(o.stl_scale > 0.0) || !std::isfinite(o.stl_scale))
     throw TopoError("STL scale " + num(o.stl_scale), "is not positive", "use 1000 (millimetres) or 1 (metres)");
   // Everything that can fail on the input first, so that nothing is half-written.
-  std::vector<LossPoint> history;
-  if (!o.report_json.empty()) history = lossHistoryFromReport(o.report_json, o.report_source);
+  std::vector<io::LossPoint> history;
+  if (!o.report_json.empty()) history = io::lossHistoryFromReport(o.report_json, o.report_source);
   geometry::SurfaceData mesh;
   ExportSummary s;
   s.interface = measureInterface(cloud, r, o.iso, &mesh);
@@ -140,7 +134,7 @@ ExportSummary exportInterior(const VolumeCloud& cloud, const std::vector<double>
                       (s.interface.check.voids == 1 ? " void" : " voids") +
                       " (the hollow parts): resin and powder printers need a drain hole to empty it");
 
-  writeInteriorPly(dir + "interior.ply", cloud, r, density, o.continuous);
+  io::writeInteriorPly(dir + "interior.ply", cloud, r, density, o.continuous);
   s.files.push_back("interior.ply");
   writeStlBinary(mesh, dir + "interior.stl", o.stl_scale,
                  "topo_gaussian solid region (r >= " + num(o.iso) + "), unit " + o.stl_unit);
@@ -159,7 +153,7 @@ ExportSummary exportInterior(const VolumeCloud& cloud, const std::vector<double>
     } else {
       vision::LinePlot p;
       p.title = "loss history";
-      const std::string task = jsonStringField(o.report_json, "task");
+      const std::string task = io::jsonStringField(o.report_json, "task");
       if (!task.empty()) p.title += " (task " + task + ")";
       p.x_label = "iteration";
       p.y_label = "loss";
@@ -204,7 +198,7 @@ ExportSummary exportInterior(const VolumeCloud& cloud, const std::vector<double>
     }
     if (o.signals.size() >= 2) {
       std::size_t n = 0;
-      s.signal_rms_difference = rmsDifference(o.signals[0], o.signals[1], &n);
+      s.signal_rms_difference = io::rmsDifference(o.signals[0], o.signals[1], &n);
       if (std::isfinite(s.signal_rms_difference))
         p.notes.push_back("RMS of " + o.signals[1].label + " - " + o.signals[0].label + ": " +
                           numberText(s.signal_rms_difference) + " over " + std::to_string(n) + " samples of " +
@@ -216,12 +210,12 @@ ExportSummary exportInterior(const VolumeCloud& cloud, const std::vector<double>
   s.pictures_s = secondsSince(tp);
 
   if (!o.report_json.empty()) {
-    writeText(dir + "report.json", withInterfaceSection(o.report_json, s.interface, o.report_source));
+    io::writeTextFile(dir + "report.json", withInterfaceSection(o.report_json, s.interface, o.report_source));
     s.files.push_back("report.json");
   }
   s.files.push_back("export.json");
   s.total_s = secondsSince(t0);
-  writeText(dir + "export.json", exportJson(s));
+  io::writeTextFile(dir + "export.json", exportJson(s));
   return s;
 }
 
@@ -253,4 +247,4 @@ std::string exportJson(const ExportSummary& s) {
   return j.str();
 }
 
-}  // namespace topo_gaussian::inference
+}  // namespace topo_gaussian::workflow

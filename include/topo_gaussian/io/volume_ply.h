@@ -1,17 +1,18 @@
-// The volume .ply: one vertex per particle with x y z volume surface (binary little endian).
+// The volume .ply (our own format, what `topo fill` and cloud_ingest write and every inference reads):
+// one vertex per particle with x y z volume surface (binary little endian), the spacing in a comment.
 #pragma once
 
 #include <string>
 
 #include "topo_gaussian/physics/volume_cloud.h"
 
-namespace topo_gaussian::geometry {
+namespace topo_gaussian::io {
 
 /// Writes x y z (float) volume (float, m^3) surface (uchar) and a comment with the spacing.
-/// Throws TopoError when the file cannot be written.
+/// Written atomically (io/text_file.h). Throws TopoError when the file cannot be written.
 void writeVolumePly(const VolumeCloud& cloud, const std::string& path);
 
 /// Reads a file written by writeVolumePly (or any PLY with x y z volume [surface]).
 VolumeCloud readVolumePly(const std::string& path);
 
-}  // namespace topo_gaussian::geometry
+}  // namespace topo_gaussian::io

@@ -1,4 +1,4 @@
-#include "trajectory_csv.h"
+#include "topo_gaussian/io/trajectory_csv.h"
 
 #include <cctype>
 #include <fstream>
@@ -6,7 +6,7 @@
 
 #include "topo_gaussian/common/error.h"
 
-namespace topo_gaussian::inference {
+namespace topo_gaussian::io {
 
 void readTrajectoryCsv(const std::string& path, std::size_t points, std::vector<double>* t,
                        std::vector<std::vector<Eigen::Vector3d>>* samples) {
@@ -37,4 +37,4 @@ void readTrajectoryCsv(const std::string& path, std::size_t points, std::vector<
   if (t->empty()) throw TopoError(path, "holds no samples", "write one row per observed frame");
 }
 
-}  // namespace topo_gaussian::inference
+}  // namespace topo_gaussian::io

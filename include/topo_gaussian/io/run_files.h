@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-namespace topo_gaussian::inference {
+namespace topo_gaussian::io {
 
 struct LossPoint {
   int iteration = 0;
@@ -37,4 +37,4 @@ std::vector<SignalSeries> readSignalCsv(const std::string& path);
 /// interpolated (b sorted by time first); NaN when fewer than 2 samples overlap. `overlap` gets the count.
 double rmsDifference(const SignalSeries& a, const SignalSeries& b, std::size_t* overlap = nullptr);
 
-}  // namespace topo_gaussian::inference
+}  // namespace topo_gaussian::io

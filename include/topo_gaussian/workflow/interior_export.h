@@ -1,4 +1,4 @@
-// Export of an interior (what `topo export` and the inference node's ~export service
+// Export of an interior (workflow: what `topo export` and the inference node's ~export service
 // call): into one directory
 //   interior.ply   the interior (x y z r solid density), as topo infer writes it
 //   interior.stl   binary STL of the solid region (r ≥ iso), watertight by construction (marching
@@ -18,10 +18,10 @@
 #include "topo_gaussian/geometry/mesh_check.h"
 #include "topo_gaussian/geometry/mesh_smoothness.h"
 #include "topo_gaussian/geometry/surface_data.h"
-#include "topo_gaussian/inference/run_files.h"
+#include "topo_gaussian/io/run_files.h"
 #include "topo_gaussian/physics/volume_cloud.h"
 
-namespace topo_gaussian::inference {
+namespace topo_gaussian::workflow {
 
 /// The solid region's mesh and its quality.
 struct InterfaceQuality {
@@ -56,7 +56,7 @@ struct ExportOptions {
   std::string output_dir;                ///< created when missing
   std::string report_json;               ///< text of the run's report.json ("" = none)
   std::string report_source = "report.json";  ///< its name, for messages
-  std::vector<SignalSeries> signals;     ///< series for signal.png (first: observed, second: simulated)
+  std::vector<io::SignalSeries> signals;     ///< series for signal.png (first: observed, second: simulated)
   double iso = 0.5;                      ///< solid is r ≥ iso
   double stl_scale = 1000.0;             ///< STL coordinates = metres × scale (1000: millimetres)
   std::string stl_unit = "mm";           ///< written in the STL header and export.json
@@ -87,4 +87,4 @@ ExportSummary exportInterior(const VolumeCloud& cloud, const std::vector<double>
 /// export.json.
 std::string exportJson(const ExportSummary& s);
 
-}  // namespace topo_gaussian::inference
+}  // namespace topo_gaussian::workflow

@@ -1,4 +1,4 @@
-#include "topo_gaussian/inference/run_files.h"
+#include "topo_gaussian/io/run_files.h"
 
 #include <algorithm>
 #include <cctype>
@@ -8,40 +8,15 @@
 #include <limits>
 #include <numeric>
 
+#include <nlohmann/json.hpp>
+
 #include "topo_gaussian/common/error.h"
 
-namespace topo_gaussian::inference {
+namespace topo_gaussian::io {
 
 namespace {
 
 const char* const kReportFix = "give the report.json that topo infer wrote next to interior.ply";
-
-std::size_t skipSpace(const std::string& s, std::size_t i) {
-  while (i < s.size() && std::isspace(static_cast<unsigned char>(s[i]))) ++i;
-  return i;
-}
-
-/// Position just after `"key"` and its ':' inside [from, to), or npos.
-std::size_t valueOf(const std::string& s, const std::string& key, std::size_t from, std::size_t to) {
-  const std::string quoted = "\"" + key + "\"";
-  for (std::size_t at = s.find(quoted, from); at != std::string::npos && at < to; at = s.find(quoted, at + 1)) {
-    const std::size_t colon = skipSpace(s, at + quoted.size());
-    if (colon < to && s[colon] == ':') return skipSpace(s, colon + 1);
-  }
-  return std::string::npos;
-}
-
-/// A JSON number (or null → NaN) at position i; false when there is none.
-bool numberAt(const std::string& s, std::size_t i, double* v) {
-  if (s.compare(i, 4, "null") == 0) {
-    *v = std::numeric_limits<double>::quiet_NaN();
-    return true;
-  }
-  const char* begin = s.c_str() + i;
-  char* end = nullptr;
-  *v = std::strtod(begin, &end);
-  return end != begin;
-}
 
 std::string trim(const std::string& s) {
   std::size_t a = 0, b = s.size();
@@ -73,39 +48,33 @@ std::vector<std::string> splitCsv(const std::string& line) {
 
 }  // namespace
 
-std::vector<LossPoint> lossHistoryFromReport(const std::string& json, const std::string& source) {
-  const std::size_t v = valueOf(json, "loss_history", 0, json.size());
-  if (v == std::string::npos || v >= json.size() || json[v] != '[')
+std::vector<LossPoint> lossHistoryFromReport(const std::string& text, const std::string& source) {
+  const nlohmann::json report = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (report.is_discarded())
+    throw TopoError(source, "is not valid JSON (truncated or not a report)", kReportFix);
+  const auto history = report.find("loss_history");
+  if (!report.is_object() || history == report.end() || !history->is_array())
     throw TopoError(source, "has no \"loss_history\" array, so it is not a report of topo infer", kReportFix);
-  const std::size_t end = json.find(']', v);
-  if (end == std::string::npos) throw TopoError(source, "ends inside \"loss_history\" (truncated)", kReportFix);
   std::vector<LossPoint> out;
-  for (std::size_t open = json.find('{', v); open != std::string::npos && open < end; open = json.find('{', open + 1)) {
-    const std::size_t close = json.find('}', open);
-    if (close == std::string::npos || close > end)
-      throw TopoError(source, "has a malformed \"loss_history\" entry", kReportFix);
-    LossPoint p;
-    double it = 0.0;
-    const std::size_t li = valueOf(json, "loss", open, close), ii = valueOf(json, "iteration", open, close);
-    if (li == std::string::npos || !numberAt(json, li, &p.loss))
+  for (const auto& entry : *history) {
+    const auto loss = entry.is_object() ? entry.find("loss") : entry.end();
+    if (!entry.is_object() || loss == entry.end() || !(loss->is_number() || loss->is_null()))
       throw TopoError(source, "has a \"loss_history\" entry without a numeric \"loss\" (entry " + std::to_string(out.size()) + ")",
                       kReportFix);
-    p.iteration = ii != std::string::npos && numberAt(json, ii, &it) && std::isfinite(it) ? int(it) : int(out.size());
+    LossPoint p;
+    p.loss = loss->is_null() ? std::numeric_limits<double>::quiet_NaN() : loss->get<double>();
+    const auto it = entry.find("iteration");
+    p.iteration = it != entry.end() && it->is_number() ? it->get<int>() : int(out.size());
     out.push_back(p);
-    open = close;
   }
   return out;
 }
 
-std::string jsonStringField(const std::string& json, const std::string& key) {
-  const std::size_t v = valueOf(json, key, 0, json.size());
-  if (v == std::string::npos || v >= json.size() || json[v] != '"') return "";
-  std::string out;
-  for (std::size_t i = v + 1; i < json.size() && json[i] != '"'; ++i) {
-    if (json[i] == '\\' && i + 1 < json.size()) ++i;
-    out += json[i];
-  }
-  return out;
+std::string jsonStringField(const std::string& text, const std::string& key) {
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded() || !j.is_object()) return "";
+  const auto v = j.find(key);
+  return v != j.end() && v->is_string() ? v->get<std::string>() : "";
 }
 
 std::vector<SignalSeries> readSignalCsv(const std::string& path) {
@@ -179,4 +148,4 @@ double rmsDifference(const SignalSeries& a, const SignalSeries& b, std::size_t* 
   return n >= 2 ? std::sqrt(sum / double(n)) : std::numeric_limits<double>::quiet_NaN();
 }
 
-}  // namespace topo_gaussian::inference
+}  // namespace topo_gaussian::io

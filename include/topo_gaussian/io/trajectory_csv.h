@@ -6,10 +6,10 @@
 #include <string>
 #include <vector>
 
-namespace topo_gaussian::inference {
+namespace topo_gaussian::io {
 
 /// Throws TopoError naming the file and row for unreadable files, wrong column counts or no rows.
 void readTrajectoryCsv(const std::string& path, std::size_t points, std::vector<double>* t,
                        std::vector<std::vector<Eigen::Vector3d>>* samples);
 
-}  // namespace topo_gaussian::inference
+}  // namespace topo_gaussian::io

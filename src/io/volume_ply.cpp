@@ -1,13 +1,12 @@
-#include "topo_gaussian/geometry/volume_io.h"
+#include "topo_gaussian/io/volume_ply.h"
 
 #include <cstring>
-#include <fstream>
 #include <sstream>
 
-#include "topo_gaussian/geometry/surface_reader.h"
+#include "topo_gaussian/io/text_file.h"
 #include "topo_gaussian/common/error.h"
 
-namespace topo_gaussian::geometry {
+namespace topo_gaussian::io {
 
 namespace {
 constexpr std::size_t kRecord = 4 * 4 + 1;  // x y z volume (float32) surface (uint8)
@@ -15,28 +14,26 @@ constexpr std::size_t kRecord = 4 * 4 + 1;  // x y z volume (float32) surface (u
 
 void writeVolumePly(const VolumeCloud& c, const std::string& path) {
   c.validate(path);
-  std::ofstream f(path, std::ios::binary);
-  if (!f) throw TopoError(path, "cannot be opened for writing", "check the directory exists and is writable");
   std::ostringstream spacing;
   spacing.precision(17);
   spacing << c.spacing;
-  f << "ply\nformat binary_little_endian 1.0\ncomment topo_gaussian volume cloud\n"
-    << "comment spacing " << spacing.str() << "\n"
-    << "element vertex " << c.size() << "\n"
-    << "property float x\nproperty float y\nproperty float z\nproperty float volume\nproperty uchar surface\n"
-    << "end_header\n";
+  std::ostringstream header;
+  header << "ply\nformat binary_little_endian 1.0\ncomment topo_gaussian volume cloud\n"
+         << "comment spacing " << spacing.str() << "\n"
+         << "element vertex " << c.size() << "\n"
+         << "property float x\nproperty float y\nproperty float z\nproperty float volume\nproperty uchar surface\n"
+         << "end_header\n";
   std::string buf(c.size() * kRecord, '\0');
   for (std::size_t i = 0; i < c.size(); ++i) {
     const float v[4] = {float(c.X[i].x()), float(c.X[i].y()), float(c.X[i].z()), float(c.V[i])};
     std::memcpy(&buf[i * kRecord], v, 16);  // little-endian hosts only (x86, arm64)
     buf[i * kRecord + 16] = char(c.surface[i]);
   }
-  f.write(buf.data(), std::streamsize(buf.size()));
-  if (!f) throw TopoError(path, "could not be written completely", "check free disk space");
+  writeTextFile(path, header.str() + buf);
 }
 
 VolumeCloud readVolumePly(const std::string& path) {
-  const std::string bytes = readFileBytes(path);
+  const std::string bytes = readTextFile(path, std::size_t(1) << 32);  // 250M particles at most
   const std::size_t end = bytes.find("end_header\n");
   const std::string expected =
       "property float x\nproperty float y\nproperty float z\nproperty float volume\nproperty uchar surface\n";
@@ -73,4 +70,4 @@ VolumeCloud readVolumePly(const std::string& path) {
   return c;
 }
 
-}  // namespace topo_gaussian::geometry
+}  // namespace topo_gaussian::io

@@ -1,0 +1,50 @@
+// A run folder: what one inference leaves on disk, the same whichever front end ran it (`topo infer`,
+// the interior_inference node, a benchmark), so any of them can load any run:
+//   volume.ply     the particles the run used (io/volume_ply.h)
+//   interior.ply   r, solid and density per particle (io/interior_ply.h)
+//   report.json    task, parameters, targets, features, loss history (inference/report.h)
+//   signal.csv     the simulated signal, when the task has one (io/run_files.h)
+//   and the export: interior.stl, slices.png, signal.png, loss.png, export.json (workflow/interior_export.h).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "topo_gaussian/io/interior_ply.h"
+#include "topo_gaussian/physics/volume_cloud.h"
+
+namespace topo_gaussian::io {
+
+/// Creates `dir` and its parents when missing. Throws TopoError naming `what` and the directory when
+/// it cannot be created or is not a directory.
+void ensureDirectory(const std::string& dir, const std::string& what);
+
+/// Creates and returns a new folder <parent>/<stem>_<YYYYmmdd_HHMMSS> (local time); when that name
+/// exists (two runs in one second) the suffix _2, _3, ... is added, so no run overwrites another.
+std::string createRunFolder(const std::string& parent, const std::string& stem);
+
+struct RunFiles {
+  std::string dir;
+  VolumeCloud volume;
+  InteriorPly interior;
+  std::string report_json;
+  std::string task;  ///< the "task" of report.json
+};
+
+/// Loads and checks a run folder. Throws TopoError naming the file that is missing, truncated or not
+/// what it should be (an empty or unparsable report.json, a report without a task, an interior whose
+/// count differs from the volume's).
+RunFiles loadRunFolder(const std::string& dir);
+
+struct LatestRun {
+  bool found = false;
+  RunFiles run;
+  std::vector<std::string> skipped;  ///< newer folders passed over, each "DIR: why"
+};
+
+/// The newest run folder under `parent` (by the time of its report.json) that loads; folders
+/// without report.json are not runs and are ignored; newer runs that fail to load are listed in
+/// `skipped` with the reason.
+LatestRun findLatestRun(const std::string& parent);
+
+}  // namespace topo_gaussian::io

@@ -1,0 +1,64 @@
+// One inference run, end to end: the single library call behind `topo infer`, the
+// interior_inference node (action goal and ~infer) and bench/infer.
+//   request (task config, volume or the task's default shape, observed motion features, targets,
+//   output folder, callbacks)
+//   → targets from the observed motion (inference/motion_targets.h), then the explicit ones
+//   → every target the task needs present (checked before any work, like the folder)
+//   → inference::runInference (paper §5–7), cancellable from the progress callback
+//   → the run folder (io/run_folder.h): volume.ply, interior.ply, report.json (+ "interface"),
+//     signal.csv, and the export (interior.stl, slices.png, loss.png, signal.png, export.json);
+//     when the export fails, the run's own files are still written and the failure is a note.
+// A run folder written here loads with io::loadRunFolder, whichever front end wrote it.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "topo_gaussian/common/motion_features.h"
+#include "topo_gaussian/inference/pipeline.h"
+#include "topo_gaussian/io/run_files.h"
+#include "topo_gaussian/physics/volume_cloud.h"
+
+namespace topo_gaussian::workflow {
+
+struct InferenceRunRequest {
+  inference::TaskConfig config;                 ///< task, representation and overrides already applied
+  std::shared_ptr<const VolumeCloud> volume;    ///< null: the task's default shape, else an error
+  std::shared_ptr<const motion::MotionFeatures> observed;  ///< optional: targets and the observed signal
+  std::vector<std::string> targets;             ///< "NAME=VALUE", applied after (over) the observed ones
+  std::string targets_origin = "targets";       ///< names them in messages ("--target", "goal targets")
+  std::string parameters_origin = "--set";      ///< where parameters go instead ("--set", "goal overrides")
+  std::string missing_targets_hint;             ///< appended to the error when a needed target is missing
+  std::string output_dir;                       ///< this folder (created when missing), or else
+  std::string output_parent;                    ///< a new folder <output_parent>/<task>_<YYYYmmdd_HHMMSS>[_N]
+  bool export_files = true;                     ///< also the STL and the pictures
+  inference::ProgressCallback progress;         ///< per iteration; false cancels (best design so far)
+  inference::EvaluationCallback on_evaluation;  ///< every evaluated design
+};
+
+struct InferenceRunOutcome {
+  inference::TaskConfig config;                 ///< as run: with the targets set
+  std::shared_ptr<const VolumeCloud> volume;    ///< as run (the default shape when none was given)
+  inference::InferenceResult result;
+  bool cancelled = false;                       ///< stopped by the progress callback: best design so far
+  std::string output_dir;
+  std::vector<std::string> files;               ///< written, full paths
+  std::string report_json;
+  std::vector<io::SignalSeries> signals;        ///< observed (aligned) and simulated, as drawn in signal.png
+  std::vector<std::string> notes;               ///< for a person: where volume and targets came from, what failed
+  std::string message;                          ///< result.message with the notes (the front end says "cancelled")
+};
+
+/// Runs the request. Throws TopoError before any optimisation for a missing volume, a missing
+/// target, an invalid override or an output folder that cannot be created; afterwards the files are
+/// written even when the run was cancelled.
+InferenceRunOutcome runInference(InferenceRunRequest request);
+
+/// The series a person compares: the observed signal of `observed` (started at its first turning point
+/// on the release side when the simulation starts at a release, so both start alike) and the
+/// simulated signal of `simulated`.
+std::vector<io::SignalSeries> comparisonSignals(const motion::MotionFeatures* observed,
+                                                const inference::TaskEvaluation& simulated);
+
+}  // namespace topo_gaussian::workflow

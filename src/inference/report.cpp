@@ -1,0 +1,92 @@
+#include "topo_gaussian/inference/report.h"
+
+#include <sstream>
+
+#include "topo_gaussian/common/json.h"
+
+namespace topo_gaussian::inference {
+namespace {
+
+using json::num;
+using json::quote;
+
+std::string vec3(const Eigen::Vector3d& v) { return "[" + num(v[0]) + ", " + num(v[1]) + ", " + num(v[2]) + "]"; }
+
+std::string featuresJson(const std::vector<Feature>& fs) {
+  std::string s = "{";
+  for (std::size_t i = 0; i < fs.size(); ++i) {
+    const Feature& f = fs[i];
+    s += (i ? ", " : "") + quote(f.name) + ": {\"value\": " + num(f.value) + ", \"unit\": " + quote(f.unit);
+    if (f.has_target) s += ", \"target\": " + num(f.target) + ", \"reached\": " + (f.reached() ? "true" : "false");
+    s += "}";
+  }
+  return s + "}";
+}
+
+std::string geometryJson(const ProblemEvaluation& ev, const TaskGeometry& g) {
+  std::string s = "\"gravity\": " + vec3(g.gravity) + ", \"center_of_mass\": " + vec3(ev.task.mass.com) +
+                  ", \"mass_kg\": " + num(ev.task.mass.mass) + ", \"inertia\": [";
+  for (int a = 0; a < 3; ++a) s += std::string(a ? ", " : "") + vec3(ev.task.mass.inertia.row(a).transpose());
+  s += "]";
+  if (g.has_point) s += ", " + quote(g.point_name) + ": " + vec3(g.point);
+  s += ", \"solid_fraction\": " + num(ev.solid_fraction);
+  return s;
+}
+
+std::string targetsJson(const TaskConfig& c) {
+  std::string s = "{";
+  bool first = true;
+  for (const auto& sp : c.specs())
+    if (sp.is_target && c.has(sp.name)) {
+      s += (first ? "" : ", ") + quote(sp.name) + ": ";
+      if (sp.type == ParamType::Text) s += quote(c.text(sp.name));
+      else if (sp.type == ParamType::List) {
+        s += "[";
+        const auto& l = c.list(sp.name);
+        for (std::size_t i = 0; i < l.size(); ++i) s += (i ? ", " : "") + num(l[i]);
+        s += "]";
+      } else s += num(c.number(sp.name));
+      first = false;
+    }
+  return s + "}";
+}
+
+}  // namespace
+
+std::string simulationJson(const ProblemEvaluation& ev, const TaskConfig& config, const TaskGeometry& geometry) {
+  std::ostringstream s;
+  s << "{\"task\": " << quote(config.task()) << ", \"features\": " << featuresJson(ev.task.features)
+    << ", \"loss\": " << num(ev.loss) << ", " << geometryJson(ev, geometry) << "}";
+  return s.str();
+}
+
+std::string reportJson(const InferenceResult& r, const TaskConfig& config) {
+  std::ostringstream s;
+  s << "{\n  \"task\": " << quote(r.task) << ",\n  \"task_source\": " << quote(config.source())
+    << ",\n  \"representation\": " << quote(r.representation) << ",\n  \"parameters\": {";
+  bool first = true;
+  for (const auto& sp : config.specs()) {
+    if (sp.is_target || !config.has(sp.name)) continue;
+    s << (first ? "" : ", ") << quote(sp.name) << ": " << quote(config.valueText(sp.name));
+    first = false;
+  }
+  s << "},\n  \"targets\": " << targetsJson(config) << ",\n  \"initial_features\": " << featuresJson(r.initial.task.features)
+    << ",\n  \"achieved_features\": " << featuresJson(r.final.task.features) << ",\n  \"initial_loss\": " << num(r.initial.loss)
+    << ",\n  \"final_loss\": " << num(r.final.loss) << ",\n  \"converged\": " << (r.converged ? "true" : "false")
+    << ",\n  \"optimizer_converged\": " << (r.optimizer.converged ? "true" : "false")
+    << ",\n  \"targets_reached\": " << (r.targets_reached ? "true" : "false")
+    << ",\n  \"cancelled\": " << (r.optimizer.cancelled ? "true" : "false") << ",\n  \"message\": " << quote(r.message)
+    << ",\n  " << geometryJson(r.final, r.geometry) << ",\n  \"initial_center_of_mass\": " << vec3(r.initial.task.mass.com)
+    << ",\n  \"particles\": " << r.r.size() << ",\n  \"parameters_count\": " << r.theta.size()
+    << ",\n  \"timings_s\": {\"setup\": " << num(r.setup_s) << ", \"optimize\": " << num(r.optimize_s)
+    << ", \"per_evaluation\": " << num(r.evaluation_s) << "},\n  \"loss_history\": [";
+  for (std::size_t i = 0; i < r.optimizer.history.size(); ++i) {
+    const auto& h = r.optimizer.history[i];
+    s << (i ? ", " : "") << "{\"iteration\": " << h.iteration << ", \"loss\": " << num(h.loss)
+      << ", \"gradient_norm\": " << num(h.gradient_norm) << ", \"elapsed_s\": " << num(h.elapsed_s) << "}";
+  }
+  s << "]\n}\n";
+  return s.str();
+}
+
+}  // namespace topo_gaussian::inference

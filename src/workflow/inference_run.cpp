@@ -1,0 +1,168 @@
+#include "topo_gaussian/workflow/inference_run.h"
+
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/inference/report.h"
+#include "topo_gaussian/inference/task.h"
+#include "topo_gaussian/io/interior_ply.h"
+#include "topo_gaussian/io/run_folder.h"
+#include "topo_gaussian/io/text_file.h"
+#include "topo_gaussian/io/volume_ply.h"
+#include "topo_gaussian/physics/default_shapes.h"
+#include "topo_gaussian/workflow/interior_export.h"
+
+namespace topo_gaussian::workflow {
+
+namespace {
+
+std::string signalCsv(const inference::TaskEvaluation& ev) {
+  std::ostringstream os;
+  os << std::setprecision(10) << "time_s," << (ev.signal_name.empty() ? "value" : ev.signal_name) << "\n";
+  for (std::size_t i = 0; i < ev.signal.size() && i < ev.signal_time_s.size(); ++i)
+    os << ev.signal_time_s[i] << "," << ev.signal[i] << "\n";
+  return os.str();
+}
+
+/// The volume of the request, or the task's default shape.
+std::shared_ptr<const VolumeCloud> volumeFor(const InferenceRunRequest& rq, std::vector<std::string>* notes) {
+  if (rq.volume) {
+    rq.volume->validate("volume");
+    return rq.volume;
+  }
+  const std::string shape = inference::defaultShapeForTask(rq.config.task());
+  if (shape.empty())
+    throw TopoError("task " + rq.config.task(), "needs a volume and none was given",
+                    "fill the object's surface first (topo fill, or the cloud_ingest node)");
+  auto cloud = std::make_shared<VolumeCloud>(defaultShapeCloud(shape, rq.config.number("default_spacing_m")));
+  notes->push_back("no volume given: the default " + shape + " shape (" + std::to_string(cloud->size()) +
+                   " particles at " + numberText(rq.config.number("default_spacing_m")) + " m; `topo shape " + shape +
+                   "` writes it)");
+  return cloud;
+}
+
+}  // namespace
+
+std::vector<io::SignalSeries> comparisonSignals(const motion::MotionFeatures* observed,
+                                                const inference::TaskEvaluation& simulated) {
+  std::vector<io::SignalSeries> out;
+  if (observed && !observed->time_s.empty() && observed->time_s.size() == observed->angle_deg.size()) {
+    io::SignalSeries s;
+    s.label = "observed " + (observed->kind.empty() ? std::string("angle") : observed->kind) + " [deg]";
+    const auto& t = observed->time_s;
+    const auto& y = observed->angle_deg;
+    double t0 = t.front();
+    // A simulation released at rest starts at a turning point; a camera window usually starts
+    // mid-swing. Start the observed series at its first turning point on the release side, so the
+    // two can be compared by eye and by their RMS difference.
+    const auto& sim = simulated.signal;
+    if (!sim.empty() && std::abs(sim.front()) > 0) {
+      double peak = 0;
+      for (double v : y) peak = std::max(peak, std::abs(v));
+      for (std::size_t i = 1; i + 1 < y.size(); ++i) {
+        const bool turning = (y[i] - y[i - 1]) * (y[i + 1] - y[i]) <= 0;
+        if (turning && y[i] * sim.front() > 0 && std::abs(y[i]) >= 0.8 * peak) {
+          t0 = t[i];
+          s.label += ", aligned";
+          break;
+        }
+      }
+    }
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      if (t[i] < t0) continue;
+      s.t.push_back(t[i] - t0);
+      s.value.push_back(y[i]);
+    }
+    out.push_back(std::move(s));
+  }
+  if (!simulated.signal.empty() && simulated.signal.size() == simulated.signal_time_s.size()) {
+    io::SignalSeries s;
+    s.label = "simulated " + simulated.signal_name;
+    s.t = simulated.signal_time_s;
+    s.value = simulated.signal;
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+InferenceRunOutcome runInference(InferenceRunRequest rq) {
+  InferenceRunOutcome out;
+  out.volume = volumeFor(rq, &out.notes);
+  inference::TaskConfig config = rq.config;
+  for (const auto& t : rq.targets) {
+    const auto eq = t.find('=');
+    const auto* spec = config.spec(t.substr(0, eq));
+    if (spec && !spec->is_target)
+      throw TopoError(rq.targets_origin + " " + t.substr(0, eq), "is a parameter, not an observed feature",
+                      "use " + rq.parameters_origin + " " + t);
+    config.setAssignment(t, rq.targets_origin);
+    out.notes.push_back(t + " from the " + rq.targets_origin);
+  }
+  try {
+    inference::makeTask(config, *out.volume)->requireTargets();
+  } catch (const TopoError& e) {
+    throw TopoError(std::string(e.what()) + rq.missing_targets_hint);
+  }
+  // The folder before the work, so a bad one fails early.
+  if (!rq.output_dir.empty()) {
+    io::ensureDirectory(rq.output_dir, "output directory");
+    out.output_dir = rq.output_dir;
+  } else if (!rq.output_parent.empty()) {
+    out.output_dir = io::createRunFolder(rq.output_parent, config.task());
+  } else {
+    throw TopoError("inference run", "has no output folder", "give an output directory");
+  }
+
+  out.result = inference::runInference(config, *out.volume, rq.progress, rq.on_evaluation);
+  out.cancelled = out.result.optimizer.cancelled;
+  const auto& res = out.result;
+  const std::string dir = out.output_dir + "/";
+  const bool continuous = config.boolean("continuous_material");
+  out.signals = comparisonSignals(rq.observed.get(), res.final.task);
+  out.report_json = inference::reportJson(res, config);
+  bool exported = false;
+  if (rq.export_files) {
+    try {
+      ExportOptions eo;
+      eo.output_dir = out.output_dir;
+      eo.report_json = out.report_json;
+      eo.signals = out.signals;
+      eo.continuous = continuous;
+      eo.title = config.task() + " interior";
+      const ExportSummary s = exportInterior(*out.volume, res.r, res.density, eo);
+      for (const auto& f : s.files) out.files.push_back(dir + f);
+      out.report_json = io::readTextFile(dir + "report.json");  // with its "interface" section
+      exported = true;
+    } catch (const std::exception& e) {
+      out.notes.push_back(std::string("export failed (the run's own files are written): ") + e.what());
+    }
+  }
+  if (!exported) {
+    try {  // the interface's numbers still go into report.json when the mesh can be made
+      out.report_json = withInterfaceSection(out.report_json, measureInterface(*out.volume, res.r));
+    } catch (const TopoError& e) {
+      out.notes.push_back(std::string("no \"interface\" section in report.json: ") + e.what());
+    }
+    io::writeInteriorPly(dir + "interior.ply", *out.volume, res.r, res.density, continuous);
+    io::writeTextFile(dir + "report.json", out.report_json);
+    out.files.push_back(dir + "interior.ply");
+    out.files.push_back(dir + "report.json");
+  }
+  if (!res.final.task.signal.empty()) {
+    io::writeTextFile(dir + "signal.csv", signalCsv(res.final.task));
+    out.files.push_back(dir + "signal.csv");
+  }
+  io::writeVolumePly(*out.volume, dir + "volume.ply");
+  out.files.push_back(dir + "volume.ply");
+  std::ostringstream msg;
+  msg << res.message;
+  for (const auto& n : out.notes) msg << " [" << n << "]";
+  out.message = msg.str();
+  out.config = std::move(config);
+  return out;
+}
+
+}  // namespace topo_gaussian::workflow

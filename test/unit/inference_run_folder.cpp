@@ -1,0 +1,161 @@
+// One run folder for every front end (workflow::runInference, io/run_folder.h): a folder written by
+// `topo infer` loads with io::loadRunFolder (what the interior_inference node restores from), a
+// folder written by the library call the node makes is read back by `topo simulate` and `topo
+// export`; run folders are unique within one second; the newest complete run is found past newer
+// broken ones, each named with the reason; writes are atomic.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "test_util.h"
+#include "topo_gaussian/inference/task_config.h"
+#include "topo_gaussian/io/run_folder.h"
+#include "topo_gaussian/io/text_file.h"
+#include "topo_gaussian/io/volume_ply.h"
+#include "topo_gaussian/physics/default_shapes.h"
+#include "topo_gaussian/workflow/inference_run.h"
+
+using namespace topo_gaussian;
+using topo_test::errorOf;
+using topo_test::runTopo;
+using topo_test::ToolRun;
+
+namespace fs = std::filesystem;
+
+namespace {
+
+class RunFolder : public testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = testing::TempDir() + "/topo_run_folder";
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    volume_ = std::make_shared<VolumeCloud>(defaultShapeCloud("tumbler", 0.006));
+    io::writeVolumePly(*volume_, dir_ + "/tumbler.ply");
+  }
+  /// The request the node builds for a tumbler goal with one target, into a new folder under `parent`.
+  static workflow::InferenceRunRequest nodeLikeRequest(const std::string& parent) {
+    workflow::InferenceRunRequest rq;
+    rq.config = inference::TaskConfig::defaults("tumbler");
+    rq.config.setNumber("max_iterations", 2);
+    rq.volume = volume_;
+    rq.targets = {"period_s=0.5"};
+    rq.targets_origin = "goal targets";
+    rq.output_parent = parent;
+    rq.export_files = false;
+    return rq;
+  }
+  static std::string dir_;
+  static std::shared_ptr<VolumeCloud> volume_;
+};
+std::string RunFolder::dir_;
+std::shared_ptr<VolumeCloud> RunFolder::volume_;
+
+}  // namespace
+
+TEST_F(RunFolder, ACliRunLoadsAsTheNodeLoadsIt) {
+  const std::string out = dir_ + "/cli/tumbler_cli";
+  const ToolRun r = runTopo("infer --task tumbler --volume " + dir_ + "/tumbler.ply --target period_s=0.5 --set max_iterations=2 "
+                            "--quiet --output " + out);
+  ASSERT_TRUE(r.code == 0 || r.code == 3) << r.out;
+  for (const char* f : {"volume.ply", "interior.ply", "report.json", "signal.csv", "interior.stl", "slices.png", "export.json"})
+    EXPECT_TRUE(fs::exists(out + "/" + f)) << f << " missing from the CLI's run folder";
+  const io::RunFiles run = io::loadRunFolder(out);
+  EXPECT_EQ(run.task, "tumbler");
+  EXPECT_EQ(run.volume.size(), volume_->size());
+  EXPECT_EQ(run.interior.r.size(), volume_->size());
+  EXPECT_NEAR(run.volume.spacing, volume_->spacing, 1e-12);
+  // The node restores the newest loadable run under its ~output_dir: this one.
+  const io::LatestRun latest = io::findLatestRun(dir_ + "/cli");
+  ASSERT_TRUE(latest.found);
+  EXPECT_EQ(latest.run.dir, out);
+  EXPECT_TRUE(latest.skipped.empty());
+}
+
+TEST_F(RunFolder, TheNodesRunIsReadByTheCli) {
+  const workflow::InferenceRunOutcome o = workflow::runInference(nodeLikeRequest(dir_ + "/node"));
+  ASSERT_TRUE(fs::is_directory(o.output_dir));
+  EXPECT_EQ(fs::path(o.output_dir).parent_path(), fs::path(dir_ + "/node"));
+  EXPECT_EQ(o.files.size(), 4u) << "interior.ply, report.json, signal.csv, volume.ply without the export";
+  const ToolRun s = runTopo("simulate --task tumbler --volume " + o.output_dir + "/volume.ply --interior " + o.output_dir +
+                            "/interior.ply --json");
+  ASSERT_EQ(s.code, 0) << s.out;
+  EXPECT_NE(s.out.find("\"period_s\""), std::string::npos) << s.out;
+  const ToolRun e = runTopo("export --volume " + o.output_dir + "/volume.ply --interior " + o.output_dir +
+                            "/interior.ply --report " + o.output_dir + "/report.json --output " + o.output_dir + "/export");
+  EXPECT_EQ(e.code, 0) << e.out;
+  EXPECT_TRUE(fs::exists(o.output_dir + "/export/interior.stl"));
+  // report.json carries the interface section even without the export's files.
+  EXPECT_NE(io::readTextFile(o.output_dir + "/report.json").find("\"interface\""), std::string::npos);
+}
+
+TEST_F(RunFolder, TwoRunsInOneSecondGetTwoFolders) {
+  const std::string parent = dir_ + "/same_second";
+  const std::string a = io::createRunFolder(parent, "hanging");
+  const std::string b = io::createRunFolder(parent, "hanging");
+  const std::string c = io::createRunFolder(parent, "hanging");
+  EXPECT_NE(a, b);
+  EXPECT_NE(b, c);
+  EXPECT_TRUE(fs::is_directory(a) && fs::is_directory(b) && fs::is_directory(c));
+}
+
+TEST_F(RunFolder, RestoreWalksBackPastBrokenRunsAndSaysWhy) {
+  const std::string parent = dir_ + "/restore";
+  const workflow::InferenceRunOutcome good = workflow::runInference(nodeLikeRequest(parent));
+  // Newer, broken: an empty report (killed while writing), and a truncated interior.
+  const std::string empty_report = parent + "/tumbler_empty_report", truncated = parent + "/tumbler_truncated";
+  fs::create_directories(empty_report);
+  fs::create_directories(truncated);
+  for (const char* f : {"volume.ply", "interior.ply"}) {
+    fs::copy_file(good.output_dir + "/" + f, empty_report + "/" + f);
+    fs::copy_file(good.output_dir + "/" + f, truncated + "/" + f);
+  }
+  std::ofstream(empty_report + "/report.json").close();
+  fs::copy_file(good.output_dir + "/report.json", truncated + "/report.json");
+  fs::resize_file(truncated + "/interior.ply", fs::file_size(truncated + "/interior.ply") / 2);
+  const auto later = fs::last_write_time(good.output_dir + "/report.json") + std::chrono::seconds(5);
+  fs::last_write_time(empty_report + "/report.json", later);
+  fs::last_write_time(truncated + "/report.json", later + std::chrono::seconds(1));
+  fs::create_directories(parent + "/not_a_run");  // no report.json: not a run, not mentioned
+
+  const io::LatestRun latest = io::findLatestRun(parent);
+  ASSERT_TRUE(latest.found);
+  EXPECT_EQ(latest.run.dir, good.output_dir);
+  ASSERT_EQ(latest.skipped.size(), 2u);
+  EXPECT_NE(latest.skipped[0].find("tumbler_truncated"), std::string::npos) << latest.skipped[0];
+  EXPECT_NE(latest.skipped[0].find("truncated"), std::string::npos) << latest.skipped[0];
+  EXPECT_NE(latest.skipped[1].find("tumbler_empty_report"), std::string::npos) << latest.skipped[1];
+  EXPECT_NE(latest.skipped[1].find("is empty"), std::string::npos) << latest.skipped[1];
+  EXPECT_FALSE(io::findLatestRun(dir_ + "/no_such_folder").found);
+}
+
+TEST_F(RunFolder, ARequestWithoutTargetsOrFolderFailsBeforeAnyWork) {
+  workflow::InferenceRunRequest rq = nodeLikeRequest(dir_ + "/refused");
+  rq.targets.clear();
+  rq.missing_targets_hint = " (hint from the front end)";
+  const std::string e = errorOf([&] { workflow::runInference(rq); });
+  EXPECT_NE(e.find("period_s"), std::string::npos) << e;
+  EXPECT_NE(e.find("hint from the front end"), std::string::npos) << e;
+  EXPECT_FALSE(fs::exists(dir_ + "/refused")) << "no folder for a refused run";
+  rq = nodeLikeRequest("");
+  EXPECT_NE(errorOf([&] { workflow::runInference(rq); }).find("no output folder"), std::string::npos);
+  rq = nodeLikeRequest(dir_ + "/refused");
+  rq.targets = {"density_solid=3"};
+  EXPECT_NE(errorOf([&] { workflow::runInference(rq); }).find("not an observed feature"), std::string::npos);
+}
+
+TEST(TextFile, WritesAreAtomicAndNameThePath) {
+  const std::string dir = testing::TempDir() + "/topo_text_file";
+  fs::create_directories(dir);
+  io::writeTextFile(dir + "/a.txt", "first");
+  io::writeTextFile(dir + "/a.txt", "second");
+  EXPECT_EQ(io::readTextFile(dir + "/a.txt"), "second");
+  for (const auto& e : fs::directory_iterator(dir)) EXPECT_EQ(e.path().filename(), "a.txt") << "no temporary left";
+  const std::string e = errorOf([&] { io::writeTextFile(dir + "/missing/b.txt", "x"); });
+  EXPECT_NE(e.find("missing/b.txt"), std::string::npos) << e;
+  EXPECT_EQ(io::readTextFile(dir + "/a.txt"), "second") << "a failed write leaves the old file";
+  EXPECT_NE(errorOf([&] { io::readTextFile(dir + "/a.txt", 3); }).find("more than"), std::string::npos);
+  EXPECT_NE(errorOf([&] { io::readTextFile(dir); }).find("not a regular file"), std::string::npos);
+}
