@@ -84,6 +84,7 @@ TEST(InferenceFaults, ServicesBeforeAnyResultAnswerWithAReason) {
 }
 
 std::uint32_t g_valid_result_points = 0;  // set by the valid goal, checked after the restart
+std::string g_valid_result_dir;           // its run folder, read back by the CLI
 
 TEST(InferenceFaults, TheNodeStillServesAValidGoal) {
   Client c("infer_interior", false);
@@ -98,6 +99,7 @@ TEST(InferenceFaults, TheNodeStillServesAValidGoal) {
   EXPECT_EQ(c.getState(), actionlib::SimpleClientGoalState::SUCCEEDED) << c.getResult()->message;
   EXPECT_FALSE(c.getResult()->files.empty());
   g_valid_result_points = c.getResult()->interior.width;
+  g_valid_result_dir = c.getResult()->output_dir;
 }
 
 TEST(InferenceFaults, ARestartedNodeRestoresTheLatestResult) {
@@ -117,6 +119,50 @@ TEST(InferenceFaults, ARestartedNodeRestoresTheLatestResult) {
   ASSERT_TRUE(cloud) << "the restarted node published no interior (see /tmp/topo_rostest_restarted.log)";
   EXPECT_EQ(cloud->width, g_valid_result_points);
   EXPECT_TRUE(topo_gaussian::topo_ros::hasField(*cloud, "solid"));
+}
+
+/// Runs a shell command; its exit status, and its output in *out.
+int shell(const std::string& cmd, std::string* out) {
+  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
+  if (!p) return -1;
+  char buf[512];
+  while (fgets(buf, sizeof buf, p)) *out += buf;
+  const int st = pclose(p);
+  return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+TEST(InferenceFaults, TheCliReadsTheNodesRunFolder) {
+  ASSERT_FALSE(g_valid_result_dir.empty()) << "needs the valid goal's run";
+  std::string out;
+  const std::string topo = std::string(TOPO_NODE_DIR) + "/topo";
+  EXPECT_EQ(shell(topo + " simulate --task tumbler --volume " + g_valid_result_dir + "/volume.ply --interior " +
+                      g_valid_result_dir + "/interior.ply --json", &out), 0) << out;
+  EXPECT_NE(out.find("\"period_s\""), std::string::npos) << out;
+}
+
+TEST(InferenceFaults, ANodeRestoresARunOfTheCli) {
+  // `topo infer` writes a run folder under a fresh output directory; a node started on that directory
+  // publishes it, as it would its own.
+  const std::string dir = "/tmp/topo_rostest_cli_runs", topo = std::string(TOPO_NODE_DIR) + "/topo";
+  std::string out;
+  ASSERT_EQ(shell("rm -rf " + dir + " && mkdir -p " + dir + " && " + topo + " shape tumbler --spacing 0.006 --volume " + dir +
+                      "/tumbler.ply", &out), 0) << out;
+  const int rc = shell(topo + " infer --task tumbler --volume " + dir + "/tumbler.ply --target period_s=0.5 "
+                       "--set max_iterations=2 --no-export --quiet --output " + dir + "/tumbler_cli", &out);
+  ASSERT_TRUE(rc == 0 || rc == 3) << out;
+  const std::string cmd = std::string(TOPO_NODE_DIR) + "/interior_inference __ns:=/cli_restored _output_dir:=" + dir +
+                          " > /tmp/topo_rostest_cli_restored.log 2>&1 & echo $!";
+  FILE* p = popen(cmd.c_str(), "r");
+  ASSERT_TRUE(p);
+  int pid = 0;
+  ASSERT_EQ(fscanf(p, "%d", &pid), 1);
+  pclose(p);
+  const auto cloud = ros::topic::waitForMessage<sensor_msgs::PointCloud2>("/cli_restored/interior", ros::Duration(60.0));
+  kill(pid, SIGINT);
+  ASSERT_TRUE(cloud) << "the node published no interior from the CLI's run (see /tmp/topo_rostest_cli_restored.log)";
+  std::string particles;
+  ASSERT_EQ(shell("grep -a 'element vertex' " + dir + "/tumbler_cli/volume.ply", &particles), 0);
+  EXPECT_EQ(std::to_string(cloud->width), particles.substr(particles.rfind(' ') + 1, particles.find('\n') - particles.rfind(' ') - 1));
 }
 
 /// Runs a node binary of this package with one bad private parameter; returns its exit status and
