@@ -5,16 +5,16 @@
 #include <sstream>
 
 #include "topo_gaussian/common/error.h"
-#include "topo_gaussian/io/text_file.h"
+#include "own_ply.h"
 
 namespace topo_gaussian::io {
 
 namespace {
 constexpr std::size_t kRecord = 4 * 4 + 1 + 4;  // x y z r (float32), solid (uint8), density (float32)
-const char* const kProperties =
-    "property float x\nproperty float y\nproperty float z\nproperty float r\nproperty uchar solid\n"
-    "property float density\n";
-const char* const kFix = "give an interior.ply written by topo infer (or the interior_inference node) for this volume";
+const OwnPlyLayout kLayout{"interior",
+                           "property float x\nproperty float y\nproperty float z\nproperty float r\nproperty uchar solid\n"
+                           "property float density\n",
+                           kRecord, "give an interior.ply written by topo infer (or the interior_inference node) for this volume"};
 }  // namespace
 
 void writeInteriorPly(const std::string& path, const VolumeCloud& cloud, const std::vector<double>& r,
@@ -23,10 +23,6 @@ void writeInteriorPly(const std::string& path, const VolumeCloud& cloud, const s
     throw TopoError(path, "interior has " + std::to_string(r.size()) + " r and " + std::to_string(density.size()) +
                               " density values for " + std::to_string(cloud.size()) + " particles",
                     "write the interior computed on this volume");
-  std::ostringstream out;
-  out << "ply\nformat binary_little_endian 1.0\ncomment topo_gaussian interior: solid = r >= 0.5"
-      << (continuous ? " (continuous material: r is the density fraction)" : "") << "\nelement vertex " << cloud.size()
-      << "\n" << kProperties << "end_header\n";
   std::string body(cloud.size() * kRecord, '\0');
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     const float v[4] = {float(cloud.X[i].x()), float(cloud.X[i].y()), float(cloud.X[i].z()), float(r[i])};
@@ -36,35 +32,21 @@ void writeInteriorPly(const std::string& path, const VolumeCloud& cloud, const s
     rec[16] = r[i] >= 0.5 ? 1 : 0;
     std::memcpy(rec + 17, &d, sizeof d);
   }
-  writeTextFile(path, out.str() + body);
+  writeOwnPly(path, kLayout,
+              {std::string("topo_gaussian interior: solid = r >= 0.5") +
+               (continuous ? " (continuous material: r is the density fraction)" : "")},
+              cloud.size(), body);
 }
 
 InteriorPly readInteriorPlyData(const std::string& path, std::size_t expected) {
-  const std::string bytes = readTextFile(path, std::size_t(1) << 33);  // 400M particles at most
-  if (bytes.compare(0, 4, "ply\n") != 0) throw TopoError(path, "is not a PLY file", kFix);
-  const std::size_t end = bytes.find("end_header\n");
-  if (end == std::string::npos) throw TopoError(path, "has no end_header line (truncated header)", kFix);
-  const std::string header = bytes.substr(0, end);
-  if (header.find("format binary_little_endian 1.0\n") == std::string::npos || header.find(kProperties) == std::string::npos)
-    throw TopoError(path, "does not have the interior layout (binary little endian x y z r solid density)", kFix);
+  std::size_t count = 0, body = 0;
+  std::vector<std::string> comments;
+  const std::string bytes = readOwnPly(path, kLayout, &count, &body, &comments);
   InteriorPly out;
-  out.continuous = header.find("continuous material") != std::string::npos;
-  std::size_t count = 0;
-  std::istringstream lines(header);
-  for (std::string line; std::getline(lines, line);) {
-    std::istringstream ls(line);
-    std::string a, b;
-    ls >> a >> b;
-    if (a == "element" && b == "vertex" && !(ls >> count))
-      throw TopoError(path, "has a malformed line '" + line.substr(0, 60) + "'", kFix);
-  }
+  for (const auto& c : comments) out.continuous = out.continuous || c.find("continuous material") != std::string::npos;
   if (count != expected)
     throw TopoError(path, "has " + std::to_string(count) + " particles, the volume has " + std::to_string(expected),
                     "use the interior computed on this volume");
-  const std::size_t body = end + std::strlen("end_header\n");
-  if (bytes.size() - body < count * kRecord)
-    throw TopoError(path, "ends early at particle " + std::to_string((bytes.size() - body) / kRecord),
-                    "the file is truncated: write it again");
   out.X.resize(count);
   out.r.resize(count);
   out.density.resize(count);
@@ -74,9 +56,10 @@ InteriorPly readInteriorPlyData(const std::string& path, std::size_t expected) {
     std::memcpy(v, rec, sizeof v);
     std::memcpy(&d, rec + 17, sizeof d);
     if (!(v[3] >= 0.0f && v[3] <= 1.0f))
-      throw TopoError(path, "particle " + std::to_string(i) + " has r = " + std::to_string(v[3]) + ", outside [0, 1]", kFix);
+      throw TopoError(path, "particle " + std::to_string(i) + " has r = " + std::to_string(v[3]) + ", outside [0, 1]",
+                      kLayout.fix);
     if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2]) || !std::isfinite(d))
-      throw TopoError(path, "particle " + std::to_string(i) + " has a non-finite position or density", kFix);
+      throw TopoError(path, "particle " + std::to_string(i) + " has a non-finite position or density", kLayout.fix);
     out.X[i] = Eigen::Vector3d(v[0], v[1], v[2]);
     out.r[i] = v[3];
     out.density[i] = d;
