@@ -6,7 +6,9 @@
 #include <cmath>
 
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/ros/motion_features_msg.h"
 #include "topo_gaussian/vision/camera_model.h"
+#include "topo_gaussian/vision/motion_features.h"
 
 namespace topo_gaussian::topo_ros {
 namespace {
@@ -75,57 +77,6 @@ MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh) {
   return p;
 }
 
-topo_gaussian::MotionFeatures toMotionFeaturesMsg(const vision::TrackResult& r) {
-  topo_gaussian::MotionFeatures m;
-  m.kind = r.kind;
-  m.method = r.method;
-  m.source = r.source;
-  m.message = r.message;
-  m.oscillation_found = r.signal.oscillation_found;
-  m.period_s = r.signal.period_s;
-  m.amplitude_deg = r.signal.amplitude_deg;
-  m.max_tilt_deg = r.signal.max_tilt_deg;
-  m.equilibrium_deg = r.signal.oscillation_found ? r.signal.equilibrium_deg : r.static_pose.angle_deg;
-  m.log_decrement = r.signal.log_decrement;
-  m.damping_ratio = r.signal.damping_ratio;
-  m.bending_angle_deg = r.bend_final_deg;
-  auto conf = [&](const char* k) {
-    const auto it = r.confidence.find(k);
-    return it == r.confidence.end() ? 0.0 : it->second;
-  };
-  m.period_confidence = conf("period_s");
-  m.amplitude_confidence = conf("amplitude_deg");
-  m.equilibrium_confidence = conf("equilibrium_deg");
-  m.bending_confidence = conf("bend_final_deg");
-  m.start_time_s = r.t_start_s;
-  m.end_time_s = r.t_end_s;
-  m.first_frame = r.first_frame;
-  m.last_frame = r.last_frame;
-  m.frames_used = r.frames_used;
-  m.frames_lost = r.lost_frames;
-  m.time_s = r.t;
-  m.angle_deg = r.angle_deg;
-  for (std::size_t k = 0; k < r.trajectories.size(); ++k) {
-    topo_gaussian::PixelTrajectory tr;
-    tr.name = "point_" + std::to_string(k);
-    for (const auto& s : r.trajectories[k]) {
-      tr.time_s.push_back(s.t);
-      tr.x_px.push_back(s.x);
-      tr.y_px.push_back(s.y);
-    }
-    if (k < r.points_on_plane.size())
-      for (const auto& q : r.points_on_plane[k]) {
-        geometry_msgs::Point pt;
-        pt.x = q[0];
-        pt.y = q[1];
-        pt.z = q[2];
-        tr.points_on_plane.push_back(pt);
-      }
-    m.trajectories.push_back(tr);
-  }
-  return m;
-}
-
 cv::Mat imageToBgr(const sensor_msgs::Image& msg, const std::string& topic) {
   namespace enc = sensor_msgs::image_encodings;
   const std::string& e = msg.encoding;
@@ -169,7 +120,7 @@ void MotionTrackerNode::publish(const vision::TrackResult& result_in, const std:
       ROS_WARN_THROTTLE(10.0, "motion_tracker: ~plane is set but no camera_info has arrived: trajectories stay in pixels");
     }
   }
-  topo_gaussian::MotionFeatures m = toMotionFeaturesMsg(result);
+  topo_gaussian::MotionFeatures m = toMotionFeaturesMsg(vision::toMotionFeatures(result));
   m.header.stamp = ::ros::Time::now();
   m.header.frame_id = frame_id;
   features_pub_.publish(m);
@@ -281,7 +232,7 @@ bool MotionTrackerNode::onExtractMotion(topo_gaussian::ExtractMotion::Request& r
     if (req.end_s > 0) o.video.end_s = req.end_s;
     if (req.stride > 1) o.video.stride = req.stride;
     const vision::TrackResult r = vision::trackVideo(req.video_file, o);
-    res.features = toMotionFeaturesMsg(r);
+    res.features = toMotionFeaturesMsg(vision::toMotionFeatures(r));
     res.features.header.stamp = ::ros::Time::now();
     res.success = true;
     res.message = r.message;
