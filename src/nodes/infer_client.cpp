@@ -18,6 +18,7 @@
 #include "topo_gaussian/InferInteriorAction.h"
 #include "topo_gaussian/MotionFeatures.h"
 #include "topo_gaussian/RigGroundTruth.h"
+#include "topo_gaussian/ros/param_reader.h"
 
 namespace {
 
@@ -41,32 +42,24 @@ int main(int argc, char** argv) {
   ros::init(argc, argv, "infer_client");
   ros::NodeHandle pnh("~");
   topo_gaussian::InferInteriorGoal goal;
-  pnh.param<std::string>("task", goal.task, "tumbler");
-  pnh.param<std::string>("representation", goal.representation, "");
-  // Lists, or one string with ';' between entries (what `_overrides:="a=1;b=2"` on a command line gives).
-  for (auto [name, list] : {std::pair<const char*, std::vector<std::string>*>{"overrides", &goal.overrides},
-                            {"targets", &goal.targets}}) {
-    if (pnh.getParam(name, *list)) continue;
-    std::string text;
-    if (!pnh.getParam(name, text)) continue;
-    std::size_t start = 0;
-    while (start <= text.size()) {
-      const std::size_t end = std::min(text.find(';', start), text.size());
-      const std::string item = text.substr(start, end - start);
-      if (!item.empty()) list->push_back(item);
-      start = end + 1;
-    }
-  }
-  pnh.param("max_iterations", goal.max_iterations, 0);
-  pnh.param<std::string>("output_dir", goal.output_dir, "");
   double wait_s = 120, tolerance = 0.02, timeout_s = 900;
   std::string truth_topic;
-  pnh.param("wait_for_features_s", wait_s, wait_s);
-  pnh.param("tolerance", tolerance, tolerance);
-  pnh.param("timeout_s", timeout_s, timeout_s);
-  pnh.param<std::string>("ground_truth_topic", truth_topic, "");
-  if (!(tolerance > 0) || !(timeout_s > 0) || wait_s < 0) {
-    ROS_FATAL("infer_client: ~tolerance and ~timeout_s must be positive and ~wait_for_features_s >= 0");
+  try {
+    const topo_gaussian::topo_ros::ParamReader r(pnh, "infer_client");
+    using topo_gaussian::topo_ros::Range;
+    goal.task = r.text("task", "tumbler");
+    goal.representation = r.text("representation", "");
+    // Lists, or one string with ';' between entries (what `_overrides:="a=1;b=2"` on a command line gives).
+    goal.overrides = r.texts("overrides", {}, "\"initial_tilt_deg=8;density_solid=4000\"");
+    goal.targets = r.texts("targets", {}, "\"period_s=1.2\"");
+    goal.max_iterations = int(r.integer("max_iterations", 0, "", Range::atLeast(0)));
+    goal.output_dir = r.text("output_dir", "");
+    wait_s = r.number("wait_for_features_s", wait_s, "s", Range::atLeast(0.0));
+    tolerance = r.number("tolerance", tolerance, "", Range::above(0.0));
+    timeout_s = r.number("timeout_s", timeout_s, "s", Range::above(0.0));
+    truth_topic = r.text("ground_truth_topic", "");
+  } catch (const std::exception& e) {
+    ROS_FATAL("infer_client: %s", e.what());
     return 1;
   }
   ros::AsyncSpinner spinner(1);

@@ -8,104 +8,46 @@
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/ros/conversions.h"
 #include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/ros/param_reader.h"
+#include "topo_gaussian/ros/service_guard.h"
 
 namespace topo_gaussian::topo_ros {
 
-namespace {
-
-/// "~name (/resolved/name)" for messages.
-std::string paramName(const ::ros::NodeHandle& pnh, const std::string& name) {
-  return "~" + name + " (" + pnh.resolveName(name) + ")";
-}
-
-std::string typeName(const XmlRpc::XmlRpcValue& v) {
-  switch (v.getType()) {
-    case XmlRpc::XmlRpcValue::TypeBoolean: return "a boolean";
-    case XmlRpc::XmlRpcValue::TypeInt: return "an integer";
-    case XmlRpc::XmlRpcValue::TypeDouble: return "a number";
-    case XmlRpc::XmlRpcValue::TypeString: return "a string";
-    case XmlRpc::XmlRpcValue::TypeArray: return "a list";
-    case XmlRpc::XmlRpcValue::TypeStruct: return "a dictionary";
-    default: return "of another type";
-  }
-}
-
-[[noreturn]] void wrongType(const ::ros::NodeHandle& pnh, const std::string& name, const std::string& want) {
-  XmlRpc::XmlRpcValue v;
-  pnh.getParam(name, v);
-  throw TopoError(paramName(pnh, name), "is " + typeName(v) + ", not " + want, "set it to " + want);
-}
-
-double getDouble(const ::ros::NodeHandle& pnh, const std::string& name, double fallback) {
-  if (!pnh.hasParam(name)) return fallback;
-  double v = fallback;
-  if (!pnh.getParam(name, v)) wrongType(pnh, name, "a number");  // ints are accepted as numbers
-  if (!std::isfinite(v)) throw TopoError(paramName(pnh, name), "is " + numberText(v, 6), "give a finite number");
-  return v;
-}
-
-long getInt(const ::ros::NodeHandle& pnh, const std::string& name, long fallback) {
-  XmlRpc::XmlRpcValue v;
-  if (!pnh.getParam(name, v)) return fallback;
-  if (v.getType() == XmlRpc::XmlRpcValue::TypeInt) return static_cast<int>(v);
-  if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble) {  // YAML writes 5e4 as a double: accept whole numbers
-    const double d = static_cast<double>(v);
-    if (std::isfinite(d) && d == std::floor(d) && std::abs(d) < 2e9) return long(d);
-    throw TopoError(paramName(pnh, name), "is " + numberText(d, 6) + ", not a whole number", "give a whole number");
-  }
-  wrongType(pnh, name, "a whole number");
-}
-
-bool getBool(const ::ros::NodeHandle& pnh, const std::string& name, bool fallback) {
-  if (!pnh.hasParam(name)) return fallback;
-  bool b = fallback;
-  if (!pnh.getParam(name, b)) wrongType(pnh, name, "true or false");
-  return b;
-}
-
-std::string getString(const ::ros::NodeHandle& pnh, const std::string& name, const std::string& fallback) {
-  if (!pnh.hasParam(name)) return fallback;
-  std::string s;
-  if (!pnh.getParam(name, s)) wrongType(pnh, name, "a string");
-  return s;
-}
-
-}  // namespace
-
 CloudIngestParams loadCloudIngestParams(const ::ros::NodeHandle& pnh) {
+  const ParamReader reader(pnh, "cloud_ingest");
   CloudIngestParams p;
   auto& clean = p.options.clean;
   auto& fill = p.options.fill;
   auto bad = [&](const std::string& name, const std::string& problem, const std::string& fix) {
-    throw TopoError(paramName(pnh, name), problem, fix);
+    throw TopoError(reader.displayName(name), problem, fix);
   };
-
-  p.surface_file = getString(pnh, "surface_file", "");
-  p.frame_id = getString(pnh, "frame_id", p.frame_id);
+  // Types are checked by the reader; the ranges here, with the node's own advice.
+  p.surface_file = reader.text("surface_file", "");
+  p.frame_id = reader.text("frame_id", p.frame_id);
   if (p.frame_id.empty()) bad("frame_id", "is empty", "name the object's body frame, e.g. object");
 
-  fill.spacing_m = getDouble(pnh, "spacing_m", fill.spacing_m);
+  fill.spacing_m = reader.number("spacing_m", fill.spacing_m, "m");
   if (fill.spacing_m < 0.0) bad("spacing_m", "is " + numberText(fill.spacing_m, 6) + " m, a negative spacing", "give a positive lattice spacing in metres, or 0 to use ~fill_count");
-  const long count = getInt(pnh, "fill_count", long(fill.target_count));
+  const long count = reader.integer("fill_count", long(fill.target_count));
   if (count < 8) bad("fill_count", "is " + std::to_string(count) + ": too few particles", "ask for at least 8 particles (default 50000)");
   fill.target_count = std::size_t(count);
-  clean.scale = getDouble(pnh, "scale", clean.scale);
+  clean.scale = reader.number("scale", clean.scale);
   if (!(clean.scale > 0.0)) bad("scale", "is " + numberText(clean.scale, 6) + ", not a positive factor", "use 1 for metres, 0.001 for millimetres");
-  clean.recenter = getBool(pnh, "recenter", clean.recenter);
-  clean.opacity_threshold = getDouble(pnh, "opacity_threshold", clean.opacity_threshold);
+  clean.recenter = reader.flag("recenter", clean.recenter);
+  clean.opacity_threshold = reader.number("opacity_threshold", clean.opacity_threshold);
   if (clean.opacity_threshold < 0.0 || clean.opacity_threshold >= 1.0)
     bad("opacity_threshold", "is " + numberText(clean.opacity_threshold, 6) + ", outside [0, 1)", "use the default 0.02, or 0 to keep every Gaussian");
-  const long k = getInt(pnh, "outlier_neighbours", clean.outlier_neighbours);
+  const long k = reader.integer("outlier_neighbours", clean.outlier_neighbours);
   if (k < 0 || k > 1000) bad("outlier_neighbours", "is " + std::to_string(k) + ", outside [0, 1000]", "use 16, or 0 to turn outlier removal off");
   clean.outlier_neighbours = int(k);
-  const long closing = getInt(pnh, "closing_cells", fill.density.closing_cells);
+  const long closing = reader.integer("closing_cells", fill.density.closing_cells);
   if (closing < -1 || closing > 64)
     bad("closing_cells", "is " + std::to_string(closing) + ", outside [-1, 64]", "use -1 (automatic), 0 (off) or a few cells, e.g. 2");
   fill.density.closing_cells = int(closing);
-  const long grid = getInt(pnh, "grid_resolution", fill.grid_resolution);
+  const long grid = reader.integer("grid_resolution", fill.grid_resolution);
   if (grid < 0 || grid > 4096) bad("grid_resolution", "is " + std::to_string(grid) + ", outside [0, 4096]", "use 0 (the lattice spacing) or e.g. 100 cells");
   fill.grid_resolution = int(grid);
-  fill.max_open_fraction = getDouble(pnh, "max_open_fraction", fill.max_open_fraction);
+  fill.max_open_fraction = reader.number("max_open_fraction", fill.max_open_fraction);
   if (fill.max_open_fraction < 0.0 || fill.max_open_fraction > 1.0)
     bad("max_open_fraction", "is " + numberText(fill.max_open_fraction, 6) + ", outside [0, 1]", "use the default 0.02");
   geometry::validateFillOptions(fill, pnh.getNamespace() + " parameters");  // the library's own checks too
@@ -189,7 +131,7 @@ void CloudIngestNode::onSurfaceCloud(const sensor_msgs::PointCloud2ConstPtr& msg
 bool CloudIngestNode::onFillInterior(topo_gaussian::FillInterior::Request& req, topo_gaussian::FillInterior::Response& res) {
   const std::string service = fill_srv_.getService();
   res.success = false;
-  try {
+  return guardService("cloud_ingest", service, res, [&] {
     const geometry::IngestOptions options = requestOptions(req, params_.options, service);
     geometry::IngestResult r;
     std::string frame = params_.frame_id;
@@ -213,13 +155,7 @@ bool CloudIngestNode::onFillInterior(topo_gaussian::FillInterior::Request& req, 
     res.success = true;
     if (req.publish) publish(res.volume);
     ROS_INFO("cloud_ingest: %s: %s%s", service.c_str(), res.message.c_str(), req.publish ? " (published)" : "");
-  } catch (const std::exception& e) {
-    res = topo_gaussian::FillInterior::Response();
-    res.success = false;
-    res.message = e.what();
-    ROS_ERROR("cloud_ingest: %s failed: %s", service.c_str(), e.what());
-  }
-  return true;  // errors travel in the response, never as a failed call
+  });  // errors travel in the response, never as a failed call
 }
 
 void CloudIngestNode::publish(const sensor_msgs::PointCloud2& volume) {

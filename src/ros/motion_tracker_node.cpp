@@ -6,124 +6,62 @@
 #include <cmath>
 
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/ros/motion_features_msg.h"
+#include "topo_gaussian/ros/param_reader.h"
+#include "topo_gaussian/ros/service_guard.h"
 #include "topo_gaussian/vision/camera_model.h"
+#include "topo_gaussian/vision/motion_features.h"
 
 namespace topo_gaussian::topo_ros {
-namespace {
-
-template <typename T>
-T param(const ::ros::NodeHandle& pnh, const std::string& name, const T& fallback) {
-  T v = fallback;
-  pnh.param(name, v, fallback);
-  return v;
-}
-
-}  // namespace
-
 MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh) {
+  const ParamReader r(pnh, "motion_tracker");
   MotionTrackerParams p;
-  p.video_file = param<std::string>(pnh, "video_file", "");
-  p.options.tracker.method = param<std::string>(pnh, "method", "marker");
-  p.options.kind = param<std::string>(pnh, "kind", "pendulum");
-  p.options.tracker.foreground = param<std::string>(pnh, "foreground", p.options.tracker.foreground);
-  std::vector<int> roi;
-  pnh.param("roi", roi, std::vector<int>());
+  p.video_file = r.text("video_file", "");
+  p.options.tracker.method = r.text("method", "marker");
+  p.options.kind = r.text("kind", "pendulum");
+  p.options.tracker.foreground = r.text("foreground", p.options.tracker.foreground);
+  const std::vector<double> roi = r.numbers("roi", {}, 4, "px", "[100, 50, 300, 300]");
   if (!roi.empty()) {
-    if (roi.size() != 4 || roi[2] <= 0 || roi[3] <= 0)
-      throw TopoError("~roi", "must be [x, y, width, height] with a positive size", "e.g. _roi:=[100,50,300,300], or leave it unset for the whole frame");
-    p.options.tracker.roi = cv::Rect(roi[0], roi[1], roi[2], roi[3]);
+    for (double v : roi)
+      if (v != std::floor(v))
+        throw TopoError(r.displayName("roi"), "must be whole pixels [x, y, width, height]", "e.g. _roi:=[100,50,300,300]");
+    if (roi[2] <= 0 || roi[3] <= 0)
+      throw TopoError(r.displayName("roi"), "must be [x, y, width, height] with a positive size",
+                      "e.g. _roi:=[100,50,300,300], or leave it unset for the whole frame");
+    p.options.tracker.roi = cv::Rect(int(roi[0]), int(roi[1]), int(roi[2]), int(roi[3]));
     p.options.tracker.roi_given = true;
   }
-  p.options.video.start_s = param(pnh, "start_s", 0.0);
-  p.options.video.end_s = param(pnh, "end_s", -1.0);
-  p.options.video.stride = param(pnh, "stride", 1);
-  if (p.options.video.stride < 1) throw TopoError("~stride", "must be at least 1", "use 1 for every frame");
-  std::vector<double> pivot;
-  pnh.param("pivot", pivot, std::vector<double>());
+  p.options.video.start_s = r.number("start_s", 0.0, "s", Range::atLeast(0.0));
+  p.options.video.end_s = r.number("end_s", -1.0, "s");
+  p.options.video.stride = int(r.integer("stride", 1, "", Range::between(1, 1e6)));
+  const std::vector<double> pivot = r.numbers("pivot", {}, 2, "px", "[320, 60]");
   if (!pivot.empty()) {
-    if (pivot.size() != 2) throw TopoError("~pivot", "must be [x, y] in pixels", "or leave it unset to fit it");
     p.options.pivot_given = true;
     p.options.pivot = cv::Point2d(pivot[0], pivot[1]);
   }
-  std::vector<double> plane, pose;
-  pnh.param("plane", plane, std::vector<double>());
+  const std::vector<double> plane = r.numbers("plane", {}, 4, "", "[0, 0, 1, 0] for the floor");
   if (!plane.empty()) {
-    if (plane.size() != 4 || std::sqrt(plane[0] * plane[0] + plane[1] * plane[1] + plane[2] * plane[2]) == 0)
-      throw TopoError("~plane", "must be [nx, ny, nz, d] with a non-zero normal (plane n.x = d, world frame)",
+    if (std::sqrt(plane[0] * plane[0] + plane[1] * plane[1] + plane[2] * plane[2]) == 0)
+      throw TopoError(r.displayName("plane"), "must be [nx, ny, nz, d] with a non-zero normal (plane n.x = d, world frame)",
                       "e.g. [0, 0, 1, 0] for the floor");
     p.plane_given = true;
     p.plane = cv::Vec4d(plane[0], plane[1], plane[2], plane[3]);
   }
-  pnh.param("camera_pose", pose, std::vector<double>());
+  const std::vector<double> pose = r.numbers("camera_pose", {}, 7, "", "[0, 0, 0, 0, 0, 0, 1] (x, y, z, qx, qy, qz, qw)");
   if (!pose.empty()) {
-    if (pose.size() != 7) throw TopoError("~camera_pose", "must be [x, y, z, qx, qy, qz, qw]", "the optical frame's pose in the world");
     const double n = std::sqrt(pose[3] * pose[3] + pose[4] * pose[4] + pose[5] * pose[5] + pose[6] * pose[6]);
-    if (!(n > 0)) throw TopoError("~camera_pose", "quaternion is zero", "e.g. [0, 0, 0, 0, 0, 0, 1]");
+    if (!(n > 0)) throw TopoError(r.displayName("camera_pose"), "quaternion is zero", "e.g. [0, 0, 0, 0, 0, 0, 1]");
     const double x = pose[3] / n, y = pose[4] / n, z = pose[5] / n, w = pose[6] / n;
     p.camera_R = cv::Matx33d(1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w), 2 * (x * y + z * w),
                              1 - 2 * (x * x + z * z), 2 * (y * z - x * w), 2 * (x * z - y * w), 2 * (y * z + x * w),
                              1 - 2 * (x * x + y * y));
     p.camera_t = cv::Vec3d(pose[0], pose[1], pose[2]);
   }
-  p.window_s = param(pnh, "window_s", 20.0);
-  p.publish_period_s = param(pnh, "publish_period_s", 1.0);
-  if (!(p.window_s > 0) || !(p.publish_period_s > 0))
-    throw TopoError("~window_s/~publish_period_s", "must be positive [s]", "e.g. 20 and 1");
-  p.stale_after_s = param(pnh, "stale_after_s", 5.0);
-  if (!(p.stale_after_s >= 0)) throw TopoError("~stale_after_s", "must be >= 0 [s]", "e.g. 5 (0: never report a stale camera)");
+  p.window_s = r.number("window_s", 20.0, "s", Range::above(0.0));
+  p.publish_period_s = r.number("publish_period_s", 1.0, "s", Range::above(0.0));
+  p.stale_after_s = r.number("stale_after_s", 5.0, "s", Range::atLeast(0.0));  // 0: never report a stale camera
   vision::MotionTracker check(p.options);  // validates kind and method (throws TopoError)
   return p;
-}
-
-topo_gaussian::MotionFeatures toMotionFeaturesMsg(const vision::TrackResult& r) {
-  topo_gaussian::MotionFeatures m;
-  m.kind = r.kind;
-  m.method = r.method;
-  m.source = r.source;
-  m.message = r.message;
-  m.oscillation_found = r.signal.oscillation_found;
-  m.period_s = r.signal.period_s;
-  m.amplitude_deg = r.signal.amplitude_deg;
-  m.max_tilt_deg = r.signal.max_tilt_deg;
-  m.equilibrium_deg = r.signal.oscillation_found ? r.signal.equilibrium_deg : r.static_pose.angle_deg;
-  m.log_decrement = r.signal.log_decrement;
-  m.damping_ratio = r.signal.damping_ratio;
-  m.bending_angle_deg = r.bend_final_deg;
-  auto conf = [&](const char* k) {
-    const auto it = r.confidence.find(k);
-    return it == r.confidence.end() ? 0.0 : it->second;
-  };
-  m.period_confidence = conf("period_s");
-  m.amplitude_confidence = conf("amplitude_deg");
-  m.equilibrium_confidence = conf("equilibrium_deg");
-  m.bending_confidence = conf("bend_final_deg");
-  m.start_time_s = r.t_start_s;
-  m.end_time_s = r.t_end_s;
-  m.first_frame = r.first_frame;
-  m.last_frame = r.last_frame;
-  m.frames_used = r.frames_used;
-  m.frames_lost = r.lost_frames;
-  m.time_s = r.t;
-  m.angle_deg = r.angle_deg;
-  for (std::size_t k = 0; k < r.trajectories.size(); ++k) {
-    topo_gaussian::PixelTrajectory tr;
-    tr.name = "point_" + std::to_string(k);
-    for (const auto& s : r.trajectories[k]) {
-      tr.time_s.push_back(s.t);
-      tr.x_px.push_back(s.x);
-      tr.y_px.push_back(s.y);
-    }
-    if (k < r.points_on_plane.size())
-      for (const auto& q : r.points_on_plane[k]) {
-        geometry_msgs::Point pt;
-        pt.x = q[0];
-        pt.y = q[1];
-        pt.z = q[2];
-        tr.points_on_plane.push_back(pt);
-      }
-    m.trajectories.push_back(tr);
-  }
-  return m;
 }
 
 cv::Mat imageToBgr(const sensor_msgs::Image& msg, const std::string& topic) {
@@ -169,7 +107,7 @@ void MotionTrackerNode::publish(const vision::TrackResult& result_in, const std:
       ROS_WARN_THROTTLE(10.0, "motion_tracker: ~plane is set but no camera_info has arrived: trajectories stay in pixels");
     }
   }
-  topo_gaussian::MotionFeatures m = toMotionFeaturesMsg(result);
+  topo_gaussian::MotionFeatures m = toMotionFeaturesMsg(vision::toMotionFeatures(result));
   m.header.stamp = ::ros::Time::now();
   m.header.frame_id = frame_id;
   features_pub_.publish(m);
@@ -267,8 +205,8 @@ void MotionTrackerNode::onTimer(const ::ros::TimerEvent&) {
 
 bool MotionTrackerNode::onExtractMotion(topo_gaussian::ExtractMotion::Request& req,
                                         topo_gaussian::ExtractMotion::Response& res) {
-  vision::TrackOptions o = params_.options;
-  try {
+  return guardService("motion_tracker", service_.getService(), res, [&] {
+    vision::TrackOptions o = params_.options;
     if (!req.method.empty()) o.tracker.method = req.method;
     if (!req.kind.empty()) o.kind = req.kind;
     if (!req.roi.empty()) {
@@ -281,17 +219,12 @@ bool MotionTrackerNode::onExtractMotion(topo_gaussian::ExtractMotion::Request& r
     if (req.end_s > 0) o.video.end_s = req.end_s;
     if (req.stride > 1) o.video.stride = req.stride;
     const vision::TrackResult r = vision::trackVideo(req.video_file, o);
-    res.features = toMotionFeaturesMsg(r);
+    res.features = toMotionFeaturesMsg(vision::toMotionFeatures(r));
     res.features.header.stamp = ::ros::Time::now();
     res.success = true;
     res.message = r.message;
     publish(r, "camera");
-  } catch (const std::exception& e) {
-    res.success = false;
-    res.message = e.what();
-    ROS_ERROR("motion_tracker: ~extract_motion: %s", e.what());
-  }
-  return true;
+  });
 }
 
 }  // namespace topo_gaussian::topo_ros

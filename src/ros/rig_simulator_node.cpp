@@ -15,38 +15,12 @@
 #include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/ros/body_pose_msg.h"
 #include "topo_gaussian/ros/conversions.h"
+#include "topo_gaussian/ros/param_reader.h"
 
 namespace topo_gaussian::topo_ros {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-/// A list-of-numbers parameter (unset: `fallback`); `size` > 0 requires that many entries.
-std::vector<double> numbers(const ::ros::NodeHandle& pnh, const std::string& name, const std::vector<double>& fallback,
-                            std::size_t size, const std::string& example) {
-  if (!pnh.hasParam(name)) return fallback;
-  std::vector<double> v;
-  std::string text;  // `_name:=[1, 2, 3]` on a command line arrives as a string
-  bool ok = pnh.getParam(name, v);
-  if (!ok && pnh.getParam(name, text)) {
-    for (char& ch : text)
-      if (ch == '[' || ch == ']' || ch == ',') ch = ' ';
-    std::istringstream in(text);
-    std::string tok;
-    ok = true;
-    while (ok && in >> tok) {
-      char* end = nullptr;
-      v.push_back(std::strtod(tok.c_str(), &end));
-      ok = end != tok.c_str() && *end == '\0';
-    }
-  }
-  if (!ok || (size > 0 && v.size() != size))
-    throw TopoError("~" + name, "must be a list of " + (size > 0 ? std::to_string(size) + " " : std::string()) + "numbers",
-                    "e.g. " + example);
-  for (double x : v)
-    if (!std::isfinite(x)) throw TopoError("~" + name + " " + listText(v), "holds a non-finite number", "e.g. " + example);
-  return v;
-}
 
 void requireRange(const std::string& name, double value, double lo, double hi, const std::string& fix) {
   if (!(value >= lo && value <= hi))
@@ -61,40 +35,32 @@ void requireColour(const std::string& name, const std::vector<double>& bgr) {
 }  // namespace
 
 RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
+  // Types are checked by the reader (a wrong type stops the node naming the parameter); the ranges
+  // below keep the node's own advice.
+  const ParamReader r(pnh, "rig_simulator");
   RigSimulatorParams p;
   inference::RigTwinOptions& t = p.twin;
-  pnh.param<std::string>("object", t.shape, t.shape);
+  t.shape = r.text("object", t.shape);
   try {
     defaultShape(t.shape);
   } catch (const TopoError& e) {
     throw TopoError(std::string("~object: ") + e.what());
   }
-  pnh.param("spacing_m", t.spacing_m, t.spacing_m);
+  t.spacing_m = r.number("spacing_m", t.spacing_m, "m");
   const DefaultShape shape = defaultShape(t.shape);
   requireRange("spacing_m", t.spacing_m, 1e-4, shape.thickness_m / 3.0,
                "use e.g. 0.0025 (at most a third of the " + t.shape + "'s thinnest dimension, " + numberText(shape.thickness_m) + " m)");
-  pnh.param<std::string>("task", t.task, "");
-  pnh.param<std::string>("task_dir", t.task_dir,
+  t.task = r.text("task", "");
+  t.task_dir = r.text("task_dir",
 #ifdef TOPO_DEFAULT_TASK_DIR
-                         TOPO_DEFAULT_TASK_DIR
+                      TOPO_DEFAULT_TASK_DIR
 #else
-                         ""
+                      ""
 #endif
   );
-  if (pnh.hasParam("set") && !pnh.getParam("set", t.overrides)) {
-    // one string (`_set:=...` on a command line): assignments separated by spaces or semicolons,
-    // list brackets and quotes ignored
-    std::string text;
-    if (!pnh.getParam("set", text))
-      throw TopoError("~set", "must be a list of \"KEY=VALUE\" strings", "e.g. ['initial_tilt_deg=8', 'density_solid=4000']");
-    for (char& ch : text)
-      if (ch == ';' || ch == '[' || ch == ']' || ch == '\'' || ch == '"') ch = ' ';
-    std::istringstream in(text);
-    for (std::string a; in >> a;) {
-      if (a.back() == ',') a.pop_back();
-      if (!a.empty()) t.overrides.push_back(a);
-    }
-  }
+  // a list of "KEY=VALUE" strings, or one string (`_set:=...` on a command line) of assignments
+  // separated by spaces or semicolons
+  t.overrides = r.texts("set", t.overrides, "['initial_tilt_deg=8', 'density_solid=4000']", "; \t");
   // The task and its overrides, checked here so the message names the parameter.
   try {
     inference::TaskConfig c = inference::TaskConfig::load(t.task.empty() ? inference::RigTwin::defaultTaskFor(t.shape) : t.task,
@@ -103,56 +69,56 @@ RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
   } catch (const TopoError& e) {
     throw TopoError(std::string("~task/~set: ") + e.what());
   }
-  const std::vector<double> theta = numbers(pnh, "interior_quadric", {}, 10, "[1, 1, 1, 0, 0, 0, 0, 0, -0.8, -0.09]");
+  const std::vector<double> theta = r.numbers("interior_quadric", {}, 10, "", "[1, 1, 1, 0, 0, 0, 0, 0, -0.8, -0.09]");
   if (!theta.empty()) t.interior_quadric = Eigen::Map<const Eigen::VectorXd>(theta.data(), 10);
-  pnh.param("loop_cycles", t.loop_cycles, t.loop_cycles);
+  t.loop_cycles = int(r.integer("loop_cycles", t.loop_cycles));
   requireRange("loop_cycles", t.loop_cycles, 2, 1000, "use about 8");
-  pnh.param("undamped", t.undamped, t.undamped);
-  pnh.param<std::string>("surface_file", t.surface_file, "");
-  pnh.param("scan_spacing_m", t.scan_spacing_m, t.scan_spacing_m);
+  t.undamped = r.flag("undamped", t.undamped);
+  t.surface_file = r.text("surface_file", "");
+  t.scan_spacing_m = r.number("scan_spacing_m", t.scan_spacing_m, "m");
   if (t.scan_spacing_m != 0)
     requireRange("scan_spacing_m", t.scan_spacing_m, 2e-4, shape.thickness_m / 3.0,
                  "use e.g. 0.001 (a finer scan fills closer to the true volume), or 0 for the surface particles");
 
-  pnh.param("width", p.width, p.width);
-  pnh.param("height", p.height, p.height);
+  p.width = int(r.integer("width", p.width, "px"));
+  p.height = int(r.integer("height", p.height, "px"));
   requireRange("width", p.width, 16, 8192, "give the image width in pixels, e.g. 640");
   requireRange("height", p.height, 16, 8192, "give the image height in pixels, e.g. 480");
-  pnh.param("fps", p.fps, p.fps);
+  p.fps = r.number("fps", p.fps, "frames/s");
   requireRange("fps", p.fps, 0.1, 240, "e.g. 30");
-  pnh.param("horizontal_fov_deg", p.horizontal_fov_deg, p.horizontal_fov_deg);
+  p.horizontal_fov_deg = r.number("horizontal_fov_deg", p.horizontal_fov_deg, "deg");
   requireRange("horizontal_fov_deg", p.horizontal_fov_deg, 0.1, 170, "e.g. 8 for the default 1.5 m camera distance");
   const std::pair<const char*, double*> intrinsics[] = {{"fx", &p.fx}, {"fy", &p.fy}, {"cx", &p.cx}, {"cy", &p.cy}};
   for (const auto& [name, v] : intrinsics) {
-    pnh.param(name, *v, *v);
+    *v = r.number(name, *v, "px");
     requireRange(name, *v, 0, 1e6, "give pixels, or 0 to derive it (fx, fy from ~horizontal_fov_deg; cx, cy the image centre)");
   }
-  pnh.param("noise_sigma", p.noise_sigma, p.noise_sigma);
+  p.noise_sigma = r.number("noise_sigma", p.noise_sigma, "grey levels");
   requireRange("noise_sigma", p.noise_sigma, 0, 100, "grey levels of Gaussian pixel noise, e.g. 2 (0 = none)");
-  pnh.param("seed", p.seed, p.seed);
+  p.seed = int(r.integer("seed", p.seed));
   requireRange("seed", p.seed, 0, 2147483647, "any non-negative integer");
-  pnh.param<std::string>("world_frame", p.world_frame, p.world_frame);
-  pnh.param<std::string>("camera_frame", p.camera_frame, p.camera_frame);
-  pnh.param<std::string>("object_frame", p.object_frame, p.object_frame);
+  p.world_frame = r.text("world_frame", p.world_frame);
+  p.camera_frame = r.text("camera_frame", p.camera_frame);
+  p.object_frame = r.text("object_frame", p.object_frame);
   if (p.world_frame.empty() || p.camera_frame.empty() || p.object_frame.empty() || p.world_frame == p.camera_frame ||
       p.world_frame == p.object_frame || p.camera_frame == p.object_frame)
     throw TopoError("~world_frame/~camera_frame/~object_frame ('" + p.world_frame + "', '" + p.camera_frame + "', '" +
                         p.object_frame + "')",
                     "must be three different, non-empty frame names", "e.g. world, camera_optical and object_true");
-  pnh.param("camera_pose_timeout_s", p.camera_pose_timeout_s, p.camera_pose_timeout_s);
+  p.camera_pose_timeout_s = r.number("camera_pose_timeout_s", p.camera_pose_timeout_s, "s");
   requireRange("camera_pose_timeout_s", p.camera_pose_timeout_s, 0, 3600, "seconds to wait for the tf camera pose, e.g. 2");
-  p.default_camera_pose = numbers(pnh, "default_camera_pose", p.default_camera_pose, 7, "[-1.5, 0, 0.04, -0.5, 0.5, -0.5, 0.5]");
+  p.default_camera_pose = r.numbers("default_camera_pose", p.default_camera_pose, 7, "", "[-1.5, 0, 0.04, -0.5, 0.5, -0.5, 0.5]");
   if (!(Eigen::Vector4d(p.default_camera_pose[3], p.default_camera_pose[4], p.default_camera_pose[5], p.default_camera_pose[6]).norm() > 0))
     throw TopoError("~default_camera_pose " + listText(p.default_camera_pose), "has a zero quaternion",
                     "give [x, y, z, qx, qy, qz, qw] of the optical frame in the world");
-  p.object_bgr = numbers(pnh, "object_bgr", p.object_bgr, 3, "[40, 40, 150]");
-  p.background_bgr = numbers(pnh, "background_bgr", p.background_bgr, 3, "[235, 235, 235]");
+  p.object_bgr = r.numbers("object_bgr", p.object_bgr, 3, "", "[40, 40, 150]");
+  p.background_bgr = r.numbers("background_bgr", p.background_bgr, 3, "", "[235, 235, 235]");
   requireColour("object_bgr", p.object_bgr);
   requireColour("background_bgr", p.background_bgr);
-  p.light_direction = numbers(pnh, "light_direction", p.light_direction, 3, "[-1, 0, 1]");
+  p.light_direction = r.numbers("light_direction", p.light_direction, 3, "", "[-1, 0, 1]");
   if (!(Eigen::Vector3d(p.light_direction[0], p.light_direction[1], p.light_direction[2]).norm() > 0))
     throw TopoError("~light_direction", "is zero", "give the direction towards the light in the world, e.g. [-1, 0, 1]");
-  pnh.param("splat_radius_m", p.splat_radius_m, p.splat_radius_m);
+  p.splat_radius_m = r.number("splat_radius_m", p.splat_radius_m, "m");
   requireRange("splat_radius_m", p.splat_radius_m, 0, 0.1, "use 0 for 0.8 particle spacings");
   return p;
 }

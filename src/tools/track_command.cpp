@@ -5,6 +5,7 @@
 #include <functional>
 #include <cmath>
 #include <iostream>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
@@ -13,7 +14,9 @@
 #include "args.h"
 #include "commands.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/io/motion_features_json.h"
 #include "topo_gaussian/vision/camera_model.h"
+#include "topo_gaussian/vision/motion_features.h"
 #include "topo_gaussian/vision/motion_tracker.h"
 
 namespace topo_gaussian::tools {
@@ -39,7 +42,8 @@ const char* kTrackHelp =
     "  --foreground F         silhouette foreground: auto (default: otsu for --kind tilt/finger, mog2\n"
     "                         otherwise) | mog2 | otsu\n"
     "  --min-area PX          smallest blob accepted (default 30)\n"
-    "  --json                 print the features as one JSON object\n"
+    "  --json                 print the features as one JSON object (the motion-features document that\n"
+    "                         `topo infer --features FILE` reads; tracker details under \"tracker\")\n"
     "  --series               with --json: include the time series\n"
     "  --debug-video OUT      write the overlay video (tracked points, axis, angle text)\n"
     "  --plot OUT.png         write a plot of the angle signal (crossings and turning points marked)\n"
@@ -217,7 +221,11 @@ int trackCommand(const std::vector<std::string>& argv) {
   }
   if (a.has("plot")) writePlot(r, a.str("plot"));
   if (a.has("json")) {
-    std::cout << vision::toJson(r, a.has("series")) << "\n";
+    // The motion-features document (io/motion_features_json.h, what `topo infer --features` reads),
+    // with the tracker-only details under "tracker".
+    nlohmann::json doc = nlohmann::json::parse(io::motionFeaturesJson(vision::toMotionFeatures(r), a.has("series")));
+    doc["tracker"] = nlohmann::json::parse(vision::trackerJson(r));
+    std::cout << doc.dump() << "\n";
   } else {
     std::printf("source          %s (%.3f fps, frames %d..%d of %d, %.3f..%.3f s)\n", r.source.c_str(), r.fps, r.first_frame,
                 r.last_frame, r.frames_total, r.t_start_s, r.t_end_s);

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/json.h"
 #include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/common/statistics.h"
 
@@ -563,87 +564,36 @@ TrackResult trackVideo(const std::string& path, const TrackOptions& options,
   return r;
 }
 
-namespace {
-
-std::string jsonString(const std::string& s) {
-  std::string o = "\"";
-  for (unsigned char c : s) {
-    if (c == '"' || c == '\\') o += '\\', o += static_cast<char>(c);
-    else if (c == '\n') o += "\\n";
-    else if (c < 0x20) {
-      char buf[8];
-      std::snprintf(buf, sizeof(buf), "\\u%04x", c);
-      o += buf;
-    } else
-      o += static_cast<char>(c);
-  }
-  return o + "\"";
-}
-
-std::string num(double v) {
-  if (!std::isfinite(v)) return "null";
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.10g", v);
-  return buf;
-}
-
-std::string array(const std::vector<double>& v) {
-  std::string o = "[";
-  for (std::size_t i = 0; i < v.size(); ++i) o += (i ? "," : "") + num(v[i]);
-  return o + "]";
-}
-
-}  // namespace
-
-std::string toJson(const TrackResult& r, bool with_series) {
+std::string trackerJson(const TrackResult& r) {
+  using json::num;
+  using json::quote;
+  auto array = [](const std::vector<double>& v) {
+    std::string o = "[";
+    for (std::size_t i = 0; i < v.size(); ++i) o += (i ? "," : "") + num(v[i]);
+    return o + "]";
+  };
   std::ostringstream o;
-  o << "{\"source\":" << jsonString(r.source) << ",\"method\":" << jsonString(r.method) << ",\"kind\":" << jsonString(r.kind)
-    << ",\"fps\":" << num(r.fps) << ",\"frames_total\":" << r.frames_total << ",\"frames_used\":" << r.frames_used
-    << ",\"first_frame\":" << r.first_frame << ",\"last_frame\":" << r.last_frame << ",\"t_start_s\":" << num(r.t_start_s)
-    << ",\"t_end_s\":" << num(r.t_end_s) << ",\"object_found\":" << (r.object_found ? "true" : "false")
-    << ",\"lost_frames\":" << r.lost_frames << ",\"dropped_frames\":" << r.dropped_frames << ",\"features\":{";
+  o << "{\"fps\":" << num(r.fps) << ",\"frames_total\":" << r.frames_total << ",\"object_found\":"
+    << (r.object_found ? "true" : "false") << ",\"lost_frames\":" << r.lost_frames
+    << ",\"dropped_frames\":" << r.dropped_frames;
   if (r.kind == "pendulum" || r.kind == "tilt") {
-    const SignalFeatures& f = r.signal;
-    o << "\"oscillation_found\":" << (f.oscillation_found ? "true" : "false")
-      << ",\"period_s\":" << (f.oscillation_found ? num(f.period_s) : "null") << ",\"amplitude_deg\":" << num(f.amplitude_deg)
-      << ",\"equilibrium_deg\":" << num(f.equilibrium_deg) << ",\"max_tilt_deg\":" << num(f.max_tilt_deg)
-      << ",\"log_decrement\":" << num(f.log_decrement) << ",\"damping_ratio\":" << num(f.damping_ratio)
-      << ",\"cycles\":" << f.cycles << ",\"static_angle_deg\":" << num(r.static_pose.angle_deg)
+    o << ",\"cycles\":" << r.signal.cycles << ",\"static_angle_deg\":" << num(r.static_pose.angle_deg)
       << ",\"static_spread_deg\":" << num(r.static_pose.spread_deg);
     if (r.kind == "pendulum")
       o << ",\"pivot_px\":[" << num(r.pivot.x) << "," << num(r.pivot.y) << "],\"pivot_estimated\":"
         << (r.pivot_estimated ? "true" : "false") << ",\"pivot_fit_rms_px\":" << num(r.pivot_fit_rms_px);
   } else if (r.kind == "trajectory") {
-    o << "\"bounce_times_s\":" << array(r.bounce_times_s) << ",\"bounce_y_px\":" << array(r.bounce_y_px)
+    o << ",\"bounce_times_s\":" << array(r.bounce_times_s) << ",\"bounce_y_px\":" << array(r.bounce_y_px)
       << ",\"apex_times_s\":" << array(r.apex_times_s) << ",\"apex_heights_px\":" << array(r.apex_heights_px)
       << ",\"floor_y_px\":" << num(r.floor_y_px);
-  } else {
-    o << "\"bend_final_deg\":" << num(r.bend_final_deg);
   }
-  o << "},\"confidence\":{";
+  o << ",\"confidence\":{";
   bool first = true;
   for (const auto& kv : r.confidence) {
-    o << (first ? "" : ",") << jsonString(kv.first) << ":" << num(kv.second);
+    o << (first ? "" : ",") << quote(kv.first) << ":" << num(kv.second);
     first = false;
   }
-  o << "},\"message\":" << jsonString(r.message);
-  if (!r.points_on_plane.empty()) {
-    o << ",\"points_on_plane\":[";
-    for (std::size_t k = 0; k < r.points_on_plane.size(); ++k) {
-      o << (k ? "," : "") << "[";
-      for (std::size_t j = 0; j < r.points_on_plane[k].size(); ++j) {
-        const cv::Vec3d& p = r.points_on_plane[k][j];
-        o << (j ? "," : "") << "[" << num(p[0]) << "," << num(p[1]) << "," << num(p[2]) << "]";
-      }
-      o << "]";
-    }
-    o << "]";
-  }
-  if (with_series) {
-    o << ",\"series\":{\"t\":" << array(r.t) << ",\"" << (r.kind == "trajectory" ? "y_px" : "angle_deg")
-      << "\":" << array(r.angle_deg) << "}";
-  }
-  o << "}";
+  o << "}}";
   return o.str();
 }
 

@@ -2,6 +2,8 @@
 // equilibrium-crossing times, cross-checked with the autocorrelation peak), turning points (parabola
 // refinement), equilibrium, amplitude, logarithmic decrement and a confidence. Works on irregular
 // (t, y) samples. A signal without a clear oscillation is reported as such, never with a made-up period.
+// The fits, turning-point vertices and crossing interpolation are common/oscillation.h's, the same
+// primitives the tasks' differentiable analysis (inference/oscillation.h) uses.
 #include "topo_gaussian/vision/signal_analysis.h"
 
 #include <Eigen/Dense>
@@ -13,6 +15,7 @@
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/common/oscillation.h"
 #include "topo_gaussian/common/statistics.h"
 
 namespace topo_gaussian::vision {
@@ -27,46 +30,15 @@ double mad(const std::vector<double>& v, double centre) {
   return median(d);
 }
 
-/// Least-squares polynomial fit in (x - x0); returns coefficients c0 + c1 τ + c2 τ² ... and, when
-/// hat is given, the leverage of the point τ = 0 (for residual scaling). Returns false when singular.
+/// Least-squares polynomial fit in (x - x0) (common/oscillation.h's fitPolynomial, degree 1 or 2);
+/// coefficients c0 + c1 τ + c2 τ² and, when hat is given, the leverage of the point τ = 0 (for residual
+/// scaling). Returns false when singular.
 bool polyFit(const std::vector<double>& x, const std::vector<double>& y, double x0, int degree,
              Eigen::VectorXd& coef, double* hat = nullptr) {
-  const int n = static_cast<int>(x.size());
-  if (n < degree + 1) return false;
-  // scale τ for conditioning
-  double scale = 0.0;
-  for (double xi : x) scale = std::max(scale, std::abs(xi - x0));
-  if (!(scale > 0.0)) return false;
-  Eigen::MatrixXd A(n, degree + 1);
-  Eigen::VectorXd b(n);
-  for (int i = 0; i < n; ++i) {
-    const double tau = (x[i] - x0) / scale;
-    double p = 1.0;
-    for (int d = 0; d <= degree; ++d) {
-      A(i, d) = p;
-      p *= tau;
-    }
-    b(i) = y[i];
-  }
-  const Eigen::MatrixXd AtA = A.transpose() * A;
-  Eigen::LDLT<Eigen::MatrixXd> ldlt(AtA);
-  if (ldlt.info() != Eigen::Success) return false;
-  Eigen::VectorXd c = ldlt.solve(A.transpose() * b);
-  if (!c.allFinite()) return false;
-  // check conditioning via rank
-  Eigen::FullPivLU<Eigen::MatrixXd> lu(AtA);
-  if (lu.rank() < degree + 1) return false;
-  if (hat) {
-    Eigen::VectorXd e0 = Eigen::VectorXd::Zero(degree + 1);
-    e0(0) = 1.0;
-    *hat = e0.dot(ldlt.solve(e0));
-  }
-  double s = 1.0;
-  for (int d = 0; d <= degree; ++d) {
-    c(d) /= s;
-    s *= scale;
-  }
-  coef = c;
+  double c[3];
+  if (x.size() != y.size() || !oscillation::fitPolynomial(x.data(), y.data(), x.size(), x0, degree, c, hat))
+    return false;
+  coef = Eigen::Map<const Eigen::VectorXd>(c, degree + 1);
   return true;
 }
 
@@ -313,11 +285,12 @@ SignalFeatures analyseSignal(const std::vector<double>& t_in, const std::vector<
       Eigen::VectorXd c;
       if (!polyFit(xs, ys, tc, 2, c)) break;
       if (side * c(2) >= 0.0) break;  // not a proper extremum: keep the smoothed sample
-      const double tau = -c(1) / (2.0 * c(2));
+      double tau = 0.0, vertex = 0.0;
+      oscillation::parabolaVertex(c.data(), tau, vertex);
       if (std::abs(tau) > w) break;
       const double tv = tc + tau;
       if (tv < t.front() || tv > t.back()) break;
-      value = c(0) - c(1) * c(1) / (4.0 * c(2));
+      value = vertex;
       const double moved = std::abs(tau);
       tc = tv;
       if (moved < 0.5 * dt) break;
@@ -415,7 +388,7 @@ SignalFeatures analyseSignal(const std::vector<double>& t_in, const std::vector<
     std::vector<double> cands;
     for (int i = std::max(lo, 0); i + 1 <= hi && i + 1 < n; ++i) {
       const double a = y[i] - eq, b = y[i + 1] - eq;
-      if ((a < 0.0) != (b < 0.0) && a != b) cands.push_back(t[i] + (t[i + 1] - t[i]) * (-a) / (b - a));
+      if (oscillation::isSignChange(a, b)) cands.push_back(oscillation::crossingTime(t[i], a, t[i + 1], b));
     }
     if (cands.empty()) return false;
     crossings.push_back(median(cands));

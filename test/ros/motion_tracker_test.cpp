@@ -16,6 +16,8 @@
 
 #include "topo_gaussian/ExtractMotion.h"
 #include "topo_gaussian/MotionFeatures.h"
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/ros/motion_tracker_node.h"
 #include "topo_gaussian/vision/synthetic_video.h"
 
 namespace {
@@ -143,6 +145,44 @@ TEST(MotionTrackerNode, ImageStreamGivesTheSamePeriod) {
     ros::Duration(0.1).sleep();
   }
   EXPECT_NE(why.find("no image on /image"), std::string::npos) << "no stale-camera report: '" << why << "'";
+}
+
+// ParamReader through a real parameter server: absent → defaults, a good value, a wrong type and
+// a value out of range (the latter two name the parameter as "~name (/resolved/name)").
+TEST(MotionTrackerParams, TypedAndChecked) {
+  ros::NodeHandle scratch("/motion_tracker_param_check");
+  scratch.deleteParam("");
+  const topo_gaussian::topo_ros::MotionTrackerParams d = topo_gaussian::topo_ros::loadMotionTrackerParams(scratch);
+  EXPECT_EQ(d.window_s, 20.0);
+  EXPECT_EQ(d.options.video.stride, 1);
+  EXPECT_EQ(d.options.tracker.method, "marker");
+  scratch.setParam("window_s", 7);  // an int where a number is expected
+  scratch.setParam("stride", 2);
+  const topo_gaussian::topo_ros::MotionTrackerParams g = topo_gaussian::topo_ros::loadMotionTrackerParams(scratch);
+  EXPECT_EQ(g.window_s, 7.0);
+  EXPECT_EQ(g.options.video.stride, 2);
+  auto errorWith = [&](const std::string& name, const auto& value) {
+    scratch.deleteParam("");
+    scratch.setParam(name, value);
+    std::string what = "(no error)";
+    try {
+      topo_gaussian::topo_ros::loadMotionTrackerParams(scratch);
+    } catch (const topo_gaussian::TopoError& e) {
+      what = e.what();
+    }
+    scratch.deleteParam(name);
+    return what;
+  };
+  std::string e = errorWith("window_s", std::string("long"));
+  EXPECT_NE(e.find("~window_s (/motion_tracker_param_check/window_s)"), std::string::npos) << e;
+  EXPECT_NE(e.find("a string (\"long\"), not a number [s]"), std::string::npos) << e;
+  e = errorWith("stride", 1.5);
+  EXPECT_NE(e.find("~stride"), std::string::npos) << e;
+  EXPECT_NE(e.find("not a whole number"), std::string::npos) << e;
+  e = errorWith("publish_period_s", -1.0);
+  EXPECT_NE(e.find("outside (0, inf) s"), std::string::npos) << e;
+  e = errorWith("roi", std::string("left half"));
+  EXPECT_NE(e.find("~roi"), std::string::npos) << e;
 }
 
 int main(int argc, char** argv) {

@@ -6,7 +6,9 @@
 #include <cmath>
 
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/io/motion_features_json.h"
 #include "topo_gaussian/vision/camera_model.h"
+#include "topo_gaussian/vision/motion_features.h"
 #include "topo_gaussian/vision/motion_tracker.h"
 #include "topo_gaussian/vision/synthetic_video.h"
 
@@ -36,6 +38,7 @@ TEST(PlaneTrajectories, MarkerLandsWhereTheBobWas) {
   // One pixel at 2 m with f = 500 px is 4 mm; allow 1.5 px of tracking error (and the frame-time
   // quantisation of the codec).
   EXPECT_LT(worst, 0.006) << "worst distance " << worst << " m";
-  EXPECT_NE(toJson(r).find("\"points_on_plane\""), std::string::npos);
+  EXPECT_NE(topo_gaussian::io::motionFeaturesJson(toMotionFeatures(r), false).find("\"points_on_plane\""),
+            std::string::npos);
   EXPECT_THROW(placeOnPlane(cam, cv::Vec3d(0, 0, 0), 1.0, r), topo_gaussian::TopoError);
 }

@@ -12,7 +12,9 @@
 #include "shared_data.h"
 #include "test_util.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/io/motion_features_json.h"
 #include "topo_gaussian/vision/camera_model.h"
+#include "topo_gaussian/vision/motion_features.h"
 #include "topo_gaussian/vision/motion_tracker.h"
 #include "topo_gaussian/vision/synthetic_video.h"
 #include "topo_gaussian/vision/video_source.h"
@@ -58,7 +60,9 @@ TEST(VisionTracking, MarkerPendulumRecoversPeriodAmplitudeEquilibrium) {
   EXPECT_EQ(r.lost_frames, 0);
   EXPECT_EQ(r.dropped_frames, 0);
   EXPECT_GT(r.confidence.at("period_s"), 0.5);
-  EXPECT_NE(toJson(r).find("\"period_s\""), std::string::npos);
+  const std::string json = io::motionFeaturesJson(toMotionFeatures(r), false);
+  EXPECT_NE(json.find("\"period_s\""), std::string::npos);
+  EXPECT_EQ(io::parseMotionFeaturesJson(json, "marker pendulum").period_s, r.signal.period_s);
 }
 
 TEST(VisionTracking, SilhouetteTiltOfAClearRod) {
@@ -304,6 +308,20 @@ TEST(VisionTracking, CliTrackJson) {
   const topo_test::ToolRun json = track("--video " + path + " --json");
   EXPECT_EQ(json.code, 0);
   EXPECT_NE(json.out.find("\"period_s\""), std::string::npos) << json.out;
+  EXPECT_NE(json.out.find("\"tracker\""), std::string::npos) << json.out;
+  // What `topo track --json > FILE` writes is what readMotionFeaturesJson (topo infer --features) reads.
+  const std::string file = testing::TempDir() + "/cli_features.json";
+  ASSERT_EQ(track("--video " + path + " --json --series > " + file).code, 0);
+  TrackOptions o;
+  const TrackResult direct = trackVideo(path, o);
+  const topo_gaussian::motion::MotionFeatures read = io::readMotionFeaturesJson(file);
+  ASSERT_TRUE(direct.signal.oscillation_found) << direct.message;
+  EXPECT_TRUE(read.oscillation_found);
+  EXPECT_EQ(read.kind, "pendulum");
+  EXPECT_NEAR(read.period_s, direct.signal.period_s, 1e-9 * direct.signal.period_s);
+  EXPECT_NEAR(read.period_s, s.period_s, 0.005 * s.period_s);
+  EXPECT_GT(read.period_confidence, 0.5);
+  EXPECT_EQ(read.time_s.size(), direct.t.size());
   EXPECT_EQ(track("--video /nonexistent/none.mp4 --json").code, 1);
   EXPECT_EQ(track("--video " + path + " --roi 0,0,0,0").code, 1);
   EXPECT_EQ(track("").code, 2);

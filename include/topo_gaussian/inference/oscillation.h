@@ -1,5 +1,6 @@
 // Oscillation features of a sampled signal (a tilt angle over time), differentiable: with a
-// forward-mode scalar (Dual10) every feature carries its derivative. Extrema are located to
+// forward-mode scalar (Dual10) every feature carries its derivative. Built on the turning-point and
+// crossing primitives of common/oscillation.h (the tracker's analysis uses the same ones). Extrema are located to
 // sub-sample accuracy by parabolic interpolation through the three samples around each one, and
 // small jitter extrema are dropped; the equilibrium is the mean of (max + min)/2 over neighbouring
 // turning points, the amplitude half the mean peak-to-peak, and the period twice the mean spacing
@@ -11,14 +12,15 @@
 #include <string>
 #include <vector>
 
+#include "topo_gaussian/common/oscillation.h"
+
 namespace topo_gaussian::inference {
 
-template <typename S>
-struct Extremum {
-  S time;
-  S value;
-  bool maximum;
-};
+// The primitives live in common/oscillation.h (shared with vision::analyseSignal); these names keep
+// working here.
+using oscillation::Extremum;
+using oscillation::prominentExtrema;
+using oscillation::valueOfScalar;
 
 template <typename S>
 struct OscillationFeatures {
@@ -31,44 +33,10 @@ struct OscillationFeatures {
   int extrema = 0;
 };
 
-inline double valueOfScalar(double x) { return x; }
-template <typename S>
-double valueOfScalar(const S& x) { return x.value(); }
-
 /// Interior extrema of y sampled at t0 + k·dt.
 template <typename S>
 std::vector<Extremum<S>> findExtrema(const std::vector<S>& y, double t0, double dt) {
-  std::vector<Extremum<S>> out;
-  for (std::size_t k = 1; k + 1 < y.size(); ++k) {
-    const double a = valueOfScalar(y[k - 1]), b = valueOfScalar(y[k]), c = valueOfScalar(y[k + 1]);
-    const bool mx = b > a && b >= c, mn = b < a && b <= c;
-    if (!mx && !mn) continue;
-    const S den = y[k - 1] - 2.0 * y[k] + y[k + 1];
-    S delta = S(0);
-    if (std::abs(valueOfScalar(den)) > 1e-300) delta = (y[k - 1] - y[k + 1]) / (2.0 * den);
-    const S value = y[k] - 0.25 * (y[k - 1] - y[k + 1]) * delta;
-    out.push_back(Extremum<S>{t0 + dt * (static_cast<double>(k) + delta), value, mx});
-  }
-  return out;
-}
-
-/// Keeps alternating extrema whose swing exceeds `fraction` of the signal's range (contact jitter
-/// near a turning point makes small spurious extrema); of consecutive same-kind ones the more extreme
-/// survives.
-template <typename S>
-std::vector<Extremum<S>> prominentExtrema(const std::vector<Extremum<S>>& ex, double range, double fraction) {
-  std::vector<Extremum<S>> out;
-  for (const auto& e : ex) {
-    if (!out.empty() && out.back().maximum == e.maximum) {
-      const bool more = e.maximum ? valueOfScalar(e.value) > valueOfScalar(out.back().value)
-                                  : valueOfScalar(e.value) < valueOfScalar(out.back().value);
-      if (more) out.back() = e;
-      continue;
-    }
-    if (!out.empty() && std::abs(valueOfScalar(e.value) - valueOfScalar(out.back().value)) < fraction * range) continue;
-    out.push_back(e);
-  }
-  return out;
+  return oscillation::findExtrema(y, [&](std::size_t k) { return t0 + dt * static_cast<double>(k); });
 }
 
 /// max_cycles > 0 limits the period and equilibrium to the first max_cycles full cycles, so the
@@ -120,12 +88,13 @@ OscillationFeatures<S> analyseOscillation(const std::vector<S>& y, double t0, do
     for (std::size_t i = static_cast<std::size_t>(std::max(0.0, std::ceil((ta - t0) / dt)));
          i + 1 < y.size() && t0 + (i + 1) * dt <= tb + dt; ++i) {
       const double a = valueOfScalar(y[i] - f.equilibrium), b = valueOfScalar(y[i + 1] - f.equilibrium);
-      if ((a <= 0) != (b <= 0) && std::abs(b - a) > slope) slope = std::abs(b - a), best = i + 1;
+      if (oscillation::isSignChange(a, b) && std::abs(b - a) > slope) slope = std::abs(b - a), best = i + 1;
     }
     if (slope == 0) continue;
     const std::size_t i = best - 1;
     const S a = y[i] - f.equilibrium, b = y[i + 1] - f.equilibrium;
-    crossings.push_back(t0 + dt * static_cast<double>(i) + dt * a / (a - b));
+    crossings.push_back(oscillation::crossingTime(t0 + dt * static_cast<double>(i), a,
+                                                  t0 + dt * static_cast<double>(i + 1), b));
   }
   if (crossings.size() < 2) {
     f.message = "fewer than one full period: simulate longer (duration_s)";

@@ -37,9 +37,6 @@ struct MotionTrackerParams {
 /// Reads and validates the private parameters; throws TopoError naming the parameter and the fix.
 MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh);
 
-/// The message for a tracking result (series, trajectories, confidences, frame range).
-topo_gaussian::MotionFeatures toMotionFeaturesMsg(const vision::TrackResult& result);
-
 /// BGR copy of an Image message. Throws TopoError naming the topic and the encoding, with the fix,
 /// for encodings that are not images of light (e.g. 16UC1 depth, 32FC1).
 cv::Mat imageToBgr(const sensor_msgs::Image& msg, const std::string& topic);

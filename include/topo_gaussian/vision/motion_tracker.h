@@ -110,7 +110,10 @@ class CameraModel;
 /// way, projected into the same camera with CameraModel::project).
 void placeOnPlane(const CameraModel& camera, const cv::Vec3d& plane_normal, double plane_d, TrackResult& result);
 
-/// Features, confidences, frame range, source and message as one JSON object (series when keep_series).
-std::string toJson(const TrackResult& result, bool with_series = false);
+/// The tracker-only details as one JSON object (fps, frame counts, lost/dropped frames; pendulum/tilt:
+/// cycles, static pose, pivot; trajectory: bounces, apexes, floor line; every confidence). The
+/// features themselves go through toMotionFeatures (vision/motion_features.h) and
+/// io::motionFeaturesJson; `topo track --json` puts this object under their "tracker" key.
+std::string trackerJson(const TrackResult& result);
 
 }  // namespace topo_gaussian::vision
