@@ -15,6 +15,8 @@
 #include "topo_gaussian/ros/conversions.h"
 #include "topo_gaussian/ros/interior_markers.h"
 #include "topo_gaussian/ros/motion_features_msg.h"
+#include "topo_gaussian/ros/param_reader.h"
+#include "topo_gaussian/ros/service_guard.h"
 #include "topo_gaussian/workflow/inference_run.h"
 #include "topo_gaussian/workflow/interior_export.h"
 
@@ -41,26 +43,18 @@ void fillFeatures(const std::vector<inference::Feature>& fs, std::vector<std::st
 
 InteriorInferenceParams loadInteriorInferenceParams(const ::ros::NodeHandle& pnh) {
   InteriorInferenceParams p;
-  pnh.param<std::string>("task_dir", p.task_dir, io::defaultTaskDir());
-  pnh.param<std::string>("default_task", p.default_task, p.default_task);
-  pnh.param<std::string>("output_dir", p.output_dir, defaultOutputDir());
-  pnh.param<std::string>("world_frame", p.world_frame, p.world_frame);
-  pnh.param<std::string>("object_frame", p.object_frame, p.object_frame);
-  pnh.param("replay_rate_hz", p.replay_rate_hz, p.replay_rate_hz);
-  pnh.param("replay_speed", p.replay_speed, p.replay_speed);
-  pnh.param("export_on_finish", p.export_on_finish, p.export_on_finish);
-  pnh.param("max_features_age_s", p.max_features_age_s, p.max_features_age_s);
-  pnh.param("volume_wait_s", p.volume_wait_s, p.volume_wait_s);
-  pnh.param("restore_latest", p.restore_latest, p.restore_latest);
-  if (!(p.volume_wait_s >= 0 && p.volume_wait_s <= 3600))
-    throw TopoError("~volume_wait_s", "is " + std::to_string(p.volume_wait_s) + ", outside [0, 3600]", "use e.g. 15 [s]");
-  if (!(p.replay_rate_hz >= 0 && p.replay_rate_hz <= 1000))
-    throw TopoError("~replay_rate_hz", "is " + std::to_string(p.replay_rate_hz) + ", outside [0, 1000]",
-                    "use e.g. 30 (0 turns the tf replay off)");
-  if (!(p.replay_speed > 0 && p.replay_speed <= 100))
-    throw TopoError("~replay_speed", "is " + std::to_string(p.replay_speed) + ", outside (0, 100]", "use 1 for real time");
-  if (!(p.max_features_age_s >= 0))
-    throw TopoError("~max_features_age_s", "is negative", "use 0 to accept motion features of any age");
+  const ParamReader r(pnh, "interior_inference");
+  p.task_dir = r.text("task_dir", io::defaultTaskDir());
+  p.default_task = r.text("default_task", p.default_task);
+  p.output_dir = r.text("output_dir", defaultOutputDir());
+  p.world_frame = r.text("world_frame", p.world_frame);
+  p.object_frame = r.text("object_frame", p.object_frame);
+  p.replay_rate_hz = r.number("replay_rate_hz", p.replay_rate_hz, "Hz", Range::between(0, 1000));
+  p.replay_speed = r.number("replay_speed", p.replay_speed, "", Range{0, 100, true, false});
+  p.export_on_finish = r.flag("export_on_finish", p.export_on_finish);
+  p.max_features_age_s = r.number("max_features_age_s", p.max_features_age_s, "s", Range::atLeast(0));
+  p.volume_wait_s = r.number("volume_wait_s", p.volume_wait_s, "s", Range::between(0, 3600));
+  p.restore_latest = r.flag("restore_latest", p.restore_latest);
   if (p.world_frame.empty() || p.object_frame.empty() || p.world_frame == p.object_frame)
     throw TopoError("~world_frame/~object_frame", "must be two different, non-empty frame names",
                     "e.g. world and object_simulated");
@@ -392,7 +386,7 @@ bool InteriorInferenceNode::onInfer(topo_gaussian::Infer::Request& req, topo_gau
   rq.ignore_motion_features = req.ignore_motion_features;
   rq.max_iterations = req.max_iterations;
   rq.output_dir = req.output_dir;
-  try {
+  return guardService("interior_inference", infer_srv_.getService(), res, [&] {
     const InferenceOutcome out = run(rq, [](const topo_gaussian::InferInteriorFeedback& fb) {
       ROS_INFO("interior_inference: ~infer iteration %d  loss %.6e  |grad| %.3e  best %.6e  %.2f s", fb.iteration, fb.loss,
                fb.gradient_norm, fb.best_loss, fb.elapsed_s);
@@ -408,17 +402,12 @@ bool InteriorInferenceNode::onInfer(topo_gaussian::Infer::Request& req, topo_gau
     res.output_dir = out.output_dir;
     res.files = out.files;
     ROS_INFO("interior_inference: ~infer: %s", out.message.c_str());
-  } catch (const std::exception& e) {
-    res.success = false;
-    res.message = e.what();
-    ROS_ERROR("interior_inference: ~infer: %s", e.what());
-  }
-  return true;
+  });
 }
 
 bool InteriorInferenceNode::onSimulate(topo_gaussian::SimulateInterior::Request& req,
                                        topo_gaussian::SimulateInterior::Response& res) {
-  try {
+  return guardService("interior_inference", simulate_srv_.getService(), res, [&] {
     std::shared_ptr<const VolumeCloud> cloud;
     std::vector<double> r;
     std::string task;
@@ -469,17 +458,12 @@ bool InteriorInferenceNode::onSimulate(topo_gaussian::SimulateInterior::Request&
     for (auto& c : res.message)
       if (c == '\n') c = ';';
     ROS_INFO("interior_inference: ~simulate: %s", res.message.c_str());
-  } catch (const std::exception& e) {
-    res.success = false;
-    res.message = e.what();
-    ROS_ERROR("interior_inference: ~simulate: %s", e.what());
-  }
-  return true;
+  });
 }
 
 bool InteriorInferenceNode::onExport(topo_gaussian::ExportInterior::Request& req,
                                      topo_gaussian::ExportInterior::Response& res) {
-  try {
+  return guardService("interior_inference", export_srv_.getService(), res, [&] {
     std::shared_ptr<const VolumeCloud> cloud;
     workflow::ExportOptions eo;
     std::vector<double> r, density;
@@ -517,12 +501,7 @@ bool InteriorInferenceNode::onExport(topo_gaussian::ExportInterior::Request& req
     for (const auto& n : s.notes) os << "; " << n;
     res.message = os.str();
     ROS_INFO("interior_inference: ~export: %s", res.message.c_str());
-  } catch (const std::exception& e) {
-    res.success = false;
-    res.message = e.what();
-    ROS_ERROR("interior_inference: ~export: %s", e.what());
-  }
-  return true;
+  });
 }
 
 }  // namespace topo_gaussian::topo_ros

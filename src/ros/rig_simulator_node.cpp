@@ -15,6 +15,7 @@
 #include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/ros/body_pose_msg.h"
 #include "topo_gaussian/ros/conversions.h"
+#include "topo_gaussian/io/task_dir.h"
 #include "topo_gaussian/ros/param_reader.h"
 
 namespace topo_gaussian::topo_ros {
@@ -51,13 +52,7 @@ RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
   requireRange("spacing_m", t.spacing_m, 1e-4, shape.thickness_m / 3.0,
                "use e.g. 0.0025 (at most a third of the " + t.shape + "'s thinnest dimension, " + numberText(shape.thickness_m) + " m)");
   t.task = r.text("task", "");
-  t.task_dir = r.text("task_dir",
-#ifdef TOPO_DEFAULT_TASK_DIR
-                      TOPO_DEFAULT_TASK_DIR
-#else
-                      ""
-#endif
-  );
+  t.task_dir = r.text("task_dir", io::defaultTaskDir());
   // a list of "KEY=VALUE" strings, or one string (`_set:=...` on a command line) of assignments
   // separated by spaces or semicolons
   t.overrides = r.texts("set", t.overrides, "['initial_tilt_deg=8', 'density_solid=4000']", "; \t");

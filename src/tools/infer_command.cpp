@@ -10,6 +10,7 @@
 #include "topo_gaussian/geometry/ingest.h"
 #include "topo_gaussian/inference/report.h"
 #include "topo_gaussian/io/interior_ply.h"
+#include "topo_gaussian/io/motion_features_json.h"
 #include "topo_gaussian/io/task_dir.h"
 #include "topo_gaussian/io/text_file.h"
 #include "topo_gaussian/io/volume_ply.h"
@@ -37,7 +38,10 @@ const char* kInferHelp =
     "  --count N              particles when filling --surface (default 20000)\n"
     "  --volume FILE          a volume .ply written by `topo fill`\n"
     "  --representation R     point | quadric | neural (same as --set representation=R)\n"
-    "  --target NAME=VALUE    an observed feature, e.g. period_s=0.25 (repeatable)\n"
+    "  --features FILE.json   motion features as `topo track --json` writes them: the task takes its\n"
+    "                         targets from them (tumbler: period, max tilt; hanging/balance/stand: the\n"
+    "                         equilibrium angle; finger: the bend) and signal.png compares the signals\n"
+    "  --target NAME=VALUE    an observed feature, e.g. period_s=0.25 (repeatable; wins over --features)\n"
     "  --set KEY=VALUE        any task parameter, e.g. density_solid=1200 (repeatable)\n"
     "  --list-params          print every parameter of the task with its default and exit\n"
     "  --output DIR           the run folder (created)\n"
@@ -102,7 +106,7 @@ VolumeCloud volumeOrDefaultShape(const Args& a, const inference::TaskConfig& con
 
 int inferCommand(const std::vector<std::string>& argv) {
   const Args a(argv, {"help", "json", "quiet", "list-params", "no-export"},
-               {"task", "surface", "volume", "representation", "output", "count"}, {"target", "set"});
+               {"task", "surface", "volume", "representation", "output", "count", "features"}, {"target", "set"});
   if (a.has("help")) {
     std::cout << kInferHelp;
     return 0;
@@ -118,6 +122,8 @@ int inferCommand(const std::vector<std::string>& argv) {
   rq.volume = loadVolume(a);
   if (!rq.volume && inference::defaultShapeForTask(config.task()).empty())
     throw UsageError("give --volume or --surface (tasks with a default shape: finger, pear, cantilever)");
+  if (a.has("features"))
+    rq.observed = std::make_shared<motion::MotionFeatures>(io::readMotionFeaturesJson(a.str("features")));
   rq.targets = a.all("target");
   rq.targets_origin = "--target";
   rq.output_dir = a.str("output");
