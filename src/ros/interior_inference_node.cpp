@@ -21,7 +21,8 @@
 #include "topo_gaussian/ros/body_pose_msg.h"
 #include "topo_gaussian/ros/conversions.h"
 #include "topo_gaussian/ros/interior_markers.h"
-#include "topo_gaussian/ros/motion_targets.h"
+#include "topo_gaussian/inference/motion_targets.h"
+#include "topo_gaussian/ros/motion_features_msg.h"
 
 #ifndef TOPO_DEFAULT_TASK_DIR
 #define TOPO_DEFAULT_TASK_DIR ""
@@ -263,7 +264,7 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
       observed = latest_features.get();
     }
     if (observed) {
-      const MotionTargets mt = targetsFromMotion(config, *observed);
+      const inference::MotionTargets mt = inference::targetsFromMotion(config, fromMotionFeaturesMsg(*observed));
       for (const auto& [name, value] : mt.targets) {
         config.setNumber(name, value);
         std::ostringstream os;

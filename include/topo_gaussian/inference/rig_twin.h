@@ -67,9 +67,10 @@ class RigTwin {
   /// rocking period by about 10 % against the solid tumbler. Hanging: u0 = (0, 0, 0.3), ρ = 0.4 — a
   /// cavity in the upper half on the axis: the object hangs straight and swings in one plane (an
   /// off-axis cavity would make it swing in two, which never loops), 2 % slower than solid (pear).
-  /// Throws TopoError for other tasks.
+  /// (Each task's RigTwinMotion cavity, inference/task_registry.h.) Throws TopoError for other tasks.
   static Eigen::VectorXd defaultInteriorQuadric(const std::string& task);
-  /// "tumbler" → "tumbler"; any other default shape → "hanging".
+  /// The task whose registered RigTwinMotion names the shape (tumbler → tumbler), else the one
+  /// registered for every other shape (hanging).
   static std::string defaultTaskFor(const std::string& shape);
 
   const RigTwinOptions& options() const { return options_; }
