@@ -120,9 +120,9 @@ RigTwin::RigTwin(const RigTwinOptions& options) : options_(options) {
   config_ = TaskConfig::load(options_.task, options_.task_dir);
   if (options_.undamped && config_.has("contact_damping_ratio")) config_.setNumber("contact_damping_ratio", 0.0);
   for (const auto& a : options_.overrides) config_.setAssignment(a, "rig twin set");
-  const RigTwinMotion& motion = twinMotion(config_.task());
-  if (motion.fallback_duration_s > 0 && !(config_.number(motion.duration_parameter) > 0))
-    config_.setNumber(motion.duration_parameter, motion.fallback_duration_s);
+  const RigTwinMotion& replay = twinMotion(config_.task());
+  if (replay.fallback_duration_s > 0 && !(config_.number(replay.duration_parameter) > 0))
+    config_.setNumber(replay.duration_parameter, replay.fallback_duration_s);
 
   Eigen::VectorXd theta = options_.interior_quadric;
   if (theta.size() == 0) theta = defaultInteriorQuadric(config_.task());
@@ -147,17 +147,17 @@ RigTwin::RigTwin(const RigTwinOptions& options) : options_(options) {
     throw TopoError(std::string("rig twin: simulating the true interior of the ") + shape_.name + " (" + config_.task() +
                     " task) failed: " + e.what());
   }
-  const Feature* period = findFeature(truth_, motion.period_feature);
+  const Feature* period = findFeature(truth_, replay.period_feature);
   if (!period || !(period->value > 0))
-    throw TopoError("rig twin: the true interior of the " + shape_.name, "produces no oscillation period (" + motion.period_feature +
-                                                                             ") in " + config_.valueText(motion.duration_parameter),
-                    "raise " + motion.duration_parameter + " or choose an interior that oscillates (e.g. the default)");
+    throw TopoError("rig twin: the true interior of the " + shape_.name, "produces no oscillation period (" + replay.period_feature +
+                                                                             ") in " + config_.valueText(replay.duration_parameter),
+                    "raise " + replay.duration_parameter + " or choose an interior that oscillates (e.g. the default)");
 
   // The loop: a longer run of the same motion when the configured one is too short.
   const double need_s = (options_.loop_cycles + 1.5) * period->value;
-  if (need_s > config_.number(motion.duration_parameter)) {
+  if (need_s > config_.number(replay.duration_parameter)) {
     TaskConfig longer = quadric;
-    longer.setNumber(motion.duration_parameter, need_s);
+    longer.setNumber(replay.duration_parameter, need_s);
     try {
       buildLoop(InteriorProblem(longer, cloud_).evaluateIndicator(r_, nullptr).task, period->value);
     } catch (const TopoError& e) {
