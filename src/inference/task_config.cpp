@@ -322,7 +322,8 @@ std::string TaskConfig::help() const {
     os << "  " << (s.is_target ? "--target " : "--set ") << s.name << "=" << valueText(s.name);
     if (!s.unit.empty() && s.unit != "unitless") os << " [" << s.unit << "]";
     os << "\n      " << s.doc << "\n";
-    if (!s.paper_value.empty()) os << "      paper: " << s.paper_value << "\n";
+    if (!s.paper_value.empty() && s.doc.find("paper: " + s.paper_value) == std::string::npos)
+      os << "      paper: " << s.paper_value << "\n";
   }
   return os.str();
 }
