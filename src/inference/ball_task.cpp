@@ -135,8 +135,23 @@ class BallTask : public Task {
 
 }  // namespace
 
-std::unique_ptr<Task> makeBallTask(const TaskConfig& config, const VolumeCloud& cloud) {
-  return std::make_unique<BallTask>(config, cloud);
+void registerBallTask(TaskList* tasks) {
+  TaskDefinition t;
+  t.name = "ball";
+  t.summary = "a ball dropped on the floor bounces and spins: trajectories of tracked body points";
+  t.declare_parameters = [](TaskParameters& p) {
+    declareRigidMotionParameters(p, 1.0, 0.3);
+    const Eigen::Vector3d zero(0, 0, 0);
+    p.number("initial_height_m", 0.3, "m", "drop height of the lowest point above the ground [m]", 0);
+    p.vector3("initial_velocity", &zero, "m/s", "initial velocity [m/s]");
+    p.vector3("initial_angular_velocity", &zero, "rad/s", "initial angular velocity, world frame [rad/s]");
+    p.list("pivot_points", {}, "m", "tracked body points x,y,z,... [m]; default: centroid and two surface points");
+    p.target("target_trajectory_file", ParamType::Text, "", "CSV: t, then x y z of each pivot point [s, m]");
+  };
+  t.make = [](const TaskConfig& config, const VolumeCloud& cloud) -> std::unique_ptr<Task> {
+    return std::make_unique<BallTask>(config, cloud);
+  };
+  tasks->push_back(t);
 }
 
 }  // namespace topo_gaussian::inference

@@ -104,8 +104,34 @@ class CantileverTask : public SoftTask {
 
 }  // namespace
 
-std::unique_ptr<Task> makeCantileverTask(const TaskConfig& config, const VolumeCloud& cloud) {
-  return std::make_unique<CantileverTask>(config, cloud);
+void registerCantileverTask(TaskList* tasks) {
+  TaskDefinition t;
+  t.name = "cantilever";
+  t.summary = "a clamped beam sags under gravity (and vibrates): tip deflection and first frequency";
+  t.declare_parameters = [](TaskParameters& p) {
+    SoftDefaults d;
+    d.youngs_modulus_solid = 1e7;
+    d.youngs_modulus_hollow = 1e7;
+    d.youngs_modulus_hollow_doc = "Young's modulus of the r = 0 material [Pa] (paper: soft 1.5e5)";
+    d.youngs_modulus_hollow_paper = "soft 1.5e5";
+    d.poisson_ratio_hollow_doc = "Poisson ratio of the r = 0 material, unitless";
+    d.gradient_order = 2;
+    d.default_spacing_m = 0.004;
+    d.density_hollow = 1000.0;
+    declareSoftParameters(p, d);
+    p.number("clamp_length_m", 0.0, "m", "particles with x < min x + this are clamped [m]; 0 = 3 spacings", 0);
+    p.flag("vibration", true, "also release the static shape without gravity and measure the first frequency");
+    p.number("vibration_periods", 1.0, "unitless", "free vibration: full periods to measure, unitless", 0.5, 20);
+    // Uniform-material shorthands: one value for both materials.
+    p.shorthand("youngs_modulus", {"youngs_modulus_solid", "youngs_modulus_hollow"});
+    p.shorthand("density", {"density_solid", "density_hollow"});
+    p.shorthand("poisson_ratio", {"poisson_ratio_hollow", "poisson_ratio"});
+  };
+  t.make = [](const TaskConfig& config, const VolumeCloud& cloud) -> std::unique_ptr<Task> {
+    return std::make_unique<CantileverTask>(config, cloud);
+  };
+  t.default_shape = "beam";
+  tasks->push_back(t);
 }
 
 }  // namespace topo_gaussian::inference

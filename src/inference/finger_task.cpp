@@ -161,8 +161,62 @@ class FingerTask : public SoftTask {
 
 }  // namespace
 
-std::unique_ptr<Task> makeFingerTask(const TaskConfig& config, const VolumeCloud& cloud) {
-  return std::make_unique<FingerTask>(config, cloud);
+namespace {
+
+/// bend_angle_deg from the observed bending angle of the tip.
+MotionTargets bendingTargets(const TaskConfig&, const motion::MotionFeatures& f) {
+  MotionTargets out;
+  if (f.bending_confidence > 0) out.targets.emplace_back("bend_angle_deg", f.bending_angle_deg);
+  else out.note = motionFeaturesOrigin(f) + " hold no measured bending angle";
+  return out;
+}
+
+}  // namespace
+
+void registerFingerTask(TaskList* tasks) {
+  TaskDefinition t;
+  t.name = "finger";
+  t.summary = "a pneumatic soft finger bends under chamber pressure: bending angle of the tip";
+  t.declare_parameters = [](TaskParameters& p) {
+    SoftDefaults d;
+    d.youngs_modulus_solid = 1e7;
+    d.youngs_modulus_hollow = 1e6;
+    d.youngs_modulus_hollow_doc = "Young's modulus of the chamber (r = 0) [Pa]";
+    d.poisson_ratio = 0.45;
+    d.poisson_ratio_hollow = 0.0;
+    d.poisson_ratio_hollow_doc = "Poisson ratio of the chamber, unitless (0: the air offers no bulk stiffness)";
+    d.stiffness_power = 3.0;
+    d.gradient_order = 1;
+    d.default_spacing_m = 0.0025;
+    d.density_hollow = 1.0;
+    d.pin_shell = true;
+    declareSoftParameters(p, d);
+    const Eigen::Vector3d ex(1, 0, 0), ez(0, 0, 1);
+    p.number("pressure_pa", 5e5, "Pa", "chamber gauge pressure at the end of the ramp [Pa] (paper: 5e5)").paper("5e5");
+    p.number("clamp_length_m", 0.01, "m", "particles within this distance of the base (min x) are clamped [m]", 0, 1e300, true);
+    p.text("mode", "static",
+           "static (quasi-static equilibrium at the full pressure) | implicit (implicit Euler over the ramp)",
+           {"static", "implicit"});
+    p.integer("load_steps", 2, "unitless", "static mode: pressure increments of the Newton solve, unitless", 1, 100);
+    p.number("duration_s", 0.2, "s", "implicit mode: simulated time; the pressure ramps over it [s]", 0, 1e300, true);
+    p.number("dt_s", 0.01, "s", "implicit mode: time step [s]", 0, 1e300, true);
+    p.vector3("finger_axis", &ex, "unitless", "the finger's long axis from base to tip (rest state), a unitless direction");
+    p.vector3("bend_normal", &ez, "unitless",
+              "positive bending angle = tip turning towards this direction, a unitless direction");
+    p.number("tip_fraction", 0.15, "unitless",
+             "the tip segment: the last fraction of the length, unitless; the segment before it has the same length", 0.02,
+             0.45);
+    p.setDefault("gravity", Eigen::Vector3d(0, 0, 0));  // the paper's finger task: actuation only
+    p.setDefault("loss_tolerance", 1e-8);
+    p.target("bend_angle_deg", ParamType::Number, "deg", "observed bending angle of the tip at the full pressure [deg]", -180,
+             180);
+  };
+  t.make = [](const TaskConfig& config, const VolumeCloud& cloud) -> std::unique_ptr<Task> {
+    return std::make_unique<FingerTask>(config, cloud);
+  };
+  t.default_shape = "finger";
+  t.motion_targets = bendingTargets;
+  tasks->push_back(t);
 }
 
 }  // namespace topo_gaussian::inference

@@ -148,8 +148,37 @@ class PearTask : public SoftTask {
 
 }  // namespace
 
-std::unique_ptr<Task> makePearTask(const TaskConfig& config, const VolumeCloud& cloud) {
-  return std::make_unique<PearTask>(config, cloud);
+void registerPearTask(TaskList* tasks) {
+  TaskDefinition t;
+  t.name = "pear";
+  t.summary = "a soft pear dropped at a tilt bounces on the ground: trajectories of tracked body points";
+  t.declare_parameters = [](TaskParameters& p) {
+    SoftDefaults d;
+    d.youngs_modulus_solid = 1e6;
+    d.youngs_modulus_hollow = 1e5;
+    d.youngs_modulus_hollow_doc = "Young's modulus of the r = 0 material [Pa] (paper: soft 1.5e5)";
+    d.youngs_modulus_hollow_paper = "soft 1.5e5";
+    d.poisson_ratio_hollow_doc = "Poisson ratio of the r = 0 material, unitless";
+    d.default_spacing_m = 0.008;
+    d.density_hollow = 1000.0;
+    declareSoftParameters(p, d);
+    const Eigen::Vector3d zero(0, 0, 0);
+    p.number("duration_s", 0.12, "s", "simulated time [s]", 0, 1e300, true);
+    p.number("dt_s", 0.0, "s", "integration step [s]; 0 = 0.9 x the explicit stability limit", 0);
+    p.number("sample_dt_s", 0.005, "s", "spacing of the compared trajectory samples [s]", 0, 1e300, true);
+    p.number("initial_height_m", 0.01, "m", "gap between the lowest point and the ground at release [m]", 0);
+    p.vector3("initial_velocity", &zero, "m/s", "initial velocity [m/s]");
+    p.number("initial_tilt_deg", 15.0, "deg", "release tilt about world x [deg]", -89, 89);
+    p.number("contact_stiffness_n_per_m", 0.0, "N/m", "ground penalty stiffness per particle [N/m]; 0 = automatic", 0);
+    p.number("friction_mu", 0.5, "unitless", "Coulomb friction coefficient, unitless", 0);
+    p.list("pivot_points", {}, "m", "tracked body points x,y,z,... [m]; default: top, bottom and two side points");
+    p.target("target_trajectory_file", ParamType::Text, "", "CSV: t, then x y z of each pivot point [s, m]");
+  };
+  t.make = [](const TaskConfig& config, const VolumeCloud& cloud) -> std::unique_ptr<Task> {
+    return std::make_unique<PearTask>(config, cloud);
+  };
+  t.default_shape = "pear";
+  tasks->push_back(t);
 }
 
 }  // namespace topo_gaussian::inference

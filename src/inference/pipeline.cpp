@@ -5,6 +5,7 @@
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/stopwatch.h"
+#include "topo_gaussian/inference/task_registry.h"
 
 namespace topo_gaussian::inference {
 
@@ -18,7 +19,8 @@ ProblemEvaluation simulateInterior(const TaskConfig& config, const VolumeCloud& 
 }
 
 std::string defaultShapeForTask(const std::string& t) {
-  return t == "finger" ? "finger" : t == "pear" ? "pear" : t == "cantilever" ? "beam" : "";
+  const TaskDefinition* task = findTaskDefinition(t);
+  return task ? task->default_shape : std::string();
 }
 
 std::vector<double> particleStiffness(const TaskConfig& config, const std::vector<double>& r) {

@@ -219,8 +219,26 @@ class QiqiTask : public Task {
 
 }  // namespace
 
-std::unique_ptr<Task> makeQiqiTask(const TaskConfig& config, const VolumeCloud& cloud) {
-  return std::make_unique<QiqiTask>(config, cloud);
+void registerQiqiTask(TaskList* tasks) {
+  TaskDefinition t;
+  t.name = "qiqi";
+  t.summary = "a vessel on a hinge tilts as water fills its cavity: equilibrium tilt at each fill level";
+  t.declare_parameters = [](TaskParameters& p) {
+    const Eigen::Vector3d ex(1, 0, 0);
+    p.vector3("pivot_point", nullptr, "m",
+              "hinge pivot in the body frame [m]; default: bounds centre, 1/4 of the height above it");
+    p.vector3("hinge_axis", &ex, "unitless", "hinge axis (body = world at zero tilt), a unitless direction");
+    p.list("fill_levels", {0.0, 0.5, 0.95}, "unitless",
+           "water volume as fractions of the cavity volume, one per pose, unitless", 0, 1);
+    p.number("water_density", 1000.0, "kg/m^3", "density of the water [kg/m^3]", 0, 1e300, true);
+    p.number("water_smoothing", 0.01, "unitless", "width of the water surface as a fraction of the object size, unitless", 0,
+             1, true);
+    p.target("target_tilts_deg", ParamType::List, "deg", "observed tilt at each fill level [deg]");
+  };
+  t.make = [](const TaskConfig& config, const VolumeCloud& cloud) -> std::unique_ptr<Task> {
+    return std::make_unique<QiqiTask>(config, cloud);
+  };
+  tasks->push_back(t);
 }
 
 }  // namespace topo_gaussian::inference

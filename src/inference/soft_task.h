@@ -5,9 +5,11 @@
 #pragma once
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "topo_gaussian/inference/task.h"
+#include "topo_gaussian/inference/task_registry.h"
 #include "topo_gaussian/physics/soft_rollout.h"
 
 namespace topo_gaussian::inference {
@@ -32,6 +34,23 @@ class SoftTask : public Task {
   double E_solid_ = 0.0, rho_solid_ = 0.0;
   SoftBodyOptions sim_options_;
 };
+
+/// The defaults in which the soft tasks' shared parameters differ.
+struct SoftDefaults {
+  double youngs_modulus_solid = 1e7, youngs_modulus_hollow = 1e7;  ///< [Pa]
+  std::string youngs_modulus_hollow_doc, youngs_modulus_hollow_paper;
+  double poisson_ratio = 0.3, poisson_ratio_hollow = 0.3;
+  std::string poisson_ratio_hollow_doc;
+  double stiffness_power = 1.0;
+  int gradient_order = 1;
+  double default_spacing_m = 0.004;
+  double density_hollow = 1000.0;  ///< [kg/m^3] (density_solid stays 1000)
+  bool pin_shell = false;
+};
+
+/// Declares the parameters every soft task reads (materials, SPH, Newton, default spacing; paper
+/// §6.1 soft, table 2: Young's modulus interpolated by r like the density).
+void declareSoftParameters(TaskParameters& p, const SoftDefaults& d);
 
 /// ½ Σ (x − X)·… helpers are per task; this one is shared: the CorotatedSph options of a config.
 CorotatedSphOptions sphOptionsFromConfig(const TaskConfig& c, double spacing);

@@ -185,8 +185,75 @@ class StaticTask : public Task {
 
 }  // namespace
 
+namespace {
+
 std::unique_ptr<Task> makeStaticTask(const TaskConfig& config, const VolumeCloud& cloud) {
   return std::make_unique<StaticTask>(config, cloud);
+}
+
+void declareTargetPose(TaskParameters& p) {
+  p.target("target_roll_deg", ParamType::Number, "deg",
+           "target orientation: roll about world x [deg] (default 0: the rest pose)");
+  p.target("target_pitch_deg", ParamType::Number, "deg", "target orientation: pitch about world y [deg] (default 0)");
+}
+
+/// The camera looks along world x, so the observed equilibrium angle is the roll of the target pose.
+MotionTargets equilibriumTargets(const TaskConfig&, const motion::MotionFeatures& f) {
+  MotionTargets out;
+  if (f.equilibrium_confidence > 0) out.targets.emplace_back("target_roll_deg", f.equilibrium_deg);
+  else out.note = motionFeaturesOrigin(f) + " hold no measured equilibrium angle";
+  return out;
+}
+
+}  // namespace
+
+void registerStaticTasks(TaskList* tasks) {
+  TaskDefinition hanging;
+  hanging.name = "hanging";
+  hanging.summary = "hangs from a point in a target orientation (centre of mass below the point); optionally swings";
+  hanging.declare_parameters = [](TaskParameters& p) {
+    p.vector3("hanging_point", nullptr, "m", "hanging point in the body frame [m]; default: top centre of the bounds");
+    p.number("swing_duration_s", 0.0, "s", "also simulate the design swinging on the hanging point for this long [s] (0 = off)",
+             0);
+    p.number("swing_tilt_deg", 3.0, "deg", "release angle of that swing about world x [deg]", -80, 80);
+    declareTargetPose(p);
+  };
+  hanging.make = makeStaticTask;
+  hanging.motion_targets = equilibriumTargets;
+  RigTwinMotion swing;  // the twin of a hanging object: it swings from its hanging point
+  swing.duration_parameter = "swing_duration_s";
+  swing.period_feature = "swing_period_s";
+  swing.fallback_duration_s = 3.0;
+  swing.cavity_centre = Eigen::Vector3d(0.0, 0.0, 0.3);
+  swing.cavity_radius = 0.4;
+  swing.default_for_shapes = {"*"};
+  hanging.twin = swing;
+  tasks->push_back(hanging);
+
+  TaskDefinition balance;
+  balance.name = "balance";
+  balance.summary = "balances on a support point in a target orientation (centre of mass on its vertical, below it)";
+  balance.declare_parameters = [](TaskParameters& p) {
+    p.vector3("support_point", nullptr, "m", "support point in the body frame [m]; default: top centre of the bounds");
+    p.flag("require_stable", true, "the centre of mass must lie below the support point");
+    p.number("stability_margin_m", 0.0, "m", "required depth of the centre of mass below the support point [m]", 0);
+    declareTargetPose(p);
+  };
+  balance.make = makeStaticTask;
+  balance.motion_targets = equilibriumTargets;
+  tasks->push_back(balance);
+
+  TaskDefinition stand;
+  stand.name = "stand";
+  stand.summary = "stands on its base in a target orientation (centre of mass over the base)";
+  stand.declare_parameters = [](TaskParameters& p) {
+    p.number("base_tolerance_m", 0.0, "m",
+             "particles this close to the lowest point form the base [m]; 0 = 1.5 x spacing", 0);
+    declareTargetPose(p);
+  };
+  stand.make = makeStaticTask;
+  stand.motion_targets = equilibriumTargets;
+  tasks->push_back(stand);
 }
 
 }  // namespace topo_gaussian::inference

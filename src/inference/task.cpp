@@ -3,8 +3,8 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
-#include "task_factories.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/inference/task_registry.h"
 
 namespace topo_gaussian::inference {
 
@@ -70,15 +70,7 @@ void Task::chainToIndicator(const RigidMass& mass, const Eigen::Matrix<double, 1
 }
 
 std::unique_ptr<Task> makeTask(const TaskConfig& config, const VolumeCloud& cloud) {
-  const std::string& t = config.task();
-  if (t == "hanging" || t == "balance" || t == "stand") return makeStaticTask(config, cloud);
-  if (t == "tumbler") return makeTumblerTask(config, cloud);
-  if (t == "qiqi") return makeQiqiTask(config, cloud);
-  if (t == "ball") return makeBallTask(config, cloud);
-  if (t == "finger") return makeFingerTask(config, cloud);
-  if (t == "pear") return makePearTask(config, cloud);
-  if (t == "cantilever") return makeCantileverTask(config, cloud);
-  throw TopoError("task '" + t + "'", "has no implementation", "use one of the task names of TaskConfig::taskNames()");
+  return taskDefinition(config.task()).make(config, cloud);  // unknown: lists the registered tasks
 }
 
 }  // namespace topo_gaussian::inference

@@ -1,18 +1,17 @@
-// Internal: one factory per task family (each in its own .cpp).
+// Internal: one register function per task file; each appends its TaskDefinition(s) to the registry
+// (called from the explicit list in task_registry.cpp).
 #pragma once
 
-#include <memory>
-
-#include "topo_gaussian/inference/task.h"
+#include "topo_gaussian/inference/task_registry.h"
 
 namespace topo_gaussian::inference {
 
-std::unique_ptr<Task> makeStaticTask(const TaskConfig& config, const VolumeCloud& cloud);
-std::unique_ptr<Task> makeTumblerTask(const TaskConfig& config, const VolumeCloud& cloud);
-std::unique_ptr<Task> makeQiqiTask(const TaskConfig& config, const VolumeCloud& cloud);
-std::unique_ptr<Task> makeBallTask(const TaskConfig& config, const VolumeCloud& cloud);
-std::unique_ptr<Task> makeFingerTask(const TaskConfig& config, const VolumeCloud& cloud);
-std::unique_ptr<Task> makePearTask(const TaskConfig& config, const VolumeCloud& cloud);
-std::unique_ptr<Task> makeCantileverTask(const TaskConfig& config, const VolumeCloud& cloud);
+void registerStaticTasks(TaskList* tasks);  ///< hanging, balance, stand (static_task.cpp)
+void registerTumblerTask(TaskList* tasks);
+void registerQiqiTask(TaskList* tasks);
+void registerBallTask(TaskList* tasks);
+void registerFingerTask(TaskList* tasks);
+void registerPearTask(TaskList* tasks);
+void registerCantileverTask(TaskList* tasks);
 
 }  // namespace topo_gaussian::inference

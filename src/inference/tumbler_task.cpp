@@ -3,7 +3,9 @@
 // signal; loss w_T ((T − T*)/T*)² + w_θ ((θ − θ*)/θ*)². The rigid simulation runs in forward mode
 // (Dual10), so the features carry d/d(m, c, I); the chain to r goes through the mass moments.
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
+#include <sstream>
 
 #include "rigid_options.h"
 #include "task_factories.h"
@@ -142,8 +144,107 @@ class TumblerTask : public Task {
 
 }  // namespace
 
-std::unique_ptr<Task> makeTumblerTask(const TaskConfig& config, const VolumeCloud& cloud) {
-  return std::make_unique<TumblerTask>(config, cloud);
+namespace {
+
+/// The tracker's signal resampled at its median frame interval (linear interpolation over gaps).
+bool uniformSignal(const std::vector<double>& t, const std::vector<double>& y, std::vector<double>* out, double* dt) {
+  if (t.size() != y.size() || t.size() < 8) return false;
+  std::vector<double> d;
+  for (std::size_t i = 1; i < t.size(); ++i) d.push_back(t[i] - t[i - 1]);
+  std::nth_element(d.begin(), d.begin() + std::ptrdiff_t(d.size() / 2), d.end());
+  *dt = d[d.size() / 2];
+  if (!(*dt > 0)) return false;
+  out->clear();
+  std::size_t j = 0;
+  for (double s = t.front(); s <= t.back() + 1e-9 * *dt; s += *dt) {
+    while (j + 2 < t.size() && t[j + 1] < s) ++j;
+    const double w = t[j + 1] > t[j] ? std::clamp((s - t[j]) / (t[j + 1] - t[j]), 0.0, 1.0) : 0.0;
+    out->push_back((1 - w) * y[j] + w * y[j + 1]);
+  }
+  return out->size() >= 8;
+}
+
+/// period_s and max_tilt_deg from observed rocking (inference/motion_targets.h describes the rule).
+MotionTargets rockingTargets(const TaskConfig& config, const motion::MotionFeatures& f) {
+  MotionTargets out;
+  if (!f.oscillation_found || !(f.period_s > 0)) {
+    out.note = motionFeaturesOrigin(f) + " hold no oscillation" + (f.message.empty() ? "" : ": " + f.message);
+    return out;
+  }
+  // Released at rest at initial_tilt_deg, the doll's largest tilt is at least the release tilt: an
+  // observed maximum at or below it (within 1 %: tracking error) says the swing never went past the
+  // release, so the target is the release tilt itself (anything below is unreachable).
+  const double release = config.has("initial_tilt_deg") ? std::abs(config.number("initial_tilt_deg")) : 0.0;
+  std::ostringstream os;
+  double period = f.period_s, tilt = f.amplitude_confidence > 0 ? f.max_tilt_deg : 0.0;
+  std::vector<double> y;
+  double dt = 0;
+  if (uniformSignal(f.time_s, f.angle_deg, &y, &dt)) {
+    // A window that starts at the release (the first sample a turning point, the first step small
+    // against the range, far from the centre) is measured as the task measures its simulation.
+    double lo = y[0], hi = y[0], peak = 0;
+    for (double v : y) lo = std::min(lo, v), hi = std::max(hi, v), peak = std::max(peak, std::abs(v));
+    const bool at_rest = std::abs(y[1] - y[0]) < 0.05 * (hi - lo) && std::abs(y[0]) >= 0.5 * peak;
+    const int cycles = config.has("measured_cycles") ? config.integer("measured_cycles") : 2;
+    const OscillationFeatures<double> o =
+        at_rest ? analyseOscillation(y, 0.0, dt, cycles, true) : OscillationFeatures<double>{};
+    if (o.valid && o.period > 0) {
+      period = o.period;
+      tilt = o.max_abs;
+      os << "the window starts at a release: the task's analysis of the observed signal (" << y.size()
+         << " samples, first " << cycles << " cycles) gives period " << o.period << " s, max tilt " << o.max_abs
+         << " deg (the tracker's own over the window: " << f.period_s << " s, " << f.max_tilt_deg << " deg)";
+    } else {
+      os << "the window starts mid-swing: the tracker's period and max tilt over the window are used";
+    }
+  }
+  out.targets.emplace_back("period_s", period);
+  if (tilt > 1.01 * release) {
+    out.targets.emplace_back("max_tilt_deg", tilt);
+  } else if (release > 0) {
+    out.targets.emplace_back("max_tilt_deg", release);
+    os << "; the max tilt " << tilt << " deg does not exceed the release tilt, so its target is the release tilt "
+       << release << " deg";
+  } else {
+    os << "; the tilt was not measured, only the period is used";
+  }
+  out.note = os.str();
+  return out;
+}
+
+}  // namespace
+
+void registerTumblerTask(TaskList* tasks) {
+  TaskDefinition t;
+  t.name = "tumbler";
+  t.summary = "a wobbly doll released at a tilt rocks on the ground: rocking period and maximum tilt";
+  t.declare_parameters = [](TaskParameters& p) {
+    declareRigidMotionParameters(p, 2.0, 0.1);
+    p.number("initial_tilt_deg", 10.0, "deg", "release tilt about rocking_axis [deg]", -89, 89);
+    p.number("initial_angular_velocity_rad_s", 0.0, "rad/s", "initial angular velocity about rocking_axis [rad/s]");
+    const Eigen::Vector3d ex(1, 0, 0), ez(0, 0, 1);
+    p.vector3("rocking_axis", &ex, "unitless", "rocking axis in the body frame (horizontal at rest), a unitless direction");
+    p.vector3("up_axis", &ez, "unitless", "the body's up direction (the tilt is measured from it), a unitless direction");
+    p.setDefault("loss_tolerance", 1e-8);  // relative feature errors of 1e-4 are plenty
+    p.integer("measured_cycles", 2, "unitless",
+              "period and equilibrium from the first N full cycles, unitless (0 = all in duration_s)", 0, 1000);
+    p.number("weight_period", 1.0, "unitless", "loss weight of ((T - T*)/T*)^2, unitless", 0);
+    p.number("weight_tilt", 1.0, "unitless", "loss weight of ((tilt - tilt*)/tilt*)^2, unitless", 0);
+    p.target("period_s", ParamType::Number, "s", "observed rocking period [s]", 0, 1e300, true);
+    p.target("max_tilt_deg", ParamType::Number, "deg", "observed maximum tilt [deg]", 0, 90, true);
+  };
+  t.make = [](const TaskConfig& config, const VolumeCloud& cloud) -> std::unique_ptr<Task> {
+    return std::make_unique<TumblerTask>(config, cloud);
+  };
+  t.motion_targets = rockingTargets;
+  RigTwinMotion rocking;  // the twin of a tumbler rig: released at rest, it rocks
+  rocking.duration_parameter = "duration_s";
+  rocking.period_feature = "period_s";
+  rocking.cavity_centre = Eigen::Vector3d(0.0, 0.0, 0.4);
+  rocking.cavity_radius = 0.5;
+  rocking.default_for_shapes = {"tumbler"};
+  t.twin = rocking;
+  tasks->push_back(t);
 }
 
 }  // namespace topo_gaussian::inference

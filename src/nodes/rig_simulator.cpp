@@ -1,7 +1,7 @@
 // rig_simulator: a digital twin of a lab rig (an object with a known interior, simulated and rendered)
 // publishing `image` + `camera_info` like a camera driver, tf world -> object_true, latched
 // `surface_cloud` and ~ground_truth. Thin main: the node class (topo_gaussian/ros/rig_simulator_node.h)
-// and the library (inference::RigTwin, vision::renderSplats) do the work.
+// and the library (workflow::RigTwin, vision::renderSplats) do the work.
 #include <ros/ros.h>
 
 #include <exception>

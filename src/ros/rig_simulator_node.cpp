@@ -40,7 +40,7 @@ RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
   // below keep the node's own advice.
   const ParamReader r(pnh, "rig_simulator");
   RigSimulatorParams p;
-  inference::RigTwinOptions& t = p.twin;
+  workflow::RigTwinOptions& t = p.twin;
   t.shape = r.text("object", t.shape);
   try {
     defaultShape(t.shape);
@@ -58,7 +58,7 @@ RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
   t.overrides = r.texts("set", t.overrides, "['initial_tilt_deg=8', 'density_solid=4000']", "; \t");
   // The task and its overrides, checked here so the message names the parameter.
   try {
-    inference::TaskConfig c = inference::TaskConfig::load(t.task.empty() ? inference::RigTwin::defaultTaskFor(t.shape) : t.task,
+    inference::TaskConfig c = inference::TaskConfig::load(t.task.empty() ? workflow::RigTwin::defaultTaskFor(t.shape) : t.task,
                                                           t.task_dir);
     for (const auto& a : t.overrides) c.setAssignment(a, "~set");
   } catch (const TopoError& e) {
@@ -165,7 +165,7 @@ sensor_msgs::PointCloud2 toSurfaceCloud(const std::vector<Eigen::Vector3d>& poin
   return msg;
 }
 
-topo_gaussian::RigGroundTruth toGroundTruthMsg(const inference::RigTwin& twin, const std::string& object_frame,
+topo_gaussian::RigGroundTruth toGroundTruthMsg(const workflow::RigTwin& twin, const std::string& object_frame,
                                                const ::ros::Time& stamp) {
   topo_gaussian::RigGroundTruth m;
   m.header.frame_id = object_frame;
@@ -186,11 +186,11 @@ topo_gaussian::RigGroundTruth toGroundTruthMsg(const inference::RigTwin& twin, c
 
 RigSimulatorNode::RigSimulatorNode(const ::ros::NodeHandle& nh, const ::ros::NodeHandle& pnh)
     : nh_(nh), pnh_(pnh), params_(loadRigSimulatorParams(pnh)), tf_listener_(tf_buffer_) {
-  const inference::RigTwinOptions& o = params_.twin;
+  const workflow::RigTwinOptions& o = params_.twin;
   ROS_INFO("rig_simulator: simulating the %s twin (spacing %s m, task '%s') ...", o.shape.c_str(), numberText(o.spacing_m).c_str(),
-           o.task.empty() ? inference::RigTwin::defaultTaskFor(o.shape).c_str() : o.task.c_str());
-  twin_ = std::make_unique<inference::RigTwin>(o);  // TopoError: the simulation failed (main reports it)
-  const inference::RigTwin& tw = *twin_;
+           o.task.empty() ? workflow::RigTwin::defaultTaskFor(o.shape).c_str() : o.task.c_str());
+  twin_ = std::make_unique<workflow::RigTwin>(o);  // TopoError: the simulation failed (main reports it)
+  const workflow::RigTwin& tw = *twin_;
   std::string features;
   for (const auto& f : tw.truth().task.features) features += (features.empty() ? "" : ", ") + f.name + " " + numberText(f.value, 6) + " " + f.unit;
   std::vector<double> theta(tw.options().interior_quadric.data(), tw.options().interior_quadric.data() + 10);

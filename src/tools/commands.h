@@ -12,6 +12,7 @@ int generateCommand(const std::vector<std::string>& args);
 int inferCommand(const std::vector<std::string>& args);
 int shapeCommand(const std::vector<std::string>& args);
 int simulateCommand(const std::vector<std::string>& args);
+int tasksCommand(const std::vector<std::string>& args);
 int trackCommand(const std::vector<std::string>& args);
 
 }  // namespace topo_gaussian::tools

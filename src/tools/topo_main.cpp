@@ -1,4 +1,4 @@
-// `topo`: the command-line front end. Subcommands: fill, generate, shape, infer, simulate, track, export.
+// `topo`: the command-line front end. Subcommands: fill, generate, shape, infer, simulate, tasks, track, export.
 #include <iostream>
 #include <string>
 #include <vector>
@@ -18,6 +18,7 @@ const char* kUsage =
     "  shape      write a soft-body task's default shape (finger, pear, beam, tumbler) as .obj [+ volume .ply]\n"
     "  infer      find an interior whose simulated behaviour matches observed targets\n"
     "  simulate   print the simulated features of a given interior\n"
+    "  tasks      list the inference tasks; --markdown: their parameters as tables\n"
     "  track      track an object in a video: period, amplitude, bounces, bending angle\n"
     "  export     an inferred interior as a watertight STL, slice and loss pictures, export.json\n"
     "\n"
@@ -40,6 +41,7 @@ int main(int argc, char** argv) {
     if (cmd == "infer") return inferCommand(rest);
     if (cmd == "shape") return shapeCommand(rest);
     if (cmd == "simulate") return simulateCommand(rest);
+    if (cmd == "tasks") return tasksCommand(rest);
     if (cmd == "track") return trackCommand(rest);
     if (cmd == "export") return exportCommand(rest);
     std::cerr << "topo: unknown command '" << cmd << "'\n\n" << kUsage;

@@ -6,6 +6,7 @@
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/inference/motion_targets.h"
 #include "topo_gaussian/inference/report.h"
 #include "topo_gaussian/inference/task.h"
 #include "topo_gaussian/io/interior_ply.h"
@@ -92,6 +93,14 @@ InferenceRunOutcome runInference(InferenceRunRequest rq) {
   InferenceRunOutcome out;
   out.volume = volumeFor(rq, &out.notes);
   inference::TaskConfig config = rq.config;
+  if (rq.observed) {  // the task's own rule (inference/motion_targets.h), then the explicit targets over it
+    const inference::MotionTargets mt = inference::targetsFromMotion(config, *rq.observed);
+    for (const auto& [name, value] : mt.targets) {
+      config.setNumber(name, value);
+      out.notes.push_back(name + " = " + numberText(value, 6) + " from the motion features");
+    }
+    if (!mt.note.empty()) out.notes.push_back(mt.note);
+  }
   for (const auto& t : rq.targets) {
     const auto eq = t.find('=');
     const auto* spec = config.spec(t.substr(0, eq));

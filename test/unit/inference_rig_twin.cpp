@@ -9,7 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "test_util.h"
-#include "topo_gaussian/inference/rig_twin.h"
+#include "topo_gaussian/workflow/rig_twin.h"
 #include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/vision/motion_tracker.h"
 #include "topo_gaussian/vision/particle_normals.h"
@@ -17,8 +17,8 @@
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::vision;
-using topo_gaussian::inference::RigTwin;
-using topo_gaussian::inference::RigTwinOptions;
+using topo_gaussian::workflow::RigTwin;
+using topo_gaussian::workflow::RigTwinOptions;
 
 namespace {
 

@@ -1,6 +1,6 @@
 // The interior_inference node's library pieces without a ROS master: the interior cloud layout and
-// its colours, the markers of a result, the targets taken from motion features (the same oscillation
-// analysis as the task), and the replay's pose interpolation.
+// its colours, the markers of a result, and the replay's pose interpolation. (The targets taken from
+// motion features are a library rule: test/unit/inference_motion_targets.cpp.)
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -12,7 +12,6 @@
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/ros/conversions.h"
 #include "topo_gaussian/ros/interior_markers.h"
-#include "topo_gaussian/ros/motion_targets.h"
 
 using namespace topo_gaussian;
 using topo_test::errorOf;
@@ -102,83 +101,6 @@ TEST(InteriorMarkers, CentreOfMassSolidCubesGravityAndText) {
   std::vector<double> short_r(3, 1.0);
   in.r = &short_r;
   EXPECT_NE(errorOf([&] { topo_ros::makeInteriorMarkers(in, ros::Time()); }).find("one indicator value"), std::string::npos);
-}
-
-TEST(MotionTargets, TumblerSignalGetsTheTasksOwnAnalysis) {
-  // The simulated tilt of a tumbler, sampled as a 60 fps tracker would, must give back the task's own
-  // period and max tilt (same analysis), not the tracker's whole-window numbers.
-  const VolumeCloud cloud = topo_test::tumblerCloud(0.05, 0.4, 0.006);
-  inference::TaskConfig c = inference::TaskConfig::defaults("tumbler");
-  c.set("dt_s", "0.0166666666666667");
-  const inference::ProblemEvaluation ev = inference::simulateInterior(c, cloud, {});
-  double period = 0, tilt = 0;
-  for (const auto& f : ev.task.features) {
-    if (f.name == "period_s") period = f.value;
-    if (f.name == "max_tilt_deg") tilt = f.value;
-  }
-  topo_gaussian::MotionFeatures m;
-  m.kind = "tilt";
-  m.oscillation_found = true;
-  m.period_s = 0.5 * period;  // a different whole-window number the mapping must not use
-  m.max_tilt_deg = 1.0;
-  m.amplitude_confidence = 1.0;
-  for (std::size_t k = 0; k < ev.task.signal.size(); ++k) {
-    m.time_s.push_back(100.0 + ev.task.signal_time_s[k]);  // stamps need not start at 0
-    m.angle_deg.push_back(-ev.task.signal[k]);           // the image angle may have the other sign
-  }
-  const topo_ros::MotionTargets t = topo_ros::targetsFromMotion(c, m);
-  ASSERT_EQ(t.targets.size(), 2u) << t.note;
-  EXPECT_EQ(t.targets[0].first, "period_s");
-  EXPECT_NEAR(t.targets[0].second, period, 1e-9 * period);
-  EXPECT_EQ(t.targets[1].first, "max_tilt_deg");
-  EXPECT_NEAR(t.targets[1].second, tilt, 1e-9);
-  std::printf("[targets] tumbler: task %.5f s %.4f deg; from the observed signal %.5f s %.4f deg\n", period, tilt,
-              t.targets[0].second, t.targets[1].second);
-  // a window that starts mid-swing (a steady rocking seen from a quarter period in): the tracker's
-  // own numbers over the window
-  auto later = m;
-  later.time_s.clear();
-  later.angle_deg.clear();
-  for (int k = 0; k < 180; ++k) {
-    const double tk = k / 60.0;
-    later.time_s.push_back(tk);
-    later.angle_deg.push_back(4.0 + 9.0 * std::sin(2 * M_PI * tk / 0.4));
-  }
-  later.period_s = 0.401;  // the tracker's whole-window numbers are used
-  later.max_tilt_deg = 12.9;
-  const topo_ros::MotionTargets mid = topo_ros::targetsFromMotion(c, later);
-  ASSERT_EQ(mid.targets.size(), 2u) << mid.note;
-  EXPECT_NE(mid.note.find("mid-swing"), std::string::npos) << mid.note;
-  EXPECT_NE(t.note.find("starts at a release"), std::string::npos) << t.note;
-  EXPECT_DOUBLE_EQ(mid.targets[0].second, 0.401) << mid.note;
-  EXPECT_DOUBLE_EQ(mid.targets[1].second, 12.9) << mid.note;
-  // a largest tilt below the release tilt (10 deg; tracking error) becomes the release tilt
-  later.max_tilt_deg = 9.9;
-  const topo_ros::MotionTargets low = topo_ros::targetsFromMotion(c, later);
-  ASSERT_EQ(low.targets.size(), 2u) << low.note;
-  EXPECT_DOUBLE_EQ(low.targets[1].second, 10.0) << low.note;
-  EXPECT_NE(low.note.find("does not exceed the release tilt"), std::string::npos) << low.note;
-  // without a signal: the tracker's numbers; without an oscillation: nothing, with the reason
-  m.time_s.clear();
-  m.angle_deg.clear();
-  const auto scalar = topo_ros::targetsFromMotion(c, m);
-  ASSERT_EQ(scalar.targets.size(), 2u);
-  EXPECT_DOUBLE_EQ(scalar.targets[0].second, 0.5 * period);
-  m.oscillation_found = false;
-  m.message = "stale: no image";
-  const auto none = topo_ros::targetsFromMotion(c, m);
-  EXPECT_TRUE(none.targets.empty());
-  EXPECT_NE(none.note.find("stale: no image"), std::string::npos) << none.note;
-  // other tasks
-  topo_gaussian::MotionFeatures bend;
-  bend.bending_angle_deg = 12.5;
-  bend.bending_confidence = 0.9;
-  const auto finger = topo_ros::targetsFromMotion(inference::TaskConfig::defaults("finger"), bend);
-  ASSERT_EQ(finger.targets.size(), 1u);
-  EXPECT_EQ(finger.targets[0].first, "bend_angle_deg");
-  EXPECT_DOUBLE_EQ(finger.targets[0].second, 12.5);
-  EXPECT_NE(topo_ros::targetsFromMotion(inference::TaskConfig::defaults("qiqi"), bend).note.find("goal's targets"),
-            std::string::npos);
 }
 
 TEST(BodyMotion, PoseInterpolationAndClamping) {

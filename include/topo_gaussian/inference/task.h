@@ -91,7 +91,8 @@ class Task {
   TaskGeometry geometry_;
 };
 
-/// Builds the task named by config.task(). The cloud must outlive the task.
+/// Builds the task named by config.task() (its registered factory, inference/task_registry.h). The
+/// cloud must outlive the task.
 /// Throws TopoError for an empty/invalid cloud or inconsistent parameters.
 std::unique_ptr<Task> makeTask(const TaskConfig& config, const VolumeCloud& cloud);
 

@@ -1,5 +1,6 @@
 // TaskConfig: the parameters of one inference task (config/tasks/*.yaml), typed, with units and
-// documentation, validated on every change. A YAML file gives a task and its parameters; `--set
+// documentation, validated on every change. Each task declares its own parameters beside its code
+// (inference/task_registry.h); the parameters every task shares are declared in task_config.cpp. A YAML file gives a task and its parameters; `--set
 // KEY=VALUE` and `--target NAME=VALUE` override single values. Unknown keys and impossible values
 // (negative density, dt ≤ 0, ε ≤ 0, ...) are refused with a message naming the key and the fix.
 #pragma once
@@ -16,12 +17,14 @@ enum class ParamType { Number, Integer, Boolean, Text, Vector3, List };
 struct ParamSpec {
   std::string name;
   ParamType type = ParamType::Number;
-  std::string doc;          ///< one line, with the unit
+  std::string doc;          ///< one line, with the unit in brackets ("[m]") or the word "unitless"
   double min = -1e300;      ///< inclusive lower bound (Number/Integer/List entries)
   double max = 1e300;       ///< inclusive upper bound
   bool min_exclusive = false;
   std::vector<std::string> choices;  ///< allowed Text values (empty = any)
   bool is_target = false;   ///< an observed feature (set with --target)
+  std::string unit;         ///< SI unit ("m", "kg/m^3", "deg"), "unitless", or "" for Text/Boolean
+  std::string paper_value;  ///< the value the TopoGaussian paper uses, "" where it gives none
 };
 
 struct ParamValue {
@@ -34,14 +37,19 @@ struct ParamValue {
 
 class TaskConfig {
  public:
-  /// The defaults of a task type (hanging, balance, stand, tumbler, qiqi, ball).
-  /// Throws TopoError for an unknown task name, listing the known ones.
+  /// The defaults of a registered task (TaskConfig::taskNames(), inference/task_registry.h): the
+  /// common parameters, then the task's own declarations. Throws TopoError for an unknown task
+  /// name, listing the registered ones.
   static TaskConfig defaults(const std::string& task);
+  /// The parameters every task has (representation, materials, regularisers, optimiser, gravity)
+  /// with their common defaults; task() is empty. A task may change some of these defaults.
+  static TaskConfig common();
   /// Reads a YAML file: `task: NAME` plus parameters (and an optional `targets:` map).
   static TaskConfig fromYamlFile(const std::string& path);
   /// A task name ("tumbler") or a YAML path; names resolve to config/tasks/NAME.yaml under
   /// `task_dir` when that file exists, otherwise to the built-in defaults.
   static TaskConfig load(const std::string& name_or_path, const std::string& task_dir = "");
+  /// The registered tasks, in registry order.
   static std::vector<std::string> taskNames();
 
   const std::string& task() const { return task_; }
@@ -68,7 +76,7 @@ class TaskConfig {
   const ParamSpec* spec(const std::string& key) const;
   /// "key = value" text of one parameter (for reports).
   std::string valueText(const std::string& key) const;
-  /// Help text: every parameter with type, default and documentation.
+  /// Help text: every parameter with its default, unit, documentation and paper value.
   std::string help() const;
 
  private:
@@ -76,9 +84,12 @@ class TaskConfig {
   std::string source_ = "defaults";
   std::vector<ParamSpec> specs_;
   std::map<std::string, ParamValue> values_;
+  /// Shorthand keys (a task's declaration): setting the key sets each listed parameter to the same
+  /// value; the key itself may be one of them.
+  std::map<std::string, std::vector<std::string>> shorthands_;
   void declare(const ParamSpec& spec, const ParamValue& value);
   void check(const ParamSpec& spec, const ParamValue& value, const std::string& origin) const;
-  friend struct TaskConfigBuilder;
+  friend class TaskParameters;
 };
 
 }  // namespace topo_gaussian::inference

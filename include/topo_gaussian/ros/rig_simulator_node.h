@@ -1,4 +1,4 @@
-// RigSimulatorNode: the ROS face of the rig twin (inference::RigTwin + vision::renderSplats), a
+// RigSimulatorNode: the ROS face of the rig twin (workflow::RigTwin + vision::renderSplats), a
 // digital twin of a lab rig that stands in for the camera, so every launch file and integration
 // test runs with no hardware.
 //   in : tf world_frame → camera_frame (the camera pose, e.g. a static_transform_publisher in the
@@ -24,7 +24,7 @@
 #include <vector>
 
 #include "topo_gaussian/RigGroundTruth.h"
-#include "topo_gaussian/inference/rig_twin.h"
+#include "topo_gaussian/workflow/rig_twin.h"
 #include "topo_gaussian/vision/splat_renderer.h"
 
 namespace topo_gaussian::topo_ros {
@@ -35,7 +35,7 @@ struct RigSimulatorParams {
   /// ~surface_file ("": the default shape with its surface on the true boundary; a file: filled as
   /// cloud_ingest fills it, so the twin simulates the cloud the inference will see),
   /// ~scan_spacing_m (0.001: point spacing of `surface_cloud`)
-  inference::RigTwinOptions twin;
+  workflow::RigTwinOptions twin;
   int width = 640, height = 480;            ///< ~width, ~height [px]
   double fps = 30.0;                        ///< ~fps [frames/s]
   double horizontal_fov_deg = 8.0;          ///< ~horizontal_fov_deg: gives fx = fy when ~fx/~fy are 0
@@ -70,7 +70,7 @@ sensor_msgs::PointCloud2 toSurfaceCloud(const std::vector<Eigen::Vector3d>& poin
                                         const std::vector<Eigen::Vector3d>& normals, const std::string& frame_id,
                                         const ::ros::Time& stamp);
 /// The twin's ground truth (features, solid fraction, loop length, interior in object_frame).
-topo_gaussian::RigGroundTruth toGroundTruthMsg(const inference::RigTwin& twin, const std::string& object_frame,
+topo_gaussian::RigGroundTruth toGroundTruthMsg(const workflow::RigTwin& twin, const std::string& object_frame,
                                                const ::ros::Time& stamp);
 
 class RigSimulatorNode {
@@ -79,7 +79,7 @@ class RigSimulatorNode {
   /// simulation), publishes the latched topics and starts the camera timer.
   RigSimulatorNode(const ::ros::NodeHandle& nh, const ::ros::NodeHandle& pnh);
 
-  const inference::RigTwin& twin() const { return *twin_; }
+  const workflow::RigTwin& twin() const { return *twin_; }
   std::size_t framesPublished() const { return frames_; }
 
  private:
@@ -89,7 +89,7 @@ class RigSimulatorNode {
 
   ::ros::NodeHandle nh_, pnh_;
   RigSimulatorParams params_;
-  std::unique_ptr<inference::RigTwin> twin_;
+  std::unique_ptr<workflow::RigTwin> twin_;
   vision::SplatCamera camera_;
   vision::SplatShading shading_;
   vision::Splats body_;  ///< the surface in the body frame (posed per frame)

@@ -1,5 +1,5 @@
 // RigTwin: a default shape with a known interior, simulated once and replayed as a seamless loop.
-#include "topo_gaussian/inference/rig_twin.h"
+#include "topo_gaussian/workflow/rig_twin.h"
 
 #include "topo_gaussian/geometry/ingest.h"
 
@@ -8,25 +8,33 @@
 #include <cmath>
 
 #include "topo_gaussian/inference/body_motion.h"
+#include "topo_gaussian/inference/task_registry.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/vision/particle_normals.h"
 
-namespace topo_gaussian::inference {
+namespace topo_gaussian::workflow {
+
+using namespace inference;  // the twin runs an inference task
 namespace {
 
 constexpr double kDeg = 180.0 / M_PI;
 
-/// The parameter that sets how long the task's motion is simulated, and the feature holding its period.
-struct MotionKeys {
-  std::string duration, period;
-};
+/// Tasks whose motion the twin can replay, for messages: "tumbler, hanging".
+std::string twinTaskList() {
+  std::string s;
+  for (const auto& t : taskDefinitions())
+    if (t.twin) s += (s.empty() ? "" : ", ") + t.name;
+  return s;
+}
 
-MotionKeys motionKeys(const TaskConfig& c) {
-  if (c.task() == "tumbler") return {"duration_s", "period_s"};
-  if (c.task() == "hanging") return {"swing_duration_s", "swing_period_s"};
-  throw TopoError("rig twin task '" + c.task() + "'", "has no motion the twin can replay",
-                  "use the tumbler or hanging task (e.g. task tumbler for the tumbler shape)");
+/// What the twin needs from the task (its registered RigTwinMotion); throws for a task without one.
+const RigTwinMotion& twinMotion(const std::string& task) {
+  const TaskDefinition& t = taskDefinition(task);
+  if (!t.twin)
+    throw TopoError("rig twin task '" + task + "'", "has no motion the twin can replay",
+                    "use a task with one: " + twinTaskList() + " (e.g. task tumbler for the tumbler shape)");
+  return *t.twin;
 }
 
 const Feature* findFeature(const ProblemEvaluation& ev, const std::string& name) {
@@ -64,16 +72,27 @@ void projectSurface(const DefaultShape& shape, VolumeCloud* cloud, std::vector<E
 
 }  // namespace
 
-std::string RigTwin::defaultTaskFor(const std::string& shape) { return shape == "tumbler" ? "tumbler" : "hanging"; }
+std::string RigTwin::defaultTaskFor(const std::string& shape) {
+  std::string fallback;
+  for (const auto& t : taskDefinitions()) {
+    if (!t.twin) continue;
+    for (const auto& s : t.twin->default_for_shapes) {
+      if (s == shape) return t.name;
+      if (s == "*" && fallback.empty()) fallback = t.name;
+    }
+  }
+  if (fallback.empty())
+    throw TopoError("rig twin shape '" + shape + "'", "has no default task", "name the task (one of " + twinTaskList() + ")");
+  return fallback;
+}
 
 Eigen::VectorXd RigTwin::defaultInteriorQuadric(const std::string& task) {
-  Eigen::Vector3d u0;
-  if (task == "tumbler") u0 = Eigen::Vector3d(0.0, 0.0, 0.4);
-  else if (task == "hanging") u0 = Eigen::Vector3d(0.0, 0.0, 0.3);
-  else
+  const TaskDefinition* t = findTaskDefinition(task);
+  if (!t || !t->twin || !(t->twin->cavity_radius > 0))
     throw TopoError("rig twin task '" + task + "'", "has no default interior",
-                    "give the interior quadric (10 numbers) or use the tumbler or hanging task");
-  const double rho = task == "tumbler" ? 0.5 : 0.4;
+                    "give the interior quadric (10 numbers) or use a task with one: " + twinTaskList());
+  const Eigen::Vector3d u0 = t->twin->cavity_centre;
+  const double rho = t->twin->cavity_radius;
   Eigen::VectorXd theta(10);
   theta << 1, 1, 1, 0, 0, 0, -2 * u0.x(), -2 * u0.y(), -2 * u0.z(), u0.squaredNorm() - rho * rho;
   return theta;
@@ -103,8 +122,9 @@ RigTwin::RigTwin(const RigTwinOptions& options) : options_(options) {
   config_ = TaskConfig::load(options_.task, options_.task_dir);
   if (options_.undamped && config_.has("contact_damping_ratio")) config_.setNumber("contact_damping_ratio", 0.0);
   for (const auto& a : options_.overrides) config_.setAssignment(a, "rig twin set");
-  const MotionKeys keys = motionKeys(config_);
-  if (config_.task() == "hanging" && !(config_.number(keys.duration) > 0)) config_.setNumber(keys.duration, 3.0);
+  const RigTwinMotion& replay = twinMotion(config_.task());
+  if (replay.fallback_duration_s > 0 && !(config_.number(replay.duration_parameter) > 0))
+    config_.setNumber(replay.duration_parameter, replay.fallback_duration_s);
 
   Eigen::VectorXd theta = options_.interior_quadric;
   if (theta.size() == 0) theta = defaultInteriorQuadric(config_.task());
@@ -129,17 +149,17 @@ RigTwin::RigTwin(const RigTwinOptions& options) : options_(options) {
     throw TopoError(std::string("rig twin: simulating the true interior of the ") + shape_.name + " (" + config_.task() +
                     " task) failed: " + e.what());
   }
-  const Feature* period = findFeature(truth_, keys.period);
+  const Feature* period = findFeature(truth_, replay.period_feature);
   if (!period || !(period->value > 0))
-    throw TopoError("rig twin: the true interior of the " + shape_.name, "produces no oscillation period (" + keys.period +
-                                                                             ") in " + config_.valueText(keys.duration),
-                    "raise " + keys.duration + " or choose an interior that oscillates (e.g. the default)");
+    throw TopoError("rig twin: the true interior of the " + shape_.name, "produces no oscillation period (" + replay.period_feature +
+                                                                             ") in " + config_.valueText(replay.duration_parameter),
+                    "raise " + replay.duration_parameter + " or choose an interior that oscillates (e.g. the default)");
 
   // The loop: a longer run of the same motion when the configured one is too short.
   const double need_s = (options_.loop_cycles + 1.5) * period->value;
-  if (need_s > config_.number(keys.duration)) {
+  if (need_s > config_.number(replay.duration_parameter)) {
     TaskConfig longer = quadric;
-    longer.setNumber(keys.duration, need_s);
+    longer.setNumber(replay.duration_parameter, need_s);
     try {
       buildLoop(InteriorProblem(longer, cloud_).evaluateIndicator(r_, nullptr).task, period->value);
     } catch (const TopoError& e) {
@@ -165,7 +185,7 @@ void RigTwin::buildLoop(const TaskEvaluation& run, double period_s) {
   const std::vector<double>& t = run.signal_time_s;
   if (y.size() < 5 || t.size() != y.size() || run.motion.size() != y.size())
     throw TopoError("rig twin: the " + config_.task() + " simulation", "returned no sampled motion to replay",
-                    "this task cannot drive the twin; use tumbler or hanging");
+                    "this task cannot drive the twin; use one of " + twinTaskList());
   // Released at rest: the first sample is a turning point; the equilibrium is about the mean of a
   // (nearly undamped) oscillation. Release-side turning points are the local extrema on that side
   // beyond half the release amplitude, one per period (contact jitter merges into the larger one).
@@ -250,4 +270,4 @@ BodyPose RigTwin::poseAt(double t_s) const {
   return p;
 }
 
-}  // namespace topo_gaussian::inference
+}  // namespace topo_gaussian::workflow

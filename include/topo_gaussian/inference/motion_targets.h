@@ -1,4 +1,6 @@
-// Observed motion (MotionFeatures from motion_tracker) → the targets of an inference task:
+// Observed motion (motion::MotionFeatures, from the tracker or `topo track`) → the targets of an
+// inference task. Each task declares its own rule beside its code (TaskDefinition::motion_targets,
+// inference/task_registry.h); today:
 //   tumbler                  period_s, max_tilt_deg: the tracker's values over its window; when the
 //                            window starts at a release (the sampled signal's first sample is a turning
 //                            point at least half its largest tilt), the task's own analysis
@@ -9,7 +11,7 @@
 //   hanging, balance, stand  target_roll_deg ← equilibrium_deg                   (the camera looks along
 //                            world x, so the image angle is the roll about x; equilibrium measured)
 //   finger                   bend_angle_deg ← bending_angle_deg                  (bending measured)
-// Other tasks (qiqi, ball, pear, cantilever) take their targets from files or goal targets only.
+// Tasks without a rule (qiqi, ball, pear, cantilever) take their targets from files or goal targets.
 // A feature is used only when the tracker measured it (confidence > 0 / oscillation found).
 #pragma once
 
@@ -17,17 +19,20 @@
 #include <utility>
 #include <vector>
 
-#include "topo_gaussian/MotionFeatures.h"
+#include "topo_gaussian/common/motion_features.h"
 #include "topo_gaussian/inference/task_config.h"
 
-namespace topo_gaussian::topo_ros {
+namespace topo_gaussian::inference {
 
 struct MotionTargets {
   std::vector<std::pair<std::string, double>> targets;  ///< task target name → value
   std::string note;  ///< why nothing (or not everything) was taken, empty when all was
 };
 
-/// The targets the task of `config` can take from `features` (see the table above).
-MotionTargets targetsFromMotion(const inference::TaskConfig& config, const topo_gaussian::MotionFeatures& features);
+/// The targets the task of `config` takes from `features` (its registered rule; see above).
+MotionTargets targetsFromMotion(const TaskConfig& config, const motion::MotionFeatures& features);
 
-}  // namespace topo_gaussian::topo_ros
+/// "motion features (SOURCE, kind KIND)": how a rule names the features in its notes.
+std::string motionFeaturesOrigin(const motion::MotionFeatures& features);
+
+}  // namespace topo_gaussian::inference

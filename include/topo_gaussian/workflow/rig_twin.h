@@ -33,7 +33,7 @@
 #include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/physics/volume_cloud.h"
 
-namespace topo_gaussian::inference {
+namespace topo_gaussian::workflow {
 
 struct RigTwinOptions {
   std::string shape = "tumbler";           ///< a default shape (defaultShapeNames())
@@ -67,13 +67,14 @@ class RigTwin {
   /// rocking period by about 10 % against the solid tumbler. Hanging: u0 = (0, 0, 0.3), ρ = 0.4 — a
   /// cavity in the upper half on the axis: the object hangs straight and swings in one plane (an
   /// off-axis cavity would make it swing in two, which never loops), 2 % slower than solid (pear).
-  /// Throws TopoError for other tasks.
+  /// (Each task's RigTwinMotion cavity, inference/task_registry.h.) Throws TopoError for other tasks.
   static Eigen::VectorXd defaultInteriorQuadric(const std::string& task);
-  /// "tumbler" → "tumbler"; any other default shape → "hanging".
+  /// The task whose registered RigTwinMotion names the shape (tumbler → tumbler), else the one
+  /// registered for every other shape (hanging).
   static std::string defaultTaskFor(const std::string& shape);
 
   const RigTwinOptions& options() const { return options_; }
-  const TaskConfig& config() const { return config_; }
+  const inference::TaskConfig& config() const { return config_; }
   const DefaultShape& shape() const { return shape_; }
   /// The simulated cloud: lattice of spacing_m, surface particles on the true boundary (body frame).
   const VolumeCloud& cloud() const { return cloud_; }
@@ -81,7 +82,7 @@ class RigTwin {
   const std::vector<double>& density() const { return density_; } ///< true ρ_i [kg/m³]
   double solidFraction() const { return truth_.solid_fraction; }
   /// The task's evaluation of the true interior, as configured (features, mass, signal, motion).
-  const ProblemEvaluation& truth() const { return truth_; }
+  const inference::ProblemEvaluation& truth() const { return truth_; }
   /// A truth feature by name (period_s, max_tilt_deg, ...); throws TopoError listing the names.
   double feature(const std::string& name) const;
 
@@ -98,7 +99,7 @@ class RigTwin {
 
   /// Body pose (world = rotation · X + translation) at any t ≥ 0 (negative t = 0): the looped motion,
   /// interpolated (translation linear, rotation slerp) between the simulated samples.
-  BodyPose poseAt(double t_s) const;
+  inference::BodyPose poseAt(double t_s) const;
   double loopSeconds() const { return loop_s_; }
   int loopCycles() const { return loop_periods_; }                 ///< periods in one loop
   double seamRotationDeg() const { return seam_rotation_deg_; }    ///< pose jump at the seam
@@ -112,19 +113,19 @@ class RigTwin {
 
  private:
   void buildSurface();
-  void buildLoop(const TaskEvaluation& run, double period_s);
+  void buildLoop(const inference::TaskEvaluation& run, double period_s);
 
   RigTwinOptions options_;
-  TaskConfig config_;
+  inference::TaskConfig config_;
   DefaultShape shape_;
   VolumeCloud cloud_;
   std::vector<double> r_, density_;
-  ProblemEvaluation truth_;
+  inference::ProblemEvaluation truth_;
   std::vector<Eigen::Vector3d> surface_points_, surface_normals_, scan_points_, scan_normals_;
-  std::vector<BodyPose> motion_;
+  std::vector<inference::BodyPose> motion_;
   std::vector<double> loop_signal_, loop_time_;
   double loop_s_ = 0, seam_rotation_deg_ = 0, seam_translation_m_ = 0, decay_per_cycle_ = 0, simulation_s_ = 0;
   int loop_periods_ = 0;
 };
 
-}  // namespace topo_gaussian::inference
+}  // namespace topo_gaussian::workflow
