@@ -14,12 +14,12 @@
 #include <random>
 #include <string>
 
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/geometry/ingest.h"
 #include "topo_gaussian/geometry/lattice.h"
 #include "topo_gaussian/geometry/mesh_fill.h"
 #include "topo_gaussian/geometry/mesh_metrics.h"
 #include "topo_gaussian/geometry/surface_reader.h"
-#include "topo_gaussian/common/error.h"
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::geometry;
@@ -142,8 +142,8 @@ int main(int argc, char** argv) {
     const double base = b.normals_s + b.poisson_s + b.inside_s;
     const std::string name = first.substr(first.find_last_of('/') + 1);
     std::cout << "{\"case\":\"" << name << "\",\"kind\":\"" << toString(s.kind) << "\",\"points\":" << s.size()
-              << ",\"particles\":" << r.cloud.size() << ",\"spacing_m\":" << r.cloud.spacing
-              << ",\"ours_s\":" << ours << ",\"baseline_s\":" << base << ",\"speedup\":" << base / ours
+              << ",\"particles\":" << r.cloud.size() << ",\"spacing_m\":" << r.cloud.spacing << ",\"ours_s\":" << ours
+              << ",\"baseline_s\":" << base << ",\"speedup\":" << base / ours
               << ",\"baseline_normals_s\":" << b.normals_s << ",\"baseline_poisson_s\":" << b.poisson_s
               << ",\"baseline_inside_s\":" << b.inside_s << ",\"baseline_particles\":" << b.particles
               << ",\"peak_rss_mb\":" << peakRssMb() << "}" << std::endl;

@@ -14,8 +14,8 @@
 
 #include "../test/unit/test_clouds.h"
 #include "topo_gaussian/inference/pipeline.h"
-#include "topo_gaussian/workflow/inference_run.h"
 #include "topo_gaussian/physics/default_shapes.h"
+#include "topo_gaussian/workflow/inference_run.h"
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::inference;
@@ -34,8 +34,7 @@ std::vector<double> cavity(const VolumeCloud& c, const Eigen::Vector3d& centre, 
 
 const char* g_only = nullptr;  // run only the cases whose name contains this
 
-void runCase(const std::string& name, const TaskConfig& c, const VolumeCloud& cloud, bool run_inference,
-             int fd_limit) {
+void runCase(const std::string& name, const TaskConfig& c, const VolumeCloud& cloud, bool run_inference, int fd_limit) {
   if (g_only && name.find(g_only) == std::string::npos) return;
   const InteriorProblem p(c, cloud);
   const Eigen::VectorXd theta = p.initialParameters();
@@ -90,12 +89,14 @@ void runCase(const std::string& name, const TaskConfig& c, const VolumeCloud& cl
     for (char& ch : message)
       if (ch == '"' || ch == '\\') ch = '\'';
   }
-  std::printf("{\"case\": \"%s\", \"task\": \"%s\", \"representation\": \"%s\", \"particles\": %zu, \"parameters\": %d, "
-              "\"iterations\": %d, \"end_to_end_s\": %.4f, \"loss_gradient_s\": %.5f, \"loss_only_s\": %.5f, "
-              "\"fd_gradient_s\": %.4f, \"fd_projected\": %s, \"analytic_over_fd\": %.3g, \"loss_initial\": %.3e, "
-              "\"loss_final\": %.3e, \"targets_reached\": %s, \"run_folder_s\": %.3f, \"stopped\": \"%s\"}\n",
-              name.c_str(), c.task().c_str(), c.text("representation").c_str(), cloud.size(), P, iterations, total_s,
-              grad_s, loss_s, fd_s, projected ? "true" : "false", grad_s / fd_s, loss0, loss1, reached ? "true" : "false", run_folder_s, message.c_str());
+  std::printf(
+      "{\"case\": \"%s\", \"task\": \"%s\", \"representation\": \"%s\", \"particles\": %zu, \"parameters\": %d, "
+      "\"iterations\": %d, \"end_to_end_s\": %.4f, \"loss_gradient_s\": %.5f, \"loss_only_s\": %.5f, "
+      "\"fd_gradient_s\": %.4f, \"fd_projected\": %s, \"analytic_over_fd\": %.3g, \"loss_initial\": %.3e, "
+      "\"loss_final\": %.3e, \"targets_reached\": %s, \"run_folder_s\": %.3f, \"stopped\": \"%s\"}\n",
+      name.c_str(), c.task().c_str(), c.text("representation").c_str(), cloud.size(), P, iterations, total_s, grad_s,
+      loss_s, fd_s, projected ? "true" : "false", grad_s / fd_s, loss0, loss1, reached ? "true" : "false", run_folder_s,
+      message.c_str());
   std::fflush(stdout);
 }
 
@@ -104,8 +105,10 @@ void runCase(const std::string& name, const TaskConfig& c, const VolumeCloud& cl
 int main(int argc, char** argv) {
   bool quick = false;
   for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--quick") == 0) quick = true;
-    else g_only = argv[i];
+    if (std::strcmp(argv[i], "--quick") == 0)
+      quick = true;
+    else
+      g_only = argv[i];
   }
   // ~100k particles: a 0.4 × 0.2 × 0.12 m box at 4 mm spacing (quick: 8 mm).
   const double h = quick ? 0.008 : 0.004;
@@ -153,8 +156,8 @@ int main(int argc, char** argv) {
     const VolumeCloud finger = defaultShapeCloud("finger", quick ? 0.003 : 0.0015);
     TaskConfig c = TaskConfig::defaults("finger");  // the paper's real finger: 10 MPa walls
     std::vector<double> truth(10, 0.0), start(10, 0.0);
-    truth[8] = 3.0, truth[9] = 0.09;    // chamber below z_n = -0.03 (ground truth)
-    start[2] = 100.0, start[9] = -0.25; // chamber around the axis (start)
+    truth[8] = 3.0, truth[9] = 0.09;     // chamber below z_n = -0.03 (ground truth)
+    start[2] = 100.0, start[9] = -0.25;  // chamber around the axis (start)
     c.setList("initial_parameters", truth);
     if (!g_only || std::string("finger_quadric").find(g_only) != std::string::npos) {
       const InteriorProblem gt(c, finger);

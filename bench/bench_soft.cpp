@@ -156,7 +156,7 @@ void explicitCase(const std::string& name, int nx, int ny, int nz, int steps) {
   Vec3s xr(n);
   double step_s = 0.0, force_s = 0.0, rotated_s = 0.0;
   std::vector<double> step_times, force_times;  // per step: the rates are of the median step
-  for (int k = -1; k < steps; ++k) {  // k = -1: warm-up
+  for (int k = -1; k < steps; ++k) {            // k = -1: warm-up
     t = Clock::now();
     sim.step(dt);
     const double a = seconds(t);
@@ -185,18 +185,21 @@ void explicitCase(const std::string& name, int nx, int ny, int nz, int steps) {
   const double mean_rate = double(n) * steps / step_s;
   const double slowest = double(n) / *std::max_element(step_times.begin(), step_times.end());
   double vs20k = 0.0;
-  if (name == "explicit_20k") g_rate_20k = rate;
-  else if (g_rate_20k > 0) vs20k = rate / g_rate_20k;
-  std::printf("{\"case\": \"%s\", \"threads\": %d, \"particles\": %zu, \"clamped\": %zu, \"neighbours_mean\": %.2f, "
-              "\"model\": \"StVK\", \"dt_s\": %.3e, \"steps\": %d, \"seconds\": %.4f, \"setup_s\": %.3f, "
-              "\"particle_steps_per_s\": %.4g, \"mean_particle_steps_per_s\": %.4g, "
-              "\"slowest_step_particle_steps_per_s\": %.4g, \"goal_particle_steps_per_s\": 5e6, \"goal_met\": %s, "
-              "\"baseline\": \"force_eval_only\", \"baseline_seconds\": %.4f, \"baseline_particle_steps_per_s\": %.4g, "
-              "\"step_over_force_eval\": %.3f, \"per_particle_rate_vs_20k\": %.3f, "
-              "\"force_eval_rotated_particle_steps_per_s\": %.4g, \"cpu_per_wall\": %.2f}\n",
-              name.c_str(), threads(), n, sim.clampedCount(), nbr, dt, steps, step_s, setup_s, rate, mean_rate, slowest,
-              rate >= 5e6 ? "true" : "false", force_s, force_rate, median(step_times) / median(force_times), vs20k,
-              double(n) * steps / rotated_s, meter.ratio());
+  if (name == "explicit_20k")
+    g_rate_20k = rate;
+  else if (g_rate_20k > 0)
+    vs20k = rate / g_rate_20k;
+  std::printf(
+      "{\"case\": \"%s\", \"threads\": %d, \"particles\": %zu, \"clamped\": %zu, \"neighbours_mean\": %.2f, "
+      "\"model\": \"StVK\", \"dt_s\": %.3e, \"steps\": %d, \"seconds\": %.4f, \"setup_s\": %.3f, "
+      "\"particle_steps_per_s\": %.4g, \"mean_particle_steps_per_s\": %.4g, "
+      "\"slowest_step_particle_steps_per_s\": %.4g, \"goal_particle_steps_per_s\": 5e6, \"goal_met\": %s, "
+      "\"baseline\": \"force_eval_only\", \"baseline_seconds\": %.4f, \"baseline_particle_steps_per_s\": %.4g, "
+      "\"step_over_force_eval\": %.3f, \"per_particle_rate_vs_20k\": %.3f, "
+      "\"force_eval_rotated_particle_steps_per_s\": %.4g, \"cpu_per_wall\": %.2f}\n",
+      name.c_str(), threads(), n, sim.clampedCount(), nbr, dt, steps, step_s, setup_s, rate, mean_rate, slowest,
+      rate >= 5e6 ? "true" : "false", force_s, force_rate, median(step_times) / median(force_times), vs20k,
+      double(n) * steps / rotated_s, meter.ratio());
   std::fflush(stdout);
 }
 
@@ -234,21 +237,22 @@ void implicitCase(const std::string& name, int nx, int ny, int nz, int steps, do
   for (int k = 0; k < ex_steps; ++k) ex.step(dt / ex_steps_per_dt);
   const double ex_s = seconds(t) / ex_steps * ex_steps_per_dt;  // per implicit dt
   const double per_step = implicit_s / steps;
-  std::printf("{\"case\": \"%s\", \"threads\": %d, \"particles\": %zu, \"clamped\": %zu, \"neighbours_mean\": %.2f, "
-              "\"model\": \"CorotatedLinear+CorrectedGradient\", \"load\": \"gravity\", \"dt_s\": %.3e, \"steps\": %d, "
-              "\"seconds\": %.4f, \"newton_iterations\": %d, \"cg_iterations\": %d, \"s_per_step\": %.4f, "
-              "\"s_per_newton_iteration\": %.4f, \"s_per_cg_iteration\": %.5f, \"cg_per_newton\": %.1f, "
-              "\"newton_residual_max\": %.2e, \"preconditioner\": \"%s\", \"factor_s\": %.3f, "
-              "\"s_per_newton_iteration_after_factor\": %.4f, "
-              "\"particle_steps_per_s\": %.4g, \"baseline\": \"explicit_same_sim_time\", "
-              "\"baseline_steps_per_dt\": %d, \"baseline_seconds_per_dt\": %.4f, \"implicit_over_explicit\": %.2f, "
-              "\"cpu_per_wall\": %.2f}\n",
-              name.c_str(), threads(), n, sim.clampedCount(), nbr, dt, steps, implicit_s, newton_it, cg_it, per_step,
-              implicit_s / std::max(1, newton_it), implicit_s / std::max(1, cg_it), double(cg_it) / std::max(1, newton_it),
-              worst_residual,
-              n <= sim.options().cholesky_max_particles ? RestStiffnessPreconditioner::backend().c_str() : "jacobi",
-              factor_s, (implicit_s - factor_s) / std::max(1, newton_it), double(n) * steps / implicit_s, ex_steps_per_dt, ex_s, per_step / ex_s,
-              meter.ratio());
+  std::printf(
+      "{\"case\": \"%s\", \"threads\": %d, \"particles\": %zu, \"clamped\": %zu, \"neighbours_mean\": %.2f, "
+      "\"model\": \"CorotatedLinear+CorrectedGradient\", \"load\": \"gravity\", \"dt_s\": %.3e, \"steps\": %d, "
+      "\"seconds\": %.4f, \"newton_iterations\": %d, \"cg_iterations\": %d, \"s_per_step\": %.4f, "
+      "\"s_per_newton_iteration\": %.4f, \"s_per_cg_iteration\": %.5f, \"cg_per_newton\": %.1f, "
+      "\"newton_residual_max\": %.2e, \"preconditioner\": \"%s\", \"factor_s\": %.3f, "
+      "\"s_per_newton_iteration_after_factor\": %.4f, "
+      "\"particle_steps_per_s\": %.4g, \"baseline\": \"explicit_same_sim_time\", "
+      "\"baseline_steps_per_dt\": %d, \"baseline_seconds_per_dt\": %.4f, \"implicit_over_explicit\": %.2f, "
+      "\"cpu_per_wall\": %.2f}\n",
+      name.c_str(), threads(), n, sim.clampedCount(), nbr, dt, steps, implicit_s, newton_it, cg_it, per_step,
+      implicit_s / std::max(1, newton_it), implicit_s / std::max(1, cg_it), double(cg_it) / std::max(1, newton_it),
+      worst_residual,
+      n <= sim.options().cholesky_max_particles ? RestStiffnessPreconditioner::backend().c_str() : "jacobi", factor_s,
+      (implicit_s - factor_s) / std::max(1, newton_it), double(n) * steps / implicit_s, ex_steps_per_dt, ex_s,
+      per_step / ex_s, meter.ratio());
   std::fflush(stdout);
 }
 
@@ -297,19 +301,19 @@ void rolloutCase(const std::string& name, int nx, int ny, int nz, SoftIntegrator
   }
   const double ratio = full.backward_s / full.forward_s;
   const int K = static_cast<int>(std::ceil(std::sqrt(double(steps))));
-  std::printf("{\"case\": \"%s\", \"threads\": %d, \"particles\": %zu, \"neighbours_mean\": %.2f, "
-              "\"integrator\": \"%s\", \"dt_s\": %.3e, \"steps\": %d, \"checkpoint_every\": %d, \"peak_states\": %zu, "
-              "\"forward_s\": %.4f, \"backward_s\": %.4f, \"backward_over_forward\": %.3f, \"goal_backward_over_forward\": 3, "
-              "\"goal_met\": %s, \"baseline\": \"forward_only\", \"baseline_forward_s\": %.4f, "
-              "\"forward_with_gradient_over_forward_only\": %.3f, \"backward_over_forward_only\": %.3f, "
-              "\"backward_minus_recompute_over_forward_only\": %.3f, \"loss\": %.6e, \"loss_matches_forward_only\": %s, "
-              "\"cpu_per_wall\": %.2f}\n",
-              name.c_str(), threads(), n, nbr, integ == SoftIntegrator::ImplicitEuler ? "ImplicitEuler" : "SymplecticEuler",
-              ro.dt, steps, K, full.peak_states, full.forward_s, full.backward_s, ratio, ratio <= 3.0 ? "true" : "false",
-              fwd.forward_s, full.forward_s / fwd.forward_s, full.backward_s / fwd.forward_s,
-              (full.backward_s - fwd.forward_s) / fwd.forward_s, full.loss,
-              std::abs(full.loss - fwd.loss) <= 1e-12 * std::max(1.0, std::abs(fwd.loss)) ? "true" : "false",
-              meter.ratio());
+  std::printf(
+      "{\"case\": \"%s\", \"threads\": %d, \"particles\": %zu, \"neighbours_mean\": %.2f, "
+      "\"integrator\": \"%s\", \"dt_s\": %.3e, \"steps\": %d, \"checkpoint_every\": %d, \"peak_states\": %zu, "
+      "\"forward_s\": %.4f, \"backward_s\": %.4f, \"backward_over_forward\": %.3f, \"goal_backward_over_forward\": 3, "
+      "\"goal_met\": %s, \"baseline\": \"forward_only\", \"baseline_forward_s\": %.4f, "
+      "\"forward_with_gradient_over_forward_only\": %.3f, \"backward_over_forward_only\": %.3f, "
+      "\"backward_minus_recompute_over_forward_only\": %.3f, \"loss\": %.6e, \"loss_matches_forward_only\": %s, "
+      "\"cpu_per_wall\": %.2f}\n",
+      name.c_str(), threads(), n, nbr, integ == SoftIntegrator::ImplicitEuler ? "ImplicitEuler" : "SymplecticEuler",
+      ro.dt, steps, K, full.peak_states, full.forward_s, full.backward_s, ratio, ratio <= 3.0 ? "true" : "false",
+      fwd.forward_s, full.forward_s / fwd.forward_s, full.backward_s / fwd.forward_s,
+      (full.backward_s - fwd.forward_s) / fwd.forward_s, full.loss,
+      std::abs(full.loss - fwd.loss) <= 1e-12 * std::max(1.0, std::abs(fwd.loss)) ? "true" : "false", meter.ratio());
   std::fflush(stdout);
 }
 
@@ -427,7 +431,8 @@ std::string memoryLine(int steps, const MemoryRun& ck, const MemoryRun& all) {
       buf, sizeof(buf),
       "{\"case\": \"memory_checkpointed\", \"threads\": %d, \"particles\": %zu, \"neighbours_mean\": %.2f, "
       "\"integrator\": \"SymplecticEuler\", \"steps\": %d, \"checkpoint_every\": %d, \"peak_states\": %zu, "
-      "\"state_bytes\": %.0f, \"max_rss_before_kib\": %ld, \"max_rss_after_kib\": %ld, \"rollout_rss_growth_bytes\": %.0f, "
+      "\"state_bytes\": %.0f, \"max_rss_before_kib\": %ld, \"max_rss_after_kib\": %ld, \"rollout_rss_growth_bytes\": "
+      "%.0f, "
       "\"forward_s\": %.3f, \"backward_s\": %.3f, \"backward_over_forward\": %.3f, "
       "\"baseline\": \"store_every_state\", \"baseline_checkpoint_every\": %d, \"baseline_peak_states\": %zu, "
       "\"baseline_state_bytes\": %.0f, \"baseline_max_rss_before_kib\": %ld, \"baseline_max_rss_after_kib\": %ld, "
@@ -447,8 +452,10 @@ std::string memoryLine(int steps, const MemoryRun& ck, const MemoryRun& all) {
 int main(int argc, char** argv) {
   bool quick = false;
   for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--quick") == 0) quick = true;
-    else g_only = argv[i];
+    if (std::strcmp(argv[i], "--quick") == 0)
+      quick = true;
+    else
+      g_only = argv[i];
   }
   try {
     // 4 first (forked children, before any OpenMP thread exists here); printed last.

@@ -52,13 +52,14 @@ int main(int argc, char** argv) {
     const double s_mem = std::chrono::duration<double>(t1 - t0).count();
     const double s_file = std::chrono::duration<double>(t2 - t1).count();
     const double fps_mem = frames.size() / s_mem, fps_file = frames.size() / s_file;
-    std::printf("{\"bench\":\"track\",\"method\":\"%s\",\"foreground\":\"%s\",\"kind\":\"%s\",\"width\":%d,\"height\":%d,"
-                "\"frames\":%zu,\"video_fps\":%.1f,\"threads\":1,\"fps_tracking\":%.1f,\"realtime_tracking\":%.2f,"
-                "\"fps_with_decode\":%.1f,\"realtime_with_decode\":%.2f,\"period_s\":%.5f,\"period_true_s\":%.5f,"
-                "\"oscillation_found\":%s}\n",
-                c.method, std::strcmp(c.method, "silhouette") == 0 ? c.foreground : "", c.kind, scene.width,
-                scene.height, frames.size(), scene.fps, fps_mem, fps_mem / scene.fps, fps_file, fps_file / scene.fps,
-                rv.signal.period_s, scene.period_s, r.signal.oscillation_found ? "true" : "false");
+    std::printf(
+        "{\"bench\":\"track\",\"method\":\"%s\",\"foreground\":\"%s\",\"kind\":\"%s\",\"width\":%d,\"height\":%d,"
+        "\"frames\":%zu,\"video_fps\":%.1f,\"threads\":1,\"fps_tracking\":%.1f,\"realtime_tracking\":%.2f,"
+        "\"fps_with_decode\":%.1f,\"realtime_with_decode\":%.2f,\"period_s\":%.5f,\"period_true_s\":%.5f,"
+        "\"oscillation_found\":%s}\n",
+        c.method, std::strcmp(c.method, "silhouette") == 0 ? c.foreground : "", c.kind, scene.width, scene.height,
+        frames.size(), scene.fps, fps_mem, fps_mem / scene.fps, fps_file, fps_file / scene.fps, rv.signal.period_s,
+        scene.period_s, r.signal.oscillation_found ? "true" : "false");
   }
   std::remove(path.c_str());
   return 0;

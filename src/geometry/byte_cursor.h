@@ -20,9 +20,7 @@
 
 namespace topo_gaussian::geometry::detail {
 
-inline bool isSpace(char c) {
-  return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f';
-}
+inline bool isSpace(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f'; }
 
 /// Lower-case ASCII copy.
 inline std::string lower(std::string_view s) {
@@ -63,7 +61,7 @@ inline bool parseDouble(std::string_view tok, double& out) {
   auto res = std::from_chars(first, last, out);
   if (res.ec == std::errc() && res.ptr == last) return true;
   if (res.ec != std::errc::result_out_of_range) return false;
-  // Out of range (e.g. 1e999 or 1e-999): fall through to strtod, which saturates to inf / 0.
+    // Out of range (e.g. 1e999 or 1e-999): fall through to strtod, which saturates to inf / 0.
 #endif
   // strtod needs a NUL-terminated string and uses the locale's decimal point: copy the token into a
   // small buffer and swap '.' for the locale's separator. Numbers longer than the buffer are rejected.
@@ -168,15 +166,19 @@ enum class ScalarType : std::uint8_t { Int8, UInt8, Int16, UInt16, Int32, UInt32
 inline std::size_t scalarSize(ScalarType t) {
   switch (t) {
     case ScalarType::Int8:
-    case ScalarType::UInt8: return 1;
+    case ScalarType::UInt8:
+      return 1;
     case ScalarType::Int16:
-    case ScalarType::UInt16: return 2;
+    case ScalarType::UInt16:
+      return 2;
     case ScalarType::Int32:
     case ScalarType::UInt32:
-    case ScalarType::Float32: return 4;
+    case ScalarType::Float32:
+      return 4;
     case ScalarType::Int64:
     case ScalarType::UInt64:
-    case ScalarType::Float64: return 8;
+    case ScalarType::Float64:
+      return 8;
   }
   return 1;
 }
@@ -200,10 +202,26 @@ inline std::uint64_t loadBits(const unsigned char* p, std::size_t size, bool swa
     std::memcpy(tmp, p, size);
   }
   switch (size) {
-    case 1: { std::uint8_t v; std::memcpy(&v, tmp, 1); return v; }
-    case 2: { std::uint16_t v; std::memcpy(&v, tmp, 2); return v; }
-    case 4: { std::uint32_t v; std::memcpy(&v, tmp, 4); return v; }
-    default: { std::uint64_t v; std::memcpy(&v, tmp, 8); return v; }
+    case 1: {
+      std::uint8_t v;
+      std::memcpy(&v, tmp, 1);
+      return v;
+    }
+    case 2: {
+      std::uint16_t v;
+      std::memcpy(&v, tmp, 2);
+      return v;
+    }
+    case 4: {
+      std::uint32_t v;
+      std::memcpy(&v, tmp, 4);
+      return v;
+    }
+    default: {
+      std::uint64_t v;
+      std::memcpy(&v, tmp, 8);
+      return v;
+    }
   }
 }
 
@@ -211,14 +229,22 @@ inline std::uint64_t loadBits(const unsigned char* p, std::size_t size, bool swa
 inline double loadScalar(const unsigned char* p, ScalarType t, bool swap) {
   const std::uint64_t bits = loadBits(p, scalarSize(t), swap);
   switch (t) {
-    case ScalarType::Int8: return static_cast<std::int8_t>(static_cast<std::uint8_t>(bits));
-    case ScalarType::UInt8: return static_cast<double>(bits);
-    case ScalarType::Int16: return static_cast<std::int16_t>(static_cast<std::uint16_t>(bits));
-    case ScalarType::UInt16: return static_cast<double>(bits);
-    case ScalarType::Int32: return static_cast<std::int32_t>(static_cast<std::uint32_t>(bits));
-    case ScalarType::UInt32: return static_cast<double>(bits);
-    case ScalarType::Int64: return static_cast<double>(static_cast<std::int64_t>(bits));
-    case ScalarType::UInt64: return static_cast<double>(bits);
+    case ScalarType::Int8:
+      return static_cast<std::int8_t>(static_cast<std::uint8_t>(bits));
+    case ScalarType::UInt8:
+      return static_cast<double>(bits);
+    case ScalarType::Int16:
+      return static_cast<std::int16_t>(static_cast<std::uint16_t>(bits));
+    case ScalarType::UInt16:
+      return static_cast<double>(bits);
+    case ScalarType::Int32:
+      return static_cast<std::int32_t>(static_cast<std::uint32_t>(bits));
+    case ScalarType::UInt32:
+      return static_cast<double>(bits);
+    case ScalarType::Int64:
+      return static_cast<double>(static_cast<std::int64_t>(bits));
+    case ScalarType::UInt64:
+      return static_cast<double>(bits);
     case ScalarType::Float32: {
       const std::uint32_t b32 = static_cast<std::uint32_t>(bits);
       float f;

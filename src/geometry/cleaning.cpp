@@ -42,8 +42,7 @@ CleanReport cleanSurface(SurfaceData& s, const CleanOptions& o) {
   std::vector<bool> keep(s.size(), true);
   for (std::size_t i = 0; i < s.size(); ++i) {
     bool ok = s.points[i].allFinite();
-    if (s.kind == SurfaceKind::Gaussians)
-      ok = ok && std::isfinite(s.opacity[i]) && s.covariances[i].allFinite();
+    if (s.kind == SurfaceKind::Gaussians) ok = ok && std::isfinite(s.opacity[i]) && s.covariances[i].allFinite();
     keep[i] = ok;
   }
   r.non_finite = keepAndCount(s, keep);
@@ -86,8 +85,9 @@ CleanReport cleanSurface(SurfaceData& s, const CleanOptions& o) {
   }
 
   if (s.points.empty())
-    throw TopoError(name, "no points are left after cleaning (" + std::to_string(r.cropped) + " cropped, " +
-                              std::to_string(r.transparent) + " below opacity " + std::to_string(o.opacity_threshold) + ")",
+    throw TopoError(name,
+                    "no points are left after cleaning (" + std::to_string(r.cropped) + " cropped, " +
+                        std::to_string(r.transparent) + " below opacity " + std::to_string(o.opacity_threshold) + ")",
                     "widen the crop box or lower the opacity threshold");
 
   // 5. recentre on the bounding-box centre

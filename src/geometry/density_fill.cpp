@@ -13,8 +13,8 @@ constexpr float kCutoffExponent = 4.5f;  // splats are truncated at 3 standard d
 
 // Adds opacity · exp(−½ dᵀ Q d) of one Gaussian to the grid nodes (cell corners) within its
 // 3σ reach. Nodes are ((n0+1) × (n1+1) × (n2+1)), node (i,j,k) at origin + h (i,j,k).
-void splatOne(const Eigen::Vector3d& p, const Eigen::Matrix3d& Q, double sigma_max, double opacity,
-              const Lattice& L, std::vector<float>& nodes) {
+void splatOne(const Eigen::Vector3d& p, const Eigen::Matrix3d& Q, double sigma_max, double opacity, const Lattice& L,
+              std::vector<float>& nodes) {
   const int nx = L.n[0] + 1, ny = L.n[1] + 1, nz = L.n[2] + 1;
   const int r = std::max(1, int(std::ceil(3.0 * sigma_max / L.h)));
   const Eigen::Vector3d g = (p - L.origin) / L.h;
@@ -188,9 +188,8 @@ DensityFillResult fillFromDensity(const Lattice& L, const std::vector<float>& D,
 }  // namespace
 
 DensityFillResult densityFill(const std::vector<Eigen::Vector3d>& centres,
-                              const std::vector<Eigen::Matrix3d>& covariances,
-                              const std::vector<double>& opacity, const Lattice& L,
-                              const DensityFillOptions& o) {
+                              const std::vector<Eigen::Matrix3d>& covariances, const std::vector<double>& opacity,
+                              const Lattice& L, const DensityFillOptions& o) {
   std::vector<float> nodes(std::size_t(L.n[0] + 1) * (L.n[1] + 1) * (L.n[2] + 1), 0.f);
   const double floor_sigma = std::max(o.min_sigma_cells * L.h, o.min_sigma_m);
 #pragma omp parallel for schedule(dynamic, 256)

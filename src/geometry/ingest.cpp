@@ -54,7 +54,8 @@ std::string toJson(const IngestResult& r) {
     s << '[' << v.x() << ',' << v.y() << ',' << v.z() << ']';
     return s.str();
   };
-  const double open = r.kind == SurfaceKind::Mesh ? std::max(f.topology.openFraction(), f.open_fraction) : f.open_fraction;
+  const double open =
+      r.kind == SurfaceKind::Mesh ? std::max(f.topology.openFraction(), f.open_fraction) : f.open_fraction;
   j << "{\"input\":" << jsonString(r.input) << ",\"input_kind\":\"" << toString(r.kind) << "\",\"method\":\""
     << f.method << "\",\"points_in\":" << r.clean.points_in << ",\"points_after_cleaning\":"
     << (r.clean.points_in - r.clean.non_finite - r.clean.transparent - r.clean.outliers - r.clean.cropped)

@@ -11,9 +11,9 @@
 #include <random>
 #include <sstream>
 
-#include "topo_gaussian/geometry/mesh_metrics.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/geometry/mesh_metrics.h"
 
 namespace topo_gaussian::geometry {
 
@@ -64,7 +64,8 @@ Occupancy resample(const Lattice& grid, const std::vector<std::uint8_t>& solid, 
     for (int j = 0; j < out.n[1]; ++j)
       for (int i = 0; i < out.n[0]; ++i) {
         std::array<int, 3> g;
-        if (grid.cellOf(out.center(i, j, k), &g) && solid[grid.index(g[0], g[1], g[2])]) o.solid[out.index(i, j, k)] = 1;
+        if (grid.cellOf(out.center(i, j, k), &g) && solid[grid.index(g[0], g[1], g[2])])
+          o.solid[out.index(i, j, k)] = 1;
       }
   return o;
 }
@@ -72,8 +73,8 @@ Occupancy resample(const Lattice& grid, const std::vector<std::uint8_t>& solid, 
 void checkCells(double cells, double max_cells, double h, const std::string& name, const char* what) {
   if (cells > max_cells)
     throw TopoError(name,
-                    std::string("spacing ") + numberText(h, 3) + " m would create " + numberText(cells, 3) + " " + what +
-                        " (limit " + numberText(max_cells, 3) + ")",
+                    std::string("spacing ") + numberText(h, 3) + " m would create " + numberText(cells, 3) + " " +
+                        what + " (limit " + numberText(max_cells, 3) + ")",
                     "use a larger spacing (--spacing) or a smaller particle count (--count)");
 }
 
@@ -154,13 +155,15 @@ class Filler {
                          " grid cells) is connected to the outside through gaps in the surface";
     if (s_.kind == SurfaceKind::Mesh)
       detail += "; the mesh has " + std::to_string(r_.topology.boundary_edges) + " boundary edges (" +
-                numberText(100.0 * r_.topology.openFraction(), 3) + " % of its edges, " + numberText(r_.topology.boundary_length, 3) +
-                " m of open boundary)";
+                numberText(100.0 * r_.topology.openFraction(), 3) + " % of its edges, " +
+                numberText(r_.topology.boundary_length, 3) + " m of open boundary)";
     throw TopoError(s_.source, "the surface is open: " + detail,
                     "close the holes (e.g. MeshLab: Close Holes, or scan the missing sides), or seal gaps up to "
-                    "2·N grid cells (" + numberText(g, 3) + " m each; N was " + std::to_string(r_.closing_cells) +
+                    "2·N grid cells (" +
+                        numberText(g, 3) + " m each; N was " + std::to_string(r_.closing_cells) +
                         ") with closing_cells = N (CLI --closing-cells N), "
-                    "or accept a partial fill by raising max_open_fraction above " + numberText(r_.open_fraction, 3));
+                        "or accept a partial fill by raising max_open_fraction above " +
+                        numberText(r_.open_fraction, 3));
   }
 
   const SurfaceData& s_;
@@ -200,17 +203,29 @@ VolumeCloud toCloud(const Occupancy& occ, const FillOptions& o) {
 
 void validateFillOptions(const FillOptions& o, const std::string& what) {
   auto bad = [&](const std::string& problem, const std::string& fix) { throw TopoError(what, problem, fix); };
-  if (o.spacing_m < 0.0 || !std::isfinite(o.spacing_m)) bad("spacing " + numberText(o.spacing_m, 3) + " m is negative or not finite", "give a positive spacing in metres, or 0 to use the particle count");
-  if (o.spacing_m == 0.0 && o.target_count < 8) bad("particle count " + std::to_string(o.target_count) + " is too small", "ask for at least 8 particles (default 50000)");
-  if (o.jitter < 0.0 || o.jitter > 0.5) bad("jitter " + numberText(o.jitter, 3) + " is outside [0, 0.5]", "use 0 for a regular lattice or up to 0.5 of the spacing");
-  if (o.grid_resolution < 0 || o.grid_resolution > 4096) bad("grid resolution " + std::to_string(o.grid_resolution) + " is outside [0, 4096]", "use 0 (the lattice spacing) or e.g. 100 cells");
+  if (o.spacing_m < 0.0 || !std::isfinite(o.spacing_m))
+    bad("spacing " + numberText(o.spacing_m, 3) + " m is negative or not finite",
+        "give a positive spacing in metres, or 0 to use the particle count");
+  if (o.spacing_m == 0.0 && o.target_count < 8)
+    bad("particle count " + std::to_string(o.target_count) + " is too small",
+        "ask for at least 8 particles (default 50000)");
+  if (o.jitter < 0.0 || o.jitter > 0.5)
+    bad("jitter " + numberText(o.jitter, 3) + " is outside [0, 0.5]",
+        "use 0 for a regular lattice or up to 0.5 of the spacing");
+  if (o.grid_resolution < 0 || o.grid_resolution > 4096)
+    bad("grid resolution " + std::to_string(o.grid_resolution) + " is outside [0, 4096]",
+        "use 0 (the lattice spacing) or e.g. 100 cells");
   const auto& d = o.density;
-  if (!(d.density_threshold > 0.0) || !(d.search_threshold > 0.0)) bad("density and search thresholds must be positive", "use PhysGaussian's 2.0 and 1.0");
-  if (d.search_exclude_direction < -1 || d.search_exclude_direction > 5 || d.ray_cast_direction < 0 || d.ray_cast_direction > 5)
-    bad("direction codes must be 0..5 (+x −x +y −y +z −z; exclude may be −1 for none)", "use PhysGaussian's exclude 5, ray 4");
+  if (!(d.density_threshold > 0.0) || !(d.search_threshold > 0.0))
+    bad("density and search thresholds must be positive", "use PhysGaussian's 2.0 and 1.0");
+  if (d.search_exclude_direction < -1 || d.search_exclude_direction > 5 || d.ray_cast_direction < 0 ||
+      d.ray_cast_direction > 5)
+    bad("direction codes must be 0..5 (+x −x +y −y +z −z; exclude may be −1 for none)",
+        "use PhysGaussian's exclude 5, ray 4");
   if (d.min_sigma_cells < 0.0 || d.closing_cells < -1 || d.closing_cells > 64 || d.leak_check_closing_cells < 0)
     bad("min_sigma_cells must be >= 0 and closing_cells in -1..64", "use the defaults 0.5 and -1 (automatic)");
-  if (o.max_open_fraction < 0.0 || o.max_open_fraction > 1.0) bad("max_open_fraction " + numberText(o.max_open_fraction, 3) + " is outside [0, 1]", "use the default 0.02");
+  if (o.max_open_fraction < 0.0 || o.max_open_fraction > 1.0)
+    bad("max_open_fraction " + numberText(o.max_open_fraction, 3) + " is outside [0, 1]", "use the default 0.02");
 }
 
 VolumeCloud fillInterior(const SurfaceData& s, const FillOptions& o, FillReport* report) {
@@ -223,7 +238,8 @@ VolumeCloud fillInterior(const SurfaceData& s, const FillOptions& o, FillReport*
   r.triangles_in = s.triangles.size();
   if (s.points.empty()) throw TopoError(s.source, "has no points", "check that the file or topic carries a surface");
   for (const auto& p : s.points)
-    if (!p.allFinite()) throw TopoError(s.source, "has NaN or infinite coordinates", "clean the surface first (cleanSurface drops them)");
+    if (!p.allFinite())
+      throw TopoError(s.source, "has NaN or infinite coordinates", "clean the surface first (cleanSurface drops them)");
   surfaceBounds(s, &r.bbox_min, &r.bbox_max);
   const Eigen::Vector3d ext = r.bbox_max - r.bbox_min;
   if (s.kind == SurfaceKind::Mesh && s.triangles.empty())
@@ -232,8 +248,13 @@ VolumeCloud fillInterior(const SurfaceData& s, const FillOptions& o, FillReport*
     throw TopoError(s.source, "has only " + std::to_string(s.size()) + " point(s): no volume can be enclosed",
                     "give a surface sampled all around the object");
   if (ext.minCoeff() <= 0.0)
-    throw TopoError(s.source, "has zero extent along " + std::string(ext.x() <= 0 ? "x" : ext.y() <= 0 ? "y" : "z") +
-                                  " (bounding box " + numberText(ext.x(), 3) + " × " + numberText(ext.y(), 3) + " × " + numberText(ext.z(), 3) + " m): it encloses no volume",
+    throw TopoError(s.source,
+                    "has zero extent along " +
+                        std::string(ext.x() <= 0   ? "x"
+                                    : ext.y() <= 0 ? "y"
+                                                   : "z") +
+                        " (bounding box " + numberText(ext.x(), 3) + " × " + numberText(ext.y(), 3) + " × " +
+                        numberText(ext.z(), 3) + " m): it encloses no volume",
                     "give a surface that surrounds a solid, not a flat patch");
   if (s.kind == SurfaceKind::Mesh) r.topology = analyseMesh(s);
 

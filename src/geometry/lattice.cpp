@@ -37,8 +37,7 @@ bool Lattice::cellOf(const Eigen::Vector3d& p, std::array<int, 3>* ijk) const {
 }
 
 std::vector<std::int32_t> distanceTransform6(const Lattice& L, const std::vector<std::uint8_t>& seeds,
-                                             const std::vector<std::uint8_t>& passable,
-                                             std::int32_t max_distance) {
+                                             const std::vector<std::uint8_t>& passable, std::int32_t max_distance) {
   const std::int32_t inf = std::numeric_limits<std::int32_t>::max();
   std::vector<std::int32_t> d(L.cells(), inf);
   std::vector<std::size_t> frontier, next;

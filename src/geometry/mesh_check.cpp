@@ -29,8 +29,9 @@ std::string ManifoldCheck::summary() const {
   std::ostringstream s;
   if (watertight()) {
     s << "watertight (" << triangles << " triangles, " << vertices << " vertices, " << bodies
-      << (bodies == 1 ? " solid body" : " solid bodies") << ", " << voids << (voids == 1 ? " enclosed void" : " enclosed voids")
-      << ", Euler characteristic " << euler_characteristic << ")";
+      << (bodies == 1 ? " solid body" : " solid bodies") << ", " << voids
+      << (voids == 1 ? " enclosed void" : " enclosed voids") << ", Euler characteristic " << euler_characteristic
+      << ")";
     return s.str();
   }
   s << "not watertight:";
@@ -82,9 +83,12 @@ ManifoldCheck checkManifold(const SurfaceData& mesh) {
   c.edges = edges.size();
   for (const auto& kv : edges) {
     const int uses = kv.second.forward + kv.second.backward;
-    if (uses == 1) ++c.boundary_edges;
-    else if (uses > 2) ++c.nonmanifold_edges;
-    else if (kv.second.forward != 1) ++c.misoriented_edges;
+    if (uses == 1)
+      ++c.boundary_edges;
+    else if (uses > 2)
+      ++c.nonmanifold_edges;
+    else if (kv.second.forward != 1)
+      ++c.misoriented_edges;
   }
 
   // Fans: around a vertex v every triangle (v, a, b) gives the link edge a → b. On a closed oriented
@@ -137,8 +141,10 @@ ManifoldCheck checkManifold(const SurfaceData& mesh) {
     if (degree[v] && !root_seen[root]) {
       root_seen[root] = 1;
       ++c.components;
-      if (piece_volume[root] > 0.0) ++c.bodies;
-      else if (piece_volume[root] < 0.0) ++c.voids;
+      if (piece_volume[root] > 0.0)
+        ++c.bodies;
+      else if (piece_volume[root] < 0.0)
+        ++c.voids;
     }
   }
   const long faces = long(std::count(valid.begin(), valid.end(), char(1)));

@@ -14,15 +14,17 @@
 
 #include "byte_cursor.h"
 #include "reader_common.h"
-#include "topo_gaussian/geometry/surface_reader.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/geometry/surface_reader.h"
 
 namespace topo_gaussian::geometry {
 
 namespace {
 
-const char* const kObjFix = "re-export the mesh as OBJ from a mesh editor (v x y z lines, f i j k lines with 1-based indices)";
-const char* const kOffFix = "re-export the mesh as OFF (first line OFF, then 'nv nf ne', nv vertex lines, nf face lines)";
+const char* const kObjFix =
+    "re-export the mesh as OBJ from a mesh editor (v x y z lines, f i j k lines with 1-based indices)";
+const char* const kOffFix =
+    "re-export the mesh as OFF (first line OFF, then 'nv nf ne', nv vertex lines, nf face lines)";
 const char* const kStlFix = "re-export the mesh as binary STL from a mesh editor or CAD tool";
 
 std::string lineText(std::size_t line) { return "line " + std::to_string(line); }
@@ -72,8 +74,8 @@ SurfaceData readObj(const std::string& bytes, const std::string& name) {
     if (w[0] == "v") {
       Eigen::Vector3d p;
       if (!parseXyz(w, 1, p)) {
-        throw TopoError(name, lineText(ln) + ": a vertex needs three numbers 'v x y z', got " + detail::quoted(line, 60),
-                        kObjFix);
+        throw TopoError(
+            name, lineText(ln) + ": a vertex needs three numbers 'v x y z', got " + detail::quoted(line, 60), kObjFix);
       }
       out.points.push_back(p);
     } else if (w[0] == "f") {
@@ -87,8 +89,10 @@ SurfaceData readObj(const std::string& bytes, const std::string& name) {
       for (std::size_t i = 1; i < w.size(); ++i) {
         long long idx;
         if (!objCornerIndex(w[i], idx) || idx == 0) {
-          throw TopoError(name, lineText(ln) + ": face " + std::to_string(face_count) + " has the invalid vertex reference " +
-                                    detail::quoted(w[i]) + " (indices start at 1; negative ones count back from the last vertex)",
+          throw TopoError(name,
+                          lineText(ln) + ": face " + std::to_string(face_count) + " has the invalid vertex reference " +
+                              detail::quoted(w[i]) +
+                              " (indices start at 1; negative ones count back from the last vertex)",
                           kObjFix);
         }
         // Negative indices are relative to the vertices defined so far; positive ones are 1-based.
@@ -165,7 +169,8 @@ SurfaceData readOff(const std::string& bytes, const std::string& name) {
         throw TopoError(name, "binary OFF is not supported", kOffFix);
       }
       if (w.size() == 1) {
-        if (!nextWords()) throw TopoError(name, "the file is truncated: the OFF header has no vertex/face counts", kOffFix);
+        if (!nextWords())
+          throw TopoError(name, "the file is truncated: the OFF header has no vertex/face counts", kOffFix);
         counts_at = 0;
       } else {
         counts_at = 1;
@@ -173,9 +178,10 @@ SurfaceData readOff(const std::string& bytes, const std::string& name) {
     }
   }
   std::uint64_t nv = 0, nf = 0;
-  if (w.size() < counts_at + 2 || !detail::parseUint64(w[counts_at], nv) || !detail::parseUint64(w[counts_at + 1], nf)) {
-    throw TopoError(name, lineText(ln) + ": expected the counts 'vertices faces edges', got " + detail::quoted(line, 60),
-                    kOffFix);
+  if (w.size() < counts_at + 2 || !detail::parseUint64(w[counts_at], nv) ||
+      !detail::parseUint64(w[counts_at + 1], nf)) {
+    throw TopoError(
+        name, lineText(ln) + ": expected the counts 'vertices faces edges', got " + detail::quoted(line, 60), kOffFix);
   }
 
   // A vertex line has at least 5 characters ("0 0 0") and a face line at least 7 ("3 0 1 2").
@@ -189,9 +195,10 @@ SurfaceData readOff(const std::string& bytes, const std::string& name) {
     }
     Eigen::Vector3d p;
     if (!parseXyz(w, 0, p)) {
-      throw TopoError(name, lineText(ln) + ": vertex " + std::to_string(i) + " needs three numbers, got " +
-                                detail::quoted(line, 60),
-                      kOffFix);
+      throw TopoError(
+          name,
+          lineText(ln) + ": vertex " + std::to_string(i) + " needs three numbers, got " + detail::quoted(line, 60),
+          kOffFix);
     }
     out.points.push_back(p);
   }
@@ -218,8 +225,9 @@ SurfaceData readOff(const std::string& bytes, const std::string& name) {
           static_cast<std::uint64_t>(idx) >= out.points.size()) {
         throw TopoError(name,
                         lineText(ln) + ": face " + std::to_string(f) + " refers to vertex " +
-                            detail::quoted(w[static_cast<std::size_t>(k) + 1]) + ", which is out of range (the file has " +
-                            std::to_string(out.points.size()) + " vertices, numbered from 0)",
+                            detail::quoted(w[static_cast<std::size_t>(k) + 1]) +
+                            ", which is out of range (the file has " + std::to_string(out.points.size()) +
+                            " vertices, numbered from 0)",
                         kOffFix);
       }
       polygon.push_back(static_cast<int>(idx));
@@ -340,7 +348,9 @@ SurfaceData readStl(const std::string& bytes, const std::string& name) {
   out.source = name;
   std::uint32_t count = 0;
   const bool has_count = bytes.size() >= 84;
-  if (has_count) count = static_cast<std::uint32_t>(detail::loadBits(reinterpret_cast<const unsigned char*>(bytes.data()) + 80, 4, !detail::hostIsLittleEndian()));
+  if (has_count)
+    count = static_cast<std::uint32_t>(
+        detail::loadBits(reinterpret_cast<const unsigned char*>(bytes.data()) + 80, 4, !detail::hostIsLittleEndian()));
   const std::uint64_t binary_size = 84 + 50ull * count;
   // A binary STL is exactly 84 + 50 × count bytes, even when its header happens to start with "solid".
   if (has_count && bytes.size() == binary_size) {
@@ -359,10 +369,11 @@ SurfaceData readStl(const std::string& bytes, const std::string& name) {
       throw TopoError(name, "the file is empty: the ASCII STL has no facets", "export a mesh with at least one facet");
     }
   } else if (!has_count) {
-    throw TopoError(name,
-                    "the file is truncated: " + std::to_string(bytes.size()) +
-                        " bytes is shorter than the 84-byte header of a binary STL (and it does not start with 'solid')",
-                    kStlFix);
+    throw TopoError(
+        name,
+        "the file is truncated: " + std::to_string(bytes.size()) +
+            " bytes is shorter than the 84-byte header of a binary STL (and it does not start with 'solid')",
+        kStlFix);
   } else {
     const std::uint64_t present = (bytes.size() - 84) / 50;
     throw TopoError(name,

@@ -12,8 +12,8 @@
 
 #include "byte_cursor.h"
 #include "reader_common.h"
-#include "topo_gaussian/geometry/surface_reader.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/geometry/surface_reader.h"
 
 namespace topo_gaussian::geometry {
 
@@ -46,19 +46,31 @@ struct PcdHeader {
 /// Maps PCD TYPE/SIZE to a scalar type; false for combinations PCD does not define.
 bool scalarTypeOf(char type, std::size_t size, ScalarType& t) {
   if (type == 'F') {
-    if (size == 4) t = ScalarType::Float32;
-    else if (size == 8) t = ScalarType::Float64;
-    else return false;
+    if (size == 4)
+      t = ScalarType::Float32;
+    else if (size == 8)
+      t = ScalarType::Float64;
+    else
+      return false;
     return true;
   }
   const bool is_signed = type == 'I';
   if (type != 'I' && type != 'U') return false;
   switch (size) {
-    case 1: t = is_signed ? ScalarType::Int8 : ScalarType::UInt8; return true;
-    case 2: t = is_signed ? ScalarType::Int16 : ScalarType::UInt16; return true;
-    case 4: t = is_signed ? ScalarType::Int32 : ScalarType::UInt32; return true;
-    case 8: t = is_signed ? ScalarType::Int64 : ScalarType::UInt64; return true;
-    default: return false;
+    case 1:
+      t = is_signed ? ScalarType::Int8 : ScalarType::UInt8;
+      return true;
+    case 2:
+      t = is_signed ? ScalarType::Int16 : ScalarType::UInt16;
+      return true;
+    case 4:
+      t = is_signed ? ScalarType::Int32 : ScalarType::UInt32;
+      return true;
+    case 8:
+      t = is_signed ? ScalarType::Int64 : ScalarType::UInt64;
+      return true;
+    default:
+      return false;
   }
 }
 
@@ -80,8 +92,9 @@ PcdHeader parseHeader(const std::string& bytes, const std::string& name) {
     const std::string key = detail::lower(w[0]);
     auto number = [&](std::uint64_t& v) {
       if (w.size() != 2 || !detail::parseUint64(w[1], v)) {
-        throw TopoError(name, where + "should be '" + std::string(w[0]) + " <non-negative integer>': " + detail::quoted(line, 60),
-                        kResave);
+        throw TopoError(
+            name, where + "should be '" + std::string(w[0]) + " <non-negative integer>': " + detail::quoted(line, 60),
+            kResave);
       }
     };
     if (key == "version" || key == "viewpoint") {
@@ -115,10 +128,14 @@ PcdHeader parseHeader(const std::string& bytes, const std::string& name) {
     } else if (key == "data") {
       if (w.size() != 2) throw TopoError(name, where + "should be 'DATA ascii|binary|binary_compressed'", kResave);
       const std::string kind = detail::lower(w[1]);
-      if (kind == "ascii") h.data = PcdData::Ascii;
-      else if (kind == "binary") h.data = PcdData::Binary;
-      else if (kind == "binary_compressed") h.data = PcdData::BinaryCompressed;
-      else throw TopoError(name, where + "has the unknown DATA kind " + detail::quoted(w[1]), kResave);
+      if (kind == "ascii")
+        h.data = PcdData::Ascii;
+      else if (kind == "binary")
+        h.data = PcdData::Binary;
+      else if (kind == "binary_compressed")
+        h.data = PcdData::BinaryCompressed;
+      else
+        throw TopoError(name, where + "has the unknown DATA kind " + detail::quoted(w[1]), kResave);
       have_data = true;
     } else {
       throw TopoError(name, where + "has the unknown keyword " + detail::quoted(w[0]) + " (not a PCD file?)", kResave);
@@ -174,10 +191,9 @@ PcdHeader parseHeader(const std::string& bytes, const std::string& name) {
     }
     const std::uint64_t wh = width * (have_height ? height : 1);
     if (have_points && points != wh) {
-      throw TopoError(name,
-                      "the PCD header says POINTS " + std::to_string(points) + " but WIDTH × HEIGHT = " +
-                          std::to_string(wh),
-                      "make POINTS equal WIDTH × HEIGHT, or " + std::string(kResave));
+      throw TopoError(
+          name, "the PCD header says POINTS " + std::to_string(points) + " but WIDTH × HEIGHT = " + std::to_string(wh),
+          "make POINTS equal WIDTH × HEIGHT, or " + std::string(kResave));
     }
     points = wh;
   }
@@ -270,8 +286,7 @@ void readBinaryPoints(const PcdHeader& h, const FieldRoles& roles, At at, Surfac
     if (roles.normal[0])
       for (int k = 0; k < 3; ++k)
         out.normals[i][k] = detail::loadScalar(at(*roles.normal[k], i), roles.normal[k]->scalar, swap);
-    if (roles.rgb)
-      out.colors[i] = unpackRgb(static_cast<std::uint32_t>(detail::loadBits(at(*roles.rgb, i), 4, swap)));
+    if (roles.rgb) out.colors[i] = unpackRgb(static_cast<std::uint32_t>(detail::loadBits(at(*roles.rgb, i), 4, swap)));
   }
 }
 
@@ -294,7 +309,8 @@ void readAsciiPoints(const std::string& bytes, const PcdHeader& h, const FieldRo
         if (!cur.nextToken(tok)) {
           throw TopoError(name,
                           "the file is truncated: the ASCII data ends in point " + std::to_string(i) + " (only " +
-                              std::to_string(i) + " of the " + std::to_string(h.points) + " points declared by POINTS are present)",
+                              std::to_string(i) + " of the " + std::to_string(h.points) +
+                              " points declared by POINTS are present)",
                           kTruncatedFix);
         }
         double v;
@@ -309,7 +325,8 @@ void readAsciiPoints(const std::string& bytes, const PcdHeader& h, const FieldRo
     }
     auto value = [&](const PcdField* f) { return first[static_cast<std::size_t>(f - h.fields.data())]; };
     out.points.emplace_back(value(roles.xyz[0]), value(roles.xyz[1]), value(roles.xyz[2]));
-    if (roles.normal[0]) out.normals.emplace_back(value(roles.normal[0]), value(roles.normal[1]), value(roles.normal[2]));
+    if (roles.normal[0])
+      out.normals.emplace_back(value(roles.normal[0]), value(roles.normal[1]), value(roles.normal[2]));
     if (roles.rgb) {
       // ASCII rgb is the packed integer, written as a float's value (TYPE F) or as an integer (I/U).
       const double v = value(roles.rgb);
@@ -348,16 +365,18 @@ SurfaceData readPcd(const std::string& bytes, const std::string& name) {
                           " of the " + std::to_string(h.points) + " points)",
                       kTruncatedFix);
     }
-    readBinaryPoints(h, roles,
-                     [&](const PcdField& f, std::size_t i) { return data + i * step + f.offset; }, out);
+    readBinaryPoints(
+        h, roles, [&](const PcdField& f, std::size_t i) { return data + i * step + f.offset; }, out);
   } else {
     if (avail < 8) {
-      throw TopoError(name, "the file is truncated: binary_compressed data needs an 8-byte size header, " +
-                                std::to_string(avail) + " bytes present",
+      throw TopoError(name,
+                      "the file is truncated: binary_compressed data needs an 8-byte size header, " +
+                          std::to_string(avail) + " bytes present",
                       kTruncatedFix);
     }
     const std::uint32_t packed = static_cast<std::uint32_t>(detail::loadBits(data, 4, !detail::hostIsLittleEndian()));
-    const std::uint32_t unpacked = static_cast<std::uint32_t>(detail::loadBits(data + 4, 4, !detail::hostIsLittleEndian()));
+    const std::uint32_t unpacked =
+        static_cast<std::uint32_t>(detail::loadBits(data + 4, 4, !detail::hostIsLittleEndian()));
     const std::size_t step = h.point_step;
     if (step == 0 || h.points > UINT32_MAX / step || unpacked != h.points * step) {
       throw TopoError(name,
@@ -384,18 +403,19 @@ SurfaceData readPcd(const std::string& bytes, const std::string& name) {
     if (got != static_cast<long long>(unpacked)) {
       throw TopoError(name,
                       got < 0 ? std::string("the binary_compressed data is corrupt (invalid LZF stream)")
-                              : "the binary_compressed data unpacks to " + std::to_string(got) + " bytes instead of the " +
-                                    std::to_string(unpacked) + " declared",
+                              : "the binary_compressed data unpacks to " + std::to_string(got) +
+                                    " bytes instead of the " + std::to_string(unpacked) + " declared",
                       kTruncatedFix);
     }
     // Field-major layout: all points' values of field 0, then of field 1, ...
     const std::size_t npts = static_cast<std::size_t>(h.points);
     const unsigned char* base = raw.data();
-    readBinaryPoints(h, roles,
-                     [&](const PcdField& f, std::size_t i) {
-                       return base + f.offset * npts + i * f.size * static_cast<std::size_t>(f.count);
-                     },
-                     out);
+    readBinaryPoints(
+        h, roles,
+        [&](const PcdField& f, std::size_t i) {
+          return base + f.offset * npts + i * f.size * static_cast<std::size_t>(f.count);
+        },
+        out);
   }
   detail::requirePoints(out, name, "the PCD declares 0 points", "save a cloud with at least one point");
   return out;

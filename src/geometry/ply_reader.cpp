@@ -15,9 +15,9 @@
 
 #include "byte_cursor.h"
 #include "reader_common.h"
-#include "topo_gaussian/geometry/surface_reader.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/geometry/surface_reader.h"
 
 namespace topo_gaussian::geometry {
 
@@ -33,8 +33,8 @@ enum class PlyFormat { Ascii, BinaryLittleEndian, BinaryBigEndian };
 struct PlyProperty {
   std::string name;
   bool is_list = false;
-  ScalarType type = ScalarType::Float32;        // scalar type, or the item type of a list
-  ScalarType count_type = ScalarType::UInt8;    // lists only: type of the item count
+  ScalarType type = ScalarType::Float32;      // scalar type, or the item type of a list
+  ScalarType count_type = ScalarType::UInt8;  // lists only: type of the item count
 };
 
 struct PlyElement {
@@ -68,13 +68,16 @@ struct PlyHeader {
 };
 
 bool scalarTypeFromName(std::string_view s, ScalarType& t) {
-  struct Entry { const char* name; ScalarType type; };
+  struct Entry {
+    const char* name;
+    ScalarType type;
+  };
   static const Entry kTypes[] = {
-      {"char", ScalarType::Int8},     {"int8", ScalarType::Int8},       {"uchar", ScalarType::UInt8},
-      {"uint8", ScalarType::UInt8},   {"short", ScalarType::Int16},     {"int16", ScalarType::Int16},
-      {"ushort", ScalarType::UInt16}, {"uint16", ScalarType::UInt16},   {"int", ScalarType::Int32},
-      {"int32", ScalarType::Int32},   {"uint", ScalarType::UInt32},     {"uint32", ScalarType::UInt32},
-      {"float", ScalarType::Float32}, {"float32", ScalarType::Float32}, {"double", ScalarType::Float64},
+      {"char", ScalarType::Int8},      {"int8", ScalarType::Int8},       {"uchar", ScalarType::UInt8},
+      {"uint8", ScalarType::UInt8},    {"short", ScalarType::Int16},     {"int16", ScalarType::Int16},
+      {"ushort", ScalarType::UInt16},  {"uint16", ScalarType::UInt16},   {"int", ScalarType::Int32},
+      {"int32", ScalarType::Int32},    {"uint", ScalarType::UInt32},     {"uint32", ScalarType::UInt32},
+      {"float", ScalarType::Float32},  {"float32", ScalarType::Float32}, {"double", ScalarType::Float64},
       {"float64", ScalarType::Float64}};
   for (const Entry& e : kTypes)
     if (s == e.name) {
@@ -108,10 +111,14 @@ PlyHeader parseHeader(const std::string& bytes, const std::string& name) {
     if (key == "comment" || key == "obj_info") continue;
     if (key == "format") {
       if (w.size() < 2) throw TopoError(name, where + "'format' names no format", kReexport);
-      if (w[1] == "ascii") header.format = PlyFormat::Ascii;
-      else if (w[1] == "binary_little_endian") header.format = PlyFormat::BinaryLittleEndian;
-      else if (w[1] == "binary_big_endian") header.format = PlyFormat::BinaryBigEndian;
-      else throw TopoError(name, where + "has the unknown format " + detail::quoted(w[1]), kReexport);
+      if (w[1] == "ascii")
+        header.format = PlyFormat::Ascii;
+      else if (w[1] == "binary_little_endian")
+        header.format = PlyFormat::BinaryLittleEndian;
+      else if (w[1] == "binary_big_endian")
+        header.format = PlyFormat::BinaryBigEndian;
+      else
+        throw TopoError(name, where + "has the unknown format " + detail::quoted(w[1]), kReexport);
       have_format = true;
     } else if (key == "element") {
       PlyElement el;
@@ -147,8 +154,7 @@ PlyHeader parseHeader(const std::string& bytes, const std::string& name) {
       }
       header.elements.back().properties.push_back(std::move(p));
     } else {
-      throw TopoError(name, where + "has the unknown keyword " + detail::quoted(key) + " (corrupt header?)",
-                      kReexport);
+      throw TopoError(name, where + "has the unknown keyword " + detail::quoted(key) + " (corrupt header?)", kReexport);
     }
   }
   if (!have_end) {
@@ -193,8 +199,9 @@ class AsciiSource {
     std::string_view tok;
     if (!cur_.nextToken(tok)) return false;
     if (!detail::parseDouble(tok, v)) {
-      throw TopoError(name_, "line " + std::to_string(cur_.lineNumber()) + " of the ASCII PLY data has " +
-                                 detail::quoted(tok) + " where a number was expected",
+      throw TopoError(name_,
+                      "line " + std::to_string(cur_.lineNumber()) + " of the ASCII PLY data has " +
+                          detail::quoted(tok) + " where a number was expected",
                       kReexport);
     }
     return true;
@@ -298,13 +305,18 @@ VertexLayout vertexLayout(const PlyElement& el, const std::string& name) {
 
 int shDegreeFromRestCount(int count, const std::string& name) {
   switch (count) {
-    case 0: return 0;
-    case 9: return 1;
-    case 24: return 2;
-    case 45: return 3;
+    case 0:
+      return 0;
+    case 9:
+      return 1;
+    case 24:
+      return 2;
+    case 45:
+      return 3;
     default:
-      throw TopoError(name, "the file has " + std::to_string(count) +
-                                " f_rest_* properties, which matches no spherical-harmonics degree (0, 9, 24 or 45 expected)",
+      throw TopoError(name,
+                      "the file has " + std::to_string(count) +
+                          " f_rest_* properties, which matches no spherical-harmonics degree (0, 9, 24 or 45 expected)",
                       "export the Gaussians with the standard 3DGS layout (f_rest_0..f_rest_{3((d+1)^2-1)-1})");
   }
 }
@@ -342,9 +354,8 @@ void checkElementFits(const Source& src, const PlyElement& el, bool binary, cons
 [[noreturn]] void throwEndedEarly(const PlyElement& el, std::uint64_t record, const std::string& name) {
   throw TopoError(name,
                   "the file is truncated or corrupt: the data ends (or a list length is impossible) in " + el.name +
-                      " record " + std::to_string(record) +
-                      " (only " + std::to_string(record) + " of the " + std::to_string(el.count) + " " + el.name +
-                      " records declared by the header are present)",
+                      " record " + std::to_string(record) + " (only " + std::to_string(record) + " of the " +
+                      std::to_string(el.count) + " " + el.name + " records declared by the header are present)",
                   "copy or export the file again completely; the header count must match the data");
 }
 
@@ -394,8 +405,10 @@ void readVertices(Source& src, const PlyElement& el, const VertexLayout& L, bool
   for (int k = 0; k < 3; ++k) {
     if (L.rgb[k] < 0) continue;
     const ScalarType t = el.properties[static_cast<std::size_t>(L.rgb[k])].type;
-    if (detail::scalarSize(t) == 1 && detail::isIntegerType(t)) rgb_scale[k] = 1.0 / 255.0;
-    else if (detail::scalarSize(t) == 2 && detail::isIntegerType(t)) rgb_scale[k] = 1.0 / 65535.0;
+    if (detail::scalarSize(t) == 1 && detail::isIntegerType(t))
+      rgb_scale[k] = 1.0 / 255.0;
+    else if (detail::scalarSize(t) == 2 && detail::isIntegerType(t))
+      rgb_scale[k] = 1.0 / 65535.0;
   }
 
   std::vector<double> v(el.properties.size(), 0.0);
@@ -427,8 +440,9 @@ void readVertices(Source& src, const PlyElement& el, const VertexLayout& L, bool
       Eigen::Vector4d q(at(L.rot[0]), at(L.rot[1]), at(L.rot[2]), at(L.rot[3]));
       const double qn = q.norm();
       if (qn == 0.0) {
-        throw TopoError(name, "Gaussian " + std::to_string(r) + " has the zero quaternion rot_0..3 = 0 0 0 0, which is no rotation",
-                        "fix or remove that Gaussian in the exporter; rotations must be non-zero quaternions (w x y z)");
+        throw TopoError(
+            name, "Gaussian " + std::to_string(r) + " has the zero quaternion rot_0..3 = 0 0 0 0, which is no rotation",
+            "fix or remove that Gaussian in the exporter; rotations must be non-zero quaternions (w x y z)");
       }
       q /= qn;  // NaN/inf stay visible for cleaning
       out.scales.push_back(s);

@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "byte_cursor.h"
-#include "topo_gaussian/geometry/surface_data.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/geometry/surface_data.h"
 
 namespace topo_gaussian::geometry::detail {
 
@@ -31,8 +31,7 @@ inline void requirePoints(const SurfaceData& s, const std::string& name, const s
 
 /// Appends the fan triangulation (p0, p_i, p_i+1) of a polygon whose indices are already checked.
 inline void fanTriangulate(const std::vector<int>& polygon, std::vector<Eigen::Vector3i>& triangles) {
-  for (std::size_t i = 1; i + 1 < polygon.size(); ++i)
-    triangles.emplace_back(polygon[0], polygon[i], polygon[i + 1]);
+  for (std::size_t i = 1; i + 1 < polygon.size(); ++i) triangles.emplace_back(polygon[0], polygon[i], polygon[i + 1]);
 }
 
 }  // namespace topo_gaussian::geometry::detail

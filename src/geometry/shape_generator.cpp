@@ -4,8 +4,8 @@
 #include <cmath>
 #include <fstream>
 
-#include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/physics/default_shapes.h"
 
 namespace topo_gaussian::geometry {
 
@@ -55,8 +55,8 @@ SurfaceData extrudeY(const std::vector<Eigen::Vector2d>& poly, double w, const s
     for (const auto& p : poly) m.points.emplace_back(p.x(), y, p.y());
   for (int k = 0; k < n; ++k) quad(m, k, n + k, n + (k + 1) % n, (k + 1) % n);
   for (int k = 1; k + 1 < n; ++k) {
-    m.triangles.emplace_back(0, k, k + 1);              // y = −w, normal −y
-    m.triangles.emplace_back(n, n + k + 1, n + k);      // y = +w, normal +y
+    m.triangles.emplace_back(0, k, k + 1);          // y = −w, normal −y
+    m.triangles.emplace_back(n, n + k + 1, n + k);  // y = +w, normal +y
   }
   return m;
 }
@@ -101,7 +101,8 @@ SurfaceData makeTorus(double R, double r, int seg, int tube) {
 SurfaceData makeBox(const Eigen::Vector3d& size) {
   SurfaceData m = emptyMesh("generated box");
   const Eigen::Vector3d h = 0.5 * size;
-  for (int c = 0; c < 8; ++c) m.points.emplace_back((c & 1 ? 1 : -1) * h.x(), (c & 2 ? 1 : -1) * h.y(), (c & 4 ? 1 : -1) * h.z());
+  for (int c = 0; c < 8; ++c)
+    m.points.emplace_back((c & 1 ? 1 : -1) * h.x(), (c & 2 ? 1 : -1) * h.y(), (c & 4 ? 1 : -1) * h.z());
   quad(m, 0, 2, 3, 1);  // -z
   quad(m, 4, 5, 7, 6);  // +z
   quad(m, 0, 1, 5, 4);  // -y
@@ -118,7 +119,8 @@ const std::vector<std::string>& shapeNames() {
 
 SurfaceData makeShape(const std::string& name, double size) {
   if (!(size > 0.0) || !std::isfinite(size))
-    throw TopoError("shape " + name, "size " + std::to_string(size) + " m is not positive", "give a size in metres, e.g. 0.1");
+    throw TopoError("shape " + name, "size " + std::to_string(size) + " m is not positive",
+                    "give a size in metres, e.g. 0.1");
   if (name == "sphere") return makeSphere(size);
   if (name == "torus") return makeTorus(size * 2.0 / 3.0, size / 3.0);
   if (name == "box") return makeBox(Eigen::Vector3d::Constant(size));

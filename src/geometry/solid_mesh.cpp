@@ -32,10 +32,13 @@ double logit(double r) {
   return std::clamp(std::log(r / (1.0 - r)), -kLogitMax, kLogitMax);
 }
 
-std::string point(const Eigen::Vector3d& p) { return "(" + numberText(p.x(), 6) + ", " + numberText(p.y(), 6) + ", " + numberText(p.z(), 6) + ")"; }
+std::string point(const Eigen::Vector3d& p) {
+  return "(" + numberText(p.x(), 6) + ", " + numberText(p.y(), 6) + ", " + numberText(p.z(), 6) + ")";
+}
 
 /// Cube corners are numbered x + 2y + 4z. The 12 cube edges as corner pairs.
-constexpr int kEdges[12][2] = {{0, 1}, {2, 3}, {4, 5}, {6, 7}, {0, 2}, {1, 3}, {4, 6}, {5, 7}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
+constexpr int kEdges[12][2] = {{0, 1}, {2, 3}, {4, 5}, {6, 7}, {0, 2}, {1, 3},
+                               {4, 6}, {5, 7}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
 
 int edgeIndex(int a, int b) {
   for (int e = 0; e < 12; ++e)
@@ -89,8 +92,16 @@ std::array<Face, 6> cubeFaces() {
 class CubeMarcher {
  public:
   CubeMarcher(const std::vector<double>& field, const std::vector<std::int32_t>& owner, const std::array<int, 3>& n,
-              const Eigen::Vector3d& origin, double h, double iso, SurfaceData& out, std::vector<std::uint8_t>& interface)
-      : f_(field), owner_(owner), n_(n), origin_(origin), h_(h), iso_(iso), out_(out), interface_(interface),
+              const Eigen::Vector3d& origin, double h, double iso, SurfaceData& out,
+              std::vector<std::uint8_t>& interface)
+      : f_(field),
+        owner_(owner),
+        n_(n),
+        origin_(origin),
+        h_(h),
+        iso_(iso),
+        out_(out),
+        interface_(interface),
         faces_(cubeFaces()) {
     edges_.reserve(1024);
   }
@@ -208,11 +219,13 @@ SurfaceData solidRegionMesh(const VolumeCloud& cloud, const std::vector<double>&
                             std::vector<std::uint8_t>* interface_vertex) {
   cloud.validate("volume cloud");
   if (r.size() != cloud.size())
-    throw TopoError("interior", "has " + std::to_string(r.size()) + " indicator values for " +
-                                    std::to_string(cloud.size()) + " particles",
-                    "use the interior computed on this volume");
+    throw TopoError(
+        "interior",
+        "has " + std::to_string(r.size()) + " indicator values for " + std::to_string(cloud.size()) + " particles",
+        "use the interior computed on this volume");
   if (!(o.iso > 0.0 && o.iso <= 1.0))
-    throw TopoError("iso-value " + numberText(o.iso, 6), "is outside (0, 1]", "use 0.5 (the solid threshold of interior.ply)");
+    throw TopoError("iso-value " + numberText(o.iso, 6), "is outside (0, 1]",
+                    "use 0.5 (the solid threshold of interior.ply)");
   std::size_t solid = 0;
   for (std::size_t i = 0; i < r.size(); ++i) {
     if (!std::isfinite(r[i]))
@@ -221,7 +234,8 @@ SurfaceData solidRegionMesh(const VolumeCloud& cloud, const std::vector<double>&
     solid += r[i] >= o.iso ? 1 : 0;
   }
   if (solid == 0)
-    throw TopoError("interior", "has no solid particle (every r < " + numberText(o.iso, 6) + "), so there is nothing to print",
+    throw TopoError("interior",
+                    "has no solid particle (every r < " + numberText(o.iso, 6) + "), so there is nothing to print",
                     "check that the interior belongs to this volume, or lower the iso-value");
 
   // Lattice nodes: particle i sits on node round((X_i - lo) / h), one padding layer on each side.
@@ -239,8 +253,8 @@ SurfaceData solidRegionMesh(const VolumeCloud& cloud, const std::vector<double>&
   const double nodes = double(n[0]) * n[1] * n[2];
   if (nodes > o.max_nodes)
     throw TopoError("volume cloud",
-                    "its lattice of spacing " + numberText(h, 6) + " m would need " + numberText(nodes, 6) + " nodes (more than " +
-                        numberText(o.max_nodes, 6) + ")",
+                    "its lattice of spacing " + numberText(h, 6) + " m would need " + numberText(nodes, 6) +
+                        " nodes (more than " + numberText(o.max_nodes, 6) + ")",
                     "check the spacing of the volume (topo fill writes it), or use a coarser volume");
   const Eigen::Vector3d origin = lo - Eigen::Vector3d::Constant(h);
   const std::size_t N = std::size_t(nodes);
@@ -255,7 +269,8 @@ SurfaceData solidRegionMesh(const VolumeCloud& cloud, const std::vector<double>&
     if ((a - idx).cwiseAbs().maxCoeff() > o.lattice_tolerance + 1e-6)
       throw TopoError("volume cloud",
                       "particle " + std::to_string(i) + " at " + point(cloud.X[i]) + " is " +
-                          numberText((a - idx).cwiseAbs().maxCoeff(), 6) + " spacings off the lattice of spacing " + numberText(h, 6) + " m",
+                          numberText((a - idx).cwiseAbs().maxCoeff(), 6) + " spacings off the lattice of spacing " +
+                          numberText(h, 6) + " m",
                       "export needs a lattice volume as topo fill writes it (its spacing is in the file)");
     const std::size_t id =
         (std::size_t(idx.z() + 1) * n[1] + std::size_t(idx.y() + 1)) * n[0] + std::size_t(idx.x() + 1);

@@ -26,8 +26,9 @@ void writeStlBinary(const SurfaceData& mesh, const std::string& path, double sca
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
     for (int k = 0; k < 3; ++k)
       if (mesh.triangles[t][k] < 0 || std::size_t(mesh.triangles[t][k]) >= nv)
-        throw TopoError(path, "triangle " + std::to_string(t) + " names vertex " + std::to_string(mesh.triangles[t][k]) +
-                                  " of " + std::to_string(nv),
+        throw TopoError(path,
+                        "triangle " + std::to_string(t) + " names vertex " + std::to_string(mesh.triangles[t][k]) +
+                            " of " + std::to_string(nv),
                         "build the mesh with valid vertex indices");
   if (mesh.triangles.size() > 0xFFFFFFFFull)
     throw TopoError(path, "has more triangles than binary STL can count (2^32 - 1)", "use a coarser volume");

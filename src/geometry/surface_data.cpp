@@ -10,9 +10,12 @@ namespace topo_gaussian::geometry {
 
 const char* toString(SurfaceKind kind) {
   switch (kind) {
-    case SurfaceKind::Gaussians: return "gaussians";
-    case SurfaceKind::Points: return "points";
-    case SurfaceKind::Mesh: return "mesh";
+    case SurfaceKind::Gaussians:
+      return "gaussians";
+    case SurfaceKind::Points:
+      return "points";
+    case SurfaceKind::Mesh:
+      return "mesh";
   }
   return "unknown";
 }

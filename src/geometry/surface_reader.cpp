@@ -44,15 +44,20 @@ std::string readFileBytes(const std::string& path) {
 SurfaceData readSurface(const std::string& path) {
   const std::string ext = detail::lower(std::filesystem::path(path).extension().string());
   SurfaceData (*reader)(const std::string&, const std::string&) = nullptr;
-  if (ext == ".ply") reader = &readPly;
-  else if (ext == ".pcd") reader = &readPcd;
-  else if (ext == ".obj") reader = &readObj;
-  else if (ext == ".off") reader = &readOff;
-  else if (ext == ".stl") reader = &readStl;
+  if (ext == ".ply")
+    reader = &readPly;
+  else if (ext == ".pcd")
+    reader = &readPcd;
+  else if (ext == ".obj")
+    reader = &readObj;
+  else if (ext == ".off")
+    reader = &readOff;
+  else if (ext == ".stl")
+    reader = &readStl;
   if (!reader) {
-    throw TopoError(path,
-                    "unsupported file extension " + (ext.empty() ? std::string("(none)") : "'" + ext + "'"),
-                    std::string("convert the surface to one of the supported formats: ") + detail::supportedExtensions());
+    throw TopoError(
+        path, "unsupported file extension " + (ext.empty() ? std::string("(none)") : "'" + ext + "'"),
+        std::string("convert the surface to one of the supported formats: ") + detail::supportedExtensions());
   }
   const std::string bytes = readFileBytes(path);
   SurfaceData data = reader(bytes, path);

@@ -10,8 +10,8 @@
 
 #include "rigid_options.h"
 #include "task_factories.h"
-#include "topo_gaussian/io/trajectory_csv.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/io/trajectory_csv.h"
 #include "topo_gaussian/physics/rigid_body.h"
 
 namespace topo_gaussian::inference {
@@ -27,7 +27,8 @@ class BallTask : public Task {
     centroid_ = cloud.centroid();
     for (std::size_t i = 0; i < cloud.size(); ++i)
       if (cloud.surface[i]) contact_.push_back(cloud.X[i]);
-    if (contact_.empty()) throw TopoError("volume cloud", "has no surface particles for ground contact", "fill it with `topo fill`");
+    if (contact_.empty())
+      throw TopoError("volume cloud", "has no surface particles for ground contact", "fill it with `topo fill`");
     const auto& pp = c.list("pivot_points");
     if (!pp.empty()) {
       if (pp.size() % 3 != 0) throw TopoError("pivot_points", "needs x,y,z triples", "give 3 numbers per point");

@@ -10,7 +10,8 @@ BodyPose poseAt(const std::vector<BodyPose>& motion, double t) {
   if (motion.empty()) throw TopoError("body motion", "has no samples", "simulate a rigid task with a motion first");
   if (t <= motion.front().t) return motion.front();
   if (t >= motion.back().t) return motion.back();
-  const auto hi = std::upper_bound(motion.begin(), motion.end(), t, [](double v, const BodyPose& p) { return v < p.t; });
+  const auto hi =
+      std::upper_bound(motion.begin(), motion.end(), t, [](double v, const BodyPose& p) { return v < p.t; });
   const BodyPose& b = *hi;
   const BodyPose& a = *(hi - 1);
   const double span = b.t - a.t;

@@ -24,13 +24,16 @@ class CantileverTask : public SoftTask {
     clamp_.assign(cloud.size(), 0);
     for (std::size_t i = 0; i < cloud.size(); ++i) {
       if (cloud.X[i].x() < x_clamp_) clamp_[i] = 1;
-      if (cloud.X[i].x() > hi_.x() - 0.5 * spacing_) last_.push_back(i);
-      else if (cloud.X[i].x() > hi_.x() - 1.5 * spacing_) before_.push_back(i);
+      if (cloud.X[i].x() > hi_.x() - 0.5 * spacing_)
+        last_.push_back(i);
+      else if (cloud.X[i].x() > hi_.x() - 1.5 * spacing_)
+        before_.push_back(i);
     }
     if (std::count(clamp_.begin(), clamp_.end(), 1) == 0 || last_.empty() || before_.empty() ||
         x_clamp_ >= hi_.x() - 2.0 * spacing_)
-      throw TopoError("cantilever volume", "leaves no clamp or no free length (x from " + std::to_string(lo_.x()) +
-                                                " to " + std::to_string(hi_.x()) + " m)",
+      throw TopoError("cantilever volume",
+                      "leaves no clamp or no free length (x from " + std::to_string(lo_.x()) + " to " +
+                          std::to_string(hi_.x()) + " m)",
                       "give a slender beam along x and clamp_length_m shorter than it");
     length_ = hi_.x() + 0.5 * spacing_ - x_clamp_;
     width_ = hi_.y() - lo_.y() + spacing_;
@@ -60,9 +63,10 @@ class CantileverTask : public SoftTask {
     const double f_modal = sim->firstNaturalFrequency(1e-6);
     const SolveReport rep = sim->solveStatic(NewtonOptions(), 2);
     const double tip = -tipZ(*sim);
-    ev.features = {Feature{"tip_deflection_m", tip, "m"}, Feature{"tip_deflection_theory_m", tip_theory, "m"},
-                   Feature{"modal_frequency_hz", f_modal, "Hz"}, Feature{"first_frequency_theory_hz", f_theory, "Hz"},
-                   Feature{"free_length_m", length_, "m"}, Feature{"newton_iterations", double(rep.newton.iterations), ""}};
+    ev.features = {
+        Feature{"tip_deflection_m", tip, "m"},        Feature{"tip_deflection_theory_m", tip_theory, "m"},
+        Feature{"modal_frequency_hz", f_modal, "Hz"}, Feature{"first_frequency_theory_hz", f_theory, "Hz"},
+        Feature{"free_length_m", length_, "m"},       Feature{"newton_iterations", double(rep.newton.iterations), ""}};
     if (vibration_) {
       sim->setGravity(Eigen::Vector3d::Zero());
       const double dt = 0.9 * sim->stableTimeStep();
@@ -82,8 +86,8 @@ class CantileverTask : public SoftTask {
       }
       ev.signal_name = "tip_z_m";
       if (crossings.size() < 3)
-        throw TopoError("cantilever free vibration", "fewer than 3 zero crossings of the tip in " +
-                                                         std::to_string(max_steps) + " steps",
+        throw TopoError("cantilever free vibration",
+                        "fewer than 3 zero crossings of the tip in " + std::to_string(max_steps) + " steps",
                         "check the clamp and the material (an unclamped or overdamped beam does not vibrate)");
       const double f = 0.5 * double(crossings.size() - 1) / (crossings.back() - crossings.front());
       ev.features.insert(ev.features.begin() + 2, Feature{"first_frequency_hz", f, "Hz"});

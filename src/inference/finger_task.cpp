@@ -23,7 +23,8 @@ class FingerTask : public SoftTask {
   FingerTask(const TaskConfig& c, const VolumeCloud& cloud) : SoftTask(c, cloud) {
     axis_ = c.vector3("finger_axis");
     normal_ = c.vector3("bend_normal");
-    if (axis_.norm() == 0 || normal_.norm() == 0) throw TopoError("finger_axis/bend_normal", "is zero", "give directions");
+    if (axis_.norm() == 0 || normal_.norm() == 0)
+      throw TopoError("finger_axis/bend_normal", "is zero", "give directions");
     axis_.normalize();
     normal_ = (normal_ - normal_.dot(axis_) * axis_);
     if (normal_.norm() < 1e-9)
@@ -46,14 +47,18 @@ class FingerTask : public SoftTask {
     }
     const double len = smax - smin, f = c.number("tip_fraction"), clamp = c.number("clamp_length_m");
     if (clamp >= 0.5 * len)
-      throw TopoError("clamp_length_m", "clamps half the finger or more (" + std::to_string(clamp) + " m of " +
-                                            std::to_string(len) + " m)", "clamp only the base, e.g. 0.01");
+      throw TopoError(
+          "clamp_length_m",
+          "clamps half the finger or more (" + std::to_string(clamp) + " m of " + std::to_string(len) + " m)",
+          "clamp only the base, e.g. 0.01");
     clamp_.assign(cloud.size(), 0);
     for (std::size_t i = 0; i < cloud.size(); ++i) {
       const double u = s[i] - smin;
       if (u < clamp) clamp_[i] = 1;
-      if (u > (1.0 - f) * len) tip_.push_back(i);
-      else if (u > (1.0 - 2.0 * f) * len) pre_.push_back(i);
+      if (u > (1.0 - f) * len)
+        tip_.push_back(i);
+      else if (u > (1.0 - 2.0 * f) * len)
+        pre_.push_back(i);
     }
     if (tip_.empty() || pre_.empty() || std::count(clamp_.begin(), clamp_.end(), 1) == 0)
       throw TopoError("finger volume", "has no particles in the clamp, the tip or the segment before it",
@@ -63,7 +68,8 @@ class FingerTask : public SoftTask {
 
   void requireTargets() const override {
     if (!has_target_)
-      throw TopoError("finger target", "bend_angle_deg is not given", "give the observed angle: --target bend_angle_deg=30");
+      throw TopoError("finger target", "bend_angle_deg is not given",
+                      "give the observed angle: --target bend_angle_deg=30");
   }
 
   /// θ [deg] and dθ/dx (when grad != nullptr).
@@ -140,8 +146,7 @@ class FingerTask : public SoftTask {
     ev.features = {Feature{"bend_angle_deg", theta, "deg", has_target_, target_, 1.0, 0.01},
                    Feature{"chamber_volume_fraction", vch / vtot, ""},
                    Feature{"chamber_inflation", act.chamberVolume(sim->sph()) / std::max(vch, 1e-30), ""},
-                   Feature{"tip_displacement_m", tipdisp, "m"},
-                   Feature{"pressure_pa", pressure_, "Pa"}};
+                   Feature{"tip_displacement_m", tipdisp, "m"}, Feature{"pressure_pa", pressure_, "Pa"}};
     std::vector<double> m;
     masses(r, &m, nullptr);
     ev.mass = massPropertiesFromMoments(computeMassMoments(cloud_.X, m));
@@ -166,8 +171,10 @@ namespace {
 /// bend_angle_deg from the observed bending angle of the tip.
 MotionTargets bendingTargets(const TaskConfig&, const motion::MotionFeatures& f) {
   MotionTargets out;
-  if (f.bending_confidence > 0) out.targets.emplace_back("bend_angle_deg", f.bending_angle_deg);
-  else out.note = motionFeaturesOrigin(f) + " hold no measured bending angle";
+  if (f.bending_confidence > 0)
+    out.targets.emplace_back("bend_angle_deg", f.bending_angle_deg);
+  else
+    out.note = motionFeaturesOrigin(f) + " hold no measured bending angle";
   return out;
 }
 
@@ -193,23 +200,25 @@ void registerFingerTask(TaskList* tasks) {
     declareSoftParameters(p, d);
     const Eigen::Vector3d ex(1, 0, 0), ez(0, 0, 1);
     p.number("pressure_pa", 5e5, "Pa", "chamber gauge pressure at the end of the ramp [Pa] (paper: 5e5)").paper("5e5");
-    p.number("clamp_length_m", 0.01, "m", "particles within this distance of the base (min x) are clamped [m]", 0, 1e300, true);
+    p.number("clamp_length_m", 0.01, "m", "particles within this distance of the base (min x) are clamped [m]", 0,
+             1e300, true);
     p.text("mode", "static",
            "static (quasi-static equilibrium at the full pressure) | implicit (implicit Euler over the ramp)",
            {"static", "implicit"});
     p.integer("load_steps", 2, "unitless", "static mode: pressure increments of the Newton solve, unitless", 1, 100);
     p.number("duration_s", 0.2, "s", "implicit mode: simulated time; the pressure ramps over it [s]", 0, 1e300, true);
     p.number("dt_s", 0.01, "s", "implicit mode: time step [s]", 0, 1e300, true);
-    p.vector3("finger_axis", &ex, "unitless", "the finger's long axis from base to tip (rest state), a unitless direction");
+    p.vector3("finger_axis", &ex, "unitless",
+              "the finger's long axis from base to tip (rest state), a unitless direction");
     p.vector3("bend_normal", &ez, "unitless",
               "positive bending angle = tip turning towards this direction, a unitless direction");
     p.number("tip_fraction", 0.15, "unitless",
-             "the tip segment: the last fraction of the length, unitless; the segment before it has the same length", 0.02,
-             0.45);
+             "the tip segment: the last fraction of the length, unitless; the segment before it has the same length",
+             0.02, 0.45);
     p.setDefault("gravity", Eigen::Vector3d(0, 0, 0));  // the paper's finger task: actuation only
     p.setDefault("loss_tolerance", 1e-8);
-    p.target("bend_angle_deg", ParamType::Number, "deg", "observed bending angle of the tip at the full pressure [deg]", -180,
-             180);
+    p.target("bend_angle_deg", ParamType::Number, "deg", "observed bending angle of the tip at the full pressure [deg]",
+             -180, 180);
   };
   t.make = [](const TaskConfig& config, const VolumeCloud& cloud) -> std::unique_ptr<Task> {
     return std::make_unique<FingerTask>(config, cloud);

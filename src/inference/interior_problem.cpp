@@ -6,8 +6,7 @@
 
 namespace topo_gaussian::inference {
 
-InteriorProblem::InteriorProblem(const TaskConfig& config, const VolumeCloud& cloud)
-    : config_(config), cloud_(cloud) {
+InteriorProblem::InteriorProblem(const TaskConfig& config, const VolumeCloud& cloud) : config_(config), cloud_(cloud) {
   task_ = makeTask(config_, cloud_);
   RepresentationOptions ro;
   ro.kind = config_.text("representation");
@@ -19,7 +18,8 @@ InteriorProblem::InteriorProblem(const TaskConfig& config, const VolumeCloud& cl
   ro.neural.initial_field = ro.initial_field;
   representation_ = makeRepresentation(ro, cloud_.X);
   indicator_.epsilon = config_.number("epsilon");
-  if (config_.boolean("pin_shell")) indicator_.pinned = boundaryShell(cloud_.X, cloud_.surface, config_.number("shell_thickness_m"));
+  if (config_.boolean("pin_shell"))
+    indicator_.pinned = boundaryShell(cloud_.X, cloud_.surface, config_.number("shell_thickness_m"));
   w_volume_ = config_.number("weight_volume");
   target_fraction_ = config_.number("target_solid_fraction");
   w_smooth_ = config_.number("weight_smoothness");
@@ -83,16 +83,18 @@ Eigen::VectorXd InteriorProblem::initialParameters() const {
   const std::vector<double>& given = config_.list("initial_parameters");
   if (given.empty()) return representation_->initialParameters();
   if (static_cast<int>(given.size()) != representation_->numParameters())
-    throw TopoError("initial_parameters", "has " + std::to_string(given.size()) + " values but the " +
-                                              representation_->name() + " representation has " +
-                                              std::to_string(representation_->numParameters()) + " parameters",
+    throw TopoError("initial_parameters",
+                    "has " + std::to_string(given.size()) + " values but the " + representation_->name() +
+                        " representation has " + std::to_string(representation_->numParameters()) + " parameters",
                     "give one value per parameter, or leave it empty to start from initial_field");
   return Eigen::Map<const Eigen::VectorXd>(given.data(), static_cast<Eigen::Index>(given.size()));
 }
 
-double InteriorProblem::evaluate(const Eigen::VectorXd& theta, Eigen::VectorXd* grad, ProblemEvaluation* details) const {
+double InteriorProblem::evaluate(const Eigen::VectorXd& theta, Eigen::VectorXd* grad,
+                                 ProblemEvaluation* details) const {
   if (!theta.allFinite())
-    throw TopoError("design parameters", "contain NaN or infinity", "restart from the initial design (the optimiser diverged)");
+    throw TopoError("design parameters", "contain NaN or infinity",
+                    "restart from the initial design (the optimiser diverged)");
   std::vector<double> r;
   indicator(theta, &r);
   std::vector<double> dL_dr;

@@ -14,7 +14,8 @@ MotionTargets targetsFromMotion(const TaskConfig& config, const motion::MotionFe
   const TaskDefinition& task = taskDefinition(config.task());
   if (task.motion_targets) return task.motion_targets(config, features);
   MotionTargets out;
-  out.note = "task " + config.task() + " does not take its targets from motion features: give them in the goal's targets";
+  out.note =
+      "task " + config.task() + " does not take its targets from motion features: give them in the goal's targets";
   return out;
 }
 

@@ -12,7 +12,8 @@ namespace topo_gaussian::inference {
 namespace {
 
 struct Tracker {
-  Tracker(const Objective& fn, const ProgressCallback& pr, const OptimizerOptions& o) : f(fn), progress(pr), options(o) {}
+  Tracker(const Objective& fn, const ProgressCallback& pr, const OptimizerOptions& o)
+      : f(fn), progress(pr), options(o) {}
   const Objective& f;
   const ProgressCallback& progress;
   const OptimizerOptions& options;
@@ -24,7 +25,7 @@ struct Tracker {
 
   int failures = 0, total_failures = 0;
   Eigen::VectorXd failed_x;  ///< the last design the task could not evaluate
-  double scale = 1.0;  ///< L-BFGS sees scale × loss (NLopt's L-BFGS stops when every gradient entry is tiny)
+  double scale = 1.0;        ///< L-BFGS sees scale × loss (NLopt's L-BFGS stops when every gradient entry is tiny)
 
   double call(const Eigen::VectorXd& x, Eigen::VectorXd* g) {
     double loss;
@@ -104,7 +105,8 @@ OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, cons
   const Eigen::VectorXd upper = upper_in.size() ? upper_in : Eigen::VectorXd::Constant(n, inf);
   if (lower.size() != n || upper.size() != n)
     throw TopoError("optimiser bounds", "sizes differ from the number of parameters", "give one bound per parameter");
-  if (!theta0.allFinite()) throw TopoError("initial design", "contains NaN or infinity", "start from finite parameters");
+  if (!theta0.allFinite())
+    throw TopoError("initial design", "contains NaN or infinity", "start from finite parameters");
   if (options.max_iterations < 1) throw TopoError("max_iterations", "is below 1", "give at least 1 iteration");
   Tracker t(f, progress, options);
   const Eigen::VectorXd x0 = theta0.cwiseMax(lower).cwiseMin(upper);
@@ -195,11 +197,21 @@ OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, cons
       try {
         const nlopt::result r = opt.optimize(x, fx);
         switch (r) {
-          case nlopt::STOPVAL_REACHED: t.result.converged = true; t.result.message = "loss below loss_tolerance"; break;
-          case nlopt::FTOL_REACHED: case nlopt::XTOL_REACHED:
-            t.result.converged = true; t.result.message = "relative loss change below relative_tolerance"; break;
-          case nlopt::MAXEVAL_REACHED: t.result.message = "iteration limit reached"; break;
-          default: t.result.converged = true; t.result.message = "L-BFGS converged (NLopt code " + std::to_string(int(r)) + ")";
+          case nlopt::STOPVAL_REACHED:
+            t.result.converged = true;
+            t.result.message = "loss below loss_tolerance";
+            break;
+          case nlopt::FTOL_REACHED:
+          case nlopt::XTOL_REACHED:
+            t.result.converged = true;
+            t.result.message = "relative loss change below relative_tolerance";
+            break;
+          case nlopt::MAXEVAL_REACHED:
+            t.result.message = "iteration limit reached";
+            break;
+          default:
+            t.result.converged = true;
+            t.result.message = "L-BFGS converged (NLopt code " + std::to_string(int(r)) + ")";
         }
       } catch (const nlopt::forced_stop&) {
       } catch (const nlopt::roundoff_limited&) {
@@ -217,13 +229,19 @@ OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, cons
     throw TopoError("optimizer '" + options.method + "'", "unknown", "use lbfgs or adam");
   }
   OptimizerResult& r = t.result;
-  if (r.cancelled) r.message = "cancelled: returning the best design so far";
-  else if (!t.error.empty()) r.message = "stopped early: " + t.error + " (returning the best design so far)";
-  else if (r.loss <= options.loss_tolerance) { r.converged = true; r.message = "loss below loss_tolerance"; }
-  else if (r.message.empty() && !r.history.empty() && r.history.back().gradient_norm <= options.gradient_tolerance &&
-           r.history.back().loss <= r.loss) {
-    r.converged = true; r.message = "gradient norm below gradient_tolerance";
-  } else if (r.message.empty()) r.message = options.method == "adam" ? "iteration limit reached" : "stopped";
+  if (r.cancelled)
+    r.message = "cancelled: returning the best design so far";
+  else if (!t.error.empty())
+    r.message = "stopped early: " + t.error + " (returning the best design so far)";
+  else if (r.loss <= options.loss_tolerance) {
+    r.converged = true;
+    r.message = "loss below loss_tolerance";
+  } else if (r.message.empty() && !r.history.empty() && r.history.back().gradient_norm <= options.gradient_tolerance &&
+             r.history.back().loss <= r.loss) {
+    r.converged = true;
+    r.message = "gradient norm below gradient_tolerance";
+  } else if (r.message.empty())
+    r.message = options.method == "adam" ? "iteration limit reached" : "stopped";
   return r;
 }
 

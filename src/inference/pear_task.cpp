@@ -10,8 +10,8 @@
 
 #include "soft_task.h"
 #include "task_factories.h"
-#include "topo_gaussian/io/trajectory_csv.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/io/trajectory_csv.h"
 
 namespace topo_gaussian::inference {
 namespace {
@@ -55,7 +55,8 @@ class PearTask : public SoftTask {
       pivots_.push_back(best);
     }
     dt_user_ = c.number("dt_s");
-    if (c.has("target_trajectory_file")) io::readTrajectoryCsv(c.text("target_trajectory_file"), pivots_.size(), &obs_t_, &obs_);
+    if (c.has("target_trajectory_file"))
+      io::readTrajectoryCsv(c.text("target_trajectory_file"), pivots_.size(), &obs_t_, &obs_);
     geometry_.has_point = false;
   }
 
@@ -123,11 +124,10 @@ class PearTask : public SoftTask {
     double lowest = 1e300;
     for (const auto& row : ev.trajectory_rows)
       for (std::size_t q = 0; q < pivots_.size(); ++q) lowest = std::min(lowest, row[3 + 3 * q]);
-    ev.features = {Feature{"trajectory_rms_m", rms, "m"},
-                   Feature{"trajectory_rms_relative", extent > 0 ? rms / extent : 0.0, "", !obs_.empty(), 0.0, 1.0, 0.02},
-                   Feature{"steps", double(N), ""},
-                   Feature{"dt_s", dt, "s"},
-                   Feature{"lowest_pivot_z_m", lowest, "m"}};
+    ev.features = {
+        Feature{"trajectory_rms_m", rms, "m"},
+        Feature{"trajectory_rms_relative", extent > 0 ? rms / extent : 0.0, "", !obs_.empty(), 0.0, 1.0, 0.02},
+        Feature{"steps", double(N), ""}, Feature{"dt_s", dt, "s"}, Feature{"lowest_pivot_z_m", lowest, "m"}};
     std::vector<double> m;
     masses(r, &m, nullptr);
     ev.mass = massPropertiesFromMoments(computeMassMoments(cloud_.X, m));

@@ -9,11 +9,13 @@
 
 namespace topo_gaussian::inference {
 
-ProblemEvaluation simulateInterior(const TaskConfig& config, const VolumeCloud& cloud, const std::vector<double>& r_in) {
+ProblemEvaluation simulateInterior(const TaskConfig& config, const VolumeCloud& cloud,
+                                   const std::vector<double>& r_in) {
   InteriorProblem problem(config, cloud);
   std::vector<double> r = r_in.empty() ? std::vector<double>(cloud.size(), 1.0) : r_in;
   if (r.size() != cloud.size())
-    throw TopoError("interior", "has " + std::to_string(r.size()) + " values for " + std::to_string(cloud.size()) + " particles",
+    throw TopoError("interior",
+                    "has " + std::to_string(r.size()) + " values for " + std::to_string(cloud.size()) + " particles",
                     "use the interior written for this volume");
   return problem.evaluateIndicator(r, nullptr);
 }
@@ -86,8 +88,8 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   }
   res.converged = res.optimizer.converged && res.targets_reached;
   std::ostringstream head;
-  head << "task " << res.task << " (" << res.representation << "): loss " << res.initial.loss << " -> " << res.final.loss
-       << " in " << res.optimizer.iterations << " evaluations; " << res.optimizer.message << ". ";
+  head << "task " << res.task << " (" << res.representation << "): loss " << res.initial.loss << " -> "
+       << res.final.loss << " in " << res.optimizer.iterations << " evaluations; " << res.optimizer.message << ". ";
   if (res.targets_reached) {
     head << "All targets reached.";
   } else if (res.optimizer.converged) {

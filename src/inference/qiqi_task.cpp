@@ -30,15 +30,17 @@ class QiqiTask : public Task {
     if (axis_.norm() == 0) throw TopoError("hinge_axis", "is zero", "give a direction such as 1,0,0");
     axis_.normalize();
     if (std::abs(axis_.dot(geometry_.gravity.normalized())) > 1e-6)
-      throw TopoError("hinge_axis", "is not horizontal (not perpendicular to gravity)", "give a horizontal axis such as 1,0,0");
+      throw TopoError("hinge_axis", "is not horizontal (not perpendicular to gravity)",
+                      "give a horizontal axis such as 1,0,0");
     fills_ = c.list("fill_levels");
     if (fills_.empty()) throw TopoError("fill_levels", "is empty", "give the water fractions, e.g. 0,0.5,0.95");
     if (c.has("target_tilts_deg")) {
       targets_ = c.list("target_tilts_deg");
       if (targets_.size() != fills_.size())
-        throw TopoError("target_tilts_deg", "has " + std::to_string(targets_.size()) + " values for " +
-                                                std::to_string(fills_.size()) + " fill levels",
-                        "give one observed tilt per fill level");
+        throw TopoError(
+            "target_tilts_deg",
+            "has " + std::to_string(targets_.size()) + " values for " + std::to_string(fills_.size()) + " fill levels",
+            "give one observed tilt per fill level");
     }
     rho_w_ = c.number("water_density");
     eps_w_ = c.number("water_smoothing") * size_;
@@ -147,8 +149,10 @@ class QiqiTask : public Task {
       double a = phis[k], b = phis[k + 1], ta = taus[k];
       for (int it = 0; it < 45; ++it) {
         const double mid = 0.5 * (a + b), tm = pose(mid, m, w, f).tau;
-        if ((tm > 0) == (ta > 0)) a = mid, ta = tm;
-        else b = mid;
+        if ((tm > 0) == (ta > 0))
+          a = mid, ta = tm;
+        else
+          b = mid;
       }
       const double phi = 0.5 * (a + b);
       double d = std::abs(std::remainder(phi - reference, 2 * M_PI));
@@ -175,7 +179,7 @@ class QiqiTask : public Task {
       const double phi = equilibrium(m, w, f, reference, std::to_string(k));
       reference = phi;
       Feature feat{"tilt_deg_at_fill_" + std::to_string(k), phi * kDeg, "deg", !targets_.empty(),
-                   targets_.empty() ? 0.0 : targets_[k], 10.0, 0.01};  // 0.1° near zero, 1 % beyond 10°
+                   targets_.empty() ? 0.0 : targets_[k],    10.0,       0.01};  // 0.1° near zero, 1 % beyond 10°
       if (targets_.empty()) {
         ev.features.push_back(feat);
         continue;
@@ -231,8 +235,8 @@ void registerQiqiTask(TaskList* tasks) {
     p.list("fill_levels", {0.0, 0.5, 0.95}, "unitless",
            "water volume as fractions of the cavity volume, one per pose, unitless", 0, 1);
     p.number("water_density", 1000.0, "kg/m^3", "density of the water [kg/m^3]", 0, 1e300, true);
-    p.number("water_smoothing", 0.01, "unitless", "width of the water surface as a fraction of the object size, unitless", 0,
-             1, true);
+    p.number("water_smoothing", 0.01, "unitless",
+             "width of the water surface as a fraction of the object size, unitless", 0, 1, true);
     p.target("target_tilts_deg", ParamType::List, "deg", "observed tilt at each fill level [deg]");
   };
   t.make = [](const TaskConfig& config, const VolumeCloud& cloud) -> std::unique_ptr<Task> {

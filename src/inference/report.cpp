@@ -39,13 +39,15 @@ std::string targetsJson(const TaskConfig& c) {
   for (const auto& sp : c.specs())
     if (sp.is_target && c.has(sp.name)) {
       s += (first ? "" : ", ") + quote(sp.name) + ": ";
-      if (sp.type == ParamType::Text) s += quote(c.text(sp.name));
+      if (sp.type == ParamType::Text)
+        s += quote(c.text(sp.name));
       else if (sp.type == ParamType::List) {
         s += "[";
         const auto& l = c.list(sp.name);
         for (std::size_t i = 0; i < l.size(); ++i) s += (i ? ", " : "") + num(l[i]);
         s += "]";
-      } else s += num(c.number(sp.name));
+      } else
+        s += num(c.number(sp.name));
       first = false;
     }
   return s + "}";
@@ -70,16 +72,19 @@ std::string reportJson(const InferenceResult& r, const TaskConfig& config) {
     s << (first ? "" : ", ") << quote(sp.name) << ": " << quote(config.valueText(sp.name));
     first = false;
   }
-  s << "},\n  \"targets\": " << targetsJson(config) << ",\n  \"initial_features\": " << featuresJson(r.initial.task.features)
-    << ",\n  \"achieved_features\": " << featuresJson(r.final.task.features) << ",\n  \"initial_loss\": " << num(r.initial.loss)
-    << ",\n  \"final_loss\": " << num(r.final.loss) << ",\n  \"converged\": " << (r.converged ? "true" : "false")
+  s << "},\n  \"targets\": " << targetsJson(config)
+    << ",\n  \"initial_features\": " << featuresJson(r.initial.task.features)
+    << ",\n  \"achieved_features\": " << featuresJson(r.final.task.features)
+    << ",\n  \"initial_loss\": " << num(r.initial.loss) << ",\n  \"final_loss\": " << num(r.final.loss)
+    << ",\n  \"converged\": " << (r.converged ? "true" : "false")
     << ",\n  \"optimizer_converged\": " << (r.optimizer.converged ? "true" : "false")
     << ",\n  \"targets_reached\": " << (r.targets_reached ? "true" : "false")
     << ",\n  \"cancelled\": " << (r.optimizer.cancelled ? "true" : "false") << ",\n  \"message\": " << quote(r.message)
-    << ",\n  " << geometryJson(r.final, r.geometry) << ",\n  \"initial_center_of_mass\": " << vec3(r.initial.task.mass.com)
-    << ",\n  \"particles\": " << r.r.size() << ",\n  \"parameters_count\": " << r.theta.size()
-    << ",\n  \"timings_s\": {\"setup\": " << num(r.setup_s) << ", \"optimize\": " << num(r.optimize_s)
-    << ", \"per_evaluation\": " << num(r.evaluation_s) << "},\n  \"loss_history\": [";
+    << ",\n  " << geometryJson(r.final, r.geometry)
+    << ",\n  \"initial_center_of_mass\": " << vec3(r.initial.task.mass.com) << ",\n  \"particles\": " << r.r.size()
+    << ",\n  \"parameters_count\": " << r.theta.size() << ",\n  \"timings_s\": {\"setup\": " << num(r.setup_s)
+    << ", \"optimize\": " << num(r.optimize_s) << ", \"per_evaluation\": " << num(r.evaluation_s)
+    << "},\n  \"loss_history\": [";
   for (std::size_t i = 0; i < r.optimizer.history.size(); ++i) {
     const auto& h = r.optimizer.history[i];
     s << (i ? ", " : "") << "{\"iteration\": " << h.iteration << ", \"loss\": " << num(h.loss)

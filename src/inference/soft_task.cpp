@@ -17,18 +17,19 @@ void declareSoftParameters(TaskParameters& p, const SoftDefaults& d) {
            "Poisson ratio nu of the r = 1 material, unitless (paper: 0.4; real finger 0.49)", -0.99, 0.499)
       .paper("0.4; real finger 0.49");
   p.number("poisson_ratio_hollow", d.poisson_ratio_hollow, "unitless", d.poisson_ratio_hollow_doc, -0.99, 0.499);
-  p.number("stiffness_power", d.stiffness_power, "unitless", "SIMP power of the Young's modulus interpolation, unitless", 1,
-           10);
+  p.number("stiffness_power", d.stiffness_power, "unitless",
+           "SIMP power of the Young's modulus interpolation, unitless", 1, 10);
   p.text("energy_model", "corotated_linear", "corotated_linear (Cauchy strain) | stvk (Green strain)",
          {"corotated_linear", "stvk"});
   p.integer("gradient_order", d.gradient_order, "unitless",
             "SPH kernel gradient, unitless: 1 corrected (paper), 2 quadratic MLS (exact in bending)", 1, 2)
       .paper("1");
-  p.number("smoothing_factor", 1.5, "unitless", "SPH smoothing length h as a multiple of the particle spacing, unitless", 0.8,
-           3);
+  p.number("smoothing_factor", 1.5, "unitless",
+           "SPH smoothing length h as a multiple of the particle spacing, unitless", 0.8, 3);
   p.number("hourglass_alpha", 0.1, "unitless", "zero-energy-mode penalty relative to mu, unitless", 0);
   p.number("damping_per_s", 0.0, "1/s", "mass-proportional damping c [1/s]", 0);
-  p.number("newton_tolerance", 1e-8, "unitless", "Newton convergence: max residual force / load scale, unitless", 0, 1, true);
+  p.number("newton_tolerance", 1e-8, "unitless", "Newton convergence: max residual force / load scale, unitless", 0, 1,
+           true);
   p.number("default_spacing_m", d.default_spacing_m, "m",
            "particle spacing of the generated default shape when no volume is given [m]", 0, 1e300, true);
   p.setDefault("density_hollow", d.density_hollow);

@@ -8,8 +8,8 @@
 #include <cmath>
 
 #include "task_factories.h"
-#include "topo_gaussian/inference/oscillation.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/inference/oscillation.h"
 #include "topo_gaussian/physics/rigid_body.h"
 
 namespace topo_gaussian::inference {
@@ -104,12 +104,12 @@ class StaticTask : public Task {
     TaskEvaluation ev;
     ev.mass = rm.props;
     const Eigen::Matrix3d P = Eigen::Matrix3d::Identity() - g_hat_ * g_hat_.transpose();
-    const Eigen::Vector3d d = R_ * (ev.mass.com - point_);   // world offset of c from the point
+    const Eigen::Vector3d d = R_ * (ev.mass.com - point_);  // world offset of c from the point
     const Eigen::Vector3d e = P * d;
     const double L2 = size_ * size_;
     ev.loss = e.squaredNorm() / L2;
     Eigen::Vector3d dL_dc = 2.0 * R_.transpose() * e / L2;
-    const double depth = g_hat_.dot(d);   // > 0: c below the point
+    const double depth = g_hat_.dot(d);  // > 0: c below the point
     if (require_stable_ && depth < margin_) {
       const double v = margin_ - depth;
       ev.loss += v * v / L2;
@@ -157,7 +157,7 @@ class StaticTask : public Task {
     for (std::size_t k = 0; k < traj.states.size(); ++k) {
       const auto& st = traj.states[k];
       ev.motion.push_back(bodyPoseOf(traj.time_s[k], st, ev.mass.com));
-      const Eigen::Vector3d d = st.position - o.pivot_world;   // pivot → centre of mass
+      const Eigen::Vector3d d = st.position - o.pivot_world;  // pivot → centre of mass
       angle.push_back(std::atan2(d.y(), -d.z()) * 180.0 / M_PI);
     }
     const double dt = traj.time_s.size() > 1 ? traj.time_s[1] - traj.time_s[0] : o.output_dt_s;
@@ -170,7 +170,9 @@ class StaticTask : public Task {
     const double d = r.norm();
     const Eigen::Matrix3d Iw = R_ * ev.mass.inertia * R_.transpose();
     const double Ip = Iw(0, 0) + ev.mass.mass * (r.y() * r.y() + r.z() * r.z());
-    if (d > 0) ev.features.push_back(Feature{"swing_period_closed_form_s", 2 * M_PI * std::sqrt(Ip / (ev.mass.mass * geometry_.gravity.norm() * d)), "s"});
+    if (d > 0)
+      ev.features.push_back(Feature{"swing_period_closed_form_s",
+                                    2 * M_PI * std::sqrt(Ip / (ev.mass.mass * geometry_.gravity.norm() * d)), "s"});
   }
 
   double swing_duration_ = 0, swing_tilt_ = 3;
@@ -200,8 +202,10 @@ void declareTargetPose(TaskParameters& p) {
 /// The camera looks along world x, so the observed equilibrium angle is the roll of the target pose.
 MotionTargets equilibriumTargets(const TaskConfig&, const motion::MotionFeatures& f) {
   MotionTargets out;
-  if (f.equilibrium_confidence > 0) out.targets.emplace_back("target_roll_deg", f.equilibrium_deg);
-  else out.note = motionFeaturesOrigin(f) + " hold no measured equilibrium angle";
+  if (f.equilibrium_confidence > 0)
+    out.targets.emplace_back("target_roll_deg", f.equilibrium_deg);
+  else
+    out.note = motionFeaturesOrigin(f) + " hold no measured equilibrium angle";
   return out;
 }
 
@@ -213,8 +217,8 @@ void registerStaticTasks(TaskList* tasks) {
   hanging.summary = "hangs from a point in a target orientation (centre of mass below the point); optionally swings";
   hanging.declare_parameters = [](TaskParameters& p) {
     p.vector3("hanging_point", nullptr, "m", "hanging point in the body frame [m]; default: top centre of the bounds");
-    p.number("swing_duration_s", 0.0, "s", "also simulate the design swinging on the hanging point for this long [s] (0 = off)",
-             0);
+    p.number("swing_duration_s", 0.0, "s",
+             "also simulate the design swinging on the hanging point for this long [s] (0 = off)", 0);
     p.number("swing_tilt_deg", 3.0, "deg", "release angle of that swing about world x [deg]", -80, 80);
     declareTargetPose(p);
   };

@@ -29,21 +29,24 @@ Task::Task(const TaskConfig& config, const VolumeCloud& cloud, bool require_grav
   density_.floor = config.number("density_floor");
   density_.continuous = config.boolean("continuous_material");
   if (density_.value_r0 > density_.value_r1) {
-    throw TopoError("density_hollow", "is larger than density_solid (" + std::to_string(density_.value_r0) + " > " +
-                                          std::to_string(density_.value_r1) + " kg/m^3)",
+    throw TopoError("density_hollow",
+                    "is larger than density_solid (" + std::to_string(density_.value_r0) + " > " +
+                        std::to_string(density_.value_r1) + " kg/m^3)",
                     "the solid material (r = 1) must be the denser one");
   }
   density_.validate("density");
   cloud.bounds(&lo_, &hi_);
   size_ = std::max((hi_ - lo_).norm(), 1e-9);
   geometry_.gravity = config.vector3("gravity");
-  if (require_gravity && geometry_.gravity.norm() <= 0.0) throw TopoError("gravity", "is zero", "give a gravity vector such as 0,0,-9.81");
+  if (require_gravity && geometry_.gravity.norm() <= 0.0)
+    throw TopoError("gravity", "is zero", "give a gravity vector such as 0,0,-9.81");
 }
 
 void Task::masses(const std::vector<double>& r, std::vector<double>* m, std::vector<double>* dm_dr) const {
   if (r.size() != cloud_.size()) {
-    throw TopoError("indicator r", "has " + std::to_string(r.size()) + " values for " + std::to_string(cloud_.size()) +
-                                       " particles", "evaluate the representation on the same volume cloud");
+    throw TopoError("indicator r",
+                    "has " + std::to_string(r.size()) + " values for " + std::to_string(cloud_.size()) + " particles",
+                    "evaluate the representation on the same volume cloud");
   }
   density_.apply(r, m, dm_dr);
   for (std::size_t i = 0; i < r.size(); ++i) {

@@ -78,30 +78,37 @@ namespace {
 void declareCommonParameters(TaskParameters& p) {
   const Eigen::Vector3d g(0, 0, -9.81);
   // representation and materials (paper §5, table 2)
-  p.text("representation", "quadric", "topology representation: point | quadric | neural", {"point", "quadric", "neural"});
+  p.text("representation", "quadric", "topology representation: point | quadric | neural",
+         {"point", "quadric", "neural"});
   p.number("epsilon", 0.05, "unitless",
-           "sigmoid width eps of r = sigmoid(s/eps), unitless (field units of the normalised coordinates)", 0, 1e300, true);
+           "sigmoid width eps of r = sigmoid(s/eps), unitless (field units of the normalised coordinates)", 0, 1e300,
+           true);
   p.number("initial_field", 0.3, "unitless", "initial field value s (> 0: fully solid start), unitless");
   p.list("initial_parameters", {}, "unitless",
          "starting parameters theta0 (unitless) of the representation, overriding initial_field (quadric: the 10 "
          "coefficients a,b,c,d,e,f,g,h,i,j of a x^2+b y^2+c z^2+2(d xy+e xz+f yz)+g x+h y+i z+j in the "
          "normalised frame; s < 0 is hollow); empty: initial_field everywhere");
-  p.number("point_bound", 1.0, "unitless", "point representation: bound of each variable t_i, unitless", 0, 1e300, true);
-  p.integer("neural_depth", 8, "unitless", "neural SDF: number of linear layers, unitless (paper: 8)", 2, 64).paper("8");
+  p.number("point_bound", 1.0, "unitless", "point representation: bound of each variable t_i, unitless", 0, 1e300,
+           true);
+  p.integer("neural_depth", 8, "unitless", "neural SDF: number of linear layers, unitless (paper: 8)", 2, 64)
+      .paper("8");
   p.integer("neural_width", 512, "unitless", "neural SDF: hidden width, unitless (paper: 512)", 1, 8192).paper("512");
   p.integer("neural_seed", 1, "unitless", "neural SDF: weight initialisation seed, unitless", 0, 1e9);
-  p.number("density_solid", 1000.0, "kg/m^3", "density of the solid material [kg/m^3] (paper: 1e3 synthetic, 5e3 real)", 0,
-           1e300, true)
+  p.number("density_solid", 1000.0, "kg/m^3", "density of the solid material [kg/m^3] (paper: 1e3 synthetic, 5e3 real)",
+           0, 1e300, true)
       .paper("1e3 synthetic, 5e3 real");
   p.number("density_hollow", 0.0, "kg/m^3", "density of the hollow material [kg/m^3]", 0);
-  p.number("density_power", 1.0, "unitless", "SIMP power p in rho = rho_hollow + r^p (rho_solid - rho_hollow), unitless", 1, 10);
+  p.number("density_power", 1.0, "unitless",
+           "SIMP power p in rho = rho_hollow + r^p (rho_solid - rho_hollow), unitless", 1, 10);
   p.number("density_floor", 1.0, "kg/m^3", "smallest particle density [kg/m^3] so nothing is massless", 0, 1e300, true);
   p.flag("continuous_material", false, "use r as a density fraction (no binarisation), the paper's ablation");
   p.flag("pin_shell", true, "pin the boundary shell solid (the paper fixes surface particles)").paper("true");
   p.number("shell_thickness_m", 0.0, "m", "pinned shell thickness [m]; 0 = the surface particles only", 0);
   // regularisers
-  p.number("weight_volume", 0.0, "unitless",
-           "weight of the material-volume regulariser (solid fraction, or its distance to target_solid_fraction), unitless", 0);
+  p.number(
+      "weight_volume", 0.0, "unitless",
+      "weight of the material-volume regulariser (solid fraction, or its distance to target_solid_fraction), unitless",
+      0);
   p.number("target_solid_fraction", -1.0, "unitless",
            "target solid volume fraction for weight_volume, unitless; < 0: minimise material", -1, 1);
   p.number("weight_smoothness", 0.0, "unitless",
@@ -112,7 +119,8 @@ void declareCommonParameters(TaskParameters& p) {
   p.integer("max_iterations", 200, "unitless", "iteration limit, unitless", 1, 1e7);
   p.number("learning_rate", 0.02, "unitless", "Adam step size, unitless", 0, 1e300, true);
   p.number("loss_tolerance", 1e-12, "unitless", "stop when the loss is below this, unitless", 0);
-  p.number("relative_tolerance", 1e-10, "unitless", "stop when the relative loss change is below this (L-BFGS), unitless", 0);
+  p.number("relative_tolerance", 1e-10, "unitless",
+           "stop when the relative loss change is below this (L-BFGS), unitless", 0);
   p.number("gradient_tolerance", 1e-14, "unitless", "stop when the gradient norm is below this, unitless", 0);
   p.vector3("gravity", &g, "m/s^2", "gravity in the world frame [m/s^2]");
 }
@@ -188,8 +196,10 @@ void TaskConfig::set(const std::string& key_in, const std::string& value_in, con
   if (shorthand != shorthands_.end()) {
     bool itself = false;
     for (const auto& p : shorthand->second) {
-      if (p == key) itself = true;
-      else set(p, value, origin + " " + key + " ->");
+      if (p == key)
+        itself = true;
+      else
+        set(p, value, origin + " " + key + " ->");
     }
     if (!itself) return;
   }
@@ -202,8 +212,8 @@ void TaskConfig::set(const std::string& key_in, const std::string& value_in, con
       if (d < best) best = d, nearest = sp.name;
     }
     throw TopoError(origin + " " + key, "unknown parameter of task '" + task_ + "'",
-                    (best <= 4 ? "did you mean '" + nearest + "'? " : std::string()) +
-                        "`topo infer --task " + task_ + " --list-params` lists all");
+                    (best <= 4 ? "did you mean '" + nearest + "'? " : std::string()) + "`topo infer --task " + task_ +
+                        " --list-params` lists all");
   }
   ParamValue v = values_[key];
   switch (s->type) {
@@ -217,9 +227,12 @@ void TaskConfig::set(const std::string& key_in, const std::string& value_in, con
     case ParamType::Boolean: {
       std::string l = value;
       std::transform(l.begin(), l.end(), l.begin(), ::tolower);
-      if (l == "true" || l == "1" || l == "yes" || l == "on") v.number = 1;
-      else if (l == "false" || l == "0" || l == "no" || l == "off") v.number = 0;
-      else throw TopoError(origin + " " + key, "'" + value + "' is not a boolean", "use true or false");
+      if (l == "true" || l == "1" || l == "yes" || l == "on")
+        v.number = 1;
+      else if (l == "false" || l == "0" || l == "no" || l == "off")
+        v.number = 0;
+      else
+        throw TopoError(origin + " " + key, "'" + value + "' is not a boolean", "use true or false");
       break;
     }
     case ParamType::Text:
@@ -227,7 +240,8 @@ void TaskConfig::set(const std::string& key_in, const std::string& value_in, con
       break;
     case ParamType::Vector3: {
       const auto n = parseNumbers(key, value, origin);
-      if (n.size() != 3) throw TopoError(origin + " " + key, "expects three numbers x,y,z, got '" + value + "'", s->doc);
+      if (n.size() != 3)
+        throw TopoError(origin + " " + key, "expects three numbers x,y,z, got '" + value + "'", s->doc);
       v.vec = Eigen::Vector3d(n[0], n[1], n[2]);
       break;
     }
@@ -270,7 +284,8 @@ void TaskConfig::setList(const std::string& key, const std::vector<double>& l) {
 
 namespace {
 void requireKnown(const TaskConfig& c, const std::string& key) {
-  if (!c.spec(key)) throw TopoError("parameter " + key, "not a parameter of task '" + c.task() + "'", "see --list-params");
+  if (!c.spec(key))
+    throw TopoError("parameter " + key, "not a parameter of task '" + c.task() + "'", "see --list-params");
 }
 }  // namespace
 
@@ -304,10 +319,19 @@ std::string TaskConfig::valueText(const std::string& key) const {
   std::ostringstream os;
   os.precision(10);
   switch (s->type) {
-    case ParamType::Number: case ParamType::Integer: os << v.number; break;
-    case ParamType::Boolean: os << (v.number != 0 ? "true" : "false"); break;
-    case ParamType::Text: os << v.text; break;
-    case ParamType::Vector3: os << v.vec[0] << "," << v.vec[1] << "," << v.vec[2]; break;
+    case ParamType::Number:
+    case ParamType::Integer:
+      os << v.number;
+      break;
+    case ParamType::Boolean:
+      os << (v.number != 0 ? "true" : "false");
+      break;
+    case ParamType::Text:
+      os << v.text;
+      break;
+    case ParamType::Vector3:
+      os << v.vec[0] << "," << v.vec[1] << "," << v.vec[2];
+      break;
     case ParamType::List:
       for (std::size_t i = 0; i < v.list.size(); ++i) os << (i ? "," : "") << v.list[i];
       break;
@@ -344,18 +368,22 @@ TaskConfig TaskConfig::fromYamlFile(const std::string& path) {
   try {
     root = YAML::LoadFile(path);
   } catch (const YAML::BadFile&) {
-    throw TopoError(path, "cannot open the task file", "check the path (or give a task name: " + joinNames(TaskConfig::taskNames()) + ")");
+    throw TopoError(path, "cannot open the task file",
+                    "check the path (or give a task name: " + joinNames(TaskConfig::taskNames()) + ")");
   } catch (const YAML::Exception& e) {
     throw TopoError(path, std::string("is not valid YAML: ") + e.what(), "fix the syntax at the reported line");
   }
-  if (!root.IsMap() || !root["task"]) throw TopoError(path, "has no `task:` key", "start the file with `task: NAME` (" + joinNames(TaskConfig::taskNames()) + ")");
+  if (!root.IsMap() || !root["task"])
+    throw TopoError(path, "has no `task:` key",
+                    "start the file with `task: NAME` (" + joinNames(TaskConfig::taskNames()) + ")");
   TaskConfig c = defaults(root["task"].as<std::string>());
   c.source_ = path;
   for (const auto& kv : root) {
     const std::string key = kv.first.as<std::string>();
     if (key == "task" || key == "description") continue;
     if (key == "targets") {
-      if (!kv.second.IsMap()) throw TopoError(path + " targets", "is not a map", "write `targets:` followed by `name: value` lines");
+      if (!kv.second.IsMap())
+        throw TopoError(path + " targets", "is not a map", "write `targets:` followed by `name: value` lines");
       for (const auto& t : kv.second) c.set(t.first.as<std::string>(), nodeText(t.second), path);
       continue;
     }

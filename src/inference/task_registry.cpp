@@ -87,7 +87,8 @@ TaskParameters::Declared TaskParameters::target(const std::string& name, ParamTy
 
 ParamValue& TaskParameters::declared(const std::string& name) {
   if (!c_.spec(name))
-    throw TopoError("default of parameter " + name + " of task '" + c_.task() + "'", "changes a parameter not declared before",
+    throw TopoError("default of parameter " + name + " of task '" + c_.task() + "'",
+                    "changes a parameter not declared before",
                     "declare the parameter first (common ones are declared before the task's own)");
   return c_.values_[name];
 }
@@ -120,7 +121,8 @@ TaskList buildRegistry() {
   std::set<std::string> names;
   for (const auto& t : tasks) {
     if (t.name.empty() || !names.insert(t.name).second)
-      throw TopoError("task registry", "task name '" + t.name + "' is empty or registered twice", "give each task file its own name");
+      throw TopoError("task registry", "task name '" + t.name + "' is empty or registered twice",
+                      "give each task file its own name");
     if (!t.make || !t.declare_parameters)
       throw TopoError("task registry: task '" + t.name + "'", "has no factory or no parameter declaration",
                       "set TaskDefinition::make and declare_parameters in the task's file");

@@ -9,8 +9,8 @@
 
 #include "rigid_options.h"
 #include "task_factories.h"
-#include "topo_gaussian/inference/oscillation.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/inference/oscillation.h"
 #include "topo_gaussian/physics/rigid_body.h"
 
 namespace topo_gaussian::inference {
@@ -24,7 +24,8 @@ class TumblerTask : public Task {
     options_ = rigidOptionsFromConfig(c, geometry_.gravity);
     axis_ = c.vector3("rocking_axis");
     up_ = c.vector3("up_axis");
-    if (axis_.norm() == 0 || up_.norm() == 0) throw TopoError("rocking_axis/up_axis", "is zero", "give non-zero directions");
+    if (axis_.norm() == 0 || up_.norm() == 0)
+      throw TopoError("rocking_axis/up_axis", "is zero", "give non-zero directions");
     axis_.normalize();
     up_.normalize();
     tilt0_ = c.number("initial_tilt_deg") / kDeg;
@@ -36,7 +37,9 @@ class TumblerTask : public Task {
     if (c.has("max_tilt_deg")) tilt_target_ = c.number("max_tilt_deg");
     for (std::size_t i = 0; i < cloud.size(); ++i)
       if (cloud.surface[i]) all_contact_.push_back(cloud.X[i]);
-    if (all_contact_.empty()) throw TopoError("volume cloud", "has no surface particles for ground contact", "fill it with `topo fill` (it flags the surface)");
+    if (all_contact_.empty())
+      throw TopoError("volume cloud", "has no surface particles for ground contact",
+                      "fill it with `topo fill` (it flags the surface)");
     selectContactCandidates(cloud.spacing > 0 ? cloud.spacing : 0.01 * size_);
     geometry_.has_point = false;
   }
@@ -101,8 +104,7 @@ class TumblerTask : public Task {
     Feature fp{"period_s", f.period.value(), "s", period_target_ > 0, period_target_, 1e-9, 0.01};
     Feature ft{"max_tilt_deg", f.max_abs.value(), "deg", tilt_target_ > 0, tilt_target_, 1e-9, 0.01};
     ev.features = {fp, ft, Feature{"equilibrium_tilt_deg", f.equilibrium.value(), "deg"},
-                   Feature{"amplitude_deg", f.amplitude.value(), "deg"},
-                   Feature{"mass_kg", ev.mass.mass, "kg"}};
+                   Feature{"amplitude_deg", f.amplitude.value(), "deg"}, Feature{"mass_kg", ev.mass.mass, "kg"}};
     if (dL_dr) chainToIndicator(rm, dL, dL_dr);
     return ev;
   }
@@ -119,7 +121,8 @@ class TumblerTask : public Task {
     const Eigen::Vector3d other = up_.cross(axis_).normalized();
     for (double a = -reach_deg_; a <= reach_deg_ + 1e-9; a += 2.0) {
       for (double b : {-10.0, 0.0, 10.0}) {
-        const Eigen::Matrix3d R = (Eigen::AngleAxisd(a / kDeg, axis_) * Eigen::AngleAxisd(b / kDeg, other)).toRotationMatrix();
+        const Eigen::Matrix3d R =
+            (Eigen::AngleAxisd(a / kDeg, axis_) * Eigen::AngleAxisd(b / kDeg, other)).toRotationMatrix();
         double zmin = 1e300;
         std::vector<double> z(all_contact_.size());
         for (std::size_t i = 0; i < z.size(); ++i) zmin = std::min(zmin, z[i] = (R * all_contact_[i]).z());
@@ -223,8 +226,10 @@ void registerTumblerTask(TaskList* tasks) {
     p.number("initial_tilt_deg", 10.0, "deg", "release tilt about rocking_axis [deg]", -89, 89);
     p.number("initial_angular_velocity_rad_s", 0.0, "rad/s", "initial angular velocity about rocking_axis [rad/s]");
     const Eigen::Vector3d ex(1, 0, 0), ez(0, 0, 1);
-    p.vector3("rocking_axis", &ex, "unitless", "rocking axis in the body frame (horizontal at rest), a unitless direction");
-    p.vector3("up_axis", &ez, "unitless", "the body's up direction (the tilt is measured from it), a unitless direction");
+    p.vector3("rocking_axis", &ex, "unitless",
+              "rocking axis in the body frame (horizontal at rest), a unitless direction");
+    p.vector3("up_axis", &ez, "unitless",
+              "the body's up direction (the tilt is measured from it), a unitless direction");
     p.setDefault("loss_tolerance", 1e-8);  // relative feature errors of 1e-4 are plenty
     p.integer("measured_cycles", 2, "unitless",
               "period and equilibrium from the first N full cycles, unitless (0 = all in duration_s)", 0, 1000);

@@ -4,24 +4,26 @@
 #include <cstring>
 #include <sstream>
 
-#include "topo_gaussian/common/error.h"
 #include "own_ply.h"
+#include "topo_gaussian/common/error.h"
 
 namespace topo_gaussian::io {
 
 namespace {
 constexpr std::size_t kRecord = 4 * 4 + 1 + 4;  // x y z r (float32), solid (uint8), density (float32)
-const OwnPlyLayout kLayout{"interior",
-                           "property float x\nproperty float y\nproperty float z\nproperty float r\nproperty uchar solid\n"
-                           "property float density\n",
-                           kRecord, "give an interior.ply written by topo infer (or the interior_inference node) for this volume"};
+const OwnPlyLayout kLayout{
+    "interior",
+    "property float x\nproperty float y\nproperty float z\nproperty float r\nproperty uchar solid\n"
+    "property float density\n",
+    kRecord, "give an interior.ply written by topo infer (or the interior_inference node) for this volume"};
 }  // namespace
 
 void writeInteriorPly(const std::string& path, const VolumeCloud& cloud, const std::vector<double>& r,
                       const std::vector<double>& density, bool continuous) {
   if (r.size() != cloud.size() || density.size() != cloud.size())
-    throw TopoError(path, "interior has " + std::to_string(r.size()) + " r and " + std::to_string(density.size()) +
-                              " density values for " + std::to_string(cloud.size()) + " particles",
+    throw TopoError(path,
+                    "interior has " + std::to_string(r.size()) + " r and " + std::to_string(density.size()) +
+                        " density values for " + std::to_string(cloud.size()) + " particles",
                     "write the interior computed on this volume");
   std::string body(cloud.size() * kRecord, '\0');
   for (std::size_t i = 0; i < cloud.size(); ++i) {

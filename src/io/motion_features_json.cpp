@@ -53,8 +53,9 @@ class Reader {
   [[noreturn]] void wrongType(const std::string& key, const json& v, const std::string& expected,
                               const std::string& example) const {
     throw TopoError(origin_, "key '" + name(key) + "' is " + typeName(v) + ", expected " + expected,
-                    "write e.g. \"" + key + "\": " + example + " (or null / leave it out when not measured), or "
-                    "write the file again with `topo track --json`");
+                    "write e.g. \"" + key + "\": " + example +
+                        " (or null / leave it out when not measured), or "
+                        "write the file again with `topo track --json`");
   }
 
   /// NaN when absent or null.
@@ -89,9 +90,12 @@ class Reader {
     if (!v->is_array()) wrongType(key, *v, "an array of numbers", "[0.0, 0.033]");
     for (std::size_t i = 0; i < v->size(); ++i) {
       const json& x = (*v)[i];
-      if (x.is_null()) out.push_back(kNotMeasured);
-      else if (x.is_number()) out.push_back(x.get<double>());
-      else wrongType(key + "[" + std::to_string(i) + "]", x, "a number", "0.5");
+      if (x.is_null())
+        out.push_back(kNotMeasured);
+      else if (x.is_number())
+        out.push_back(x.get<double>());
+      else
+        wrongType(key + "[" + std::to_string(i) + "]", x, "a number", "0.5");
     }
     return out;
   }
@@ -138,14 +142,11 @@ std::string motionFeaturesJson(const motion::MotionFeatures& f, bool with_series
   doc["method"] = f.method;
   doc["source"] = f.source;
   doc["message"] = f.message;
-  doc["features"] = {{"oscillation_found", f.oscillation_found},
-                     {"period_s", number(f.period_s)},
-                     {"amplitude_deg", number(f.amplitude_deg)},
-                     {"max_tilt_deg", number(f.max_tilt_deg)},
-                     {"equilibrium_deg", number(f.equilibrium_deg)},
-                     {"log_decrement", number(f.log_decrement)},
-                     {"damping_ratio", number(f.damping_ratio)},
-                     {"bending_angle_deg", number(f.bending_angle_deg)}};
+  doc["features"] = {
+      {"oscillation_found", f.oscillation_found},     {"period_s", number(f.period_s)},
+      {"amplitude_deg", number(f.amplitude_deg)},     {"max_tilt_deg", number(f.max_tilt_deg)},
+      {"equilibrium_deg", number(f.equilibrium_deg)}, {"log_decrement", number(f.log_decrement)},
+      {"damping_ratio", number(f.damping_ratio)},     {"bending_angle_deg", number(f.bending_angle_deg)}};
   doc["confidence"] = {{"period_s", number(f.period_confidence)},
                        {"amplitude_deg", number(f.amplitude_confidence)},
                        {"equilibrium_deg", number(f.equilibrium_confidence)},
@@ -190,9 +191,10 @@ motion::MotionFeatures parseMotionFeaturesJson(const std::string& text, const st
                     "give a motion-features file (`topo track --json`), not another JSON document");
   const int version = root.integer("version", kVersion);
   if (version > kVersion)
-    throw TopoError(origin, "key 'version' is " + std::to_string(version) + ", newer than this reader (" +
-                                std::to_string(kVersion) + ")",
-                    "read it with the topo_gaussian that wrote it, or write it again with this `topo track`");
+    throw TopoError(
+        origin,
+        "key 'version' is " + std::to_string(version) + ", newer than this reader (" + std::to_string(kVersion) + ")",
+        "read it with the topo_gaussian that wrote it, or write it again with this `topo track`");
 
   motion::MotionFeatures f;
   f.kind = root.text("kind");
@@ -212,8 +214,8 @@ motion::MotionFeatures parseMotionFeaturesJson(const std::string& text, const st
   measured(period_s, conf.number("period_s"), conf, "period_s", f.period_s, f.period_confidence);
   measured(feat.number("amplitude_deg"), conf.number("amplitude_deg"), conf, "amplitude_deg", f.amplitude_deg,
            f.amplitude_confidence);
-  measured(feat.number("equilibrium_deg"), conf.number("equilibrium_deg"), conf, "equilibrium_deg",
-           f.equilibrium_deg, f.equilibrium_confidence);
+  measured(feat.number("equilibrium_deg"), conf.number("equilibrium_deg"), conf, "equilibrium_deg", f.equilibrium_deg,
+           f.equilibrium_confidence);
   measured(feat.number("bending_angle_deg"), conf.number("bending_angle_deg"), conf, "bending_angle_deg",
            f.bending_angle_deg, f.bending_confidence);
   if (!std::isfinite(period_s)) f.oscillation_found = false;  // a period that was not measured is no oscillation
@@ -233,8 +235,9 @@ motion::MotionFeatures parseMotionFeaturesJson(const std::string& text, const st
   f.time_s = series.series("time_s");
   f.angle_deg = series.series("angle_deg");
   if (f.time_s.size() != f.angle_deg.size())
-    throw TopoError(origin, "'series.time_s' has " + std::to_string(f.time_s.size()) + " samples but 'series.angle_deg' " +
-                                std::to_string(f.angle_deg.size()),
+    throw TopoError(origin,
+                    "'series.time_s' has " + std::to_string(f.time_s.size()) + " samples but 'series.angle_deg' " +
+                        std::to_string(f.angle_deg.size()),
                     "give one angle per time stamp");
 
   if (const json* tr = root.find("trajectories")) {
@@ -250,20 +253,25 @@ motion::MotionFeatures parseMotionFeaturesJson(const std::string& text, const st
       p.x_px = t.series("x_px");
       p.y_px = t.series("y_px");
       if (p.x_px.size() != p.time_s.size() || p.y_px.size() != p.time_s.size())
-        throw TopoError(origin, "'" + key + "' has " + std::to_string(p.time_s.size()) + " times, " +
-                                    std::to_string(p.x_px.size()) + " x_px and " + std::to_string(p.y_px.size()) + " y_px",
+        throw TopoError(origin,
+                        "'" + key + "' has " + std::to_string(p.time_s.size()) + " times, " +
+                            std::to_string(p.x_px.size()) + " x_px and " + std::to_string(p.y_px.size()) + " y_px",
                         "give one pixel position per time stamp");
       if (const json* pts = t.find("points_on_plane")) {
         if (!pts->is_array()) t.wrongType("points_on_plane", *pts, "an array of [x, y, z]", "[[0.1, 0.0, 2.0]]");
         for (std::size_t j = 0; j < pts->size(); ++j) {
           const json& q = (*pts)[j];
           const std::string qk = "points_on_plane[" + std::to_string(j) + "]";
-          if (!q.is_array() || q.size() != 3) t.wrongType(qk, q, "an array of three numbers [x, y, z] (m)", "[0.1, 0.0, 2.0]");
+          if (!q.is_array() || q.size() != 3)
+            t.wrongType(qk, q, "an array of three numbers [x, y, z] (m)", "[0.1, 0.0, 2.0]");
           std::array<double, 3> xyz{};
           for (int c = 0; c < 3; ++c) {
-            if (q[c].is_null()) xyz[c] = kNotMeasured;  // the ray missed the plane
-            else if (q[c].is_number()) xyz[c] = q[c].get<double>();
-            else t.wrongType(qk, q, "an array of three numbers [x, y, z] (m)", "[0.1, 0.0, 2.0]");
+            if (q[c].is_null())
+              xyz[c] = kNotMeasured;  // the ray missed the plane
+            else if (q[c].is_number())
+              xyz[c] = q[c].get<double>();
+            else
+              t.wrongType(qk, q, "an array of three numbers [x, y, z] (m)", "[0.1, 0.0, 2.0]");
           }
           p.points_on_plane.push_back(xyz);
         }

@@ -15,9 +15,12 @@ std::string readOwnPly(const std::string& path, const OwnPlyLayout& layout, std:
   if (bytes.compare(0, 4, "ply\n") != 0 || end == std::string::npos)
     throw TopoError(path, std::string("is not a PLY file with a complete header"), layout.fix);
   const std::string header = bytes.substr(0, end);
-  if (header.find("format binary_little_endian 1.0\n") == std::string::npos || header.find(layout.properties) == std::string::npos)
-    throw TopoError(path, std::string("is not a topo_gaussian ") + layout.what + " .ply (binary little endian, properties " +
-                              layout.properties + ")", layout.fix);
+  if (header.find("format binary_little_endian 1.0\n") == std::string::npos ||
+      header.find(layout.properties) == std::string::npos)
+    throw TopoError(path,
+                    std::string("is not a topo_gaussian ") + layout.what + " .ply (binary little endian, properties " +
+                        layout.properties + ")",
+                    layout.fix);
   *count = 0;
   bool has_count = false;
   std::istringstream lines(header);
@@ -34,7 +37,8 @@ std::string readOwnPly(const std::string& path, const OwnPlyLayout& layout, std:
   *body = end + std::strlen("end_header\n");
   const std::size_t present = (bytes.size() - *body) / layout.record_bytes;
   if (present < *count)
-    throw TopoError(path, "is truncated: " + std::to_string(present) + " of " + std::to_string(*count) + " particles present",
+    throw TopoError(path,
+                    "is truncated: " + std::to_string(present) + " of " + std::to_string(*count) + " particles present",
                     "the file was cut off (a crash or a full disk while writing): write it again");
   return bytes;
 }

@@ -10,10 +10,10 @@
 namespace topo_gaussian::io {
 
 struct OwnPlyLayout {
-  const char* what;         ///< "volume", "interior" (messages)
-  const char* properties;   ///< the exact "property ..." lines
+  const char* what;        ///< "volume", "interior" (messages)
+  const char* properties;  ///< the exact "property ..." lines
   std::size_t record_bytes;
-  const char* fix;          ///< how to get a good file
+  const char* fix;  ///< how to get a good file
 };
 
 /// The file's bytes checked against the layout: `*count` records start at `*body`; the comment lines

@@ -50,8 +50,7 @@ std::vector<std::string> splitCsv(const std::string& line) {
 
 std::vector<LossPoint> lossHistoryFromReport(const std::string& text, const std::string& source) {
   const nlohmann::json report = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (report.is_discarded())
-    throw TopoError(source, "is not valid JSON (truncated or not a report)", kReportFix);
+  if (report.is_discarded()) throw TopoError(source, "is not valid JSON (truncated or not a report)", kReportFix);
   const auto history = report.find("loss_history");
   if (!report.is_object() || history == report.end() || !history->is_array())
     throw TopoError(source, "has no \"loss_history\" array, so it is not a report of topo infer", kReportFix);
@@ -59,8 +58,9 @@ std::vector<LossPoint> lossHistoryFromReport(const std::string& text, const std:
   for (const auto& entry : *history) {
     const auto loss = entry.is_object() ? entry.find("loss") : entry.end();
     if (!entry.is_object() || loss == entry.end() || !(loss->is_number() || loss->is_null()))
-      throw TopoError(source, "has a \"loss_history\" entry without a numeric \"loss\" (entry " + std::to_string(out.size()) + ")",
-                      kReportFix);
+      throw TopoError(
+          source, "has a \"loss_history\" entry without a numeric \"loss\" (entry " + std::to_string(out.size()) + ")",
+          kReportFix);
     LossPoint p;
     p.loss = loss->is_null() ? std::numeric_limits<double>::quiet_NaN() : loss->get<double>();
     const auto it = entry.find("iteration");
@@ -79,8 +79,11 @@ std::string jsonStringField(const std::string& text, const std::string& key) {
 
 std::vector<SignalSeries> readSignalCsv(const std::string& path) {
   std::ifstream in(path);
-  if (!in) throw TopoError(path, "cannot open the signal file", "give a CSV of time and values (topo simulate --signal writes one)");
-  const std::string fix = "write one row per sample: time, then one value per series (blank where a series has no sample)";
+  if (!in)
+    throw TopoError(path, "cannot open the signal file",
+                    "give a CSV of time and values (topo simulate --signal writes one)");
+  const std::string fix =
+      "write one row per sample: time, then one value per series (blank where a series has no sample)";
   std::vector<SignalSeries> series;
   std::string line;
   std::size_t line_no = 0;
@@ -94,7 +97,8 @@ std::vector<SignalSeries> readSignalCsv(const std::string& path) {
     double time = 0.0;
     if (!parseCell(cells[0], &time)) {
       if (data_seen || !series.empty())
-        throw TopoError(path, "line " + std::to_string(line_no) + ": time '" + cells[0].substr(0, 30) + "' is not a number", fix);
+        throw TopoError(
+            path, "line " + std::to_string(line_no) + ": time '" + cells[0].substr(0, 30) + "' is not a number", fix);
       for (std::size_t c = 1; c < cells.size(); ++c)  // header row
         series.push_back({cells[c].empty() ? "column " + std::to_string(c + 1) : cells[c], {}, {}});
       if (series.empty())
@@ -110,8 +114,9 @@ std::vector<SignalSeries> readSignalCsv(const std::string& path) {
       if (cells[c].empty()) continue;
       double v = 0.0;
       if (!parseCell(cells[c], &v))
-        throw TopoError(path, "line " + std::to_string(line_no) + ", column " + std::to_string(c + 1) + ": '" +
-                                  cells[c].substr(0, 30) + "' is not a number",
+        throw TopoError(path,
+                        "line " + std::to_string(line_no) + ", column " + std::to_string(c + 1) + ": '" +
+                            cells[c].substr(0, 30) + "' is not a number",
                         fix);
       series[c - 1].t.push_back(time);
       series[c - 1].value.push_back(v);

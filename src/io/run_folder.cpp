@@ -34,7 +34,9 @@ std::string createRunFolder(const std::string& parent, const std::string& stem) 
     const std::string dir = base.str() + (k == 1 ? std::string() : "_" + std::to_string(k));
     std::error_code ec;
     if (fs::create_directory(dir, ec)) return dir;  // false when it exists: try the next suffix
-    if (ec) throw TopoError("output directory " + dir, "cannot be created (" + ec.message() + ")", "give a writable directory");
+    if (ec)
+      throw TopoError("output directory " + dir, "cannot be created (" + ec.message() + ")",
+                      "give a writable directory");
   }
   throw TopoError("output directory " + parent, "has 10000 runs named " + base.str() + "_N", "clean it up");
 }
@@ -44,7 +46,8 @@ RunFiles loadRunFolder(const std::string& dir) {
   run.dir = dir;
   for (const char* name : {"volume.ply", "interior.ply", "report.json"})
     if (!fs::is_regular_file(fs::path(dir) / name))
-      throw TopoError(dir, std::string("has no ") + name, "give a run folder written by topo infer or interior_inference");
+      throw TopoError(dir, std::string("has no ") + name,
+                      "give a run folder written by topo infer or interior_inference");
   run.report_json = readTextFile((fs::path(dir) / "report.json").string());
   const nlohmann::json report = nlohmann::json::parse(run.report_json, nullptr, /*allow_exceptions=*/false);
   if (report.is_discarded() || !report.is_object())

@@ -17,7 +17,8 @@ bool isOurPackage(const fs::path& dir) {
   std::error_code ec;
   if (!fs::is_regular_file(dir / "package.xml", ec)) return false;
   try {
-    return readTextFile((dir / "package.xml").string(), 1 << 20).find("<name>topo_gaussian</name>") != std::string::npos;
+    return readTextFile((dir / "package.xml").string(), 1 << 20).find("<name>topo_gaussian</name>") !=
+           std::string::npos;
   } catch (const std::exception&) {
     return false;
   }

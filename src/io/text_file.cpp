@@ -17,8 +17,9 @@ void writeTextFile(const std::string& path, const std::string& text) {
   const std::string tmp = path + ".tmp" + std::to_string(::getpid());
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw TopoError(path, "cannot be written (" + std::string(std::strerror(errno)) + ")",
-                              "check that the directory exists and is writable");
+    if (!out)
+      throw TopoError(path, "cannot be written (" + std::string(std::strerror(errno)) + ")",
+                      "check that the directory exists and is writable");
     out.write(text.data(), static_cast<std::streamsize>(text.size()));
     out.flush();
     if (!out) {
@@ -40,8 +41,10 @@ std::string readTextFile(const std::string& path, std::size_t max_bytes) {
   const auto size = std::filesystem::file_size(path, ec);
   if (ec) throw TopoError(path, "cannot be read (" + ec.message() + ")", "check the path and its permissions");
   if (size > max_bytes)
-    throw TopoError(path, "is " + std::to_string(size) + " bytes, more than the " + std::to_string(max_bytes) +
-                              " a text file of ours can be", "give the right file");
+    throw TopoError(path,
+                    "is " + std::to_string(size) + " bytes, more than the " + std::to_string(max_bytes) +
+                        " a text file of ours can be",
+                    "give the right file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw TopoError(path, "cannot be opened", "check its permissions");
   std::ostringstream os;

@@ -11,8 +11,9 @@ namespace topo_gaussian::io {
 
 namespace {
 constexpr std::size_t kRecord = 4 * 4 + 1;  // x y z volume (float32) surface (uint8)
-const OwnPlyLayout kLayout{"volume", "property float x\nproperty float y\nproperty float z\nproperty float volume\nproperty uchar surface\n",
-                           kRecord, "write it with `topo fill --output FILE.ply`"};
+const OwnPlyLayout kLayout{
+    "volume", "property float x\nproperty float y\nproperty float z\nproperty float volume\nproperty uchar surface\n",
+    kRecord, "write it with `topo fill --output FILE.ply`"};
 }  // namespace
 
 void writeVolumePly(const VolumeCloud& c, const std::string& path) {

@@ -78,7 +78,9 @@ int main(int argc, char** argv) {
     std::fflush(stdout);
     const auto f = waitFor<topo_gaussian::MotionFeatures>("motion_features", wait_s, &measured);
     if (!f) {
-      ROS_FATAL("infer_client: no measured motion on motion_features within %.0f s (is motion_tracker seeing the camera?)", wait_s);
+      ROS_FATAL(
+          "infer_client: no measured motion on motion_features within %.0f s (is motion_tracker seeing the camera?)",
+          wait_s);
       return 1;
     }
     std::printf("[demo] tracker (%s, %s): period %.4f s, max tilt %.3f deg, bend %.3f deg\n", f->source.c_str(),
@@ -92,8 +94,8 @@ int main(int argc, char** argv) {
   std::printf("[demo] goal: task %s\n", goal.task.c_str());
   std::fflush(stdout);
   client.sendGoal(goal, {}, {}, [](const topo_gaussian::InferInteriorFeedbackConstPtr& fb) {
-    std::printf("[demo] iteration %3d  loss %.4e  best %.4e  |grad| %.3e  %.1f s", fb->iteration, fb->loss, fb->best_loss,
-                fb->gradient_norm, fb->elapsed_s);
+    std::printf("[demo] iteration %3d  loss %.4e  best %.4e  |grad| %.3e  %.1f s", fb->iteration, fb->loss,
+                fb->best_loss, fb->gradient_norm, fb->elapsed_s);
     for (std::size_t k = 0; k < fb->feature_names.size() && k < 2; ++k)
       std::printf("  %s %.5g", fb->feature_names[k].c_str(), fb->feature_values[k]);
     std::printf("\n");
@@ -120,7 +122,8 @@ int main(int argc, char** argv) {
     std::printf("[demo] %-22s %12.5g %12.5g %12.5g", name.c_str(), res->achieved[k], res->target[k], t);
     if (std::isfinite(t) && std::isfinite(res->target[k])) {
       const double rel = std::abs(res->achieved[k] - t) / std::max(std::abs(t), 1e-12);
-      std::printf("   %+.2f %%%s", 100 * (res->achieved[k] - t) / std::max(std::abs(t), 1e-12), rel <= tolerance ? "" : "  (outside tolerance)");
+      std::printf("   %+.2f %%%s", 100 * (res->achieved[k] - t) / std::max(std::abs(t), 1e-12),
+                  rel <= tolerance ? "" : "  (outside tolerance)");
       if (rel > tolerance) status = 3;
     }
     std::printf("\n");

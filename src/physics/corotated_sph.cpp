@@ -68,11 +68,13 @@ struct PolarNewton {
   Eigen::Matrix3d X;
   double step2 = 1.0;  // ‖X_k − X_{k−1}‖_F²
   int it = 0;
-  int state = 0;       // 0 iterating, 1 converged (X), 2 use the SVD
+  int state = 0;  // 0 iterating, 1 converged (X), 2 use the SVD
   explicit PolarNewton(const Eigen::Matrix3d& A) {
     const double na2 = A.squaredNorm();
-    if (na2 > 0.0 && std::isfinite(na2)) X = std::sqrt(3.0 / na2) * A;  // rms singular value 1
-    else state = 2;
+    if (na2 > 0.0 && std::isfinite(na2))
+      X = std::sqrt(3.0 / na2) * A;  // rms singular value 1
+    else
+      state = 2;
   }
   /// One Newton step; returns true while more are needed.
   bool step() {
@@ -139,8 +141,8 @@ void polarRotation2(const Eigen::Matrix3d& A0, const Eigen::Matrix3d& A1, Eigen:
 }
 
 /// sphFirstPiola and sphStrainEnergyDensity in one go (same arithmetic as those two).
-inline void piolaAndEnergy(SphEnergyModel model, const Eigen::Matrix3d& F, double mu, double lambda,
-                           Eigen::Matrix3d* P, double* psi) {
+inline void piolaAndEnergy(SphEnergyModel model, const Eigen::Matrix3d& F, double mu, double lambda, Eigen::Matrix3d* P,
+                           double* psi) {
   const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
   if (model == SphEnergyModel::StVK) {
     const Eigen::Matrix3d eps = 0.5 * (F.transpose() * F - I);
@@ -171,8 +173,8 @@ LameParameters lameFromYoung(double E, double nu) {
 
 double sphStrainEnergyDensity(SphEnergyModel model, const Eigen::Matrix3d& F, double mu, double lambda) {
   const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
-  const Eigen::Matrix3d eps =
-      model == SphEnergyModel::StVK ? Eigen::Matrix3d(0.5 * (F.transpose() * F - I)) : Eigen::Matrix3d(0.5 * (F + F.transpose()) - I);
+  const Eigen::Matrix3d eps = model == SphEnergyModel::StVK ? Eigen::Matrix3d(0.5 * (F.transpose() * F - I))
+                                                            : Eigen::Matrix3d(0.5 * (F + F.transpose()) - I);
   const double tr = eps.trace();
   return mu * eps.squaredNorm() + 0.5 * lambda * tr * tr;
 }
@@ -189,8 +191,8 @@ Eigen::Matrix3d sphFirstPiola(SphEnergyModel model, const Eigen::Matrix3d& F, do
 
 // ------------------------------------------------------------------ construction
 
-CorotatedSph::CorotatedSph(const std::vector<Eigen::Vector3d>& X, const std::vector<double>& V,
-                           LameParameters material, const CorotatedSphOptions& options)
+CorotatedSph::CorotatedSph(const std::vector<Eigen::Vector3d>& X, const std::vector<double>& V, LameParameters material,
+                           const CorotatedSphOptions& options)
     : CorotatedSph(X, V, std::vector<double>(X.size(), material.mu), std::vector<double>(X.size(), material.lambda),
                    options) {}
 
@@ -209,8 +211,8 @@ CorotatedSph::CorotatedSph(const std::vector<Eigen::Vector3d>& X, const std::vec
   if (n == 0) throw TopoError(what, "no particles", "pass a non-empty volume cloud");
   if (V.size() != n || mu.size() != n || lambda.size() != n) {
     std::ostringstream s;
-    s << "sizes disagree: " << n << " positions, " << V.size() << " volumes, " << mu.size() << " mu, "
-      << lambda.size() << " lambda";
+    s << "sizes disagree: " << n << " positions, " << V.size() << " volumes, " << mu.size() << " mu, " << lambda.size()
+      << " lambda";
     throw TopoError(what, s.str(), "give one volume and one material per particle");
   }
   for (std::size_t i = 0; i < n; ++i) {
@@ -251,8 +253,8 @@ CorotatedSph::CorotatedSph(const std::vector<Eigen::Vector3d>& X, const std::vec
   for (std::size_t i = 0; i < n; ++i) {
     if (nbr_.count(i) == 0) {
       std::ostringstream s;
-      s << "particle " << i << " at " << vecStr(X_[i]) << " has no neighbour within the kernel support 2h = "
-        << 2.0 * h_ << " m";
+      s << "particle " << i << " at " << vecStr(X_[i])
+        << " has no neighbour within the kernel support 2h = " << 2.0 * h_ << " m";
       throw TopoError(what, s.str(),
                       "increase the smoothing length (options.smoothing_length / smoothing_factor) or remove the "
                       "isolated particle");
@@ -500,9 +502,9 @@ inline Eigen::Matrix3d rowGradient(const int* idx, int e0, int e1, const Eigen::
 /// Hourglass sums of row i: Σ_e w_e |e_e|² and (kH) H = Σ_e 2 w_e e_e X_jiᵀ, e_e = F̃ X_ji − x_ji,
 /// w_e = V_j W_e.
 template <bool kH>
-double rowHourglass(const int* idx, int e0, int e1, const Eigen::Vector3d* x, const Eigen::Vector3d* X,
-                    const double* V, const double* W, const Eigen::Matrix3d& Ft, const Eigen::Vector3d& xi,
-                    const Eigen::Vector3d& Xi, Eigen::Matrix3d* H) {
+double rowHourglass(const int* idx, int e0, int e1, const Eigen::Vector3d* x, const Eigen::Vector3d* X, const double* V,
+                    const double* W, const Eigen::Matrix3d& Ft, const Eigen::Vector3d& xi, const Eigen::Vector3d& Xi,
+                    Eigen::Matrix3d* H) {
   const Pair f0 = head2(Ft.col(0).data()), f1 = head2(Ft.col(1).data()), f2 = head2(Ft.col(2).data());
   const double f20 = Ft(2, 0), f21 = Ft(2, 1), f22 = Ft(2, 2);
   const Pair xi01 = head2(xi);
@@ -539,8 +541,8 @@ void CorotatedSph::computeFtilde(const std::vector<Eigen::Vector3d>& x, std::vec
 #pragma omp parallel for schedule(static)
   for (long long ii = 0; ii < static_cast<long long>(n); ++ii) {
     const std::size_t i = static_cast<std::size_t>(ii);
-    (*Ft)[i] = rowGradient(nbr_.indices.data(), nbr_.offsets[i], nbr_.offsets[i + 1], x.data(), V_.data(),
-                           gh_.data(), x[i]);
+    (*Ft)[i] =
+        rowGradient(nbr_.indices.data(), nbr_.offsets[i], nbr_.offsets[i + 1], x.data(), V_.data(), gh_.data(), x[i]);
   }
 }
 
@@ -557,8 +559,9 @@ void CorotatedSph::evaluate(const std::vector<Eigen::Vector3d>& x, const std::ve
   const bool need_M = mode == EvalMode::Forces;
   const std::size_t n = X_.size();
   if (R_given && R_given->size() != n)
-    throw TopoError("corotated SPH rotations", std::to_string(R_given->size()) + " rotations for " +
-                                                   std::to_string(n) + " particles", "pass one rotation per particle");
+    throw TopoError("corotated SPH rotations",
+                    std::to_string(R_given->size()) + " rotations for " + std::to_string(n) + " particles",
+                    "pass one rotation per particle");
   if (!R_given) R_out->resize(n);
   ev->Ft.resize(n);
   ev->F.resize(n);
@@ -639,8 +642,8 @@ void CorotatedSph::checkInversion(const std::vector<Eigen::Vector3d>& x, const E
   for (std::size_t i = 0; i < X_.size(); ++i) {
     if (!(ev.det[i] > 0.0)) {
       std::ostringstream s;
-      s << "particle " << i << " at " << vecStr(x[i]) << " (rest " << vecStr(X_[i]) << ") is inverted: det F = "
-        << ev.det[i] << " <= 0";
+      s << "particle " << i << " at " << vecStr(x[i]) << " (rest " << vecStr(X_[i])
+        << ") is inverted: det F = " << ev.det[i] << " <= 0";
       throw TopoError("corotated SPH", s.str(),
                       "reduce the time step or stiffen the material; an inverted rest-to-current map is not a valid "
                       "deformation");
@@ -656,8 +659,8 @@ void CorotatedSph::checkInversion(const std::vector<Eigen::Vector3d>& x, const E
 //   Σ_j (q_kj − q_jk) = F̃_k hgsum_k + Σ_j [ 2 c_j V_k W_kj F̃_j X_jk − 2 W_kj (c_k V_j + c_j V_k) x_jk ],
 // with q_kj = 2 c_k V_j W_kj (F̃_k X_jk − x_jk) and W_jk = W_kj.
 void CorotatedSph::gather(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Matrix3d>& Ft,
-                          const std::vector<Eigen::Matrix3d>& M, bool hourglass,
-                          std::vector<Eigen::Vector3d>* out, bool negate) const {
+                          const std::vector<Eigen::Matrix3d>& M, bool hourglass, std::vector<Eigen::Vector3d>* out,
+                          bool negate) const {
   const std::size_t n = X_.size();
   out->resize(n);
   const bool hg = hourglass && opt_.hourglass_alpha > 0.0;
@@ -712,8 +715,8 @@ std::vector<Eigen::Matrix3d> CorotatedSph::gradientField(const std::vector<Eigen
 
 std::vector<Eigen::Vector3d> CorotatedSph::stressDivergence(const std::vector<Eigen::Matrix3d>& G) const {
   if (G.size() != X_.size())
-    throw TopoError("corotated SPH stress divergence", std::to_string(G.size()) + " matrices for " +
-                                                           std::to_string(X_.size()) + " particles",
+    throw TopoError("corotated SPH stress divergence",
+                    std::to_string(G.size()) + " matrices for " + std::to_string(X_.size()) + " particles",
                     "pass one matrix per particle");
   std::vector<Eigen::Vector3d> out;
   gather(x_, Ft_, G, false, &out);
@@ -776,8 +779,8 @@ std::vector<Eigen::Vector3d> CorotatedSph::hessianProduct(const std::vector<Eige
     if (hourglass && c > 0.0) {
       // dF̃_i and, in the same sweep, dD_i: dH_i = Σ_j 2 V_j W_ij (dF̃_i X_ji − dx_ji) X_jiᵀ = 2(dF̃_i C_i − dD_i).
       Eigen::Matrix3d dD;
-      rowGradientMoment<true>(idx, e0, e1, dx.data(), X_.data(), V_.data(), gh_.data(), W_.data(), dx[i], X_[i], &dFt[i],
-                        &dD);
+      rowGradientMoment<true>(idx, e0, e1, dx.data(), X_.data(), V_.data(), gh_.data(), W_.data(), dx[i], X_[i],
+                              &dFt[i], &dD);
       dH = (2.0 * c) * (dFt[i] * moment_[i] - dD);
     } else {
       dFt[i] = rowGradient(idx, e0, e1, dx.data(), V_.data(), gh_.data(), dx[i]);
@@ -845,8 +848,9 @@ void CorotatedSph::materialEnergies(std::vector<double>* e_mu, std::vector<doubl
 
 void CorotatedSph::setMaterial(const std::vector<double>& mu, const std::vector<double>& lambda) {
   if (mu.size() != X_.size() || lambda.size() != X_.size())
-    throw TopoError("corotated SPH material", std::to_string(mu.size()) + " mu and " + std::to_string(lambda.size()) +
-                                                  " lambda values for " + std::to_string(X_.size()) + " particles",
+    throw TopoError("corotated SPH material",
+                    std::to_string(mu.size()) + " mu and " + std::to_string(lambda.size()) + " lambda values for " +
+                        std::to_string(X_.size()) + " particles",
                     "give one material per particle");
   for (std::size_t i = 0; i < mu.size(); ++i)
     if (!std::isfinite(mu[i]) || mu[i] <= 0.0 || !std::isfinite(lambda[i]))
@@ -894,7 +898,7 @@ double CorotatedSph::hourglassEnergy() const {
   for (long long ii = 0; ii < static_cast<long long>(n); ++ii) {
     const std::size_t i = static_cast<std::size_t>(ii);
     e[i] = c_[i] > 0.0 ? c_[i] * rowHourglass<false>(idx, nbr_.offsets[i], nbr_.offsets[i + 1], x_.data(), X_.data(),
-                                                      V_.data(), W_.data(), Ft_[i], x_[i], X_[i], nullptr)
+                                                     V_.data(), W_.data(), Ft_[i], x_[i], X_[i], nullptr)
                        : 0.0;
   }
   double ehg = 0.0;  // serial sum: deterministic

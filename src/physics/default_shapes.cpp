@@ -80,7 +80,8 @@ DefaultShape defaultShape(const std::string& name) {
     };
   } else if (name == "finger") {
     s.description =
-        "pneumatic finger along +x, base at x = 0: box 0.1 x 0.02 x 0.015 m with a half-cylinder tip of radius 0.0075 m";
+        "pneumatic finger along +x, base at x = 0: box 0.1 x 0.02 x 0.015 m with a half-cylinder tip of radius 0.0075 "
+        "m";
     s.lo = Eigen::Vector3d(0, -d::kFingerHalfWidth, -d::kFingerHalfHeight);
     s.hi = Eigen::Vector3d(d::kFingerLength, d::kFingerHalfWidth, d::kFingerHalfHeight);
     s.thickness_m = 2 * std::min(d::kFingerHalfWidth, d::kFingerHalfHeight);
@@ -94,7 +95,8 @@ DefaultShape defaultShape(const std::string& name) {
       return dx * dx + x.z() * x.z() <= d::kFingerTipRadius * d::kFingerTipRadius;
     };
   } else if (name == "pear") {
-    s.description = "pear about z, bottom at z = 0, height 0.12 m: bulb radius 0.04 m at z = 0.04, neck ~0.022 m at z = 0.1";
+    s.description =
+        "pear about z, bottom at z = 0, height 0.12 m: bulb radius 0.04 m at z = 0.04, neck ~0.022 m at z = 0.1";
     s.lo = Eigen::Vector3d(-d::kPearBulbRadius, -d::kPearBulbRadius, 0);
     s.hi = Eigen::Vector3d(d::kPearBulbRadius, d::kPearBulbRadius, d::kPearHeight);
     s.thickness_m = 2 * d::kPearHeadRadius;
@@ -122,9 +124,9 @@ VolumeCloud defaultShapeCloud(const std::string& name, double spacing_m) {
 VolumeCloud defaultShapeCloud(const DefaultShape& shape, double h) {
   const std::string what = "spacing for the " + shape.name + " shape";
   if (!(h > 0.0) || !std::isfinite(h))
-    throw TopoError(what, metres(h) + " is not a positive number of metres",
-                    "use a spacing of at most " + metres(shape.thickness_m / 3.0) + ", e.g. " +
-                        metres(shape.thickness_m / 10.0));
+    throw TopoError(
+        what, metres(h) + " is not a positive number of metres",
+        "use a spacing of at most " + metres(shape.thickness_m / 3.0) + ", e.g. " + metres(shape.thickness_m / 10.0));
   if (shape.thickness_m / h < 3.0 - 1e-9)
     throw TopoError(what,
                     metres(h) + " is too coarse: fewer than 3 particles across its thinnest dimension (" +
@@ -136,14 +138,15 @@ VolumeCloud defaultShapeCloud(const DefaultShape& shape, double h) {
   for (int a = 0; a < 3; ++a) n[a] = std::max(1, int(std::ceil(extent[a] / h - 1e-9)));
   const double cells = double(n.x()) * double(n.y()) * double(n.z());
   if (cells > kMaxLatticeCells)
-    throw TopoError(what,
-                    metres(h) + " is too fine: the lattice would have " + std::to_string(std::llround(cells)) +
-                        " cells",
-                    "use a spacing of at least " + metres(std::cbrt(extent.prod() / kMaxLatticeCells) * 1.01));
+    throw TopoError(
+        what, metres(h) + " is too fine: the lattice would have " + std::to_string(std::llround(cells)) + " cells",
+        "use a spacing of at least " + metres(std::cbrt(extent.prod() / kMaxLatticeCells) * 1.01));
   // Centre the lattice on the bounding box: symmetric shapes stay symmetric for any spacing, and a
   // spacing that divides the extent puts the cell faces on the box faces.
   const Eigen::Vector3d origin = 0.5 * (shape.lo + shape.hi) - 0.5 * h * n.cast<double>();
-  auto centre = [&](int i, int j, int k) { return Eigen::Vector3d(origin + h * Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5)); };
+  auto centre = [&](int i, int j, int k) {
+    return Eigen::Vector3d(origin + h * Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5));
+  };
   std::vector<std::uint8_t> in(static_cast<std::size_t>(cells), 0);
   auto id = [&](int i, int j, int k) { return (std::size_t(i) * n.y() + j) * n.z() + k; };
   for (int i = 0; i < n.x(); ++i)

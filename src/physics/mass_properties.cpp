@@ -58,9 +58,10 @@ void MassProperties::principal(Eigen::Vector3d* moments, Eigen::Matrix3d* axes) 
 
 MassMoments computeMassMoments(const std::vector<Eigen::Vector3d>& X, const std::vector<double>& masses) {
   if (X.size() != masses.size()) {
-    throw TopoError("particle masses", "size " + std::to_string(masses.size()) + " differs from " +
-                                          std::to_string(X.size()) + " positions",
-                    "give one mass per particle");
+    throw TopoError(
+        "particle masses",
+        "size " + std::to_string(masses.size()) + " differs from " + std::to_string(X.size()) + " positions",
+        "give one mass per particle");
   }
   const long n = static_cast<long>(X.size());
   double m0 = 0.0;

@@ -41,14 +41,13 @@ SpatialGrid::SpatialGrid(const std::vector<Eigen::Vector3d>& X, double cell_m) {
   for (int a = 0; a < 3; ++a) {
     const double cells = std::floor((hi[a] - lo[a]) * inv_cell_) + 1.0;
     if (!(cells <= kMaxCellsPerAxis))
-      throw TopoError("neighbour search radius",
-                      std::to_string(cell_m) + " m gives " + std::to_string(cells) +
-                          " cells along one axis of the cloud",
-                      "use a larger radius or a cloud of smaller extent");
+      throw TopoError(
+          "neighbour search radius",
+          std::to_string(cell_m) + " m gives " + std::to_string(cells) + " cells along one axis of the cloud",
+          "use a larger radius or a cloud of smaller extent");
     dims_[a] = static_cast<int>(cells);
   }
-  const std::int64_t ncells =
-      static_cast<std::int64_t>(dims_[0]) * dims_[1] * static_cast<std::int64_t>(dims_[2]);
+  const std::int64_t ncells = static_cast<std::int64_t>(dims_[0]) * dims_[1] * static_cast<std::int64_t>(dims_[2]);
   dense_ = ncells <= 4 * static_cast<std::int64_t>(n) + 4096;
 
   // Cell key of every point (row-major x fastest).
@@ -118,8 +117,7 @@ SpatialGrid::Range SpatialGrid::cellRange(const Eigen::Array3i& c) const {
   return r;
 }
 
-NeighborList buildNeighborList(const std::vector<Eigen::Vector3d>& X, double radius_m,
-                               bool include_self) {
+NeighborList buildNeighborList(const std::vector<Eigen::Vector3d>& X, double radius_m, bool include_self) {
   const SpatialGrid grid(X, radius_m);  // validates radius and points
   const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(X.size());
   const double r2 = radius_m * radius_m;

@@ -50,11 +50,12 @@ CgResult conjugateGradient(const LinearOperator& apply, const LinearOperator& pr
     p = z + (rz_new / rz) * p;
     rz = rz_new;
   }
-  res.relative_residual = (b - [&] {
-                            Eigen::VectorXd Ax(n);
-                            apply(*x, &Ax);
-                            return Ax;
-                          }())
+  res.relative_residual = (b -
+                           [&] {
+                             Eigen::VectorXd Ax(n);
+                             apply(*x, &Ax);
+                             return Ax;
+                           }())
                               .norm() /
                           bn;
   return res;

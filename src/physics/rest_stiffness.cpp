@@ -157,7 +157,8 @@ Eigen::SparseMatrix<double> toSparse(const std::vector<std::vector<Block>>& rows
       K.startVec(static_cast<Eigen::Index>(3 * k + a));
       for (const Block& b : rows[k]) {
         const int c0 = lower && b.first == static_cast<int>(k) ? a : 0;
-        for (int c = c0; c < 3; ++c) K.insertBack(3 * b.first + c, static_cast<Eigen::Index>(3 * k + a)) = b.second(a, c);
+        for (int c = c0; c < 3; ++c)
+          K.insertBack(3 * b.first + c, static_cast<Eigen::Index>(3 * k + a)) = b.second(a, c);
       }
     }
   K.finalize();
@@ -244,15 +245,18 @@ RestStiffnessPreconditioner::~RestStiffnessPreconditioner() {
   g_spare_pattern = std::move(*pattern_);
 }
 
-Eigen::SparseMatrix<double> restStiffness(const CorotatedSph& sph) { return toSparse(assembleRows(sph, nullptr, nullptr)); }
+Eigen::SparseMatrix<double> restStiffness(const CorotatedSph& sph) {
+  return toSparse(assembleRows(sph, nullptr, nullptr));
+}
 
 RestStiffnessPreconditioner::RestStiffnessPreconditioner(const CorotatedSph& sph, const Eigen::VectorXd& shift,
                                                          const std::vector<std::uint8_t>& fixed) {
   const auto t0 = std::chrono::steady_clock::now();
   const std::size_t n = sph.size();
   if (shift.size() != 0 && static_cast<std::size_t>(shift.size()) != 3 * n)
-    throw TopoError("rest-stiffness preconditioner", "shift has " + std::to_string(shift.size()) + " entries for " +
-                                                         std::to_string(n) + " particles", "pass 3N entries or none");
+    throw TopoError("rest-stiffness preconditioner",
+                    "shift has " + std::to_string(shift.size()) + " entries for " + std::to_string(n) + " particles",
+                    "pass 3N entries or none");
   if (!fixed.empty() && fixed.size() != n)
     throw TopoError("rest-stiffness preconditioner", "fixed flags have the wrong size", "pass one flag per particle");
   const Eigen::SparseMatrix<double> K = toSparse(assembleRows(sph, &shift, &fixed, true), true);

@@ -178,8 +178,8 @@ void validateInertia(const RigidInertia<S>& in) {
   const Eigen::Vector3d ev = es.eigenvalues();
   if (!(ev(0) > 1e-12 * std::max(ev(2), 0.0)) || !(ev(0) > 0.0))
     throw TopoError("rigid inertia: inertia tensor",
-                    "is not positive definite (principal moments " + numberText(ev(0), 4) + ", " + numberText(ev(1), 4) + ", " +
-                        numberText(ev(2), 4) + " kg m^2)",
+                    "is not positive definite (principal moments " + numberText(ev(0), 4) + ", " +
+                        numberText(ev(1), 4) + ", " + numberText(ev(2), 4) + " kg m^2)",
                     "compute it about the centre of mass from positive particle masses (every principal "
                     "moment must be > 0)");
 }
@@ -202,13 +202,13 @@ void validateOptions(const RigidSimOptions& o, bool need_time) {
     throw TopoError("rigid options: linear_damping_per_s", "must be >= 0, got " + numberText(o.linear_damping_per_s, 4),
                     "use 0 for no damping");
   if (!(finite(o.angular_damping_per_s) && o.angular_damping_per_s >= 0.0))
-    throw TopoError("rigid options: angular_damping_per_s", "must be >= 0, got " + numberText(o.angular_damping_per_s, 4),
-                    "use 0 for no damping");
+    throw TopoError("rigid options: angular_damping_per_s",
+                    "must be >= 0, got " + numberText(o.angular_damping_per_s, 4), "use 0 for no damping");
   const GroundContact& g = o.ground;
   if (!finite(g.height_m)) throw TopoError("rigid options: ground.height_m", "is not finite", "set a finite height");
   if (!(finite(g.stiffness_n_per_m) && g.stiffness_n_per_m >= 0.0))
-    throw TopoError("rigid options: ground.stiffness_n_per_m", "must be >= 0, got " + numberText(g.stiffness_n_per_m, 4),
-                    "use 0 for the automatic stiffness");
+    throw TopoError("rigid options: ground.stiffness_n_per_m",
+                    "must be >= 0, got " + numberText(g.stiffness_n_per_m, 4), "use 0 for the automatic stiffness");
   if (!finite(g.offset_m)) throw TopoError("rigid options: ground.offset_m", "is not finite", "use e.g. 0");
   if (!(finite(g.damping_ratio) && g.damping_ratio >= 0.0))
     throw TopoError("rigid options: ground.damping_ratio", "must be >= 0, got " + numberText(g.damping_ratio, 4),
@@ -275,15 +275,15 @@ double estimateSpacing(const std::vector<Eigen::Vector3d>& pts) {
 struct ContactSetup {
   bool active = false;
   bool auto_k = false;
-  double kappa = 0.0;      ///< auto: k = m κ
-  double k_value = 0.0;    ///< per-point stiffness value [N/m]
-  double pen_rest = 0.0;   ///< resting penetration of the lowest point [m]
-  int n_rest = 1;          ///< points in contact at rest
-  int n_near = 1;          ///< points within 2 pen_rest of the lowest
-  double lever = 0.0;      ///< largest distance from the com of those points
-  double size = 0.0;       ///< L: largest distance of any contact point from the com
+  double kappa = 0.0;     ///< auto: k = m κ
+  double k_value = 0.0;   ///< per-point stiffness value [N/m]
+  double pen_rest = 0.0;  ///< resting penetration of the lowest point [m]
+  int n_rest = 1;         ///< points in contact at rest
+  int n_near = 1;         ///< points within 2 pen_rest of the lowest
+  double lever = 0.0;     ///< largest distance from the com of those points
+  double size = 0.0;      ///< L: largest distance of any contact point from the com
   double spacing = 0.0;
-  int lowest = -1;         ///< index of the lowest point in the reference orientation
+  int lowest = -1;            ///< index of the lowest point in the reference orientation
   std::vector<int> rest_set;  ///< points in contact at rest (relative height < pen_rest)
   double rest_sum_h = 0.0;    ///< Σ relative heights over rest_set
 };
@@ -734,8 +734,8 @@ RigidTrajectory<S> simulateRigid(const RigidInertia<S>& inertia, const RigidStat
   double t_now = 0.0;
   auto diverged = [&](long step, double t, const std::string& what) {
     std::ostringstream problem;
-    problem << "the simulation diverged at step " << step << " (t = " << numberText(t, 4) << " s, substep dt = " << numberText(dt, 4)
-            << " s): " << what;
+    problem << "the simulation diverged at step " << step << " (t = " << numberText(t, 4)
+            << " s, substep dt = " << numberText(dt, 4) << " s): " << what;
     std::ostringstream fix;
     if (cs.active) {
       const double wc = std::sqrt(cs.k_value * cs.n_near * (1.0 / m + cs.lever * cs.lever / Imin_com));
@@ -767,7 +767,8 @@ RigidTrajectory<S> simulateRigid(const RigidInertia<S>& inertia, const RigidStat
     const double e = valueOf(sim.energy(state));
     if (!std::isfinite(e) || e - e0 > e_tol) {
       diverged(step, t_now,
-               "the total energy grew from " + numberText(e0, 4) + " J to " + numberText(e, 4) + " J although the motion is passive");
+               "the total energy grew from " + numberText(e0, 4) + " J to " + numberText(e, 4) +
+                   " J although the motion is passive");
     }
     traj.time_s.push_back(k * out_dt);
     traj.states.push_back(state);
@@ -844,14 +845,13 @@ S rigidEnergy(const RigidInertia<S>& inertia, const RigidState<S>& state,
 
 // ------------------------------------------------------------------------------------ instantiations
 
-#define TOPO_RIGID_INSTANTIATE(S)                                                                              \
-  template RigidTrajectory<S> simulateRigid<S>(const RigidInertia<S>&, const RigidState<S>&,                \
-                                               const std::vector<Eigen::Vector3d>&, const RigidSimOptions&); \
-  template RigidState<S> restingState<S>(const RigidInertia<S>&, const Eigen::Quaterniond&,                 \
-                                         const std::vector<Eigen::Vector3d>&, const RigidSimOptions&);       \
-  template RigidState<S> pivotState<S>(const RigidInertia<S>&, const Eigen::Quaterniond&,                   \
-                                       const RigidSimOptions&);                                              \
-  template S rigidEnergy<S>(const RigidInertia<S>&, const RigidState<S>&, const std::vector<Eigen::Vector3d>&, \
+#define TOPO_RIGID_INSTANTIATE(S)                                                                                  \
+  template RigidTrajectory<S> simulateRigid<S>(const RigidInertia<S>&, const RigidState<S>&,                       \
+                                               const std::vector<Eigen::Vector3d>&, const RigidSimOptions&);       \
+  template RigidState<S> restingState<S>(const RigidInertia<S>&, const Eigen::Quaterniond&,                        \
+                                         const std::vector<Eigen::Vector3d>&, const RigidSimOptions&);             \
+  template RigidState<S> pivotState<S>(const RigidInertia<S>&, const Eigen::Quaterniond&, const RigidSimOptions&); \
+  template S rigidEnergy<S>(const RigidInertia<S>&, const RigidState<S>&, const std::vector<Eigen::Vector3d>&,     \
                             const RigidSimOptions&);
 
 TOPO_RIGID_INSTANTIATE(double)

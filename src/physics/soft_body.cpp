@@ -63,13 +63,14 @@ void SoftBodySimulator::updateStability() {
 
 void SoftBodySimulator::setMasses(const std::vector<double>& m) {
   if (m.size() != size())
-    throw TopoError("SoftBodySimulator::setMasses", std::to_string(m.size()) + " masses for " +
-                                                        std::to_string(size()) + " particles",
+    throw TopoError("SoftBodySimulator::setMasses",
+                    std::to_string(m.size()) + " masses for " + std::to_string(size()) + " particles",
                     "pass one mass per particle");
   for (std::size_t i = 0; i < m.size(); ++i)
     if (!std::isfinite(m[i]) || m[i] <= 0.0)
-      throw TopoError("SoftBodySimulator::setMasses", "mass " + std::to_string(i) + " = " + std::to_string(m[i]) +
-                                                          " is not positive", "use a mass floor for hollow particles");
+      throw TopoError("SoftBodySimulator::setMasses",
+                      "mass " + std::to_string(i) + " = " + std::to_string(m[i]) + " is not positive",
+                      "use a mass floor for hollow particles");
   m_ = m;
   invalidateRestFactor();
   updateStability();
@@ -90,14 +91,14 @@ void SoftBodySimulator::setActuation(const PneumaticActuation& a) {
 
 void SoftBodySimulator::setContact(const SoftContact& c) {
   if (!c.mask().empty() && c.mask().size() != size())
-    throw TopoError("SoftBodySimulator::setContact", "the contact mask has " + std::to_string(c.mask().size()) +
-                                                         " entries for " + std::to_string(size()) + " particles",
+    throw TopoError("SoftBodySimulator::setContact",
+                    "the contact mask has " + std::to_string(c.mask().size()) + " entries for " +
+                        std::to_string(size()) + " particles",
                     "pass one entry per particle or an empty mask");
   contact_ = c;
   if (!(contact_.options().stiffness > 0.0)) {
     double kmax = 0.0;
-    for (std::size_t i = 0; i < size(); ++i)
-      kmax = std::max(kmax, sph_.lameLambdas()[i] + 2.0 * sph_.shearModuli()[i]);
+    for (std::size_t i = 0; i < size(); ++i) kmax = std::max(kmax, sph_.lameLambdas()[i] + 2.0 * sph_.shearModuli()[i]);
     contact_.setStiffness(kmax * dx_);
   }
   refreshForces("setContact");
@@ -173,8 +174,10 @@ void SoftBodySimulator::setVelocities(const std::vector<Eigen::Vector3d>& v) {
 
 void SoftBodySimulator::refreshForces(const std::string& where, const std::vector<Eigen::Vector3d>* known_forces) {
   try {
-    if (known_forces) sph_.updateState(x_);
-    else sph_.update(x_);
+    if (known_forces)
+      sph_.updateState(x_);
+    else
+      sph_.update(x_);
   } catch (const TopoError& e) {
     throw TopoError("SoftBodySimulator (" + where + ")", e.what(),
                     "reduce the time step (e.g. 0.5 x stableTimeStep()), add damping, or check the loads");
@@ -277,7 +280,8 @@ double SoftBodySimulator::forceScale() const {
   for (std::size_t i = 0; i < size(); ++i) s = std::max(s, m_[i] * opt_.gravity.norm());
   const double p = std::abs(act_.pressure_pa);
   if (p > 0.0 && !act_.chamber.empty())
-    for (std::size_t i = 0; i < size(); ++i) s = std::max(s, p * act_.chamber[i] * std::pow(sph_.volumes()[i], 2.0 / 3.0));
+    for (std::size_t i = 0; i < size(); ++i)
+      s = std::max(s, p * act_.chamber[i] * std::pow(sph_.volumes()[i], 2.0 / 3.0));
   if (!(s > 0.0)) {  // no load at all: use the elastic force of a 1e-3 strain
     for (std::size_t i = 0; i < size(); ++i)
       s = std::max(s, 1e-3 * sph_.shearModuli()[i] * std::pow(sph_.volumes()[i], 2.0 / 3.0));
@@ -291,7 +295,8 @@ double SoftBodySimulator::firstNaturalFrequency(double tolerance, int max_iterat
   const LinearOperator precondition = systemPreconditioner(0.0);
   Eigen::VectorXd phi(3 * n), b(3 * n), next;
   // Start: the gravity direction (or z) everywhere — the static deflection shape after one solve.
-  const Eigen::Vector3d d = opt_.gravity.norm() > 0 ? Eigen::Vector3d(opt_.gravity.normalized()) : Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d d =
+      opt_.gravity.norm() > 0 ? Eigen::Vector3d(opt_.gravity.normalized()) : Eigen::Vector3d::UnitZ();
   for (std::size_t i = 0; i < n; ++i) phi.segment<3>(3 * i) = clamped_[i] ? Eigen::Vector3d::Zero() : d;
   auto apply = [&](const Eigen::VectorXd& p, Eigen::VectorXd* out) { systemProduct(p, 0.0, out); };
   double omega2 = 0.0;
@@ -299,10 +304,10 @@ double SoftBodySimulator::firstNaturalFrequency(double tolerance, int max_iterat
     for (std::size_t i = 0; i < n; ++i) b.segment<3>(3 * i) = m_[i] * phi.segment<3>(3 * i);
     const CgResult cg = conjugateGradient(apply, precondition, b, 1e-10, 20000, &next);
     if (cg.negative_curvature || !(cg.relative_residual < 1e-6))
-      throw TopoError("SoftBodySimulator::firstNaturalFrequency",
-                      "the stiffness is singular or indefinite (relative residual " +
-                          std::to_string(cg.relative_residual) + ")",
-                      "clamp the body (an unsupported body has rigid modes at zero frequency)");
+      throw TopoError(
+          "SoftBodySimulator::firstNaturalFrequency",
+          "the stiffness is singular or indefinite (relative residual " + std::to_string(cg.relative_residual) + ")",
+          "clamp the body (an unsupported body has rigid modes at zero frequency)");
     // Rayleigh quotient of the new iterate: ω² = φᵀKφ / φᵀMφ with Kφ_new = Mφ.
     double num = 0.0, den = 0.0;
     for (std::size_t i = 0; i < n; ++i) {
@@ -323,7 +328,8 @@ double SoftBodySimulator::maxAngularFrequency(int iterations) const {
   const std::size_t n = size();
   std::vector<Eigen::Vector3d> p(n);
   for (std::size_t i = 0; i < n; ++i)
-    p[i] = clamped_[i] ? Eigen::Vector3d::Zero() : Eigen::Vector3d(std::sin(1.0 + 3.0 * i), std::cos(7.0 * i), std::sin(5.0 * i + 2.0));
+    p[i] = clamped_[i] ? Eigen::Vector3d::Zero()
+                       : Eigen::Vector3d(std::sin(1.0 + 3.0 * i), std::cos(7.0 * i), std::sin(5.0 * i + 2.0));
   double lam = 0.0;
   for (int it = 0; it < iterations; ++it) {
     auto q = stiffnessProduct(p);
@@ -366,7 +372,8 @@ SolveReport SoftBodySimulator::newtonSolve(const std::string& where, double dt, 
   const Eigen::Vector3d g = opt_.gravity;
   auto unpack = [&](const Eigen::VectorXd& z) {
     std::vector<Eigen::Vector3d> x(n);
-    for (std::size_t i = 0; i < n; ++i) x[i] = clamped_[i] ? sph_.restPositions()[i] : Eigen::Vector3d(z.segment<3>(3 * i));
+    for (std::size_t i = 0; i < n; ++i)
+      x[i] = clamped_[i] ? sph_.restPositions()[i] : Eigen::Vector3d(z.segment<3>(3 * i));
     return x;
   };
   std::vector<Eigen::Vector3d> cur;
@@ -392,8 +399,7 @@ SolveReport SoftBodySimulator::newtonSolve(const std::string& where, double dt, 
     for (std::size_t i = 0; i < n; ++i) {
       if (clamped_[i]) continue;
       Eigen::Vector3d r = -f_cons_[i] - m_[i] * g;
-      if (dynamic)
-        r += m_[i] * ((x_[i] - x0[i] - dt * v0[i]) / (dt * dt) + (c / dt) * (x_[i] - x0[i])) - ffr[i];
+      if (dynamic) r += m_[i] * ((x_[i] - x0[i] - dt * v0[i]) / (dt * dt) + (c / dt) * (x_[i] - x0[i])) - ffr[i];
       out->segment<3>(3 * i) = r;
     }
   };
@@ -440,7 +446,8 @@ SolveReport SoftBodySimulator::stepImplicit(double dt, const NewtonOptions& newt
                     "reduce dt, ramp the pressure more slowly (PneumaticActuation::ramp_s), or raise "
                     "NewtonOptions::max_iterations");
   }
-  for (std::size_t i = 0; i < size(); ++i) v_[i] = clamped_[i] ? Eigen::Vector3d::Zero() : Eigen::Vector3d((x_[i] - x0[i]) / dt);
+  for (std::size_t i = 0; i < size(); ++i)
+    v_[i] = clamped_[i] ? Eigen::Vector3d::Zero() : Eigen::Vector3d((x_[i] - x0[i]) / dt);
   steps_ = k;
   return rep;
 }
@@ -499,8 +506,8 @@ SolveReport SoftBodySimulator::solveStatic(const NewtonOptions& newton, int load
       restoreLoads();
       refreshForces("restore after a failed static solve");
       std::ostringstream o;
-      o << "Newton did not converge even with load increments of " << df * 2.0 * 100.0 << " % (reached "
-        << f * 100.0 << " % of the load after " << increments << " increments and " << bisections
+      o << "Newton did not converge even with load increments of " << df * 2.0 * 100.0 << " % (reached " << f * 100.0
+        << " % of the load after " << increments << " increments and " << bisections
         << " halvings); last failure: " << last_failure;
       throw TopoError("SoftBodySimulator::solveStatic", o.str(),
                       "lower the pressure or the load, stiffen the material, or check that the body is clamped or "

@@ -106,15 +106,13 @@ void SoftContact::addFrictionForces(const std::vector<Eigen::Vector3d>& x, const
 
 void SoftContact::addHessianProduct(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& dx,
                                     std::vector<Eigen::Vector3d>* out) const {
-  forEachContact(x, [&](std::size_t i, const Eigen::Vector3d& n, double) {
-    (*out)[i] += opt_.stiffness * n * n.dot(dx[i]);
-  });
+  forEachContact(
+      x, [&](std::size_t i, const Eigen::Vector3d& n, double) { (*out)[i] += opt_.stiffness * n * n.dot(dx[i]); });
 }
 
 void SoftContact::addHessianDiagonal(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Vector3d>* diag) const {
-  forEachContact(x, [&](std::size_t i, const Eigen::Vector3d& n, double) {
-    (*diag)[i] += opt_.stiffness * n.cwiseProduct(n);
-  });
+  forEachContact(
+      x, [&](std::size_t i, const Eigen::Vector3d& n, double) { (*diag)[i] += opt_.stiffness * n.cwiseProduct(n); });
 }
 
 void SoftContact::frictionAdjoint(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& v,

@@ -38,14 +38,13 @@ void subtractMaterialTerms(const SoftBodySimulator& s, const Vec3s& a, SoftDesig
 Vec3s adjointSolve(const SoftBodySimulator& s, double inertia, const Eigen::VectorXd& b, double tol, int max_iter,
                    const std::string& what) {
   Eigen::VectorXd lam;
-  const CgResult cg = conjugateGradient(
-      [&](const Eigen::VectorXd& p, Eigen::VectorXd* out) { s.systemProduct(p, inertia, out); },
-      s.systemPreconditioner(inertia), b, tol, max_iter, &lam);
+  const CgResult cg =
+      conjugateGradient([&](const Eigen::VectorXd& p, Eigen::VectorXd* out) { s.systemProduct(p, inertia, out); },
+                        s.systemPreconditioner(inertia), b, tol, max_iter, &lam);
   if (cg.negative_curvature || (!cg.converged && cg.relative_residual > 1e-6)) {
     std::ostringstream o;
     o << "the adjoint solve of " << what << " did not converge (relative residual " << cg.relative_residual
-      << (cg.negative_curvature ? ", the Hessian is indefinite: an unstable state or an unsupported body" : "")
-      << ")";
+      << (cg.negative_curvature ? ", the Hessian is indefinite: an unstable state or an unsupported body" : "") << ")";
     throw TopoError("soft-body adjoint", o.str(), "reduce dt, clamp or support the body, or lower the load");
   }
   Vec3s L(s.size());
@@ -68,8 +67,8 @@ SoftRollout::SoftRollout(SoftBodySimulator* sim, const SoftRolloutOptions& optio
   }
   if (opt_.integrator == SoftIntegrator::SymplecticEuler && opt_.dt > sim_->stableTimeStep()) {
     std::ostringstream s;
-    s << "explicit time step dt = " << opt_.dt << " s exceeds the stability limit stableTimeStep() = "
-      << sim_->stableTimeStep() << " s";
+    s << "explicit time step dt = " << opt_.dt
+      << " s exceeds the stability limit stableTimeStep() = " << sim_->stableTimeStep() << " s";
     throw TopoError("SoftRollout options", s.str(),
                     "use dt <= " + std::to_string(sim_->stableTimeStep()) +
                         " s, or SoftIntegrator::ImplicitEuler, which has no stability limit");
@@ -242,8 +241,8 @@ SoftDesignGradient staticEquilibriumGradient(const SoftBodySimulator& s, const s
                                              double cg_tolerance) {
   const std::size_t n = s.size();
   if (dL_dx.size() != n)
-    throw TopoError("staticEquilibriumGradient", std::to_string(dL_dx.size()) + " loss gradients for " +
-                                                     std::to_string(n) + " particles",
+    throw TopoError("staticEquilibriumGradient",
+                    std::to_string(dL_dx.size()) + " loss gradients for " + std::to_string(n) + " particles",
                     "pass dL/dx for every particle");
   if (s.pressureNow() != s.actuation().pressure_pa)
     throw TopoError("staticEquilibriumGradient", "the pressure ramp is not complete at the simulator's time",

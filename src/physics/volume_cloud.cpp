@@ -41,12 +41,11 @@ std::size_t VolumeCloud::surfaceCount() const {
 }
 
 void VolumeCloud::validate(const std::string& what) const {
-  if (X.empty())
-    throw TopoError(what, "has no particles", "check the input surface and the fill parameters");
+  if (X.empty()) throw TopoError(what, "has no particles", "check the input surface and the fill parameters");
   if (V.size() != X.size() || surface.size() != X.size())
     throw TopoError(what,
-                    "has " + std::to_string(X.size()) + " positions but " + std::to_string(V.size()) +
-                        " volumes and " + std::to_string(surface.size()) + " surface flags",
+                    "has " + std::to_string(X.size()) + " positions but " + std::to_string(V.size()) + " volumes and " +
+                        std::to_string(surface.size()) + " surface flags",
                     "build the cloud with one volume and one flag per particle");
   if (!(spacing > 0.0) || !std::isfinite(spacing))
     throw TopoError(what, "has spacing " + std::to_string(spacing), "set a positive lattice spacing");

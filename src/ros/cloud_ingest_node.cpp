@@ -6,8 +6,8 @@
 #include <sstream>
 
 #include "topo_gaussian/common/error.h"
-#include "topo_gaussian/ros/conversions.h"
 #include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/ros/conversions.h"
 #include "topo_gaussian/ros/param_reader.h"
 #include "topo_gaussian/ros/service_guard.h"
 
@@ -27,29 +27,42 @@ CloudIngestParams loadCloudIngestParams(const ::ros::NodeHandle& pnh) {
   if (p.frame_id.empty()) bad("frame_id", "is empty", "name the object's body frame, e.g. object");
 
   fill.spacing_m = reader.number("spacing_m", fill.spacing_m, "m");
-  if (fill.spacing_m < 0.0) bad("spacing_m", "is " + numberText(fill.spacing_m, 6) + " m, a negative spacing", "give a positive lattice spacing in metres, or 0 to use ~fill_count");
+  if (fill.spacing_m < 0.0)
+    bad("spacing_m", "is " + numberText(fill.spacing_m, 6) + " m, a negative spacing",
+        "give a positive lattice spacing in metres, or 0 to use ~fill_count");
   const long count = reader.integer("fill_count", long(fill.target_count));
-  if (count < 8) bad("fill_count", "is " + std::to_string(count) + ": too few particles", "ask for at least 8 particles (default 50000)");
+  if (count < 8)
+    bad("fill_count", "is " + std::to_string(count) + ": too few particles",
+        "ask for at least 8 particles (default 50000)");
   fill.target_count = std::size_t(count);
   clean.scale = reader.number("scale", clean.scale);
-  if (!(clean.scale > 0.0)) bad("scale", "is " + numberText(clean.scale, 6) + ", not a positive factor", "use 1 for metres, 0.001 for millimetres");
+  if (!(clean.scale > 0.0))
+    bad("scale", "is " + numberText(clean.scale, 6) + ", not a positive factor",
+        "use 1 for metres, 0.001 for millimetres");
   clean.recenter = reader.flag("recenter", clean.recenter);
   clean.opacity_threshold = reader.number("opacity_threshold", clean.opacity_threshold);
   if (clean.opacity_threshold < 0.0 || clean.opacity_threshold >= 1.0)
-    bad("opacity_threshold", "is " + numberText(clean.opacity_threshold, 6) + ", outside [0, 1)", "use the default 0.02, or 0 to keep every Gaussian");
+    bad("opacity_threshold", "is " + numberText(clean.opacity_threshold, 6) + ", outside [0, 1)",
+        "use the default 0.02, or 0 to keep every Gaussian");
   const long k = reader.integer("outlier_neighbours", clean.outlier_neighbours);
-  if (k < 0 || k > 1000) bad("outlier_neighbours", "is " + std::to_string(k) + ", outside [0, 1000]", "use 16, or 0 to turn outlier removal off");
+  if (k < 0 || k > 1000)
+    bad("outlier_neighbours", "is " + std::to_string(k) + ", outside [0, 1000]",
+        "use 16, or 0 to turn outlier removal off");
   clean.outlier_neighbours = int(k);
   const long closing = reader.integer("closing_cells", fill.density.closing_cells);
   if (closing < -1 || closing > 64)
-    bad("closing_cells", "is " + std::to_string(closing) + ", outside [-1, 64]", "use -1 (automatic), 0 (off) or a few cells, e.g. 2");
+    bad("closing_cells", "is " + std::to_string(closing) + ", outside [-1, 64]",
+        "use -1 (automatic), 0 (off) or a few cells, e.g. 2");
   fill.density.closing_cells = int(closing);
   const long grid = reader.integer("grid_resolution", fill.grid_resolution);
-  if (grid < 0 || grid > 4096) bad("grid_resolution", "is " + std::to_string(grid) + ", outside [0, 4096]", "use 0 (the lattice spacing) or e.g. 100 cells");
+  if (grid < 0 || grid > 4096)
+    bad("grid_resolution", "is " + std::to_string(grid) + ", outside [0, 4096]",
+        "use 0 (the lattice spacing) or e.g. 100 cells");
   fill.grid_resolution = int(grid);
   fill.max_open_fraction = reader.number("max_open_fraction", fill.max_open_fraction);
   if (fill.max_open_fraction < 0.0 || fill.max_open_fraction > 1.0)
-    bad("max_open_fraction", "is " + numberText(fill.max_open_fraction, 6) + ", outside [0, 1]", "use the default 0.02");
+    bad("max_open_fraction", "is " + numberText(fill.max_open_fraction, 6) + ", outside [0, 1]",
+        "use the default 0.02");
   geometry::validateFillOptions(fill, pnh.getNamespace() + " parameters");  // the library's own checks too
   return p;
 }
@@ -67,7 +80,8 @@ geometry::IngestOptions requestOptions(const topo_gaussian::FillInterior::Reques
     o.fill.target_count = req.target_count;
   }
   if (!std::isfinite(req.scale) || req.scale < 0.0)
-    throw TopoError(service, "scale " + numberText(req.scale, 6) + " is negative or not finite", "use 1 for metres, 0.001 for millimetres, 0 for the node's ~scale");
+    throw TopoError(service, "scale " + numberText(req.scale, 6) + " is negative or not finite",
+                    "use 1 for metres, 0.001 for millimetres, 0 for the node's ~scale");
   if (req.scale > 0.0) o.clean.scale = req.scale;
   if (req.recenter) o.clean.recenter = true;
   if (req.closing_cells < -1 || req.closing_cells > 64)
@@ -81,8 +95,8 @@ geometry::IngestOptions requestOptions(const topo_gaussian::FillInterior::Reques
 std::string describe(const geometry::IngestResult& r) {
   std::ostringstream s;
   s.precision(6);
-  s << "filled " << r.input << " (" << geometry::toString(r.kind) << ", " << r.clean.points_in << " points): "
-    << r.cloud.size() << " particles (" << r.cloud.surfaceCount() << " on the surface), volume "
+  s << "filled " << r.input << " (" << geometry::toString(r.kind) << ", " << r.clean.points_in
+    << " points): " << r.cloud.size() << " particles (" << r.cloud.surfaceCount() << " on the surface), volume "
     << r.cloud.totalVolume() << " m^3, spacing " << r.cloud.spacing << " m, " << r.seconds << " s, method "
     << r.fill.method;
   return s.str();
@@ -101,8 +115,8 @@ CloudIngestNode::CloudIngestNode(const ::ros::NodeHandle& nh, const ::ros::NodeH
 
 void CloudIngestNode::fillStartupFile() {
   if (params_.surface_file.empty()) {
-    ROS_INFO("cloud_ingest: no ~surface_file; waiting for clouds on %s or calls to %s",
-             surface_sub_.getTopic().c_str(), fill_srv_.getService().c_str());
+    ROS_INFO("cloud_ingest: no ~surface_file; waiting for clouds on %s or calls to %s", surface_sub_.getTopic().c_str(),
+             fill_srv_.getService().c_str());
     return;
   }
   try {
@@ -128,7 +142,8 @@ void CloudIngestNode::onSurfaceCloud(const sensor_msgs::PointCloud2ConstPtr& msg
   }
 }
 
-bool CloudIngestNode::onFillInterior(topo_gaussian::FillInterior::Request& req, topo_gaussian::FillInterior::Response& res) {
+bool CloudIngestNode::onFillInterior(topo_gaussian::FillInterior::Request& req,
+                                     topo_gaussian::FillInterior::Response& res) {
   const std::string service = fill_srv_.getService();
   res.success = false;
   return guardService("cloud_ingest", service, res, [&] {

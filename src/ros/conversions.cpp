@@ -21,14 +21,19 @@ using sensor_msgs::PointField;
 std::size_t datatypeSize(std::uint8_t datatype) {
   switch (datatype) {
     case PointField::INT8:
-    case PointField::UINT8: return 1;
+    case PointField::UINT8:
+      return 1;
     case PointField::INT16:
-    case PointField::UINT16: return 2;
+    case PointField::UINT16:
+      return 2;
     case PointField::INT32:
     case PointField::UINT32:
-    case PointField::FLOAT32: return 4;
-    case PointField::FLOAT64: return 8;
-    default: return 0;
+    case PointField::FLOAT32:
+      return 4;
+    case PointField::FLOAT64:
+      return 8;
+    default:
+      return 0;
   }
 }
 
@@ -41,15 +46,24 @@ double load(const std::uint8_t* p) {
 
 double loadAs(std::uint8_t datatype, const std::uint8_t* p) {
   switch (datatype) {
-    case PointField::INT8: return load<std::int8_t>(p);
-    case PointField::UINT8: return load<std::uint8_t>(p);
-    case PointField::INT16: return load<std::int16_t>(p);
-    case PointField::UINT16: return load<std::uint16_t>(p);
-    case PointField::INT32: return load<std::int32_t>(p);
-    case PointField::UINT32: return load<std::uint32_t>(p);
-    case PointField::FLOAT32: return load<float>(p);
-    case PointField::FLOAT64: return load<double>(p);
-    default: return std::nan("");
+    case PointField::INT8:
+      return load<std::int8_t>(p);
+    case PointField::UINT8:
+      return load<std::uint8_t>(p);
+    case PointField::INT16:
+      return load<std::int16_t>(p);
+    case PointField::UINT16:
+      return load<std::uint16_t>(p);
+    case PointField::INT32:
+      return load<std::int32_t>(p);
+    case PointField::UINT32:
+      return load<std::uint32_t>(p);
+    case PointField::FLOAT32:
+      return load<float>(p);
+    case PointField::FLOAT64:
+      return load<double>(p);
+    default:
+      return std::nan("");
   }
 }
 
@@ -74,14 +88,16 @@ class CloudReader {
                       "set point_step to the size of one point in bytes");
     const std::size_t row = std::size_t(msg.row_step);
     if (row < std::size_t(msg.width) * msg.point_step)
-      throw TopoError(source, "the PointCloud2 row_step " + std::to_string(row) + " is smaller than width × point_step (" +
-                                  std::to_string(std::size_t(msg.width) * msg.point_step) + ")",
+      throw TopoError(source,
+                      "the PointCloud2 row_step " + std::to_string(row) + " is smaller than width × point_step (" +
+                          std::to_string(std::size_t(msg.width) * msg.point_step) + ")",
                       "set row_step = width * point_step");
     const std::size_t needed = row * (msg.height - 1) + std::size_t(msg.width) * msg.point_step;
     if (msg.data.size() < needed)
-      throw TopoError(source, "the PointCloud2 data holds " + std::to_string(msg.data.size()) + " bytes but " +
-                                  std::to_string(msg.width) + " × " + std::to_string(msg.height) + " points need " +
-                                  std::to_string(needed),
+      throw TopoError(source,
+                      "the PointCloud2 data holds " + std::to_string(msg.data.size()) + " bytes but " +
+                          std::to_string(msg.width) + " × " + std::to_string(msg.height) + " points need " +
+                          std::to_string(needed),
                       "make width, height, row_step and point_step agree with the data");
   }
 
@@ -96,11 +112,11 @@ class CloudReader {
       if (size == 0)
         throw TopoError(source_, "field '" + name + "' has unknown datatype " + std::to_string(int(f.datatype)),
                         "use one of the sensor_msgs/PointField types (FLOAT32 for coordinates)");
-      if (f.count < 1)
-        throw TopoError(source_, "field '" + name + "' has count 0", "set count = 1");
+      if (f.count < 1) throw TopoError(source_, "field '" + name + "' has count 0", "set count = 1");
       if (std::size_t(f.offset) + size > msg_.point_step)
-        throw TopoError(source_, "field '" + name + "' (offset " + std::to_string(f.offset) + ", " + std::to_string(size) +
-                                     " bytes) lies outside the " + std::to_string(msg_.point_step) + "-byte point",
+        throw TopoError(source_,
+                        "field '" + name + "' (offset " + std::to_string(f.offset) + ", " + std::to_string(size) +
+                            " bytes) lies outside the " + std::to_string(msg_.point_step) + "-byte point",
                         "fix the field offsets or point_step");
       return int(i);
     }
@@ -134,11 +150,13 @@ bool hasField(const sensor_msgs::PointCloud2& msg, const std::string& name) {
   return std::any_of(msg.fields.begin(), msg.fields.end(), [&](const PointField& f) { return f.name == name; });
 }
 
-sensor_msgs::PointCloud2 toPointCloud2(const VolumeCloud& cloud, const std::string& frame_id, const ::ros::Time& stamp) {
+sensor_msgs::PointCloud2 toPointCloud2(const VolumeCloud& cloud, const std::string& frame_id,
+                                       const ::ros::Time& stamp) {
   const std::size_t n = cloud.size();
   if (cloud.V.size() != n || (!cloud.surface.empty() && cloud.surface.size() != n))
-    throw TopoError("volume cloud", "has " + std::to_string(n) + " positions but " + std::to_string(cloud.V.size()) +
-                                        " volumes and " + std::to_string(cloud.surface.size()) + " surface flags",
+    throw TopoError("volume cloud",
+                    "has " + std::to_string(n) + " positions but " + std::to_string(cloud.V.size()) + " volumes and " +
+                        std::to_string(cloud.surface.size()) + " surface flags",
                     "give one volume (and one surface flag) per particle");
   sensor_msgs::PointCloud2 msg;
   msg.header.frame_id = frame_id;
@@ -146,8 +164,7 @@ sensor_msgs::PointCloud2 toPointCloud2(const VolumeCloud& cloud, const std::stri
   msg.height = 1;
   sensor_msgs::PointCloud2Modifier modifier(msg);
   modifier.setPointCloud2Fields(5, "x", 1, PointField::FLOAT32, "y", 1, PointField::FLOAT32, "z", 1,
-                                PointField::FLOAT32, "volume", 1, PointField::FLOAT32, "surface", 1,
-                                PointField::UINT8);
+                                PointField::FLOAT32, "volume", 1, PointField::FLOAT32, "surface", 1, PointField::UINT8);
   msg.point_step = 20;  // 17 bytes of fields, padded so the floats of every point stay 4-byte aligned
   modifier.resize(n);
   msg.is_dense = true;
@@ -225,18 +242,19 @@ sensor_msgs::PointCloud2 toInteriorCloud(const VolumeCloud& cloud, const std::ve
                                          const std::string& frame_id, const ::ros::Time& stamp) {
   const std::size_t n = cloud.size();
   if (r.size() != n || density.size() != n || (!stiffness.empty() && stiffness.size() != n))
-    throw TopoError("interior", "has " + std::to_string(r.size()) + " indicator, " + std::to_string(density.size()) +
-                                    " density and " + std::to_string(stiffness.size()) + " stiffness values for " +
-                                    std::to_string(n) + " particles",
+    throw TopoError("interior",
+                    "has " + std::to_string(r.size()) + " indicator, " + std::to_string(density.size()) +
+                        " density and " + std::to_string(stiffness.size()) + " stiffness values for " +
+                        std::to_string(n) + " particles",
                     "give one value per particle of the volume cloud");
   sensor_msgs::PointCloud2 msg;
   msg.header.frame_id = frame_id;
   msg.header.stamp = stamp;
   msg.height = 1;
   sensor_msgs::PointCloud2Modifier modifier(msg);
-  modifier.setPointCloud2Fields(7, "x", 1, PointField::FLOAT32, "y", 1, PointField::FLOAT32, "z", 1, PointField::FLOAT32,
-                                "solid", 1, PointField::FLOAT32, "density", 1, PointField::FLOAT32, "stiffness", 1,
-                                PointField::FLOAT32, "rgb", 1, PointField::FLOAT32);
+  modifier.setPointCloud2Fields(7, "x", 1, PointField::FLOAT32, "y", 1, PointField::FLOAT32, "z", 1,
+                                PointField::FLOAT32, "solid", 1, PointField::FLOAT32, "density", 1, PointField::FLOAT32,
+                                "stiffness", 1, PointField::FLOAT32, "rgb", 1, PointField::FLOAT32);
   modifier.resize(n);
   msg.is_dense = true;
   msg.is_bigendian = false;

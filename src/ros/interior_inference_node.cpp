@@ -29,8 +29,8 @@ std::string defaultOutputDir() {
   return "/tmp/topo_gaussian";
 }
 
-void fillFeatures(const std::vector<inference::Feature>& fs, std::vector<std::string>* names, std::vector<double>* values,
-                  std::vector<double>* targets, std::vector<std::string>* units) {
+void fillFeatures(const std::vector<inference::Feature>& fs, std::vector<std::string>* names,
+                  std::vector<double>* values, std::vector<double>* targets, std::vector<std::string>* units) {
   for (const auto& f : fs) {
     names->push_back(f.name);
     values->push_back(f.value);
@@ -73,7 +73,8 @@ InteriorInferenceNode::InteriorInferenceNode(const ::ros::NodeHandle& nh, const 
   simulate_srv_ = pnh_.advertiseService("simulate", &InteriorInferenceNode::onSimulate, this);
   export_srv_ = pnh_.advertiseService("export", &InteriorInferenceNode::onExport, this);
   if (params_.replay_rate_hz > 0)
-    replay_timer_ = nh_.createWallTimer(::ros::WallDuration(1.0 / params_.replay_rate_hz), &InteriorInferenceNode::onReplay, this);
+    replay_timer_ =
+        nh_.createWallTimer(::ros::WallDuration(1.0 / params_.replay_rate_hz), &InteriorInferenceNode::onReplay, this);
   server_ = std::make_unique<actionlib::SimpleActionServer<topo_gaussian::InferInteriorAction>>(
       nh_, "infer_interior", [this](const topo_gaussian::InferInteriorGoalConstPtr& g) { execute(g); }, false);
   server_->start();
@@ -112,11 +113,12 @@ inference::TaskConfig InteriorInferenceNode::configFor(const std::string& task, 
                                                        const std::vector<std::string>& overrides,
                                                        const std::string& origin) const {
   if (task.empty())
-    throw TopoError(origin + " task", "is empty", "name a task (" + [] {
-      std::string s;
-      for (const auto& n : inference::TaskConfig::taskNames()) s += (s.empty() ? "" : ", ") + n;
-      return s;
-    }() + ") or a task YAML file");
+    throw TopoError(
+        origin + " task", "is empty", "name a task (" + [] {
+          std::string s;
+          for (const auto& n : inference::TaskConfig::taskNames()) s += (s.empty() ? "" : ", ") + n;
+          return s;
+        }() + ") or a task YAML file");
   inference::TaskConfig config = inference::TaskConfig::load(task, params_.task_dir);
   if (!representation.empty()) config.set("representation", representation, origin + " representation");
   for (const auto& o : overrides) config.setAssignment(o, origin + " overrides");
@@ -136,7 +138,8 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
   if (goal_volume) {
     run.volume = std::make_shared<VolumeCloud>(fromPointCloud2(rq.volume, "goal volume"));
   } else {
-    const ::ros::WallTime until = ::ros::WallTime::now() + ::ros::WallDuration(has_default_shape ? 0.0 : params_.volume_wait_s);
+    const ::ros::WallTime until =
+        ::ros::WallTime::now() + ::ros::WallDuration(has_default_shape ? 0.0 : params_.volume_wait_s);
     for (;;) {
       {
         std::lock_guard<std::mutex> lock(state_mutex_);
@@ -146,8 +149,9 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
       ::ros::WallDuration(0.1).sleep();
     }
     if (!run.volume && !has_default_shape)
-      throw TopoError("goal", "has no volume cloud and none was received on " + volume_sub_.getTopic() + " (waited " +
-                                  std::to_string(params_.volume_wait_s) + " s)",
+      throw TopoError("goal",
+                      "has no volume cloud and none was received on " + volume_sub_.getTopic() + " (waited " +
+                          std::to_string(params_.volume_wait_s) + " s)",
                       "start cloud_ingest with a surface (e.g. roslaunch topo_gaussian cloud_ingest.launch "
                       "surface_file:=...) or put a cloud in the goal's volume");
   }
@@ -174,8 +178,10 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
   if (!run.observed)
     run.missing_targets_hint = " (and no motion features were received on " + features_sub_.getTopic() +
                                "): give the targets in the goal, or run motion_tracker so that motion_features arrive";
-  if (rq.output_dir.empty()) run.output_parent = params_.output_dir;
-  else run.output_dir = rq.output_dir;
+  if (rq.output_dir.empty())
+    run.output_parent = params_.output_dir;
+  else
+    run.output_dir = rq.output_dir;
   run.export_files = params_.export_on_finish;
 
   std::mutex eval_mutex;
@@ -200,8 +206,8 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
     std::lock_guard<std::mutex> lock(eval_mutex);
     last = ev;
   };
-  ROS_INFO("interior_inference: task %s (%s), representation %s, at most %d iterations",
-           run.config.task().c_str(), run.config.source().c_str(), run.config.text("representation").c_str(),
+  ROS_INFO("interior_inference: task %s (%s), representation %s, at most %d iterations", run.config.task().c_str(),
+           run.config.source().c_str(), run.config.text("representation").c_str(),
            run.config.integer("max_iterations"));
   const workflow::InferenceRunOutcome done = workflow::runInference(run);
 
@@ -258,7 +264,8 @@ sensor_msgs::PointCloud2 InteriorInferenceNode::show(const VolumeCloud& cloud, c
   mi.object_frame = params_.object_frame;
   mi.world_frame = params_.world_frame;
   std::vector<inference::BodyPose> motion = ev.task.motion;
-  if (motion.empty()) motion.push_back(inference::BodyPose{});  // no rigid motion: the object frame sits at the world origin
+  if (motion.empty())
+    motion.push_back(inference::BodyPose{});  // no rigid motion: the object frame sits at the world origin
   mi.object_in_world = Eigen::Translation3d(motion.front().translation) * motion.front().rotation;
   auto markers = boost::make_shared<visualization_msgs::MarkerArray>(makeInteriorMarkers(mi, stamp));
   {
@@ -362,8 +369,10 @@ void InteriorInferenceNode::execute(const topo_gaussian::InferInteriorGoalConstP
     result.output_dir = out.output_dir;
     result.files = out.files;
     ROS_INFO("interior_inference: %s", out.message.c_str());
-    if (out.preempted) server_->setPreempted(result, result.message);
-    else server_->setSucceeded(result, result.message);
+    if (out.preempted)
+      server_->setPreempted(result, result.message);
+    else
+      server_->setSucceeded(result, result.message);
   } catch (const std::exception& e) {
     result.message = e.what();
     ROS_ERROR("interior_inference: goal aborted: %s", e.what());
@@ -388,8 +397,8 @@ bool InteriorInferenceNode::onInfer(topo_gaussian::Infer::Request& req, topo_gau
   rq.output_dir = req.output_dir;
   return guardService("interior_inference", infer_srv_.getService(), res, [&] {
     const InferenceOutcome out = run(rq, [](const topo_gaussian::InferInteriorFeedback& fb) {
-      ROS_INFO("interior_inference: ~infer iteration %d  loss %.6e  |grad| %.3e  best %.6e  %.2f s", fb.iteration, fb.loss,
-               fb.gradient_norm, fb.best_loss, fb.elapsed_s);
+      ROS_INFO("interior_inference: ~infer iteration %d  loss %.6e  |grad| %.3e  best %.6e  %.2f s", fb.iteration,
+               fb.loss, fb.gradient_norm, fb.best_loss, fb.elapsed_s);
       return true;
     });
     res.success = true;
@@ -427,18 +436,19 @@ bool InteriorInferenceNode::onSimulate(topo_gaussian::SimulateInterior::Request&
     if (r.empty()) {
       const InteriorPoints pts = fromInteriorCloud(req.interior, "~simulate interior");
       if (!cloud)
-        throw TopoError("~simulate interior", "cannot be matched to a volume: nothing was received on " +
-                                                  volume_sub_.getTopic(),
+        throw TopoError("~simulate interior",
+                        "cannot be matched to a volume: nothing was received on " + volume_sub_.getTopic(),
                         "start cloud_ingest (the design's points must be the volume's particles)");
       if (pts.r.size() != cloud->size())
-        throw TopoError("~simulate interior", "has " + std::to_string(pts.r.size()) + " points but the volume has " +
-                                                  std::to_string(cloud->size()) + " particles",
+        throw TopoError("~simulate interior",
+                        "has " + std::to_string(pts.r.size()) + " points but the volume has " +
+                            std::to_string(cloud->size()) + " particles",
                         "give one solid value per particle of the latest volume, in its order");
       const double tol = 0.25 * (cloud->spacing > 0 ? cloud->spacing : 1e-3);
       for (std::size_t i = 0; i < pts.X.size(); ++i)
         if ((pts.X[i] - cloud->X[i]).norm() > tol)
-          throw TopoError("~simulate interior", "point " + std::to_string(i) + " is not at particle " + std::to_string(i) +
-                                                    " of the volume",
+          throw TopoError("~simulate interior",
+                          "point " + std::to_string(i) + " is not at particle " + std::to_string(i) + " of the volume",
                           "give the particles in the volume's order (as the `interior` topic publishes them)");
       r = pts.r;
     }
@@ -487,7 +497,8 @@ bool InteriorInferenceNode::onExport(topo_gaussian::ExportInterior::Request& req
       eo.stl_unit = "m";
       eo.stl_scale = 1.0;
     }
-    if (req.iso < 0 || req.iso >= 1) throw TopoError("~export iso", "must be in (0, 1)", "use 0.5 (or 0 for the default)");
+    if (req.iso < 0 || req.iso >= 1)
+      throw TopoError("~export iso", "must be in (0, 1)", "use 0.5 (or 0 for the default)");
     if (req.iso > 0) eo.iso = req.iso;
     const workflow::ExportSummary s = workflow::exportInterior(*cloud, r, density, eo);
     res.success = true;
@@ -496,8 +507,9 @@ bool InteriorInferenceNode::onExport(topo_gaussian::ExportInterior::Request& req
     res.watertight = s.interface.check.watertight();
     res.volume_difference = s.interface.volume_difference;
     std::ostringstream os;
-    os << "wrote " << s.files.size() << " files to " << s.output_dir << "; STL " << (res.watertight ? "watertight" : "NOT watertight")
-       << ", volume " << std::showpos << 100 * s.interface.volume_difference << std::noshowpos << " % vs the solid particles";
+    os << "wrote " << s.files.size() << " files to " << s.output_dir << "; STL "
+       << (res.watertight ? "watertight" : "NOT watertight") << ", volume " << std::showpos
+       << 100 * s.interface.volume_difference << std::noshowpos << " % vs the solid particles";
     for (const auto& n : s.notes) os << "; " << n;
     res.message = os.str();
     ROS_INFO("interior_inference: ~export: %s", res.message.c_str());

@@ -119,7 +119,8 @@ visualization_msgs::MarkerArray makeInteriorMarkers(const InteriorMarkerInput& i
     in.mass.principal(&moments, &axes);
     const std::uint32_t rgb[3] = {0xFF3030, 0x30D030, 0x3060FF};
     for (int k = 0; k < 3; ++k)
-      out.markers.push_back(arrow(in.object_frame, stamp, 4 + k, c, c + 0.35 * size * axes.col(k), 0.6 * shaft, rgb[k]));
+      out.markers.push_back(
+          arrow(in.object_frame, stamp, 4 + k, c, c + 0.35 * size * axes.col(k), 0.6 * shaft, rgb[k]));
   }
 
   Marker solid = base(in.object_frame, stamp, 7, Marker::CUBE_LIST);

@@ -24,7 +24,8 @@ MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh) {
   if (!roi.empty()) {
     for (double v : roi)
       if (v != std::floor(v))
-        throw TopoError(r.displayName("roi"), "must be whole pixels [x, y, width, height]", "e.g. _roi:=[100,50,300,300]");
+        throw TopoError(r.displayName("roi"), "must be whole pixels [x, y, width, height]",
+                        "e.g. _roi:=[100,50,300,300]");
     if (roi[2] <= 0 || roi[3] <= 0)
       throw TopoError(r.displayName("roi"), "must be [x, y, width, height] with a positive size",
                       "e.g. _roi:=[100,50,300,300], or leave it unset for the whole frame");
@@ -42,12 +43,14 @@ MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh) {
   const std::vector<double> plane = r.numbers("plane", {}, 4, "", "[0, 0, 1, 0] for the floor");
   if (!plane.empty()) {
     if (std::sqrt(plane[0] * plane[0] + plane[1] * plane[1] + plane[2] * plane[2]) == 0)
-      throw TopoError(r.displayName("plane"), "must be [nx, ny, nz, d] with a non-zero normal (plane n.x = d, world frame)",
+      throw TopoError(r.displayName("plane"),
+                      "must be [nx, ny, nz, d] with a non-zero normal (plane n.x = d, world frame)",
                       "e.g. [0, 0, 1, 0] for the floor");
     p.plane_given = true;
     p.plane = cv::Vec4d(plane[0], plane[1], plane[2], plane[3]);
   }
-  const std::vector<double> pose = r.numbers("camera_pose", {}, 7, "", "[0, 0, 0, 0, 0, 0, 1] (x, y, z, qx, qy, qz, qw)");
+  const std::vector<double> pose =
+      r.numbers("camera_pose", {}, 7, "", "[0, 0, 0, 0, 0, 0, 1] (x, y, z, qx, qy, qz, qw)");
   if (!pose.empty()) {
     const double n = std::sqrt(pose[3] * pose[3] + pose[4] * pose[4] + pose[5] * pose[5] + pose[6] * pose[6]);
     if (!(n > 0)) throw TopoError(r.displayName("camera_pose"), "quaternion is zero", "e.g. [0, 0, 0, 0, 0, 0, 1]");
@@ -88,9 +91,8 @@ MotionTrackerNode::MotionTrackerNode(const ::ros::NodeHandle& nh, const ::ros::N
   info_sub_ = nh_.subscribe("camera_info", 1, &MotionTrackerNode::onCameraInfo, this);
   service_ = pnh_.advertiseService("extract_motion", &MotionTrackerNode::onExtractMotion, this);
   timer_ = nh_.createTimer(::ros::Duration(params_.publish_period_s), &MotionTrackerNode::onTimer, this);
-  ROS_INFO("motion_tracker: method %s, kind %s; listening on %s, service %s",
-           params_.options.tracker.method.c_str(), params_.options.kind.c_str(), image_sub_.getTopic().c_str(),
-           service_.getService().c_str());
+  ROS_INFO("motion_tracker: method %s, kind %s; listening on %s, service %s", params_.options.tracker.method.c_str(),
+           params_.options.kind.c_str(), image_sub_.getTopic().c_str(), service_.getService().c_str());
   if (!params_.video_file.empty()) trackStartupFile();
 }
 
@@ -102,9 +104,11 @@ void MotionTrackerNode::publish(const vision::TrackResult& result_in, const std:
       const vision::CameraModel cam(cv::Matx33d(K[0], K[1], K[2], K[3], K[4], K[5], K[6], K[7], K[8]),
                                     std::vector<double>(camera_info_.D.begin(), camera_info_.D.end()), params_.camera_R,
                                     params_.camera_t);
-      vision::placeOnPlane(cam, cv::Vec3d(params_.plane[0], params_.plane[1], params_.plane[2]), params_.plane[3], result);
+      vision::placeOnPlane(cam, cv::Vec3d(params_.plane[0], params_.plane[1], params_.plane[2]), params_.plane[3],
+                           result);
     } else {
-      ROS_WARN_THROTTLE(10.0, "motion_tracker: ~plane is set but no camera_info has arrived: trajectories stay in pixels");
+      ROS_WARN_THROTTLE(10.0,
+                        "motion_tracker: ~plane is set but no camera_info has arrived: trajectories stay in pixels");
     }
   }
   topo_gaussian::MotionFeatures m = toMotionFeaturesMsg(vision::toMotionFeatures(result));
@@ -185,8 +189,10 @@ void MotionTrackerNode::onTimer(const ::ros::TimerEvent&) {
     const double silent = (::ros::WallTime::now() - last_image_wall_).toSec();
     if (silent > params_.stale_after_s) {
       stale_reported_ = true;
-      ROS_WARN("motion_tracker: no image on %s for %.1f s (~stale_after_s %.1f): the camera stopped; the latest "
-               "motion_features are stale", image_sub_.getTopic().c_str(), silent, params_.stale_after_s);
+      ROS_WARN(
+          "motion_tracker: no image on %s for %.1f s (~stale_after_s %.1f): the camera stopped; the latest "
+          "motion_features are stale",
+          image_sub_.getTopic().c_str(), silent, params_.stale_after_s);
       topo_gaussian::MotionFeatures m;
       m.header.stamp = ::ros::Time::now();
       m.header.frame_id = live_frame_id_;

@@ -27,7 +27,8 @@ std::string shortName(const std::string& name) {  // "~window_s (/x/window_s)" â
 [[noreturn]] void wrongType(const XmlRpcValue& v, const std::string& name, const std::string& expected,
                             const std::string& example) {
   std::string found = param_check::typeName(v);
-  if (v.getType() == XmlRpcValue::TypeString) found += " (\"" + static_cast<std::string>(const_cast<XmlRpcValue&>(v)) + "\")";
+  if (v.getType() == XmlRpcValue::TypeString)
+    found += " (\"" + static_cast<std::string>(const_cast<XmlRpcValue&>(v)) + "\")";
   throw TopoError(name, "is " + found + ", not " + expected,
                   "set it to " + expected + (example.empty() ? "" : ", e.g. _" + shortName(name) + ":=" + example));
 }
@@ -78,13 +79,20 @@ namespace param_check {
 
 std::string typeName(const XmlRpcValue& v) {
   switch (v.getType()) {
-    case XmlRpcValue::TypeBoolean: return "a boolean";
-    case XmlRpcValue::TypeInt: return "an integer";
-    case XmlRpcValue::TypeDouble: return "a number with a fraction";
-    case XmlRpcValue::TypeString: return "a string";
-    case XmlRpcValue::TypeArray: return "a list";
-    case XmlRpcValue::TypeStruct: return "a dictionary";
-    default: return "of another type";
+    case XmlRpcValue::TypeBoolean:
+      return "a boolean";
+    case XmlRpcValue::TypeInt:
+      return "an integer";
+    case XmlRpcValue::TypeDouble:
+      return "a number with a fraction";
+    case XmlRpcValue::TypeString:
+      return "a string";
+    case XmlRpcValue::TypeArray:
+      return "a list";
+    case XmlRpcValue::TypeStruct:
+      return "a dictionary";
+    default:
+      return "of another type";
   }
 }
 
@@ -155,7 +163,8 @@ std::vector<double> numbers(const XmlRpcValue& v, const std::string& name, std::
                     "set it to " + expected + (example.empty() ? "" : ", e.g. " + example));
   for (double x : out)
     if (!std::isfinite(x))
-      throw TopoError(name, "holds a non-finite number", "set it to " + expected + (example.empty() ? "" : ", e.g. " + example));
+      throw TopoError(name, "holds a non-finite number",
+                      "set it to " + expected + (example.empty() ? "" : ", e.g. " + example));
   return out;
 }
 
@@ -177,15 +186,18 @@ std::vector<std::string> texts(const XmlRpcValue& v, const std::string& name, co
   // brackets and quotes ignored, a trailing comma dropped.
   std::string item;
   auto flush = [&] {
-    while (!item.empty() && (item.back() == ',' || std::isspace(static_cast<unsigned char>(item.back())))) item.pop_back();
+    while (!item.empty() && (item.back() == ',' || std::isspace(static_cast<unsigned char>(item.back()))))
+      item.pop_back();
     std::size_t b = 0;
     while (b < item.size() && std::isspace(static_cast<unsigned char>(item[b]))) ++b;
     if (b < item.size()) out.push_back(item.substr(b));
     item.clear();
   };
   for (char ch : static_cast<std::string>(const_cast<XmlRpcValue&>(v))) {
-    if (separators.find(ch) != std::string::npos) flush();
-    else if (ch != '[' && ch != ']' && ch != '\'' && ch != '"') item += ch;
+    if (separators.find(ch) != std::string::npos)
+      flush();
+    else if (ch != '[' && ch != ']' && ch != '\'' && ch != '"')
+      item += ch;
   }
   flush();
   return out;
@@ -205,7 +217,8 @@ bool ParamReader::get(const std::string& name, XmlRpc::XmlRpcValue& v) const {
   return pnh_.hasParam(name) && pnh_.getParam(name, v);
 }
 
-double ParamReader::number(const std::string& name, double fallback, const std::string& unit, const Range& range) const {
+double ParamReader::number(const std::string& name, double fallback, const std::string& unit,
+                           const Range& range) const {
   XmlRpc::XmlRpcValue v;
   return get(name, v) ? param_check::number(v, displayName(name), unit, range, numberText(fallback, 6)) : fallback;
 }

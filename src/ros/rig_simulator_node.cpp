@@ -9,13 +9,13 @@
 #include <cstdlib>
 #include <sstream>
 
-#include "topo_gaussian/inference/pipeline.h"
-#include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/inference/pipeline.h"
+#include "topo_gaussian/io/task_dir.h"
+#include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/ros/body_pose_msg.h"
 #include "topo_gaussian/ros/conversions.h"
-#include "topo_gaussian/io/task_dir.h"
 #include "topo_gaussian/ros/param_reader.h"
 
 namespace topo_gaussian::topo_ros {
@@ -25,12 +25,14 @@ constexpr double kPi = 3.14159265358979323846;
 
 void requireRange(const std::string& name, double value, double lo, double hi, const std::string& fix) {
   if (!(value >= lo && value <= hi))
-    throw TopoError("~" + name + " = " + numberText(value, 6), "is outside [" + numberText(lo) + ", " + numberText(hi) + "]", fix);
+    throw TopoError("~" + name + " = " + numberText(value, 6),
+                    "is outside [" + numberText(lo) + ", " + numberText(hi) + "]", fix);
 }
 
 void requireColour(const std::string& name, const std::vector<double>& bgr) {
   for (double c : bgr)
-    if (!(c >= 0 && c <= 255)) throw TopoError("~" + name + " " + listText(bgr), "must be three numbers 0..255 (B, G, R)", "e.g. [40, 40, 150]");
+    if (!(c >= 0 && c <= 255))
+      throw TopoError("~" + name + " " + listText(bgr), "must be three numbers 0..255 (B, G, R)", "e.g. [40, 40, 150]");
 }
 
 }  // namespace
@@ -50,7 +52,8 @@ RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
   t.spacing_m = r.number("spacing_m", t.spacing_m, "m");
   const DefaultShape shape = defaultShape(t.shape);
   requireRange("spacing_m", t.spacing_m, 1e-4, shape.thickness_m / 3.0,
-               "use e.g. 0.0025 (at most a third of the " + t.shape + "'s thinnest dimension, " + numberText(shape.thickness_m) + " m)");
+               "use e.g. 0.0025 (at most a third of the " + t.shape + "'s thinnest dimension, " +
+                   numberText(shape.thickness_m) + " m)");
   t.task = r.text("task", "");
   t.task_dir = r.text("task_dir", io::defaultTaskDir());
   // a list of "KEY=VALUE" strings, or one string (`_set:=...` on a command line) of assignments
@@ -58,8 +61,8 @@ RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
   t.overrides = r.texts("set", t.overrides, "['initial_tilt_deg=8', 'density_solid=4000']", "; \t");
   // The task and its overrides, checked here so the message names the parameter.
   try {
-    inference::TaskConfig c = inference::TaskConfig::load(t.task.empty() ? workflow::RigTwin::defaultTaskFor(t.shape) : t.task,
-                                                          t.task_dir);
+    inference::TaskConfig c =
+        inference::TaskConfig::load(t.task.empty() ? workflow::RigTwin::defaultTaskFor(t.shape) : t.task, t.task_dir);
     for (const auto& a : t.overrides) c.setAssignment(a, "~set");
   } catch (const TopoError& e) {
     throw TopoError(std::string("~task/~set: ") + e.what());
@@ -86,7 +89,8 @@ RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
   const std::pair<const char*, double*> intrinsics[] = {{"fx", &p.fx}, {"fy", &p.fy}, {"cx", &p.cx}, {"cy", &p.cy}};
   for (const auto& [name, v] : intrinsics) {
     *v = r.number(name, *v, "px");
-    requireRange(name, *v, 0, 1e6, "give pixels, or 0 to derive it (fx, fy from ~horizontal_fov_deg; cx, cy the image centre)");
+    requireRange(name, *v, 0, 1e6,
+                 "give pixels, or 0 to derive it (fx, fy from ~horizontal_fov_deg; cx, cy the image centre)");
   }
   p.noise_sigma = r.number("noise_sigma", p.noise_sigma, "grey levels");
   requireRange("noise_sigma", p.noise_sigma, 0, 100, "grey levels of Gaussian pixel noise, e.g. 2 (0 = none)");
@@ -101,9 +105,13 @@ RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
                         p.object_frame + "')",
                     "must be three different, non-empty frame names", "e.g. world, camera_optical and object_true");
   p.camera_pose_timeout_s = r.number("camera_pose_timeout_s", p.camera_pose_timeout_s, "s");
-  requireRange("camera_pose_timeout_s", p.camera_pose_timeout_s, 0, 3600, "seconds to wait for the tf camera pose, e.g. 2");
-  p.default_camera_pose = r.numbers("default_camera_pose", p.default_camera_pose, 7, "", "[-1.5, 0, 0.04, -0.5, 0.5, -0.5, 0.5]");
-  if (!(Eigen::Vector4d(p.default_camera_pose[3], p.default_camera_pose[4], p.default_camera_pose[5], p.default_camera_pose[6]).norm() > 0))
+  requireRange("camera_pose_timeout_s", p.camera_pose_timeout_s, 0, 3600,
+               "seconds to wait for the tf camera pose, e.g. 2");
+  p.default_camera_pose =
+      r.numbers("default_camera_pose", p.default_camera_pose, 7, "", "[-1.5, 0, 0.04, -0.5, 0.5, -0.5, 0.5]");
+  if (!(Eigen::Vector4d(p.default_camera_pose[3], p.default_camera_pose[4], p.default_camera_pose[5],
+                        p.default_camera_pose[6])
+            .norm() > 0))
     throw TopoError("~default_camera_pose " + listText(p.default_camera_pose), "has a zero quaternion",
                     "give [x, y, z, qx, qy, qz, qw] of the optical frame in the world");
   p.object_bgr = r.numbers("object_bgr", p.object_bgr, 3, "", "[40, 40, 150]");
@@ -112,7 +120,8 @@ RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
   requireColour("background_bgr", p.background_bgr);
   p.light_direction = r.numbers("light_direction", p.light_direction, 3, "", "[-1, 0, 1]");
   if (!(Eigen::Vector3d(p.light_direction[0], p.light_direction[1], p.light_direction[2]).norm() > 0))
-    throw TopoError("~light_direction", "is zero", "give the direction towards the light in the world, e.g. [-1, 0, 1]");
+    throw TopoError("~light_direction", "is zero",
+                    "give the direction towards the light in the world, e.g. [-1, 0, 1]");
   p.splat_radius_m = r.number("splat_radius_m", p.splat_radius_m, "m");
   requireRange("splat_radius_m", p.splat_radius_m, 0, 0.1, "use 0 for 0.8 particle spacings");
   return p;
@@ -129,7 +138,8 @@ vision::SplatCamera cameraFor(const RigSimulatorParams& p) {
   return c;
 }
 
-sensor_msgs::CameraInfo cameraInfoFor(const vision::SplatCamera& c, const std::string& frame_id, const ::ros::Time& stamp) {
+sensor_msgs::CameraInfo cameraInfoFor(const vision::SplatCamera& c, const std::string& frame_id,
+                                      const ::ros::Time& stamp) {
   sensor_msgs::CameraInfo info;
   info.header.frame_id = frame_id;
   info.header.stamp = stamp;
@@ -143,18 +153,22 @@ sensor_msgs::CameraInfo cameraInfoFor(const vision::SplatCamera& c, const std::s
   return info;
 }
 
-sensor_msgs::PointCloud2 toSurfaceCloud(const std::vector<Eigen::Vector3d>& points, const std::vector<Eigen::Vector3d>& normals,
-                                        const std::string& frame_id, const ::ros::Time& stamp) {
+sensor_msgs::PointCloud2 toSurfaceCloud(const std::vector<Eigen::Vector3d>& points,
+                                        const std::vector<Eigen::Vector3d>& normals, const std::string& frame_id,
+                                        const ::ros::Time& stamp) {
   if (points.size() != normals.size())
-    throw TopoError("surface cloud", "has " + std::to_string(normals.size()) + " normals for " + std::to_string(points.size()) + " points",
-                    "give one normal per point");
+    throw TopoError(
+        "surface cloud",
+        "has " + std::to_string(normals.size()) + " normals for " + std::to_string(points.size()) + " points",
+        "give one normal per point");
   sensor_msgs::PointCloud2 msg;
   msg.header.frame_id = frame_id;
   msg.header.stamp = stamp;
   sensor_msgs::PointCloud2Modifier mod(msg);
-  mod.setPointCloud2Fields(6, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1, sensor_msgs::PointField::FLOAT32, "z", 1,
-                           sensor_msgs::PointField::FLOAT32, "normal_x", 1, sensor_msgs::PointField::FLOAT32, "normal_y", 1,
-                           sensor_msgs::PointField::FLOAT32, "normal_z", 1, sensor_msgs::PointField::FLOAT32);
+  mod.setPointCloud2Fields(6, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1, sensor_msgs::PointField::FLOAT32, "z",
+                           1, sensor_msgs::PointField::FLOAT32, "normal_x", 1, sensor_msgs::PointField::FLOAT32,
+                           "normal_y", 1, sensor_msgs::PointField::FLOAT32, "normal_z", 1,
+                           sensor_msgs::PointField::FLOAT32);
   mod.resize(points.size());
   sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), n(msg, "normal_x");
   for (std::size_t i = 0; i < points.size(); ++i, ++x, ++n)
@@ -187,37 +201,45 @@ topo_gaussian::RigGroundTruth toGroundTruthMsg(const workflow::RigTwin& twin, co
 RigSimulatorNode::RigSimulatorNode(const ::ros::NodeHandle& nh, const ::ros::NodeHandle& pnh)
     : nh_(nh), pnh_(pnh), params_(loadRigSimulatorParams(pnh)), tf_listener_(tf_buffer_) {
   const workflow::RigTwinOptions& o = params_.twin;
-  ROS_INFO("rig_simulator: simulating the %s twin (spacing %s m, task '%s') ...", o.shape.c_str(), numberText(o.spacing_m).c_str(),
+  ROS_INFO("rig_simulator: simulating the %s twin (spacing %s m, task '%s') ...", o.shape.c_str(),
+           numberText(o.spacing_m).c_str(),
            o.task.empty() ? workflow::RigTwin::defaultTaskFor(o.shape).c_str() : o.task.c_str());
   twin_ = std::make_unique<workflow::RigTwin>(o);  // TopoError: the simulation failed (main reports it)
   const workflow::RigTwin& tw = *twin_;
   std::string features;
-  for (const auto& f : tw.truth().task.features) features += (features.empty() ? "" : ", ") + f.name + " " + numberText(f.value, 6) + " " + f.unit;
+  for (const auto& f : tw.truth().task.features)
+    features += (features.empty() ? "" : ", ") + f.name + " " + numberText(f.value, 6) + " " + f.unit;
   std::vector<double> theta(tw.options().interior_quadric.data(), tw.options().interior_quadric.data() + 10);
-  ROS_INFO("rig_simulator: %s twin, task %s: %zu particles (%zu on the surface), solid fraction %.3f, interior quadric %s%s; "
-           "scan of %zu points on surface_cloud",
-           tw.shape().name.c_str(), tw.config().task().c_str(), tw.cloud().size(), tw.surfacePoints().size(), tw.solidFraction(),
-           listText(theta).c_str(), o.interior_quadric.size() ? "" : " (default cavity)", tw.scanPoints().size());
+  ROS_INFO(
+      "rig_simulator: %s twin, task %s: %zu particles (%zu on the surface), solid fraction %.3f, interior quadric "
+      "%s%s; "
+      "scan of %zu points on surface_cloud",
+      tw.shape().name.c_str(), tw.config().task().c_str(), tw.cloud().size(), tw.surfacePoints().size(),
+      tw.solidFraction(), listText(theta).c_str(), o.interior_quadric.size() ? "" : " (default cavity)",
+      tw.scanPoints().size());
   ROS_INFO("rig_simulator: ground truth: %s", features.c_str());
-  ROS_INFO("rig_simulator: motion loops every %.4f s (%d periods; seam %.3f deg / %.3f mm; amplitude decay %.3f %% per "
-           "period%s); set up in %.2f s",
-           tw.loopSeconds(), tw.loopCycles(), tw.seamRotationDeg(), 1e3 * tw.seamTranslationM(),
-           100 * tw.amplitudeDecayPerCycle(), o.undamped ? ", contact damping off" : "", tw.simulationSeconds());
+  ROS_INFO(
+      "rig_simulator: motion loops every %.4f s (%d periods; seam %.3f deg / %.3f mm; amplitude decay %.3f %% per "
+      "period%s); set up in %.2f s",
+      tw.loopSeconds(), tw.loopCycles(), tw.seamRotationDeg(), 1e3 * tw.seamTranslationM(),
+      100 * tw.amplitudeDecayPerCycle(), o.undamped ? ", contact damping off" : "", tw.simulationSeconds());
 
   camera_ = cameraFor(params_);
   shading_.background_bgr = cv::Scalar(params_.background_bgr[0], params_.background_bgr[1], params_.background_bgr[2]);
-  shading_.light_dir_world = Eigen::Vector3d(params_.light_direction[0], params_.light_direction[1], params_.light_direction[2]);
+  shading_.light_dir_world =
+      Eigen::Vector3d(params_.light_direction[0], params_.light_direction[1], params_.light_direction[2]);
   shading_.noise_sigma = params_.noise_sigma;
   body_.positions = tw.surfacePoints();
   body_.normals = tw.surfaceNormals();
   body_.colours.assign(1, cv::Vec3b::all(0));
   for (int k = 0; k < 3; ++k) body_.colours[0][k] = cv::saturate_cast<uchar>(params_.object_bgr[k]);
   body_.radius_m = params_.splat_radius_m > 0 ? params_.splat_radius_m : 0.8 * tw.cloud().spacing;
-  ROS_INFO("rig_simulator: camera %dx%d at %.1f fps, fx %.1f fy %.1f cx %.1f cy %.1f px (%.2f deg horizontal FOV), noise "
-           "%.1f; pose from tf %s -> %s (default %s after %.1f s)",
-           camera_.width, camera_.height, params_.fps, camera_.fx, camera_.fy, camera_.cx, camera_.cy,
-           2 * std::atan(0.5 * camera_.width / camera_.fx) * 180 / kPi, params_.noise_sigma, params_.world_frame.c_str(),
-           params_.camera_frame.c_str(), listText(params_.default_camera_pose).c_str(), params_.camera_pose_timeout_s);
+  ROS_INFO(
+      "rig_simulator: camera %dx%d at %.1f fps, fx %.1f fy %.1f cx %.1f cy %.1f px (%.2f deg horizontal FOV), noise "
+      "%.1f; pose from tf %s -> %s (default %s after %.1f s)",
+      camera_.width, camera_.height, params_.fps, camera_.fx, camera_.fy, camera_.cx, camera_.cy,
+      2 * std::atan(0.5 * camera_.width / camera_.fx) * 180 / kPi, params_.noise_sigma, params_.world_frame.c_str(),
+      params_.camera_frame.c_str(), listText(params_.default_camera_pose).c_str(), params_.camera_pose_timeout_s);
 
   image_pub_ = nh_.advertise<sensor_msgs::Image>("image", 2);
   info_pub_ = nh_.advertise<sensor_msgs::CameraInfo>("camera_info", 2);
@@ -232,7 +254,8 @@ RigSimulatorNode::RigSimulatorNode(const ::ros::NodeHandle& nh, const ::ros::Nod
 
 bool RigSimulatorNode::cameraPose(const ::ros::Time& now, vision::SplatCamera* camera) {
   try {
-    const geometry_msgs::TransformStamped tf = tf_buffer_.lookupTransform(params_.world_frame, params_.camera_frame, ::ros::Time(0));
+    const geometry_msgs::TransformStamped tf =
+        tf_buffer_.lookupTransform(params_.world_frame, params_.camera_frame, ::ros::Time(0));
     const auto& q = tf.transform.rotation;
     const auto& v = tf.transform.translation;
     camera->R_wc = Eigen::Quaterniond(q.w, q.x, q.y, q.z).normalized().toRotationMatrix();
@@ -244,8 +267,8 @@ bool RigSimulatorNode::cameraPose(const ::ros::Time& now, vision::SplatCamera* c
     return true;
   } catch (const tf2::TransformException& e) {
     if (pose_from_tf_) {  // it was there: keep the last pose
-      ROS_WARN_THROTTLE(10.0, "rig_simulator: tf %s -> %s lost (%s); keeping the last camera pose", params_.world_frame.c_str(),
-                        params_.camera_frame.c_str(), e.what());
+      ROS_WARN_THROTTLE(10.0, "rig_simulator: tf %s -> %s lost (%s); keeping the last camera pose",
+                        params_.world_frame.c_str(), params_.camera_frame.c_str(), e.what());
       return true;
     }
     if ((now - start_).toSec() < params_.camera_pose_timeout_s) return false;
@@ -255,10 +278,11 @@ bool RigSimulatorNode::cameraPose(const ::ros::Time& now, vision::SplatCamera* c
       camera->R_wc = Eigen::Quaterniond(d[6], d[3], d[4], d[5]).normalized().toRotationMatrix();
       std::string args;
       for (double v : d) args += (args.empty() ? "" : " ") + numberText(v, 6);
-      ROS_WARN("rig_simulator: no tf %s -> %s after %.1f s (%s); rendering from ~default_camera_pose %s. Fix: publish the "
-               "camera pose, e.g. `rosrun tf2_ros static_transform_publisher %s %s %s`, or set ~default_camera_pose",
-               params_.world_frame.c_str(), params_.camera_frame.c_str(), params_.camera_pose_timeout_s, e.what(),
-               listText(d).c_str(), args.c_str(), params_.world_frame.c_str(), params_.camera_frame.c_str());
+      ROS_WARN(
+          "rig_simulator: no tf %s -> %s after %.1f s (%s); rendering from ~default_camera_pose %s. Fix: publish the "
+          "camera pose, e.g. `rosrun tf2_ros static_transform_publisher %s %s %s`, or set ~default_camera_pose",
+          params_.world_frame.c_str(), params_.camera_frame.c_str(), params_.camera_pose_timeout_s, e.what(),
+          listText(d).c_str(), args.c_str(), params_.world_frame.c_str(), params_.camera_frame.c_str());
       fallback_warned_ = true;
     }
     return true;
@@ -298,9 +322,10 @@ void RigSimulatorNode::onTimer(const ::ros::TimerEvent&) {
   if (++frames_ == 100) {
     const double ms = 1e3 * render_s_ / frames_;
     if (ms > 1e3 / params_.fps)
-      ROS_WARN("rig_simulator: rendering takes %.1f ms per frame, longer than the frame period at %.1f fps: lower ~fps or "
-               "~width/~height, or raise ~spacing_m",
-               ms, params_.fps);
+      ROS_WARN(
+          "rig_simulator: rendering takes %.1f ms per frame, longer than the frame period at %.1f fps: lower ~fps or "
+          "~width/~height, or raise ~spacing_m",
+          ms, params_.fps);
     else
       ROS_INFO("rig_simulator: %zu frames published; rendering %.1f ms per frame (%zu splats)", frames_, ms,
                body_.positions.size());

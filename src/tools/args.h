@@ -19,8 +19,8 @@ class Args {
  public:
   /// `flags` are options without a value; every other --name takes the next argument.
   /// `repeated` options may be given several times (all() returns every value in order).
-  Args(const std::vector<std::string>& argv, const std::set<std::string>& flags,
-       const std::set<std::string>& valued, const std::set<std::string>& repeated = {});
+  Args(const std::vector<std::string>& argv, const std::set<std::string>& flags, const std::set<std::string>& valued,
+       const std::set<std::string>& repeated = {});
 
   bool has(const std::string& name) const;
   std::string str(const std::string& name, const std::string& fallback = "") const;

@@ -7,12 +7,12 @@
 
 #include "args.h"
 #include "commands.h"
-#include "topo_gaussian/io/volume_ply.h"
-#include "topo_gaussian/workflow/interior_export.h"
-#include "topo_gaussian/io/interior_ply.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/io/interior_ply.h"
+#include "topo_gaussian/io/volume_ply.h"
 #include "topo_gaussian/vision/figure.h"
+#include "topo_gaussian/workflow/interior_export.h"
 
 namespace topo_gaussian::tools {
 namespace {
@@ -69,7 +69,8 @@ std::string stem(const std::string& path) {
 }  // namespace
 
 int exportCommand(const std::vector<std::string>& argv) {
-  const Args a(argv, {"help", "json"}, {"volume", "interior", "output", "report", "stl-unit", "iso", "title"}, {"signal"});
+  const Args a(argv, {"help", "json"}, {"volume", "interior", "output", "report", "stl-unit", "iso", "title"},
+               {"signal"});
   if (a.has("help")) {
     std::cout << kExportHelp;
     return 0;
@@ -114,15 +115,15 @@ int exportCommand(const std::vector<std::string>& argv) {
 
   const workflow::ExportSummary s = workflow::exportInterior(cloud, interior.r, interior.density, o);
   const workflow::InterfaceQuality& q = s.interface;
-  std::fprintf(stderr,
-               "[topo export] %zu particles, %zu solid; mesh %zu triangles, %zu vertices: %s\n"
-               "[topo export] STL volume %.6g m^3 vs solid particles %.6g m^3 (%+.2f %%); smoothness (mean |Laplacian "
-               "of the unit normal|) %s on the solid/hollow interface, %.4f on the whole mesh; %.2f s\n",
-               q.particles, q.solid_particles, q.check.triangles, q.check.vertices, q.check.summary().c_str(), q.mesh_volume_m3, q.solid_volume_m3,
-               100.0 * q.volume_difference,
-               q.interface_smoothness.vertices ? numberText(q.interface_smoothness.mean).c_str()
-                                               : "none (no hollow part)",
-               q.smoothness.mean, s.total_s);
+  std::fprintf(
+      stderr,
+      "[topo export] %zu particles, %zu solid; mesh %zu triangles, %zu vertices: %s\n"
+      "[topo export] STL volume %.6g m^3 vs solid particles %.6g m^3 (%+.2f %%); smoothness (mean |Laplacian "
+      "of the unit normal|) %s on the solid/hollow interface, %.4f on the whole mesh; %.2f s\n",
+      q.particles, q.solid_particles, q.check.triangles, q.check.vertices, q.check.summary().c_str(), q.mesh_volume_m3,
+      q.solid_volume_m3, 100.0 * q.volume_difference,
+      q.interface_smoothness.vertices ? numberText(q.interface_smoothness.mean).c_str() : "none (no hollow part)",
+      q.smoothness.mean, s.total_s);
   for (const auto& n : s.notes) std::cerr << "[topo export] " << n << "\n";
   std::cerr << "[topo export] wrote";
   for (const auto& f : s.files) std::cerr << " " << o.output_dir << "/" << f;

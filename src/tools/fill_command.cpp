@@ -76,7 +76,8 @@ int fillCommand(const std::vector<std::string>& argv) {
   o.fill.max_open_fraction = a.num("max-open-fraction", o.fill.max_open_fraction);
   o.fill.density.density_threshold = a.num("density-threshold", o.fill.density.density_threshold);
   o.fill.density.search_threshold = a.num("search-threshold", o.fill.density.search_threshold);
-  o.fill.density.search_exclude_direction = int(a.integer("exclude-direction", o.fill.density.search_exclude_direction));
+  o.fill.density.search_exclude_direction =
+      int(a.integer("exclude-direction", o.fill.density.search_exclude_direction));
   o.fill.density.ray_cast_direction = int(a.integer("ray-direction", o.fill.density.ray_cast_direction));
   o.fill.density.closing_cells = int(a.integer("closing-cells", o.fill.density.closing_cells));
   o.clean.scale = a.num("scale", 1.0);

@@ -97,8 +97,8 @@ VolumeCloud volumeOrDefaultShape(const Args& a, const inference::TaskConfig& con
     throw UsageError("give --volume or --surface (tasks with a default shape: finger, pear, cantilever)");
   const double h = config.number("default_spacing_m");
   VolumeCloud c = defaultShapeCloud(shape, h);
-  std::cerr << "[topo] no --volume/--surface: using the default " << shape << " shape (" << c.size()
-            << " particles at " << h << " m; `topo shape " << shape << "` writes it)\n";
+  std::cerr << "[topo] no --volume/--surface: using the default " << shape << " shape (" << c.size() << " particles at "
+            << h << " m; `topo shape " << shape << "` writes it)\n";
   return c;
 }
 
@@ -167,23 +167,27 @@ int simulateCommand(const std::vector<std::string>& argv) {
   inference::TaskConfig targeted = config;
   for (const auto& s : a.all("target")) {
     const auto* spec = targeted.spec(s.substr(0, s.find('=')));
-    if (spec && !spec->is_target) throw TopoError("--target " + spec->name, "is a parameter, not an observed feature", "use --set " + s);
+    if (spec && !spec->is_target)
+      throw TopoError("--target " + spec->name, "is a parameter, not an observed feature", "use --set " + s);
     targeted.setAssignment(s, "--target");
   }
   const VolumeCloud cloud = volumeOrDefaultShape(a, targeted);
   std::vector<double> r;
   if (a.has("interior")) r = io::readInteriorPly(a.str("interior"), cloud.size());
   const inference::InteriorProblem problem(targeted, cloud);
-  const inference::ProblemEvaluation ev = problem.evaluateIndicator(r.empty() ? std::vector<double>(cloud.size(), 1.0) : r, nullptr);
+  const inference::ProblemEvaluation ev =
+      problem.evaluateIndicator(r.empty() ? std::vector<double>(cloud.size(), 1.0) : r, nullptr);
   if (a.has("signal")) {
     std::ostringstream os;
     os << "time_s," << (ev.task.signal_name.empty() ? "value" : ev.task.signal_name) << "\n" << std::setprecision(10);
-    for (std::size_t k = 0; k < ev.task.signal.size(); ++k) os << ev.task.signal_time_s[k] << "," << ev.task.signal[k] << "\n";
+    for (std::size_t k = 0; k < ev.task.signal.size(); ++k)
+      os << ev.task.signal_time_s[k] << "," << ev.task.signal[k] << "\n";
     io::writeTextFile(a.str("signal"), os.str());
   }
   if (a.has("trajectory")) {
     if (ev.task.trajectory_rows.empty())
-      throw TopoError("--trajectory", "task '" + targeted.task() + "' tracks no points", "use it with --task ball or pear");
+      throw TopoError("--trajectory", "task '" + targeted.task() + "' tracks no points",
+                      "use it with --task ball or pear");
     std::ostringstream os;
     os << "# t, then x y z of each tracked point [s, m]\n" << std::setprecision(12);
     for (const auto& row : ev.task.trajectory_rows) {

@@ -62,16 +62,16 @@ int shapeCommand(const std::vector<std::string>& argv) {
   if (a.has("output")) {
     const geometry::SurfaceData mesh = geometry::makeDefaultShapeMesh(name, int(resolution));
     geometry::writeObj(mesh, a.str("output"));
-    std::cerr << "[topo shape] wrote " << a.str("output") << " (" << name << ", " << mesh.points.size()
-              << " vertices, " << mesh.triangles.size() << " triangles, volume "
-              << geometry::meshIntegrals(mesh).volume << " m^3; exact " << shape.volume_m3 << " m^3)" << std::endl;
+    std::cerr << "[topo shape] wrote " << a.str("output") << " (" << name << ", " << mesh.points.size() << " vertices, "
+              << mesh.triangles.size() << " triangles, volume " << geometry::meshIntegrals(mesh).volume
+              << " m^3; exact " << shape.volume_m3 << " m^3)" << std::endl;
   }
   if (a.has("volume")) {
     const VolumeCloud cloud = defaultShapeCloud(shape, spacing);
     io::writeVolumePly(cloud, a.str("volume"));
     std::cerr << "[topo shape] wrote " << a.str("volume") << " (" << name << ", " << cloud.size() << " particles, "
-              << cloud.surfaceCount() << " on the surface, spacing " << spacing << " m, volume "
-              << cloud.totalVolume() << " m^3)" << std::endl;
+              << cloud.surfaceCount() << " on the surface, spacing " << spacing << " m, volume " << cloud.totalVolume()
+              << " m^3)" << std::endl;
   }
   return 0;
 }

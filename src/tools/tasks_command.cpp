@@ -32,8 +32,10 @@ std::string numberText(double v) {
 std::string cell(std::string s) {
   std::string out;
   for (char ch : s) {
-    if (ch == '|') out += "\\|";
-    else out += ch;
+    if (ch == '|')
+      out += "\\|";
+    else
+      out += ch;
   }
   return out;
 }
@@ -49,10 +51,14 @@ std::string rangeText(const inference::ParamSpec& s) {
   if (s.type == ParamType::Vector3) return "x,y,z";
   const bool lo = s.min > -1e299, hi = s.max < 1e299;
   std::string r;
-  if (lo && hi) r = (s.min_exclusive ? "(" : "[") + numberText(s.min) + ", " + numberText(s.max) + "]";
-  else if (lo) r = (s.min_exclusive ? "> " : "≥ ") + numberText(s.min);
-  else if (hi) r = "≤ " + numberText(s.max);
-  else r = "any";
+  if (lo && hi)
+    r = (s.min_exclusive ? "(" : "[") + numberText(s.min) + ", " + numberText(s.max) + "]";
+  else if (lo)
+    r = (s.min_exclusive ? "> " : "≥ ") + numberText(s.min);
+  else if (hi)
+    r = "≤ " + numberText(s.max);
+  else
+    r = "any";
   if (s.type == ParamType::List) r = "each " + r;
   return r;
 }
@@ -79,14 +85,16 @@ std::string markdown() {
   for (const auto& t : inference::taskDefinitions()) {
     const inference::TaskConfig c = inference::TaskConfig::defaults(t.name);
     std::string summary = t.summary;
-    if (!summary.empty() && summary[0] >= 'a' && summary[0] <= 'z') summary[0] = static_cast<char>(summary[0] - 'a' + 'A');
+    if (!summary.empty() && summary[0] >= 'a' && summary[0] <= 'z')
+      summary[0] = static_cast<char>(summary[0] - 'a' + 'A');
     os << "\n#### `" << t.name << "`\n\n" << summary << ".";
     if (!t.default_shape.empty()) os << " Default shape: `" << t.default_shape << "`.";
     os << "\n";
     std::string changed;
     std::vector<const inference::ParamSpec*> own;
     for (const auto& s : c.specs()) {
-      if (!common.spec(s.name)) own.push_back(&s);
+      if (!common.spec(s.name))
+        own.push_back(&s);
       else if (c.valueText(s.name) != common.valueText(s.name))
         changed += (changed.empty() ? "" : ", ") + ("`" + s.name + " = " + c.valueText(s.name) + "`");
     }
@@ -113,7 +121,8 @@ int tasksCommand(const std::vector<std::string>& argv) {
   for (const auto& t : inference::taskDefinitions()) width = std::max(width, t.name.size());
   for (const auto& t : inference::taskDefinitions())
     std::cout << std::left << std::setw(static_cast<int>(width) + 2) << t.name << t.summary << "\n";
-  std::cout << "\n`topo infer --task NAME --list-params` lists a task's parameters; `topo tasks --markdown` all of them.\n";
+  std::cout
+      << "\n`topo infer --task NAME --list-params` lists a task's parameters; `topo tasks --markdown` all of them.\n";
   return 0;
 }
 

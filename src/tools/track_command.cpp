@@ -1,9 +1,9 @@
 // `topo track`: track an object in a video and print its motion features (period, amplitude,
 // equilibrium, bounces, bending angle), optionally with an overlay video and a plot of the signal.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <functional>
-#include <cmath>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -102,25 +102,30 @@ void writePlot(const vision::TrackResult& r, const std::string& path) {
       const double y = y0 + k * (y1 - y0) / 5, t = t0 + k * (t1 - t0) / 5;
       char buf[32];
       std::snprintf(buf, sizeof(buf), "%.1f", y);
-      cv::putText(img, buf, cv::Point(5, P(t0, y).y + 5), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+      cv::putText(img, buf, cv::Point(5, P(t0, y).y + 5), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0), 1,
+                  cv::LINE_AA);
       cv::line(img, cv::Point(L - 5, P(t0, y).y), cv::Point(L, P(t0, y).y), cv::Scalar(0, 0, 0));
       std::snprintf(buf, sizeof(buf), "%.2f", t);
-      cv::putText(img, buf, cv::Point(P(t, y0).x - 15, H - B + 20), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0), 1,
-                  cv::LINE_AA);
+      cv::putText(img, buf, cv::Point(P(t, y0).x - 15, H - B + 20), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0),
+                  1, cv::LINE_AA);
     }
-    cv::putText(img, "time [s]", cv::Point(W / 2 - 30, H - 10), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
-    const std::string ylabel = r.kind == "trajectory" ? "image y [px]" : (r.kind == "finger" ? "bend [deg]" : "angle [deg]");
-    cv::putText(img, ylabel + "   " + r.source, cv::Point(L, T - 12), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1,
+    cv::putText(img, "time [s]", cv::Point(W / 2 - 30, H - 10), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1,
                 cv::LINE_AA);
+    const std::string ylabel =
+        r.kind == "trajectory" ? "image y [px]" : (r.kind == "finger" ? "bend [deg]" : "angle [deg]");
+    cv::putText(img, ylabel + "   " + r.source, cv::Point(L, T - 12), cv::FONT_HERSHEY_SIMPLEX, 0.5,
+                cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
     if (r.signal.oscillation_found) {
       const double e = r.signal.equilibrium_deg;
       cv::line(img, P(t0, e), P(t1, e), cv::Scalar(180, 180, 180), 1);
       for (double tc : r.signal.crossing_times_s) cv::line(img, P(tc, y0), P(tc, y1), cv::Scalar(200, 200, 255), 1);
     }
     for (std::size_t i = 1; i < r.t.size(); ++i)
-      cv::line(img, P(r.t[i - 1], r.angle_deg[i - 1]), P(r.t[i], r.angle_deg[i]), cv::Scalar(160, 60, 0), 2, cv::LINE_AA);
+      cv::line(img, P(r.t[i - 1], r.angle_deg[i - 1]), P(r.t[i], r.angle_deg[i]), cv::Scalar(160, 60, 0), 2,
+               cv::LINE_AA);
     for (std::size_t i = 0; i < r.signal.peak_times_s.size() && i < r.signal.peak_values_deg.size(); ++i)
-      cv::circle(img, P(r.signal.peak_times_s[i], r.signal.peak_values_deg[i]), 5, cv::Scalar(0, 0, 220), 2, cv::LINE_AA);
+      cv::circle(img, P(r.signal.peak_times_s[i], r.signal.peak_values_deg[i]), 5, cv::Scalar(0, 0, 220), 2,
+                 cv::LINE_AA);
     for (std::size_t i = 0; i < r.bounce_times_s.size(); ++i)
       cv::circle(img, P(r.bounce_times_s[i], r.bounce_y_px[i]), 5, cv::Scalar(0, 0, 220), 2, cv::LINE_AA);
     for (std::size_t i = 0; i < r.apex_times_s.size(); ++i)
@@ -128,13 +133,15 @@ void writePlot(const vision::TrackResult& r, const std::string& path) {
     if (r.signal.oscillation_found) {
       char buf[128];
       std::snprintf(buf, sizeof(buf), "period %.4f s, amplitude %.2f deg", r.signal.period_s, r.signal.amplitude_deg);
-      cv::putText(img, buf, cv::Point(L + 10, T + 20), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 200), 1, cv::LINE_AA);
+      cv::putText(img, buf, cv::Point(L + 10, T + 20), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 200), 1,
+                  cv::LINE_AA);
     }
   } else {
     cv::putText(img, "no signal: " + r.message.substr(0, 90), cv::Point(20, H / 2), cv::FONT_HERSHEY_SIMPLEX, 0.5,
                 cv::Scalar(0, 0, 200), 1, cv::LINE_AA);
   }
-  if (!cv::imwrite(path, img)) throw TopoError(path, "the plot cannot be written", "give a writable .png path for --plot");
+  if (!cv::imwrite(path, img))
+    throw TopoError(path, "the plot cannot be written", "give a writable .png path for --plot");
 }
 
 }  // namespace
@@ -155,7 +162,8 @@ int trackCommand(const std::vector<std::string>& argv) {
   o.tracker.min_area_px = a.num("min-area", 30.0);
   if (a.has("roi")) {
     const auto v = numbers(a, "roi", 4);
-    o.tracker.roi = cv::Rect(static_cast<int>(v[0]), static_cast<int>(v[1]), static_cast<int>(v[2]), static_cast<int>(v[3]));
+    o.tracker.roi =
+        cv::Rect(static_cast<int>(v[0]), static_cast<int>(v[1]), static_cast<int>(v[2]), static_cast<int>(v[3]));
     o.tracker.roi_given = true;
   }
   if (a.has("hsv-lower") != a.has("hsv-upper")) throw UsageError("give both --hsv-lower and --hsv-upper");
@@ -182,9 +190,11 @@ int trackCommand(const std::vector<std::string>& argv) {
     sink = [&](const cv::Mat& frame) {
       if (!writer.isOpened()) {
         const bool avi = debug.size() > 4 && debug.substr(debug.size() - 4) == ".avi";
-        const int fourcc = avi ? cv::VideoWriter::fourcc('M', 'J', 'P', 'G') : cv::VideoWriter::fourcc('m', 'p', '4', 'v');
+        const int fourcc =
+            avi ? cv::VideoWriter::fourcc('M', 'J', 'P', 'G') : cv::VideoWriter::fourcc('m', 'p', '4', 'v');
         if (!writer.open(debug, cv::CAP_FFMPEG, fourcc, fps_out, frame.size()))
-          throw TopoError(debug, "the debug video cannot be written", "give a writable .mp4 or .avi path for --debug-video");
+          throw TopoError(debug, "the debug video cannot be written",
+                          "give a writable .mp4 or .avi path for --debug-video");
       }
       writer.write(frame);
     };
@@ -227,8 +237,8 @@ int trackCommand(const std::vector<std::string>& argv) {
     doc["tracker"] = nlohmann::json::parse(vision::trackerJson(r));
     std::cout << doc.dump() << "\n";
   } else {
-    std::printf("source          %s (%.3f fps, frames %d..%d of %d, %.3f..%.3f s)\n", r.source.c_str(), r.fps, r.first_frame,
-                r.last_frame, r.frames_total, r.t_start_s, r.t_end_s);
+    std::printf("source          %s (%.3f fps, frames %d..%d of %d, %.3f..%.3f s)\n", r.source.c_str(), r.fps,
+                r.first_frame, r.last_frame, r.frames_total, r.t_start_s, r.t_end_s);
     std::printf("tracking        %s / %s, %d frames used, %d lost, %d dropped\n", r.method.c_str(), r.kind.c_str(),
                 r.frames_used, r.lost_frames, r.dropped_frames);
     if (r.kind == "pendulum" || r.kind == "tilt") {
@@ -242,7 +252,8 @@ int trackCommand(const std::vector<std::string>& argv) {
         std::printf("static_angle_deg %.3f (spread %.3f)\n", r.static_pose.angle_deg, r.static_pose.spread_deg);
       }
       if (r.kind == "pendulum")
-        std::printf("pivot_px        %.1f, %.1f (%s)\n", r.pivot.x, r.pivot.y, r.pivot_estimated ? "estimated" : "given/assumed");
+        std::printf("pivot_px        %.1f, %.1f (%s)\n", r.pivot.x, r.pivot.y,
+                    r.pivot_estimated ? "estimated" : "given/assumed");
     } else if (r.kind == "trajectory") {
       for (std::size_t i = 0; i < r.bounce_times_s.size(); ++i)
         std::printf("bounce          t %.4f s  y %.1f px\n", r.bounce_times_s[i], r.bounce_y_px[i]);

@@ -31,8 +31,8 @@ void validate(const IndicatorOptions& o, std::size_t n) {
 
 }  // namespace
 
-std::vector<std::uint8_t> boundaryShell(const std::vector<Eigen::Vector3d>& X,
-                                        const std::vector<std::uint8_t>& surface, double thickness_m) {
+std::vector<std::uint8_t> boundaryShell(const std::vector<Eigen::Vector3d>& X, const std::vector<std::uint8_t>& surface,
+                                        double thickness_m) {
   if (surface.size() != X.size())
     throw TopoError("boundary shell surface flags",
                     "has " + std::to_string(surface.size()) + " flags for " + std::to_string(X.size()) + " particles",
@@ -80,10 +80,10 @@ void indicatorBackward(const Representation& rep, const Eigen::VectorXd& theta, 
                        const std::vector<double>& dL_dr, Eigen::VectorXd* dL_dtheta) {
   validate(options, rep.numParticles());
   if (dL_dr.size() != rep.numParticles())
-    throw TopoError("indicator gradient dL/dr",
-                    "has " + std::to_string(dL_dr.size()) + " values for " + std::to_string(rep.numParticles()) +
-                        " particles",
-                    "pass one derivative per particle");
+    throw TopoError(
+        "indicator gradient dL/dr",
+        "has " + std::to_string(dL_dr.size()) + " values for " + std::to_string(rep.numParticles()) + " particles",
+        "pass one derivative per particle");
   std::vector<double> ds;
   rep.field(theta, &ds);
   const double inv_eps = 1.0 / options.epsilon;

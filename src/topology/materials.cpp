@@ -22,10 +22,8 @@ void MaterialInterpolation::validate(const char* what) const {
   };
   if (!std::isfinite(value_r0)) fail("value_r0", value_r0, "is not finite", "give the material-A value (r = 0)");
   if (!std::isfinite(value_r1)) fail("value_r1", value_r1, "is not finite", "give the material-B value (r = 1)");
-  if (value_r0 < 0.0)
-    fail("value_r0", value_r0, "is negative", "material properties (density, stiffness) must be ≥ 0");
-  if (value_r1 < 0.0)
-    fail("value_r1", value_r1, "is negative", "material properties (density, stiffness) must be ≥ 0");
+  if (value_r0 < 0.0) fail("value_r0", value_r0, "is negative", "material properties (density, stiffness) must be ≥ 0");
+  if (value_r1 < 0.0) fail("value_r1", value_r1, "is negative", "material properties (density, stiffness) must be ≥ 0");
   if (!std::isfinite(power) || power < 1.0)
     fail("power", power, "is below 1 (or not finite)", "use power ≥ 1 (1 = linear, 3 = SIMP)");
   if (!std::isfinite(floor) || !(floor > 0.0))
@@ -48,8 +46,7 @@ double MaterialInterpolation::derivative(double r) const {
   return p * std::pow(rc, p - 1.0) * (value_r1 - value_r0);
 }
 
-void MaterialInterpolation::apply(const std::vector<double>& r, std::vector<double>* q,
-                                  std::vector<double>* dq) const {
+void MaterialInterpolation::apply(const std::vector<double>& r, std::vector<double>* q, std::vector<double>* dq) const {
   q->resize(r.size());
   if (dq) dq->resize(r.size());
   const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(r.size());

@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <climits>
-#include <cstdint>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <random>
 #ifdef _OPENMP
@@ -65,15 +65,16 @@ Eigen::Matrix3Xd normalise(const NormalisedFrame& f, const std::vector<Eigen::Ve
 
 int NeuralRepresentation::parameterCount(int depth, int width) {
   if (depth < 2 || width < 1)
-    throw TopoError("neural representation", "depth " + std::to_string(depth) + " / width " +
-                                                 std::to_string(width) + " is not a network",
+    throw TopoError("neural representation",
+                    "depth " + std::to_string(depth) + " / width " + std::to_string(width) + " is not a network",
                     "use depth ≥ 2 (linear layers) and width ≥ 1, e.g. 8 × 512 as in the paper");
   const std::int64_t w = width;
   const std::int64_t count = (3 * w + 2 * w) + (depth - 2) * (w * w + 2 * w) + (w * 1 + 2);
   if (count > INT_MAX)
-    throw TopoError("neural representation", std::to_string(depth) + " × " + std::to_string(width) +
-                                                 " has " + std::to_string(count) + " parameters",
-                    "use a smaller width or depth");
+    throw TopoError(
+        "neural representation",
+        std::to_string(depth) + " × " + std::to_string(width) + " has " + std::to_string(count) + " parameters",
+        "use a smaller width or depth");
   return static_cast<int>(count);
 }
 
@@ -137,8 +138,8 @@ std::vector<Eigen::MatrixXd> NeuralRepresentation::weights(const Eigen::VectorXd
   return W;
 }
 
-void NeuralRepresentation::forward(const Eigen::VectorXd& theta, const Eigen::Matrix3Xd& U,
-                                   std::vector<double>* s, std::vector<double>* margin) const {
+void NeuralRepresentation::forward(const Eigen::VectorXd& theta, const Eigen::Matrix3Xd& U, std::vector<double>* s,
+                                   std::vector<double>* margin) const {
   checkParameters(theta);
   const std::vector<Eigen::MatrixXd> W = weights(theta);
   const Eigen::Index n = U.cols();

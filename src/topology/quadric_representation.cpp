@@ -15,8 +15,8 @@ namespace {
 
 double evaluate(const Eigen::VectorXd& t, const Eigen::Vector3d& u) {
   const double x = u.x(), y = u.y(), z = u.z();
-  return t[0] * x * x + t[1] * y * y + t[2] * z * z +
-         2.0 * (t[3] * x * y + t[4] * x * z + t[5] * y * z) + t[6] * x + t[7] * y + t[8] * z + t[9];
+  return t[0] * x * x + t[1] * y * y + t[2] * z * z + 2.0 * (t[3] * x * y + t[4] * x * z + t[5] * y * z) + t[6] * x +
+         t[7] * y + t[8] * z + t[9];
 }
 
 }  // namespace

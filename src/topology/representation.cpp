@@ -20,8 +20,7 @@ void Representation::bounds(Eigen::VectorXd* lower, Eigen::VectorXd* upper) cons
 void Representation::checkParameters(const Eigen::VectorXd& theta) const {
   if (theta.size() != numParameters())
     throw TopoError(name() + " representation parameters θ",
-                    "has " + std::to_string(theta.size()) + " values, expected " +
-                        std::to_string(numParameters()),
+                    "has " + std::to_string(theta.size()) + " values, expected " + std::to_string(numParameters()),
                     "start from initialParameters() of the same representation and particle set");
   for (Eigen::Index k = 0; k < theta.size(); ++k)
     if (!std::isfinite(theta[k]))
@@ -37,8 +36,7 @@ void Representation::checkFieldGradient(const std::vector<double>& dL_ds) const 
                     "pass one derivative per particle");
   for (std::size_t i = 0; i < dL_ds.size(); ++i)
     if (!std::isfinite(dL_ds[i]))
-      throw TopoError(name() + " representation field gradient dL/ds",
-                      "entry " + std::to_string(i) + " is not finite",
+      throw TopoError(name() + " representation field gradient dL/ds", "entry " + std::to_string(i) + " is not finite",
                       "the loss or simulation diverged: check the simulation step and the loss inputs");
 }
 
@@ -64,8 +62,7 @@ std::unique_ptr<Representation> makeRepresentation(const RepresentationOptions& 
                                                    const std::vector<Eigen::Vector3d>& X) {
   const std::string& kind = options.kind;
   if (kind != "point" && kind != "quadric" && kind != "neural")
-    throw TopoError("representation kind '" + kind + "'", "is unknown",
-                    "use one of: point, quadric, neural");
+    throw TopoError("representation kind '" + kind + "'", "is unknown", "use one of: point, quadric, neural");
   if (X.empty())
     throw TopoError(kind + " representation", "the particle set is empty",
                     "fill the object with particles before choosing a representation");

@@ -16,7 +16,9 @@ cv::Point2d distort(const cv::Point2d& p, const double* k) {
           y * radial + k[2] * (r2 + 2 * y * y) + 2 * k[3] * x * y};
 }
 
-std::string pixelText(const cv::Point2d& p) { return "pixel (" + std::to_string(p.x) + ", " + std::to_string(p.y) + ")"; }
+std::string pixelText(const cv::Point2d& p) {
+  return "pixel (" + std::to_string(p.x) + ", " + std::to_string(p.y) + ")";
+}
 
 }  // namespace
 
@@ -90,9 +92,9 @@ std::vector<cv::Point2d> CameraModel::project(const std::vector<cv::Vec3d>& worl
   for (const auto& w : world) {
     const cv::Vec3d c = R_cw * (w - t_wc_);
     if (!(c[2] > 0))
-      throw TopoError("world point (" + std::to_string(w[0]) + ", " + std::to_string(w[1]) + ", " +
-                          std::to_string(w[2]) + ")",
-                      "lies behind the camera", "only project points in front of the camera");
+      throw TopoError(
+          "world point (" + std::to_string(w[0]) + ", " + std::to_string(w[1]) + ", " + std::to_string(w[2]) + ")",
+          "lies behind the camera", "only project points in front of the camera");
     const cv::Point2d p = distort(cv::Point2d(c[0] / c[2], c[1] / c[2]), k);
     out.emplace_back(K_(0, 0) * p.x + K_(0, 1) * p.y + K_(0, 2), K_(1, 1) * p.y + K_(1, 2));
   }

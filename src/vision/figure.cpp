@@ -17,7 +17,8 @@ void writePng(const cv::Mat& img, const std::string& path) {
   } catch (const cv::Exception& e) {
     throw TopoError(path, std::string("cannot be written as PNG: ") + e.what(), "give a writable path ending in .png");
   }
-  if (!ok) throw TopoError(path, "cannot be written as PNG", "give a writable path ending in .png in an existing directory");
+  if (!ok)
+    throw TopoError(path, "cannot be written as PNG", "give a writable path ending in .png in an existing directory");
 }
 
 double niceStepBelow(double limit) {

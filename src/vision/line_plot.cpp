@@ -25,8 +25,9 @@ cv::Mat drawLinePlot(const LinePlot& p) {
   std::size_t points = 0, skipped = 0;
   for (const PlotSeries& s : p.series) {
     if (s.x.size() != s.y.size())
-      throw TopoError("plot '" + p.title + "'", "series '" + s.label + "' has " + std::to_string(s.x.size()) +
-                                                    " x values and " + std::to_string(s.y.size()) + " y values",
+      throw TopoError("plot '" + p.title + "'",
+                      "series '" + s.label + "' has " + std::to_string(s.x.size()) + " x values and " +
+                          std::to_string(s.y.size()) + " y values",
                       "give one y per x");
     for (std::size_t i = 0; i < s.x.size(); ++i) {
       if (!usable(s.x[i], s.y[i], p.log_y)) {
@@ -40,7 +41,8 @@ cv::Mat drawLinePlot(const LinePlot& p) {
     }
   }
   if (points == 0)
-    throw TopoError("plot '" + p.title + "'", p.log_y ? "has no finite positive value to plot on a log axis" : "has no finite point",
+    throw TopoError("plot '" + p.title + "'",
+                    p.log_y ? "has no finite positive value to plot on a log axis" : "has no finite point",
                     "check the input data");
   if (x1 - x0 <= 0.0) x0 -= 0.5, x1 += 0.5;
   if (p.log_y) {
@@ -77,7 +79,8 @@ cv::Mat drawLinePlot(const LinePlot& p) {
     for (int k = int(y0); k <= int(y1); ++k) {
       if (decades <= 2)
         for (double m : {2.0, 5.0})
-          if (k + std::log10(m) < y1) cv::line(img, cv::Point(L, py(k + std::log10(m))), cv::Point(W - R, py(k + std::log10(m))), kGrid, 1);
+          if (k + std::log10(m) < y1)
+            cv::line(img, cv::Point(L, py(k + std::log10(m))), cv::Point(W - R, py(k + std::log10(m))), kGrid, 1);
       if ((k - int(y0)) % every) continue;
       cv::line(img, cv::Point(L, py(k)), cv::Point(W - R, py(k)), kGrid, 1);
       drawText(img, numberText(std::pow(10.0, k), 3), cv::Point(8, py(k) + 5), 0.45, kInk);

@@ -219,7 +219,8 @@ void MotionTracker::addFrame(const cv::Mat& bgr, double t_s) {
   if (bgr.empty() || bgr.type() != CV_8UC3)
     throw TopoError("frame at t = " + fixedText(t_s, 3) + " s", "is not an 8-bit BGR image", "pass CV_8UC3 frames");
   if (!s.t_all.empty() && !(t_s > s.t_all.back()))
-    throw TopoError("frame at t = " + fixedText(t_s, 3) + " s", "timestamps must increase (previous " + fixedText(s.t_all.back(), 3) + " s)",
+    throw TopoError("frame at t = " + fixedText(t_s, 3) + " s",
+                    "timestamps must increase (previous " + fixedText(s.t_all.back(), 3) + " s)",
                     "pass frames in time order");
   if (!s.tracker) {
     s.frame_size = bgr.size();
@@ -229,9 +230,10 @@ void MotionTracker::addFrame(const cv::Mat& bgr, double t_s) {
     s.tracker = makeTracker(to, s.frame_size);
     s.roi = validRoi(to.roi, s.frame_size, to.roi_given || to.roi != cv::Rect());
   } else if (bgr.size() != s.frame_size) {
-    throw TopoError("frame at t = " + fixedText(t_s, 3) + " s", "changes size from " + std::to_string(s.frame_size.width) + "x" +
-                        std::to_string(s.frame_size.height),
-                    "keep the frame size constant");
+    throw TopoError(
+        "frame at t = " + fixedText(t_s, 3) + " s",
+        "changes size from " + std::to_string(s.frame_size.width) + "x" + std::to_string(s.frame_size.height),
+        "keep the frame size constant");
   }
   Measurement me = s.tracker->track(bgr);
   if (me.found && s.opt.kind == "tilt") {
@@ -331,7 +333,8 @@ TrackResult MotionTracker::finish() const {
   // frame rate and dropped frames (timestamp gaps > 1.5 nominal frame intervals)
   std::vector<double> dts;
   for (int i = 1; i < n; ++i) dts.push_back(s.t_all[i] - s.t_all[i - 1]);
-  const double dt_nominal = s.opt.fps > 0 ? std::max(1, s.opt.video.stride) / s.opt.fps : (dts.empty() ? 1.0 / 30 : median(dts));
+  const double dt_nominal =
+      s.opt.fps > 0 ? std::max(1, s.opt.video.stride) / s.opt.fps : (dts.empty() ? 1.0 / 30 : median(dts));
   r.fps = s.opt.fps > 0 ? s.opt.fps : 1.0 / dt_nominal;
   int gaps = 0;
   for (double dt : dts)
@@ -373,7 +376,8 @@ TrackResult MotionTracker::finish() const {
       }
       int j = i;
       while (j < n && !s.found[j]) ++j;
-      if (shown < 4) runs += std::string(shown ? ", " : "") + fixedText(s.t_all[i], 2) + "–" + fixedText(s.t_all[j - 1], 2) + " s";
+      if (shown < 4)
+        runs += std::string(shown ? ", " : "") + fixedText(s.t_all[i], 2) + "–" + fixedText(s.t_all[j - 1], 2) + " s";
       ++shown;
       i = j;
     }
@@ -404,14 +408,15 @@ TrackResult MotionTracker::finish() const {
     r.confidence["amplitude_deg"] = r.signal.oscillation_found ? r.signal.confidence : 0.0;
     r.confidence["static_angle_deg"] = r.static_pose.confidence;
     if (r.signal.oscillation_found) {
-      notes.insert(notes.begin(), "period " + fixedText(r.signal.period_s, 4) + " s over " + std::to_string(r.signal.cycles) +
-                                      " cycles, amplitude " + fixedText(r.signal.amplitude_deg, 2) + " deg, equilibrium " +
+      notes.insert(notes.begin(), "period " + fixedText(r.signal.period_s, 4) + " s over " +
+                                      std::to_string(r.signal.cycles) + " cycles, amplitude " +
+                                      fixedText(r.signal.amplitude_deg, 2) + " deg, equilibrium " +
                                       fixedText(r.signal.equilibrium_deg, 2) + " deg" +
                                       (r.signal.message.empty() ? "" : " (" + r.signal.message + ")"));
     } else {
       const bool said = r.signal.message.find("no oscillation") != std::string::npos;
-      notes.insert(notes.begin(), std::string(said ? "" : "no oscillation found: ") + r.signal.message + "; static angle " +
-                                      fixedText(r.static_pose.angle_deg, 2) + " deg");
+      notes.insert(notes.begin(), std::string(said ? "" : "no oscillation found: ") + r.signal.message +
+                                      "; static angle " + fixedText(r.static_pose.angle_deg, 2) + " deg");
     }
   };
 
@@ -426,8 +431,9 @@ TrackResult MotionTracker::finish() const {
     } else {
       r.pivot = cv::Point2d(pts[0].x, pts[0].y - s.frame_size.height);
       r.confidence["pivot"] = 0.0;
-      notes.push_back("the pivot could not be estimated (the marker barely moves); assumed straight above it, so "
-                      "angles are relative: give --pivot x,y");
+      notes.push_back(
+          "the pivot could not be estimated (the marker barely moves); assumed straight above it, so "
+          "angles are relative: give --pivot x,y");
     }
     std::vector<double> a;
     for (const auto& p : pts) a.push_back(s.currentAngle(p, r.pivot));
@@ -460,14 +466,16 @@ TrackResult MotionTracker::finish() const {
           }
         }
       } else if (dir > 0) {
-        if (ys[i] > ys[cand]) cand = i;
+        if (ys[i] > ys[cand])
+          cand = i;
         else if (ys[cand] - ys[i] >= h) {
           ext.push_back({cand, +1});
           dir = -1;
           cand = i;
         }
       } else {
-        if (ys[i] < ys[cand]) cand = i;
+        if (ys[i] < ys[cand])
+          cand = i;
         else if (ys[i] - ys[cand] >= h) {
           ext.push_back({cand, -1});
           dir = +1;
@@ -531,8 +539,10 @@ TrackResult MotionTracker::finish() const {
       for (double v : tail) mad += std::abs(v - r.bend_final_deg);
       mad /= tail.size();
       r.confidence["bend_deg"] = r.confidence["tracking"] * std::max(0.0, 1.0 - mad / 5.0);
-      notes.insert(notes.begin(), "final bending angle " + fixedText(r.bend_final_deg, 2) + " deg (tip minus base direction; base = the " +
-                                      std::string(base_is_a ? "first" : "second") + " end along the principal axis, the one that moves least)");
+      notes.insert(notes.begin(), "final bending angle " + fixedText(r.bend_final_deg, 2) +
+                                      " deg (tip minus base direction; base = the " +
+                                      std::string(base_is_a ? "first" : "second") +
+                                      " end along the principal axis, the one that moves least)");
     }
   }
   for (std::size_t i = 0; i < notes.size(); ++i) r.message += (i ? "; " : "") + notes[i];
@@ -552,8 +562,9 @@ TrackResult trackVideo(const std::string& path, const TrackOptions& options,
     if (overlay_sink) overlay_sink(mt.overlay());
   }
   if (mt.framesAdded() == 0)
-    throw TopoError(path, "no frames in the requested time range (" + fixedText(options.video.start_s, 2) + " s to " +
-                              (options.video.end_s < 0 ? std::string("end") : fixedText(options.video.end_s, 2) + " s") + ")",
+    throw TopoError(path,
+                    "no frames in the requested time range (" + fixedText(options.video.start_s, 2) + " s to " +
+                        (options.video.end_s < 0 ? std::string("end") : fixedText(options.video.end_s, 2) + " s") + ")",
                     "check --start/--end against the video's length");
   TrackResult r = mt.finish();
   r.source = path;
@@ -573,15 +584,16 @@ std::string trackerJson(const TrackResult& r) {
     return o + "]";
   };
   std::ostringstream o;
-  o << "{\"fps\":" << num(r.fps) << ",\"frames_total\":" << r.frames_total << ",\"object_found\":"
-    << (r.object_found ? "true" : "false") << ",\"lost_frames\":" << r.lost_frames
+  o << "{\"fps\":" << num(r.fps) << ",\"frames_total\":" << r.frames_total
+    << ",\"object_found\":" << (r.object_found ? "true" : "false") << ",\"lost_frames\":" << r.lost_frames
     << ",\"dropped_frames\":" << r.dropped_frames;
   if (r.kind == "pendulum" || r.kind == "tilt") {
     o << ",\"cycles\":" << r.signal.cycles << ",\"static_angle_deg\":" << num(r.static_pose.angle_deg)
       << ",\"static_spread_deg\":" << num(r.static_pose.spread_deg);
     if (r.kind == "pendulum")
-      o << ",\"pivot_px\":[" << num(r.pivot.x) << "," << num(r.pivot.y) << "],\"pivot_estimated\":"
-        << (r.pivot_estimated ? "true" : "false") << ",\"pivot_fit_rms_px\":" << num(r.pivot_fit_rms_px);
+      o << ",\"pivot_px\":[" << num(r.pivot.x) << "," << num(r.pivot.y)
+        << "],\"pivot_estimated\":" << (r.pivot_estimated ? "true" : "false")
+        << ",\"pivot_fit_rms_px\":" << num(r.pivot_fit_rms_px);
   } else if (r.kind == "trajectory") {
     o << ",\"bounce_times_s\":" << array(r.bounce_times_s) << ",\"bounce_y_px\":" << array(r.bounce_y_px)
       << ",\"apex_times_s\":" << array(r.apex_times_s) << ",\"apex_heights_px\":" << array(r.apex_heights_px)

@@ -28,7 +28,8 @@ std::vector<Eigen::Vector3d> estimateOutwardNormals(const std::vector<Eigen::Vec
     throw TopoError("normal estimation radius", "must be positive (got " + std::to_string(radius_m) + " m)",
                     "use 2 to 3 particle spacings");
   auto key = [&](const Eigen::Vector3d& p) {
-    return Eigen::Vector3i(static_cast<int>(std::floor(p.x() / radius_m)), static_cast<int>(std::floor(p.y() / radius_m)),
+    return Eigen::Vector3i(static_cast<int>(std::floor(p.x() / radius_m)),
+                           static_cast<int>(std::floor(p.y() / radius_m)),
                            static_cast<int>(std::floor(p.z() / radius_m)));
   };
   std::unordered_map<Eigen::Vector3i, std::vector<int>, CellKeyHash, CellKeyEq> grid;

@@ -11,7 +11,8 @@ namespace topo_gaussian::vision {
 
 void placeOnPlane(const CameraModel& camera, const cv::Vec3d& n, double d, TrackResult& result) {
   if (!(cv::norm(n) > 0) || !std::isfinite(d))
-    throw TopoError("plane", "normal is zero or offset not finite", "give n·x = d with a non-zero normal, e.g. 0,0,1,0 for the floor");
+    throw TopoError("plane", "normal is zero or offset not finite",
+                    "give n·x = d with a non-zero normal, e.g. 0,0,1,0 for the floor");
   const double nan = std::numeric_limits<double>::quiet_NaN();
   result.points_on_plane.assign(result.trajectories.size(), {});
   for (std::size_t k = 0; k < result.trajectories.size(); ++k) {

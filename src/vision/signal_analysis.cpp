@@ -33,8 +33,8 @@ double mad(const std::vector<double>& v, double centre) {
 /// Least-squares polynomial fit in (x - x0) (common/oscillation.h's fitPolynomial, degree 1 or 2);
 /// coefficients c0 + c1 τ + c2 τ² and, when hat is given, the leverage of the point τ = 0 (for residual
 /// scaling). Returns false when singular.
-bool polyFit(const std::vector<double>& x, const std::vector<double>& y, double x0, int degree,
-             Eigen::VectorXd& coef, double* hat = nullptr) {
+bool polyFit(const std::vector<double>& x, const std::vector<double>& y, double x0, int degree, Eigen::VectorXd& coef,
+             double* hat = nullptr) {
   double c[3];
   if (x.size() != y.size() || !oscillation::fitPolynomial(x.data(), y.data(), x.size(), x0, degree, c, hat))
     return false;
@@ -79,8 +79,8 @@ std::vector<double> localSmooth(const std::vector<double>& t, const std::vector<
 }
 
 /// Samples (times, values) with t in [a, b].
-void window(const std::vector<double>& t, const std::vector<double>& y, double a, double b,
-            std::vector<double>& xs, std::vector<double>& ys) {
+void window(const std::vector<double>& t, const std::vector<double>& y, double a, double b, std::vector<double>& xs,
+            std::vector<double>& ys) {
   xs.clear();
   ys.clear();
   auto it = std::lower_bound(t.begin(), t.end(), a);
@@ -105,8 +105,8 @@ double interp(const std::vector<double>& t, const std::vector<double>& y, double
 }
 
 /// Period from the autocorrelation of the resampled signal near a guess; 0 when not available.
-double autocorrelationPeriod(const std::vector<double>& t, const std::vector<double>& y, double centre,
-                             double guess, double dt) {
+double autocorrelationPeriod(const std::vector<double>& t, const std::vector<double>& y, double centre, double guess,
+                             double dt) {
   const double span = t.back() - t.front();
   if (!(dt > 0.0) || span < 1.4 * guess) return 0.0;
   const int N = static_cast<int>(std::floor(span / dt)) + 1;
@@ -142,9 +142,10 @@ double autocorrelationPeriod(const std::vector<double>& t, const std::vector<dou
 
 void validate(const std::vector<double>& t, const std::vector<double>& y) {
   if (t.size() != y.size())
-    throw TopoError("signal", "time and angle arrays differ in size (" + std::to_string(t.size()) + " vs " +
-                                  std::to_string(y.size()) + ")",
-                    "pass one angle per time stamp");
+    throw TopoError(
+        "signal",
+        "time and angle arrays differ in size (" + std::to_string(t.size()) + " vs " + std::to_string(y.size()) + ")",
+        "pass one angle per time stamp");
   if (t.empty()) throw TopoError("signal", "no samples", "track at least a few frames");
   for (size_t i = 0; i < t.size(); ++i) {
     if (!std::isfinite(t[i]))
@@ -195,8 +196,7 @@ SignalFeatures analyseSignal(const std::vector<double>& t_in, const std::vector<
     f.max_tilt_deg = 0.0;
     for (double v : y) f.max_tilt_deg = std::max(f.max_tilt_deg, std::abs(v));
     f.message = "no oscillation found: too few samples (" + std::to_string(n) +
-                "), fewer than 8 are needed and fewer than " + std::to_string(min_cycles) +
-                " full periods can be seen";
+                "), fewer than 8 are needed and fewer than " + std::to_string(min_cycles) + " full periods can be seen";
     f.confidence = 0.05;
     return f;
   }
@@ -222,8 +222,9 @@ SignalFeatures analyseSignal(const std::vector<double>& t_in, const std::vector<
   };
 
   if (half_range < min_amp || half_range < 3.0 * sigma)
-    return notFoundStatic("the signal swings only ±" + numberText(half_range, 3) + " deg (noise " + numberText(sigma, 3) +
-                          " deg), below min_amplitude_deg = " + numberText(min_amp, 3) + " or the noise level");
+    return notFoundStatic("the signal swings only ±" + numberText(half_range, 3) + " deg (noise " +
+                          numberText(sigma, 3) + " deg), below min_amplitude_deg = " + numberText(min_amp, 3) +
+                          " or the noise level");
 
   // Hysteresis segmentation about the median.
   const double H = std::max({4.0 * sigma, 0.5 * min_amp, 0.1 * half_range});
@@ -232,19 +233,22 @@ SignalFeatures analyseSignal(const std::vector<double>& t_in, const std::vector<
   std::vector<int> change_idx;  // first index of each new run (after the first run)
   for (int i = 0; i < n; ++i) {
     int st = cur;
-    if (y[i] > med + H) st = 1;
-    else if (y[i] < med - H) st = -1;
+    if (y[i] > med + H)
+      st = 1;
+    else if (y[i] < med - H)
+      st = -1;
     if (st != cur && cur != 0) change_idx.push_back(i);
     cur = st;
     state[i] = cur;
   }
-  if (change_idx.empty())
-    return notFoundStatic("the signal never swings across its centre (a drift or a static pose)");
+  if (change_idx.empty()) return notFoundStatic("the signal never swings across its centre (a drift or a static pose)");
   if (change_idx.size() < 2) {
     f.oscillation_found = false;
     f.amplitude_deg = half_range;
-    f.message = "no oscillation found: the signal crosses its centre only once (a single swing or a "
-                "drift); fewer than " + std::to_string(min_cycles) + " full periods in the clip";
+    f.message =
+        "no oscillation found: the signal crosses its centre only once (a single swing or a "
+        "drift); fewer than " +
+        std::to_string(min_cycles) + " full periods in the clip";
     f.confidence = 0.08;
     return f;
   }
@@ -335,8 +339,10 @@ SignalFeatures analyseSignal(const std::vector<double>& t_in, const std::vector<
       const double te = end == 0 ? t.front() : t.back();
       window(t, y, end == 0 ? te : te - we, end == 0 ? te + we : te, xs, ys);
       Eigen::VectorXd c;
-      if (xs.size() >= 5 && polyFit(xs, ys, te, 2, c)) mt = std::max(mt, std::abs(c(0)));
-      else mt = std::max(mt, std::abs(end == 0 ? s.front() : s.back()));
+      if (xs.size() >= 5 && polyFit(xs, ys, te, 2, c))
+        mt = std::max(mt, std::abs(c(0)));
+      else
+        mt = std::max(mt, std::abs(end == 0 ? s.front() : s.back()));
     }
     f.max_tilt_deg = mt;
   }
@@ -409,8 +415,8 @@ SignalFeatures analyseSignal(const std::vector<double>& t_in, const std::vector<
 
   if (crossings.size() < 2) {
     f.oscillation_found = false;
-    f.message = "no oscillation found: fewer than two equilibrium crossings; fewer than " +
-                std::to_string(min_cycles) + " full periods in the clip";
+    f.message = "no oscillation found: fewer than two equilibrium crossings; fewer than " + std::to_string(min_cycles) +
+                " full periods in the clip";
     f.confidence = 0.08;
     return f;
   }
@@ -446,9 +452,9 @@ SignalFeatures analyseSignal(const std::vector<double>& t_in, const std::vector<
     f.oscillation_found = false;
     f.period_s = 0.0;
     f.cycles = cycles;
-    f.message = "oscillation too short: fewer than " + std::to_string(min_cycles) +
-                " full periods in the clip (" + numberText(periods_seen, 2) + " periods of about " +
-                numberText(period, 3) + " s seen); record a longer clip";
+    f.message = "oscillation too short: fewer than " + std::to_string(min_cycles) + " full periods in the clip (" +
+                numberText(periods_seen, 2) + " periods of about " + numberText(period, 3) +
+                " s seen); record a longer clip";
     f.confidence = 0.1;
     return f;
   }
@@ -522,8 +528,8 @@ SignalFeatures analyseSignal(const std::vector<double>& t_in, const std::vector<
   const double snr = sigma > 0.0 ? f.amplitude_deg / sigma : 1e6;
   const double snr_factor = 1.0 - std::exp(-snr / 5.0);
   const double cycle_factor = std::min(1.0, periods_seen / (1.5 * min_cycles));
-  f.confidence = std::max(0.0, std::min(1.0, regularity * snr_factor * cycle_factor * ac_factor *
-                                                 (missed ? 0.8 : 1.0)));
+  f.confidence =
+      std::max(0.0, std::min(1.0, regularity * snr_factor * cycle_factor * ac_factor * (missed ? 0.8 : 1.0)));
   f.message = "oscillation: " + std::to_string(f.cycles) + " full cycles, period " + numberText(period, 5) +
               " s (crossing fit rms " + numberText(1000.0 * fit_rms, 3) + " ms), amplitude " +
               numberText(f.amplitude_deg, 3) + " deg, noise " + numberText(sigma, 3) + " deg" + note +

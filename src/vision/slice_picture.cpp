@@ -32,10 +32,10 @@ struct Lattice {
 };
 
 struct Panel {
-  int axis = 2;        ///< slice normal
-  int layer = 0;       ///< lattice layer along the normal
+  int axis = 2;   ///< slice normal
+  int layer = 0;  ///< lattice layer along the normal
   std::string caption;
-  cv::Rect rect;       ///< whole panel (caption, drawing, scale strip)
+  cv::Rect rect;  ///< whole panel (caption, drawing, scale strip)
 };
 
 constexpr int kCaption = 24, kStrip = 34, kMargin = 10;
@@ -69,7 +69,8 @@ void drawPanel(cv::Mat& img, const Panel& p, double s, const Lattice& L, const s
     const int x1 = std::max(x0, ox + int(std::floor((cu + 0.5 * L.h - umin) * s)) - 1);
     const int y0 = oy + int(std::floor((vmax - (cv_ + 0.5 * L.h)) * s));
     const int y1 = std::max(y0, oy + int(std::floor((vmax - (cv_ - 0.5 * L.h)) * s)) - 1);
-    cv::rectangle(img, cv::Point(x0, y0), cv::Point(x1, y1), r[i] >= iso ? kSliceSolidBgr : kSliceHollowBgr, cv::FILLED);
+    cv::rectangle(img, cv::Point(x0, y0), cv::Point(x1, y1), r[i] >= iso ? kSliceSolidBgr : kSliceHollowBgr,
+                  cv::FILLED);
   }
   // Axis arrows (lower left) and a scale bar (lower right) in the strip under the drawing.
   const int base = p.rect.y + p.rect.height - 8;
@@ -103,7 +104,8 @@ cv::Mat drawInteriorSlices(const std::vector<Eigen::Vector3d>& X, const std::vec
                            const std::string& title, const SliceOptions& o) {
   if (X.empty()) throw TopoError("slice picture", "has no particles", "export a non-empty volume");
   if (X.size() != r.size())
-    throw TopoError("slice picture", std::to_string(X.size()) + " positions but " + std::to_string(r.size()) + " values of r",
+    throw TopoError("slice picture",
+                    std::to_string(X.size()) + " positions but " + std::to_string(r.size()) + " values of r",
                     "give one indicator value per particle");
   if (!(spacing > 0.0) || !std::isfinite(spacing))
     throw TopoError("slice picture", "spacing " + numberText(spacing) + " is not positive", "give the lattice spacing");
@@ -165,8 +167,10 @@ cv::Mat drawInteriorSlices(const std::vector<Eigen::Vector3d>& X, const std::vec
                              lengthText(spacing);
   drawText(img, counts, cv::Point(14, 56), 0.5, kInk);
   int x = W - 520;
-  for (const auto& [colour, label] : std::vector<std::pair<cv::Scalar, std::string>>{
-           {kSliceSolidBgr, "solid (r >= " + numberText(o.iso) + ")"}, {kSliceHollowBgr, "hollow (r < " + numberText(o.iso) + ")"}, {kSliceOutsideBgr, "outside"}}) {
+  for (const auto& [colour, label] :
+       std::vector<std::pair<cv::Scalar, std::string>>{{kSliceSolidBgr, "solid (r >= " + numberText(o.iso) + ")"},
+                                                       {kSliceHollowBgr, "hollow (r < " + numberText(o.iso) + ")"},
+                                                       {kSliceOutsideBgr, "outside"}}) {
     cv::rectangle(img, cv::Rect(x, 40, 18, 18), colour, cv::FILLED);
     cv::rectangle(img, cv::Rect(x, 40, 18, 18), kInk, 1);
     drawText(img, label, cv::Point(x + 24, 55), 0.5, kInk);

@@ -15,9 +15,10 @@ void SplatCamera::validate() const {
     throw TopoError("camera size " + std::to_string(width) + "x" + std::to_string(height),
                     "width and height must be positive", "give the image size in pixels, e.g. 640x480");
   if (!(fx > 0) || !(fy > 0) || !std::isfinite(fx) || !std::isfinite(fy))
-    throw TopoError("camera focal length", "fx and fy must be positive and finite (got " + std::to_string(fx) + ", " +
-                                               std::to_string(fy) + ")",
-                    "give the focal length in pixels");
+    throw TopoError(
+        "camera focal length",
+        "fx and fy must be positive and finite (got " + std::to_string(fx) + ", " + std::to_string(fy) + ")",
+        "give the focal length in pixels");
   if (!std::isfinite(cx) || !std::isfinite(cy) || !R_wc.allFinite() || !t_wc.allFinite())
     throw TopoError("camera", "principal point or pose is not finite", "give finite intrinsics and pose");
   if ((R_wc.transpose() * R_wc - Eigen::Matrix3d::Identity()).norm() > 1e-6 || R_wc.determinant() < 0)
@@ -35,9 +36,9 @@ Eigen::Matrix3d lookAtRotation(const Eigen::Vector3d& eye, const Eigen::Vector3d
                     "look at the target from the side, or give another up direction");
   const Eigen::Vector3d xn = x.normalized();
   Eigen::Matrix3d R;
-  R.col(0) = xn;              // image right
-  R.col(1) = zn.cross(xn);    // image down
-  R.col(2) = zn;              // forward
+  R.col(0) = xn;            // image right
+  R.col(1) = zn.cross(xn);  // image down
+  R.col(2) = zn;            // forward
   return R;
 }
 
@@ -45,12 +46,12 @@ cv::Mat renderSplats(const SplatCamera& cam, const Splats& s, const SplatShading
   cam.validate();
   const std::size_t n = s.positions.size();
   if (s.normals.size() != n)
-    throw TopoError("splat normals", "has " + std::to_string(s.normals.size()) + " entries for " + std::to_string(n) +
-                                         " positions",
+    throw TopoError("splat normals",
+                    "has " + std::to_string(s.normals.size()) + " entries for " + std::to_string(n) + " positions",
                     "give one normal per particle");
   if (s.colours.size() != n && s.colours.size() != 1)
-    throw TopoError("splat colours", "has " + std::to_string(s.colours.size()) + " entries for " + std::to_string(n) +
-                                         " positions",
+    throw TopoError("splat colours",
+                    "has " + std::to_string(s.colours.size()) + " entries for " + std::to_string(n) + " positions",
                     "give one colour per particle or a single colour for all");
   if (!(s.radius_m > 0) || !std::isfinite(s.radius_m))
     throw TopoError("splat radius", "must be positive (got " + std::to_string(s.radius_m) + " m)",
@@ -70,8 +71,10 @@ cv::Mat renderSplats(const SplatCamera& cam, const Splats& s, const SplatShading
     if (!(z > cam.near_m + r)) continue;
     const double u = cam.fx * pc.x() / z + cam.cx, v = cam.fy * pc.y() / z + cam.cy;
     const double rx = cam.fx * r / z, ry = cam.fy * r / z;
-    const int u0 = std::max(0, static_cast<int>(std::ceil(u - rx))), u1 = std::min(cam.width - 1, static_cast<int>(std::floor(u + rx)));
-    const int v0 = std::max(0, static_cast<int>(std::ceil(v - ry))), v1 = std::min(cam.height - 1, static_cast<int>(std::floor(v + ry)));
+    const int u0 = std::max(0, static_cast<int>(std::ceil(u - rx))),
+              u1 = std::min(cam.width - 1, static_cast<int>(std::floor(u + rx)));
+    const int v0 = std::max(0, static_cast<int>(std::ceil(v - ry))),
+              v1 = std::min(cam.height - 1, static_cast<int>(std::floor(v + ry)));
     if (u0 > u1 || v0 > v1) continue;
     const double lambert = std::max(0.0, s.normals[i].dot(light));
     const double k = std::min(1.0, shading.ambient + shading.diffuse * lambert);

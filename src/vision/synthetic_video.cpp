@@ -3,8 +3,8 @@
 
 #include <algorithm>
 #include <cctype>
-#include <filesystem>
 #include <cmath>
+#include <filesystem>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
@@ -15,12 +15,11 @@ namespace topo_gaussian::vision {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr int kShift = 4;                 // sub-pixel bits for cv drawing
+constexpr int kShift = 4;  // sub-pixel bits for cv drawing
 constexpr double kScale = 1 << kShift;
 
 cv::Point fixedPoint(const cv::Point2d& p) {
-  return cv::Point(static_cast<int>(std::lround(p.x * kScale)),
-                   static_cast<int>(std::lround(p.y * kScale)));
+  return cv::Point(static_cast<int>(std::lround(p.x * kScale)), static_cast<int>(std::lround(p.y * kScale)));
 }
 
 int frameCount(double fps, double duration_s) {
@@ -29,17 +28,16 @@ int frameCount(double fps, double duration_s) {
                     "set fps > 0");
   if (!(duration_s > 0.0) || !std::isfinite(duration_s))
     throw TopoError("synthetic scene duration_s",
-                    "must be positive and finite (got " + std::to_string(duration_s) + ")",
-                    "set duration_s > 0");
+                    "must be positive and finite (got " + std::to_string(duration_s) + ")", "set duration_s > 0");
   return static_cast<int>(std::lround(fps * duration_s));
 }
 
 void checkSize(int width, int height) {
   if (width <= 0 || height <= 0)
-    throw TopoError("synthetic scene size",
-                    "width and height must be positive (got " + std::to_string(width) + "x" +
-                        std::to_string(height) + ")",
-                    "set width, height > 0");
+    throw TopoError(
+        "synthetic scene size",
+        "width and height must be positive (got " + std::to_string(width) + "x" + std::to_string(height) + ")",
+        "set width, height > 0");
 }
 
 /// A smooth random texture (low-frequency noise), twice the image size, to be shifted over time.
@@ -69,14 +67,12 @@ double smoothstep(double x) {
 }
 
 /// A thick segment as a filled rotated rectangle (anti-aliased).
-void drawBar(cv::Mat& img, const cv::Point2d& a, const cv::Point2d& b, double width,
-             const cv::Scalar& colour) {
+void drawBar(cv::Mat& img, const cv::Point2d& a, const cv::Point2d& b, double width, const cv::Scalar& colour) {
   const cv::Point2d d = b - a;
   const double len = std::hypot(d.x, d.y);
   if (len <= 0.0) return;
   const cv::Point2d n(-d.y / len * width / 2.0, d.x / len * width / 2.0);
-  std::vector<cv::Point> poly = {fixedPoint(a + n), fixedPoint(b + n), fixedPoint(b - n),
-                                 fixedPoint(a - n)};
+  std::vector<cv::Point> poly = {fixedPoint(a + n), fixedPoint(b + n), fixedPoint(b - n), fixedPoint(a - n)};
   cv::fillConvexPoly(img, poly, colour, cv::LINE_AA, kShift);
 }
 
@@ -93,8 +89,7 @@ double pendulumAngleDeg(const PendulumScene& scene, double t) {
 
 std::vector<cv::Mat> renderPendulum(const PendulumScene& scene) {
   checkSize(scene.width, scene.height);
-  if (!(scene.period_s > 0.0))
-    throw TopoError("pendulum scene period_s", "must be positive", "set period_s > 0");
+  if (!(scene.period_s > 0.0)) throw TopoError("pendulum scene period_s", "must be positive", "set period_s > 0");
   const int n = frameCount(scene.fps, scene.duration_s);
   cv::RNG rng(scene.seed);
   cv::Mat texture;
@@ -118,8 +113,8 @@ std::vector<cv::Mat> renderPendulum(const PendulumScene& scene) {
     drawBar(img, scene.pivot, bob, scene.rod_width_px, rod);
     cv::circle(img, fixedPoint(scene.pivot), static_cast<int>(std::lround(0.8 * scene.rod_width_px * kScale)),
                cv::Scalar(20, 20, 20), cv::FILLED, cv::LINE_AA, kShift);
-    cv::circle(img, fixedPoint(bob), static_cast<int>(std::lround(scene.bob_radius_px * kScale)),
-               scene.bob_bgr, cv::FILLED, cv::LINE_AA, kShift);
+    cv::circle(img, fixedPoint(bob), static_cast<int>(std::lround(scene.bob_radius_px * kScale)), scene.bob_bgr,
+               cv::FILLED, cv::LINE_AA, kShift);
     addNoiseAndBlur(img, scene.noise_sigma, scene.blur_px, rng);
     frames.push_back(img);
   }
@@ -149,10 +144,10 @@ std::vector<cv::Mat> renderFinger(const FingerScene& scene) {
     drawBar(img, scene.base, joint, scene.width_px, scene.body_bgr);
     drawBar(img, joint, tip, scene.width_px, scene.body_bgr);
     // rounded joint and tip so the silhouette is continuous
-    cv::circle(img, fixedPoint(joint), static_cast<int>(std::lround(scene.width_px / 2.0 * kScale)),
-               scene.body_bgr, cv::FILLED, cv::LINE_AA, kShift);
-    cv::circle(img, fixedPoint(tip), static_cast<int>(std::lround(scene.width_px / 2.0 * kScale)),
-               scene.body_bgr, cv::FILLED, cv::LINE_AA, kShift);
+    cv::circle(img, fixedPoint(joint), static_cast<int>(std::lround(scene.width_px / 2.0 * kScale)), scene.body_bgr,
+               cv::FILLED, cv::LINE_AA, kShift);
+    cv::circle(img, fixedPoint(tip), static_cast<int>(std::lround(scene.width_px / 2.0 * kScale)), scene.body_bgr,
+               cv::FILLED, cv::LINE_AA, kShift);
     addNoiseAndBlur(img, scene.noise_sigma, 0.0, rng);
     frames.push_back(img);
   }
@@ -160,8 +155,7 @@ std::vector<cv::Mat> renderFinger(const FingerScene& scene) {
 }
 
 void writeVideo(const std::vector<cv::Mat>& frames, double fps, const std::string& path) {
-  if (frames.empty())
-    throw TopoError(path, "no frames to write", "render at least one frame");
+  if (frames.empty()) throw TopoError(path, "no frames to write", "render at least one frame");
   if (!(fps > 0.0) || !std::isfinite(fps))
     throw TopoError(path, "fps must be positive (got " + std::to_string(fps) + ")", "pass fps > 0");
   std::string ext;
@@ -180,12 +174,11 @@ void writeVideo(const std::vector<cv::Mat>& frames, double fps, const std::strin
     if (frames[i].empty() || frames[i].size() != size)
       throw TopoError(path,
                       "frame " + std::to_string(i) + " is " + std::to_string(frames[i].cols) + "x" +
-                          std::to_string(frames[i].rows) + ", frame 0 is " + std::to_string(size.width) +
-                          "x" + std::to_string(size.height),
+                          std::to_string(frames[i].rows) + ", frame 0 is " + std::to_string(size.width) + "x" +
+                          std::to_string(size.height),
                       "render all frames at the same size");
     if (frames[i].type() != CV_8UC3 && frames[i].type() != CV_8UC1)
-      throw TopoError(path, "frame " + std::to_string(i) + " is not 8-bit grey or BGR",
-                      "convert frames to CV_8UC3");
+      throw TopoError(path, "frame " + std::to_string(i) + " is not 8-bit grey or BGR", "convert frames to CV_8UC3");
   }
   {
     std::error_code ec;
@@ -203,8 +196,7 @@ void writeVideo(const std::vector<cv::Mat>& frames, double fps, const std::strin
   }
   if (!writer.isOpened())
     throw TopoError(path, "cannot open video for writing",
-                    "check that the directory exists and is writable and that OpenCV has a " + ext +
-                        " encoder");
+                    "check that the directory exists and is writable and that OpenCV has a " + ext + " encoder");
   cv::Mat bgr;
   for (const cv::Mat& f : frames) {
     if (f.channels() == 1)

@@ -46,9 +46,12 @@ bool hasImageExtension(const std::string& name) {
 cv::Mat toBgr(const cv::Mat& m) {
   if (m.channels() == 3) return m;
   cv::Mat out;
-  if (m.channels() == 1) cv::cvtColor(m, out, cv::COLOR_GRAY2BGR);
-  else if (m.channels() == 4) cv::cvtColor(m, out, cv::COLOR_BGRA2BGR);
-  else out = m;
+  if (m.channels() == 1)
+    cv::cvtColor(m, out, cv::COLOR_GRAY2BGR);
+  else if (m.channels() == 4)
+    cv::cvtColor(m, out, cv::COLOR_BGRA2BGR);
+  else
+    out = m;
   return out;
 }
 
@@ -58,8 +61,8 @@ VideoSource::VideoSource(const std::string& path, const VideoOptions& options) :
   if (opt_.stride < 1)
     throw TopoError("stride " + std::to_string(opt_.stride), "must be at least 1", "give --stride 1 or more");
   if (opt_.end_s >= 0 && opt_.end_s <= opt_.start_s)
-    throw TopoError("time range " + std::to_string(opt_.start_s) + ".." + std::to_string(opt_.end_s) + " s",
-                    "is empty", "give --end larger than --start (or leave --end out)");
+    throw TopoError("time range " + std::to_string(opt_.start_s) + ".." + std::to_string(opt_.end_s) + " s", "is empty",
+                    "give --end larger than --start (or leave --end out)");
   if (path.find('%') != std::string::npos || isDirectory(path)) {
     sequence_ = true;
     if (!(opt_.sequence_fps > 0))

@@ -8,16 +8,16 @@
 #include <limits>
 #include <sstream>
 
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/json.h"
+#include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/common/stopwatch.h"
 #include "topo_gaussian/geometry/mesh_metrics.h"
 #include "topo_gaussian/geometry/solid_mesh.h"
 #include "topo_gaussian/geometry/stl_writer.h"
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/io/interior_ply.h"
 #include "topo_gaussian/io/text_file.h"
-#include "topo_gaussian/common/error.h"
-#include "topo_gaussian/common/number_text.h"
-#include "topo_gaussian/common/json.h"
-#include "topo_gaussian/common/stopwatch.h"
 #include "topo_gaussian/vision/figure.h"
 #include "topo_gaussian/vision/line_plot.h"
 #include "topo_gaussian/vision/slice_picture.h"
@@ -26,9 +26,9 @@ namespace topo_gaussian::workflow {
 
 namespace {
 
-using topo_gaussian::Clock;
 using json::num;
 using json::quote;
+using topo_gaussian::Clock;
 
 const char* boolean(bool b) { return b ? "true" : "false"; }
 
@@ -72,12 +72,13 @@ InterfaceQuality measureInterface(const VolumeCloud& cloud, const std::vector<do
 std::string interfaceJson(const InterfaceQuality& q) {
   std::ostringstream s;
   s << "{\"smoothness\": " << (q.interface_smoothness.vertices ? num(q.interface_smoothness.mean) : "null")
-    << ", \"smoothness_whole_mesh\": " << num(q.smoothness.mean) << ", \"smoothness_definition\": "
-    << quote(kSmoothnessDefinition) << ", \"interface_vertices\": " << q.interface_smoothness.vertices
+    << ", \"smoothness_whole_mesh\": " << num(q.smoothness.mean)
+    << ", \"smoothness_definition\": " << quote(kSmoothnessDefinition)
+    << ", \"interface_vertices\": " << q.interface_smoothness.vertices
     << ", \"watertight\": " << boolean(q.check.watertight()) << ", \"triangles\": " << q.check.triangles
     << ", \"vertices\": " << q.check.vertices << ", \"solid_bodies\": " << q.check.bodies
-    << ", \"enclosed_voids\": " << q.check.voids << ", \"mean_edge_length_m\": " << num(q.smoothness.mean_edge_length_m) << ", \"mesh_volume_m3\": "
-    << num(q.mesh_volume_m3) << ", \"solid_volume_m3\": " << num(q.solid_volume_m3)
+    << ", \"enclosed_voids\": " << q.check.voids << ", \"mean_edge_length_m\": " << num(q.smoothness.mean_edge_length_m)
+    << ", \"mesh_volume_m3\": " << num(q.mesh_volume_m3) << ", \"solid_volume_m3\": " << num(q.solid_volume_m3)
     << ", \"volume_relative_difference\": " << num(q.volume_difference) << ", \"iso\": " << num(q.iso) << "}";
   return s.str();
 }
@@ -85,7 +86,8 @@ std::string interfaceJson(const InterfaceQuality& q) {
 std::string withInterfaceSection(const std::string& report, const InterfaceQuality& q, const std::string& source) {
   std::size_t end = report.find_last_not_of(" \t\r\n");
   if (end == std::string::npos || report[end] != '}')
-    throw TopoError(source, "does not end with '}', so it is not a JSON report", "give the report.json written by topo infer");
+    throw TopoError(source, "does not end with '}', so it is not a JSON report",
+                    "give the report.json written by topo infer");
   std::string body = report.substr(0, end);  // without the final '}'
   const auto trimEnd = [&] { body.erase(body.find_last_not_of(" \t\r\n") + 1); };
   trimEnd();
@@ -103,9 +105,10 @@ ExportSummary exportInterior(const VolumeCloud& cloud, const std::vector<double>
                              const ExportOptions& o) {
   const auto t0 = Clock::now();
   if (density.size() != r.size())
-    throw TopoError("interior", "has " + std::to_string(r.size()) + " values of r but " + std::to_string(density.size()) +
-                                    " densities",
-                    "give one density per particle");
+    throw TopoError(
+        "interior",
+        "has " + std::to_string(r.size()) + " values of r but " + std::to_string(density.size()) + " densities",
+        "give one density per particle");
   if (o.output_dir.empty()) throw TopoError("export", "has no output directory", "give one (topo export --output DIR)");
   if (!(o.stl_scale > 0.0) || !std::isfinite(o.stl_scale))
     throw TopoError("STL scale " + num(o.stl_scale), "is not positive", "use 1000 (millimetres) or 1 (metres)");
@@ -123,7 +126,8 @@ ExportSummary exportInterior(const VolumeCloud& cloud, const std::vector<double>
   std::error_code ec;
   std::filesystem::create_directories(o.output_dir, ec);
   if (!std::filesystem::is_directory(o.output_dir))
-    throw TopoError(o.output_dir, "is not a directory and cannot be created" + (ec ? " (" + ec.message() + ")" : std::string()),
+    throw TopoError(o.output_dir,
+                    "is not a directory and cannot be created" + (ec ? " (" + ec.message() + ")" : std::string()),
                     "give a writable output directory");
   const std::string dir = o.output_dir + "/";
   if (s.interface.check.bodies > 1)
@@ -225,17 +229,20 @@ std::string exportJson(const ExportSummary& s) {
   std::ostringstream j;
   j << "{\n  \"particles\": " << q.particles << ",\n  \"solid_particles\": " << q.solid_particles
     << ",\n  \"iso\": " << num(q.iso) << ",\n  \"mesh\": {\"file\": \"interior.stl\", \"unit\": " << quote(s.stl_unit)
-    << ", \"scale_from_m\": " << num(s.stl_scale) << ", \"vertices\": " << c.vertices << ", \"triangles\": " << c.triangles
-    << ", \"edges\": " << c.edges << ", \"components\": " << c.components << ", \"solid_bodies\": " << c.bodies
-    << ", \"enclosed_voids\": " << c.voids << ", \"euler_characteristic\": " << c.euler_characteristic << "},\n  \"watertight\": " << boolean(c.watertight())
-    << ",\n  \"manifold_check\": {\"boundary_edges\": " << c.boundary_edges << ", \"nonmanifold_edges\": "
-    << c.nonmanifold_edges << ", \"misoriented_edges\": " << c.misoriented_edges << ", \"nonmanifold_vertices\": "
-    << c.nonmanifold_vertices << ", \"degenerate_triangles\": " << c.degenerate_triangles
+    << ", \"scale_from_m\": " << num(s.stl_scale) << ", \"vertices\": " << c.vertices
+    << ", \"triangles\": " << c.triangles << ", \"edges\": " << c.edges << ", \"components\": " << c.components
+    << ", \"solid_bodies\": " << c.bodies << ", \"enclosed_voids\": " << c.voids
+    << ", \"euler_characteristic\": " << c.euler_characteristic << "},\n  \"watertight\": " << boolean(c.watertight())
+    << ",\n  \"manifold_check\": {\"boundary_edges\": " << c.boundary_edges
+    << ", \"nonmanifold_edges\": " << c.nonmanifold_edges << ", \"misoriented_edges\": " << c.misoriented_edges
+    << ", \"nonmanifold_vertices\": " << c.nonmanifold_vertices
+    << ", \"degenerate_triangles\": " << c.degenerate_triangles
     << ", \"min_triangle_area_m2\": " << num(c.min_triangle_area) << ", \"summary\": " << quote(c.summary())
-    << "},\n  \"volume\": {\"stl_m3\": " << num(q.mesh_volume_m3) << ", \"solid_particles_m3\": " << num(q.solid_volume_m3)
-    << ", \"relative_difference\": " << num(q.volume_difference) << "},\n  \"smoothness\": {\"interface\": "
-    << smoothnessJson(q.interface_smoothness) << ", \"whole_mesh\": " << smoothnessJson(q.smoothness)
-    << ", \"definition\": " << quote(kSmoothnessDefinition)
+    << "},\n  \"volume\": {\"stl_m3\": " << num(q.mesh_volume_m3)
+    << ", \"solid_particles_m3\": " << num(q.solid_volume_m3)
+    << ", \"relative_difference\": " << num(q.volume_difference)
+    << "},\n  \"smoothness\": {\"interface\": " << smoothnessJson(q.interface_smoothness)
+    << ", \"whole_mesh\": " << smoothnessJson(q.smoothness) << ", \"definition\": " << quote(kSmoothnessDefinition)
     << "},\n  \"loss_history_points\": " << s.loss_points << ",\n  \"signals\": [";
   for (std::size_t k = 0; k < s.signal_labels.size(); ++k) j << (k ? ", " : "") << quote(s.signal_labels[k]);
   j << "],\n  \"signal_rms_difference\": " << num(s.signal_rms_difference) << ",\n  \"files\": [";

@@ -7,10 +7,10 @@
 #include <chrono>
 #include <cmath>
 
-#include "topo_gaussian/inference/body_motion.h"
-#include "topo_gaussian/inference/task_registry.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/inference/body_motion.h"
+#include "topo_gaussian/inference/task_registry.h"
 #include "topo_gaussian/vision/particle_normals.h"
 
 namespace topo_gaussian::workflow {
@@ -82,7 +82,8 @@ std::string RigTwin::defaultTaskFor(const std::string& shape) {
     }
   }
   if (fallback.empty())
-    throw TopoError("rig twin shape '" + shape + "'", "has no default task", "name the task (one of " + twinTaskList() + ")");
+    throw TopoError("rig twin shape '" + shape + "'", "has no default task",
+                    "name the task (one of " + twinTaskList() + ")");
   return fallback;
 }
 
@@ -129,9 +130,11 @@ RigTwin::RigTwin(const RigTwinOptions& options) : options_(options) {
   Eigen::VectorXd theta = options_.interior_quadric;
   if (theta.size() == 0) theta = defaultInteriorQuadric(config_.task());
   if (theta.size() != 10 || !theta.allFinite())
-    throw TopoError("rig twin interior quadric", "must be 10 finite numbers [a_xx a_yy a_zz a_xy a_xz a_yz b_x b_y b_z c] (got " +
-                                                     std::to_string(theta.size()) + ")",
-                    "give θ of s(u) = uᵀAu + bᵀu + c in normalised coordinates, or leave it empty for the default cavity");
+    throw TopoError(
+        "rig twin interior quadric",
+        "must be 10 finite numbers [a_xx a_yy a_zz a_xy a_xz a_yz b_x b_y b_z c] (got " + std::to_string(theta.size()) +
+            ")",
+        "give θ of s(u) = uᵀAu + bᵀu + c in normalised coordinates, or leave it empty for the default cavity");
   options_.interior_quadric = theta;
   TaskConfig quadric = config_;
   quadric.set("representation", "quadric", "rig twin");
@@ -146,13 +149,14 @@ RigTwin::RigTwin(const RigTwinOptions& options) : options_(options) {
     density_.resize(m.size());
     for (std::size_t i = 0; i < m.size(); ++i) density_[i] = m[i] / cloud_.V[i];
   } catch (const TopoError& e) {
-    throw TopoError(std::string("rig twin: simulating the true interior of the ") + shape_.name + " (" + config_.task() +
-                    " task) failed: " + e.what());
+    throw TopoError(std::string("rig twin: simulating the true interior of the ") + shape_.name + " (" +
+                    config_.task() + " task) failed: " + e.what());
   }
   const Feature* period = findFeature(truth_, replay.period_feature);
   if (!period || !(period->value > 0))
-    throw TopoError("rig twin: the true interior of the " + shape_.name, "produces no oscillation period (" + replay.period_feature +
-                                                                             ") in " + config_.valueText(replay.duration_parameter),
+    throw TopoError("rig twin: the true interior of the " + shape_.name,
+                    "produces no oscillation period (" + replay.period_feature + ") in " +
+                        config_.valueText(replay.duration_parameter),
                     "raise " + replay.duration_parameter + " or choose an interior that oscillates (e.g. the default)");
 
   // The loop: a longer run of the same motion when the configured one is too short.

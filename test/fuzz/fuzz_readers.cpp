@@ -7,8 +7,8 @@
 #include <cstdlib>
 #include <string>
 
-#include "topo_gaussian/geometry/surface_reader.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/geometry/surface_reader.h"
 
 namespace {
 
@@ -41,11 +41,21 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   try {
     SurfaceData s;
     switch (data[0] % 5) {
-      case 0: s = readPly(bytes, "fuzz.ply"); break;
-      case 1: s = readPcd(bytes, "fuzz.pcd"); break;
-      case 2: s = readObj(bytes, "fuzz.obj"); break;
-      case 3: s = readOff(bytes, "fuzz.off"); break;
-      default: s = readStl(bytes, "fuzz.stl"); break;
+      case 0:
+        s = readPly(bytes, "fuzz.ply");
+        break;
+      case 1:
+        s = readPcd(bytes, "fuzz.pcd");
+        break;
+      case 2:
+        s = readObj(bytes, "fuzz.obj");
+        break;
+      case 3:
+        s = readOff(bytes, "fuzz.off");
+        break;
+      default:
+        s = readStl(bytes, "fuzz.stl");
+        break;
     }
     checkInvariants(s);
   } catch (const topo_gaussian::TopoError&) {

@@ -21,8 +21,8 @@
 #include <vector>
 
 #include "topo_gaussian/FillInterior.h"
-#include "topo_gaussian/geometry/ingest.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/geometry/ingest.h"
 #include "topo_gaussian/ros/cloud_ingest_node.h"
 #include "topo_gaussian/ros/conversions.h"
 
@@ -73,8 +73,8 @@ struct Setup {
   std::string node = "/cloud_ingest";
   std::string surface_file;
   double size_m = 0.1;
-  tr::CloudIngestParams node_params;  ///< read from the node's own namespace: the same options
-  geo::IngestResult expected;         ///< ingestFile on the same file with those options
+  tr::CloudIngestParams node_params;       ///< read from the node's own namespace: the same options
+  geo::IngestResult expected;              ///< ingestFile on the same file with those options
   sensor_msgs::PointCloud2ConstPtr first;  ///< the first latched volume (the file's)
   std::string error;                       ///< why the setup failed, if it did
 };
@@ -116,9 +116,7 @@ PointCloud2 sphereCloud(double r, int n, int nans) {
 
 std::string fillService() { return g_setup->node + "/fill_interior"; }
 
-bool callFill(topo_gaussian::FillInterior& srv) {
-  return ros::service::call(fillService(), srv);
-}
+bool callFill(topo_gaussian::FillInterior& srv) { return ros::service::call(fillService(), srv); }
 
 // ------------------------------------------------------------------ conversions (no node needed)
 
@@ -422,7 +420,8 @@ TEST(CloudIngest, SurfaceCloudTopicFillsSphere) {
   ASSERT_NO_THROW(c.validate("/volume"));
   const double exact = 4.0 / 3.0 * kPi * r * r * r;
   // Point clouds are filled by splats whose shell reaches ~one splat radius past the surface
-  // (README, "The density method"): the volume may exceed the sphere's by up to ~18 % (5000 points: +15.4 %), never fall short.
+  // (README, "The density method"): the volume may exceed the sphere's by up to ~18 % (5000 points: +15.4 %), never
+  // fall short.
   EXPECT_GT(c.totalVolume(), 0.99 * exact);
   EXPECT_LT(c.totalVolume(), 1.18 * exact);
   const double target = double(g_setup->node_params.options.fill.target_count);
@@ -444,7 +443,8 @@ int main(int argc, char** argv) {
   Setup setup;
   pnh.param<std::string>("node", setup.node, setup.node);
   pnh.param("torus_size_m", setup.size_m, setup.size_m);
-  if (!pnh.getParam("surface_file", setup.surface_file)) setup.error = "~surface_file is not set (see cloud_ingest.test.in)";
+  if (!pnh.getParam("surface_file", setup.surface_file))
+    setup.error = "~surface_file is not set (see cloud_ingest.test.in)";
   VolumeListener volumes(nh);
   g_setup = &setup;
   g_volumes = &volumes;

@@ -70,8 +70,8 @@ TEST(DemoTumbler, UnknownTaskAbortsWithAReason) {
 }
 
 TEST(DemoTumbler, EndToEndReproducesTheTwinsGroundTruth) {
-  const auto truth = ros::topic::waitForMessage<topo_gaussian::RigGroundTruth>("/rig_simulator/ground_truth",
-                                                                               ros::Duration(60.0));
+  const auto truth =
+      ros::topic::waitForMessage<topo_gaussian::RigGroundTruth>("/rig_simulator/ground_truth", ros::Duration(60.0));
   ASSERT_TRUE(truth) << "no ground truth from rig_simulator";
   const double T = valueOf(truth->feature_names, truth->feature_values, "period_s");
   const double tilt = valueOf(truth->feature_names, truth->feature_values, "max_tilt_deg");
@@ -100,8 +100,9 @@ TEST(DemoTumbler, EndToEndReproducesTheTwinsGroundTruth) {
   const auto res = c->getResult();
   const double T1 = valueOf(res->feature_names, res->achieved, "period_s");
   const double tilt1 = valueOf(res->feature_names, res->achieved, "max_tilt_deg");
-  std::printf("[demo] recovered: period %.4f s (%+.2f %%), max tilt %.3f deg (%+.2f %%), %d evaluations, %d feedbacks\n",
-              T1, 100 * (T1 / T - 1), tilt1, 100 * (tilt1 / tilt - 1), res->iterations, feedbacks.load());
+  std::printf(
+      "[demo] recovered: period %.4f s (%+.2f %%), max tilt %.3f deg (%+.2f %%), %d evaluations, %d feedbacks\n", T1,
+      100 * (T1 / T - 1), tilt1, 100 * (tilt1 / tilt - 1), res->iterations, feedbacks.load());
   EXPECT_GE(feedbacks.load(), 1);
   EXPECT_TRUE(with_features.load()) << "feedback carries the current features";
   EXPECT_NEAR(T1, T, 0.02 * T) << res->message;
@@ -115,7 +116,8 @@ TEST(DemoTumbler, EndToEndReproducesTheTwinsGroundTruth) {
   ASSERT_TRUE(interior);
   EXPECT_EQ(interior->width, res->interior.width);
   EXPECT_EQ(interior->header.frame_id, "object_simulated");
-  const auto markers = ros::topic::waitForMessage<visualization_msgs::MarkerArray>("/interior_markers", ros::Duration(10.0));
+  const auto markers =
+      ros::topic::waitForMessage<visualization_msgs::MarkerArray>("/interior_markers", ros::Duration(10.0));
   ASSERT_TRUE(markers);
   EXPECT_GE(markers->markers.size(), 6u);
   // the replay of the simulated motion on tf
@@ -195,7 +197,8 @@ TEST(DemoTumbler, ANewGoalPreemptsTheRunningOne) {
 TEST(DemoTumbler, InferServiceFromAShell) {
   // The command as the README gives it.
   const std::string cmd =
-      "rosservice call /interior_inference/infer \"{task: tumbler, overrides: ['contact_damping_ratio=0', 'measured_cycles=1'], "
+      "rosservice call /interior_inference/infer \"{task: tumbler, overrides: ['contact_damping_ratio=0', "
+      "'measured_cycles=1'], "
       "targets: ['period_s=0.3'], ignore_motion_features: true, max_iterations: 3}\" 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
   ASSERT_TRUE(p);

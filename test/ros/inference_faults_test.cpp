@@ -33,7 +33,8 @@ std::string abortReason(const topo_gaussian::InferInteriorGoal& goal) {
 }
 
 sensor_msgs::PointCloud2 tumblerVolume() {
-  return topo_gaussian::topo_ros::toPointCloud2(topo_gaussian::defaultShapeCloud("tumbler", 0.006), "object", ros::Time());
+  return topo_gaussian::topo_ros::toPointCloud2(topo_gaussian::defaultShapeCloud("tumbler", 0.006), "object",
+                                                ros::Time());
 }
 
 }  // namespace
@@ -136,7 +137,10 @@ TEST(InferenceFaults, TheCliReadsTheNodesRunFolder) {
   std::string out;
   const std::string topo = std::string(TOPO_NODE_DIR) + "/topo";
   EXPECT_EQ(shell(topo + " simulate --task tumbler --volume " + g_valid_result_dir + "/volume.ply --interior " +
-                      g_valid_result_dir + "/interior.ply --json", &out), 0) << out;
+                      g_valid_result_dir + "/interior.ply --json",
+                  &out),
+            0)
+      << out;
   EXPECT_NE(out.find("\"period_s\""), std::string::npos) << out;
 }
 
@@ -145,10 +149,16 @@ TEST(InferenceFaults, ANodeRestoresARunOfTheCli) {
   // publishes it, as it would its own.
   const std::string dir = "/tmp/topo_rostest_cli_runs", topo = std::string(TOPO_NODE_DIR) + "/topo";
   std::string out;
-  ASSERT_EQ(shell("rm -rf " + dir + " && mkdir -p " + dir + " && " + topo + " shape tumbler --spacing 0.006 --volume " + dir +
-                      "/tumbler.ply", &out), 0) << out;
-  const int rc = shell(topo + " infer --task tumbler --volume " + dir + "/tumbler.ply --target period_s=0.5 "
-                       "--set max_iterations=2 --no-export --quiet --output " + dir + "/tumbler_cli", &out);
+  ASSERT_EQ(shell("rm -rf " + dir + " && mkdir -p " + dir + " && " + topo + " shape tumbler --spacing 0.006 --volume " +
+                      dir + "/tumbler.ply",
+                  &out),
+            0)
+      << out;
+  const int rc = shell(topo + " infer --task tumbler --volume " + dir +
+                           "/tumbler.ply --target period_s=0.5 "
+                           "--set max_iterations=2 --no-export --quiet --output " +
+                           dir + "/tumbler_cli",
+                       &out);
   ASSERT_TRUE(rc == 0 || rc == 3) << out;
   const std::string cmd = std::string(TOPO_NODE_DIR) + "/interior_inference __ns:=/cli_restored _output_dir:=" + dir +
                           " > /tmp/topo_rostest_cli_restored.log 2>&1 & echo $!";
@@ -157,20 +167,22 @@ TEST(InferenceFaults, ANodeRestoresARunOfTheCli) {
   int pid = 0;
   ASSERT_EQ(fscanf(p, "%d", &pid), 1);
   pclose(p);
-  const auto cloud = ros::topic::waitForMessage<sensor_msgs::PointCloud2>("/cli_restored/interior", ros::Duration(60.0));
+  const auto cloud =
+      ros::topic::waitForMessage<sensor_msgs::PointCloud2>("/cli_restored/interior", ros::Duration(60.0));
   kill(pid, SIGINT);
   ASSERT_TRUE(cloud) << "the node published no interior from the CLI's run (see /tmp/topo_rostest_cli_restored.log)";
   std::string particles;
   ASSERT_EQ(shell("grep -a 'element vertex' " + dir + "/tumbler_cli/volume.ply", &particles), 0);
-  EXPECT_EQ(std::to_string(cloud->width), particles.substr(particles.rfind(' ') + 1, particles.find('\n') - particles.rfind(' ') - 1));
+  EXPECT_EQ(std::to_string(cloud->width),
+            particles.substr(particles.rfind(' ') + 1, particles.find('\n') - particles.rfind(' ') - 1));
 }
 
 /// Runs a node binary of this package with one bad private parameter; returns its exit status and
 /// output (it must stop at start, naming the parameter).
 int runNode(const std::string& node, const std::string& args, std::string* out) {
   static int run = 0;  // a new name each time: private parameters persist on the parameter server
-  const std::string cmd = std::string(TOPO_NODE_DIR) + "/" + node + " __name:=bad_" + node + std::to_string(++run) + " " +
-                          args + " 2>&1";
+  const std::string cmd =
+      std::string(TOPO_NODE_DIR) + "/" + node + " __name:=bad_" + node + std::to_string(++run) + " " + args + " 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
   if (!p) return -1;
   char buf[512];

@@ -35,7 +35,8 @@ vis::PendulumScene scene() {
 }
 
 bool callExtract(const std::string& file, topo_gaussian::ExtractMotion& srv) {
-  ros::ServiceClient c = ros::NodeHandle().serviceClient<topo_gaussian::ExtractMotion>("/motion_tracker/extract_motion");
+  ros::ServiceClient c =
+      ros::NodeHandle().serviceClient<topo_gaussian::ExtractMotion>("/motion_tracker/extract_motion");
   if (!c.waitForExistence(ros::Duration(20.0))) return false;
   srv.request.video_file = file;
   return c.call(srv);
@@ -92,7 +93,8 @@ TEST(MotionTrackerNode, ImageStreamGivesTheSamePeriod) {
   for (int i = 0; i < 100 && pub.getNumSubscribers() == 0; ++i) ros::Duration(0.05).sleep();
   ASSERT_GT(pub.getNumSubscribers(), 0u);
   // A 32FC1 image first: refused (logged), the node must stay alive.
-  cv_bridge::CvImage depth(std_msgs::Header(), sensor_msgs::image_encodings::TYPE_32FC1, cv::Mat(48, 64, CV_32FC1, 1.0f));
+  cv_bridge::CvImage depth(std_msgs::Header(), sensor_msgs::image_encodings::TYPE_32FC1,
+                           cv::Mat(48, 64, CV_32FC1, 1.0f));
   depth.header.stamp = ros::Time(100.0);
   pub.publish(depth.toImageMsg());
   const vis::PendulumScene s = scene();

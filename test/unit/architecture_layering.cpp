@@ -44,8 +44,9 @@ const std::map<std::string, std::set<std::string>>& allowed() {
 
 /// Third-party headers a module must not include (prefixes of the include path).
 const std::map<std::string, std::vector<std::string>>& forbiddenThirdParty() {
-  static const std::vector<std::string> ros = {"ros/", "sensor_msgs/", "geometry_msgs/", "std_msgs/", "tf2", "actionlib",
-                                               "cv_bridge", "pcl_conversions", "visualization_msgs/"};
+  static const std::vector<std::string> ros = {
+      "ros/",      "sensor_msgs/", "geometry_msgs/",  "std_msgs/",          "tf2",
+      "actionlib", "cv_bridge",    "pcl_conversions", "visualization_msgs/"};
   static const std::map<std::string, std::vector<std::string>> f = [] {
     std::map<std::string, std::vector<std::string>> m;
     for (const char* mod : {"common", "physics", "topology", "io", "inference"}) {
@@ -113,7 +114,8 @@ TEST(Architecture, EveryModuleIncludesOnlyTheModulesBelowIt) {
   for (const fs::path& base : {root / "src", root / "include/topo_gaussian"})
     for (const auto& e : fs::directory_iterator(base))
       if (e.is_directory())
-        EXPECT_TRUE(allowed().count(e.path().filename().string())) << e.path() << " is not a module of the layering table";
+        EXPECT_TRUE(allowed().count(e.path().filename().string()))
+            << e.path() << " is not a module of the layering table";
 }
 
 TEST(Architecture, TheCheckCatchesAnUpwardInclude) {

@@ -8,8 +8,8 @@
 #include <limits>
 #include <random>
 
-#include "topo_gaussian/physics/corotated_sph.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/physics/corotated_sph.h"
 #include "topo_gaussian/physics/sph_kernel.h"
 
 using namespace topo_gaussian;
@@ -124,7 +124,8 @@ TEST(CorotatedSph, RigidMotionPatchTest) {
   std::vector<Eigen::Vector3d> X;
   std::vector<double> V;
   lattice(10, 6, 6, &X, &V);
-  const Eigen::Matrix3d Q = Eigen::AngleAxisd(30.0 * M_PI / 180.0, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const Eigen::Matrix3d Q =
+      Eigen::AngleAxisd(30.0 * M_PI / 180.0, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
   const auto x = apply(X, Q, Eigen::Vector3d(0.1, -0.2, 0.3));
   for (SphEnergyModel model : {SphEnergyModel::StVK, SphEnergyModel::CorotatedLinear}) {
     for (SphRotationSource rot : {SphRotationSource::ShapeMatchingApq, SphRotationSource::CorrectedGradient}) {
@@ -138,10 +139,11 @@ TEST(CorotatedSph, RigidMotionPatchTest) {
         errR = std::max(errR, (sph.R(i) - Q).cwiseAbs().maxCoeff());
         fmax = std::max(fmax, sph.forces()[i].norm());
       }
-      std::printf("[rigid] model %d rot %d: max|F-I| = %.2e, max|R-Q| = %.2e, E_el = %.2e J, E_hg = %.2e J, "
-                  "max|f|/(mu h^2) = %.2e\n",
-                  static_cast<int>(model), static_cast<int>(rot), errF, errR, sph.elasticEnergy(),
-                  sph.hourglassEnergy(), fmax / fscale);
+      std::printf(
+          "[rigid] model %d rot %d: max|F-I| = %.2e, max|R-Q| = %.2e, E_el = %.2e J, E_hg = %.2e J, "
+          "max|f|/(mu h^2) = %.2e\n",
+          static_cast<int>(model), static_cast<int>(rot), errF, errR, sph.elasticEnergy(), sph.hourglassEnergy(),
+          fmax / fscale);
       EXPECT_LT(errF, 1e-10);
       EXPECT_LT(errR, 1e-10);
       EXPECT_LT(std::abs(sph.elasticEnergy()), 1e-20);
@@ -189,8 +191,10 @@ TEST(CorotatedSph, UniformStretchPatchTest) {
         errF = std::max(errF, (sph.F(i) - S).cwiseAbs().maxCoeff());
         errP = std::max(errP, (sph.stress(i) - P_exact).cwiseAbs().maxCoeff() / pscale);
       }
-      std::printf("[stretch] model %d rot=F~ : all %zu particles max|F-S| = %.2e, max rel |P-P_exact| = %.2e, "
-                  "E_hg = %.2e\n", static_cast<int>(model), sph.size(), errF, errP, sph.hourglassEnergy());
+      std::printf(
+          "[stretch] model %d rot=F~ : all %zu particles max|F-S| = %.2e, max rel |P-P_exact| = %.2e, "
+          "E_hg = %.2e\n",
+          static_cast<int>(model), sph.size(), errF, errP, sph.hourglassEnergy());
       EXPECT_LT(errF, 1e-10);
       EXPECT_LT(errP, 1e-9);
       EXPECT_LT(std::abs(sph.hourglassEnergy()), 1e-18);
@@ -221,9 +225,10 @@ TEST(CorotatedSph, UniformStretchPatchTest) {
           errRP = std::max(errRP, (sph.R(i) * sph.stress(i) - P_exact).cwiseAbs().maxCoeff() / pscale);
         }
       }
-      std::printf("[stretch] model %d rot=Apq: max|R F - S| = %.2e (all), R=I on %d/%zu particles (%d required) with max|F-S| "
-                  "= %.2e, rel|P-P_exact| = %.2e; max|R-I| elsewhere = %.2e; StVK max rel|R P - P(S)| = %.2e\n",
-                  static_cast<int>(model), errRF, exact, sph.size(), expected, errF, errP, maxRdev, errRP);
+      std::printf(
+          "[stretch] model %d rot=Apq: max|R F - S| = %.2e (all), R=I on %d/%zu particles (%d required) with max|F-S| "
+          "= %.2e, rel|P-P_exact| = %.2e; max|R-I| elsewhere = %.2e; StVK max rel|R P - P(S)| = %.2e\n",
+          static_cast<int>(model), errRF, exact, sph.size(), expected, errF, errP, maxRdev, errRP);
       EXPECT_LT(errRF, 1e-10);
       EXPECT_GE(exact, expected);
       EXPECT_GT(expected, 100);
@@ -244,8 +249,7 @@ TEST(CorotatedSph, ForcesMatchFiniteDifferencesOfFrozenRotationEnergy) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   const Eigen::Matrix3d Q = Eigen::AngleAxisd(0.4, Eigen::Vector3d(0.3, -1, 0.5).normalized()).toRotationMatrix();
   std::vector<Eigen::Vector3d> x(X.size());
-  for (std::size_t i = 0; i < X.size(); ++i)
-    x[i] = Q * X[i] + 0.1 * kSpacing * Eigen::Vector3d(u(rng), u(rng), u(rng));
+  for (std::size_t i = 0; i < X.size(); ++i) x[i] = Q * X[i] + 0.1 * kSpacing * Eigen::Vector3d(u(rng), u(rng), u(rng));
   for (SphEnergyModel model : {SphEnergyModel::StVK, SphEnergyModel::CorotatedLinear}) {
     for (double alpha : {0.0, 0.5}) {
       CorotatedSph sph(X, V, kMat, opts(model, alpha));
@@ -267,10 +271,10 @@ TEST(CorotatedSph, ForcesMatchFiniteDifferencesOfFrozenRotationEnergy) {
       }
       Eigen::Vector3d fsum = Eigen::Vector3d::Zero();
       for (const auto& f : sph.forces()) fsum += f;
-      std::printf("[fd] model %d alpha %.1f: E = %.4e J (E_hg %.3e), max|f| = %.4e N, max|f - f_FD|/max|f| = %.2e, "
-                  "|sum f|/max|f| = %.1e\n",
-                  static_cast<int>(model), alpha, sph.energy(), sph.hourglassEnergy(), maxf, maxerr / maxf,
-                  fsum.norm() / maxf);
+      std::printf(
+          "[fd] model %d alpha %.1f: E = %.4e J (E_hg %.3e), max|f| = %.4e N, max|f - f_FD|/max|f| = %.2e, "
+          "|sum f|/max|f| = %.1e\n",
+          static_cast<int>(model), alpha, sph.energy(), sph.hourglassEnergy(), maxf, maxerr / maxf, fsum.norm() / maxf);
       EXPECT_GT(maxf, 0.0);
       EXPECT_LT(maxerr / maxf, 1e-6);
       EXPECT_LT(fsum.norm() / maxf, 1e-10);  // internal forces sum to zero
@@ -318,9 +322,10 @@ TEST(CorotatedSph, HourglassModeIsPenalised) {
   }
   double work = 0.0;
   for (std::size_t i = 0; i < X.size(); ++i) work += (with.forces()[i] - without.forces()[i]).dot(du[i]);
-  std::printf("[hourglass] checkerboard delta = %.1e m: interior max|F-I| = %.2e (delta/h = %.2e), E_el = %.3e J, "
-              "E_hg = %.3e J, hourglass force work = %.3e J\n",
-              delta, interiorF, delta / with.smoothingLength(), without.elasticEnergy(), with.hourglassEnergy(), work);
+  std::printf(
+      "[hourglass] checkerboard delta = %.1e m: interior max|F-I| = %.2e (delta/h = %.2e), E_el = %.3e J, "
+      "E_hg = %.3e J, hourglass force work = %.3e J\n",
+      delta, interiorF, delta / with.smoothingLength(), without.elasticEnergy(), with.hourglassEnergy(), work);
   EXPECT_LT(interiorF, 1e-10);
   EXPECT_GT(with.hourglassEnergy(), 0.0);
   EXPECT_EQ(without.hourglassEnergy(), 0.0);
@@ -410,11 +415,11 @@ TEST(CorotatedSph, HessianProductAndMaterialDerivativesMatchFiniteDifferences) {
     int order;
     const char* name;
   };
-  for (const Case& c : {Case{SphEnergyModel::StVK, SphRotationSource::ShapeMatchingApq, 1, "StVK"},
-                        Case{SphEnergyModel::StVK, SphRotationSource::ShapeMatchingApq, 2, "StVK order 2"},
-                        Case{SphEnergyModel::CorotatedLinear, SphRotationSource::CorrectedGradient, 1, "corotated"},
-                        Case{SphEnergyModel::CorotatedLinear, SphRotationSource::CorrectedGradient, 2,
-                             "corotated order 2"}}) {
+  for (const Case& c :
+       {Case{SphEnergyModel::StVK, SphRotationSource::ShapeMatchingApq, 1, "StVK"},
+        Case{SphEnergyModel::StVK, SphRotationSource::ShapeMatchingApq, 2, "StVK order 2"},
+        Case{SphEnergyModel::CorotatedLinear, SphRotationSource::CorrectedGradient, 1, "corotated"},
+        Case{SphEnergyModel::CorotatedLinear, SphRotationSource::CorrectedGradient, 2, "corotated order 2"}}) {
     CorotatedSphOptions o = opts(c.model, 0.1, c.rot);
     o.gradient_order = c.order;
     CorotatedSph sph(X, V, mu, lam, o);

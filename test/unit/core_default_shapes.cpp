@@ -9,8 +9,8 @@
 
 #include "test_clouds.h"
 #include "test_util.h"
-#include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/physics/default_shapes.h"
 
 using namespace topo_gaussian;
 using topo_test::errorOf;
@@ -64,7 +64,8 @@ TEST(DefaultShapes, PearProfileIsAPear) {
   double rmax = 0.0;
   for (int i = 0; i <= 1200; ++i) rmax = std::max(rmax, pearRadius(1e-4 * i));
   EXPECT_LE(rmax, 0.04 + 1e-12) << "the bounding box is tight";
-  for (int i = 400; i < 1200; ++i) EXPECT_LE(pearRadius(1e-4 * (i + 1)), pearRadius(1e-4 * i) + 1e-12) << "z " << 1e-4 * i;
+  for (int i = 400; i < 1200; ++i)
+    EXPECT_LE(pearRadius(1e-4 * (i + 1)), pearRadius(1e-4 * i) + 1e-12) << "z " << 1e-4 * i;
   // the volume lies between the two spheres it blends and their enclosing cylinder
   const double v = defaultShape("pear").volume_m3;
   EXPECT_GT(v, 4.0 / 3.0 * M_PI * (std::pow(0.04, 3) + std::pow(0.02, 3)));
@@ -98,8 +99,8 @@ TEST(DefaultShapes, CloudVolumesMatchTheAnalyticVolumes) {
   EXPECT_NEAR(pear.totalVolume() / pear_exact, 1.0, 0.02);
   const VolumeCloud pear_fine = defaultShapeCloud("pear", 0.001);
   EXPECT_NEAR(pear_fine.totalVolume() / pear_exact, 1.0, 0.005);
-  std::cout << "at h = 2.5 mm: beam " << beam.size() << " particles, " << beam.totalVolume() << " m^3 (exact "
-            << 8e-5 << ")\n"
+  std::cout << "at h = 2.5 mm: beam " << beam.size() << " particles, " << beam.totalVolume() << " m^3 (exact " << 8e-5
+            << ")\n"
             << "  tumbler " << tumbler.size() << " particles, " << tumbler.totalVolume() << " m^3 vs " << tumbler_exact
             << " (" << 100 * (tumbler.totalVolume() / tumbler_exact - 1) << " %)\n"
             << "  finger " << finger.size() << " particles, " << finger.totalVolume() << " m^3 vs " << finger_exact

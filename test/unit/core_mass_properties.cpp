@@ -94,7 +94,8 @@ TEST(MassProperties, DerivativesMatchFiniteDifferences) {
     const double step = 1e-5;
     mp[i] += step;
     mn[i] -= step;
-    const double fd = (computeMassProperties(X, mp).toVector()[k] - computeMassProperties(X, mn).toVector()[k]) / (2 * step);
+    const double fd =
+        (computeMassProperties(X, mp).toVector()[k] - computeMassProperties(X, mn).toVector()[k]) / (2 * step);
     EXPECT_NEAR(grad[i], fd, 1e-6 * std::max(1e-3, std::abs(fd))) << "output " << k;
   }
 }

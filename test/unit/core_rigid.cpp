@@ -116,9 +116,10 @@ TEST(RigidRocking, HemispherePeriod) {
   const double T = rockingPeriod(props, pts, 3.0, 5.0, opt, &nc, &tr);
   const double h = 3.0 * R / 8.0;
   const double Tref = 2.0 * kPi * std::sqrt((83.0 / 320.0 * R * R + (R - h) * (R - h)) / (kG * h));
-  std::printf("hemisphere: %zu contact points, k = %.4g N/m, dt = %.3g s, T = %.5f s, closed form %.5f s "
-              "(%+.3f %%), %d crossings\n",
-              pts.size(), tr.stiffness_used, tr.substep_s, T, Tref, 100.0 * (T / Tref - 1.0), nc);
+  std::printf(
+      "hemisphere: %zu contact points, k = %.4g N/m, dt = %.3g s, T = %.5f s, closed form %.5f s "
+      "(%+.3f %%), %d crossings\n",
+      pts.size(), tr.stiffness_used, tr.substep_s, T, Tref, 100.0 * (T / Tref - 1.0), nc);
   EXPECT_NEAR(Tref, 0.8352, 1e-4);
   EXPECT_GE(nc, 8);
   EXPECT_NEAR(T / Tref, 1.0, 0.005);
@@ -139,9 +140,10 @@ TEST(RigidRocking, RoundBottomPeriod) {
   const double T = rockingPeriod(props, pts, 3.0, 4.0, opt, &nc, &tr);
   const double Iyy = props.inertia(1, 1), m = props.mass;
   const double Tref = 2.0 * kPi * std::sqrt((Iyy + m * (R - h) * (R - h)) / (m * kG * h));
-  std::printf("round bottom: %zu contact points, k = %.4g N/m, dt = %.3g s, T = %.5f s, closed form %.5f s "
-              "(%+.3f %%), %d crossings\n",
-              pts.size(), tr.stiffness_used, tr.substep_s, T, Tref, 100.0 * (T / Tref - 1.0), nc);
+  std::printf(
+      "round bottom: %zu contact points, k = %.4g N/m, dt = %.3g s, T = %.5f s, closed form %.5f s "
+      "(%+.3f %%), %d crossings\n",
+      pts.size(), tr.stiffness_used, tr.substep_s, T, Tref, 100.0 * (T / Tref - 1.0), nc);
   EXPECT_GE(nc, 8);
   EXPECT_NEAR(T / Tref, 1.0, 0.005);
 }
@@ -164,7 +166,8 @@ TEST(RigidPendulum, PeriodAndEnergy) {
   opt.duration_s = 10.0 * Tref + 0.05;
   opt.output_dt_s = 2e-3;
   const double amp = 2.0 * kPi / 180.0;
-  const RigidState<double> s0 = pivotState(in, Eigen::Quaterniond(Eigen::AngleAxisd(amp, Eigen::Vector3d::UnitX())), opt);
+  const RigidState<double> s0 =
+      pivotState(in, Eigen::Quaterniond(Eigen::AngleAxisd(amp, Eigen::Vector3d::UnitX())), opt);
   const RigidTrajectory<double> tr = simulateRigid(in, s0, {}, opt);
   std::vector<double> y;
   for (const auto& s : tr.states) y.push_back(tiltX(s));
@@ -181,9 +184,10 @@ TEST(RigidPendulum, PeriodAndEnergy) {
     const Eigen::Vector3d xp = s.position + s.orientation.toRotationMatrix() * (opt.pivot_body - props.com);
     pivot_err = std::max(pivot_err, (xp - opt.pivot_world).norm());
   }
-  std::printf("pendulum: dt = %.3g s, T = %.5f s, closed form %.5f s (%+.4f %%), energy drift %.3g of the "
-              "oscillation energy over 10 periods, pivot error %.2g m\n",
-              tr.substep_s, T, Tref, 100.0 * (T / Tref - 1.0), drift / e_osc, pivot_err);
+  std::printf(
+      "pendulum: dt = %.3g s, T = %.5f s, closed form %.5f s (%+.4f %%), energy drift %.3g of the "
+      "oscillation energy over 10 periods, pivot error %.2g m\n",
+      tr.substep_s, T, Tref, 100.0 * (T / Tref - 1.0), drift / e_osc, pivot_err);
   EXPECT_GE(nc, 19);
   EXPECT_NEAR(T / Tref, 1.0, 0.005);
   EXPECT_LT(drift / e_osc, 1e-3);
@@ -223,10 +227,11 @@ TEST(RigidRolling, InclineAcceleration) {
   const double aref = 5.0 / 7.0 * kG * std::sin(theta);
   const RigidState<double>& sf = tr.states.back();
   const double slip = sf.velocity.x() - sf.angular_velocity.y() * R;
-  std::printf("incline: %zu points, k = %.4g N/m, dt = %.3g s, a = %.5f m/s^2, 5/7 g sin(theta) = %.5f (%+.3f %%), "
-              "final v = %.4f m/s, slip v - wR = %.2g m/s\n",
-              pts.size(), tr.stiffness_used, tr.substep_s, coef(2), aref, 100.0 * (coef(2) / aref - 1.0), sf.velocity.x(),
-              slip);
+  std::printf(
+      "incline: %zu points, k = %.4g N/m, dt = %.3g s, a = %.5f m/s^2, 5/7 g sin(theta) = %.5f (%+.3f %%), "
+      "final v = %.4f m/s, slip v - wR = %.2g m/s\n",
+      pts.size(), tr.stiffness_used, tr.substep_s, coef(2), aref, 100.0 * (coef(2) / aref - 1.0), sf.velocity.x(),
+      slip);
   EXPECT_NEAR(coef(2) / aref, 1.0, 0.01);
 }
 
@@ -312,11 +317,14 @@ TEST(RigidDerivatives, TumblerForwardModeMatchesFiniteDifferences) {
     const Dual10 t = atan2(Rf(0, 2), Rf(2, 2));
     ad_tilt = t.derivatives();
   }
-  compareDerivatives("tumbler tilt", props, ad_tilt, [&](const MassProperties& p) { return tiltY(run(p)); }, R);
-  compareDerivatives("tumbler x", props, sf.position.x().derivatives(),
-                     [&](const MassProperties& p) { return run(p).position.x(); }, R);
-  compareDerivatives("tumbler wy", props, sf.angular_velocity.y().derivatives(),
-                     [&](const MassProperties& p) { return run(p).angular_velocity.y(); }, R);
+  compareDerivatives(
+      "tumbler tilt", props, ad_tilt, [&](const MassProperties& p) { return tiltY(run(p)); }, R);
+  compareDerivatives(
+      "tumbler x", props, sf.position.x().derivatives(), [&](const MassProperties& p) { return run(p).position.x(); },
+      R);
+  compareDerivatives(
+      "tumbler wy", props, sf.angular_velocity.y().derivatives(),
+      [&](const MassProperties& p) { return run(p).angular_velocity.y(); }, R);
   // The Dual10 run has the same values as the double run.
   const RigidState<double> sv = run(props);
   EXPECT_NEAR(sf.position.x().value(), sv.position.x(), 1e-12);
@@ -343,10 +351,12 @@ TEST(RigidDerivatives, PendulumForwardModeMatchesFiniteDifferences) {
     const RigidInertia<double> in = toInertia(p);
     return simulateRigid(in, pivotState(in, q, opt), {}, opt).states.back();
   };
-  compareDerivatives("pendulum x", props, sf.position.x().derivatives(),
-                     [&](const MassProperties& p) { return run(p).position.x(); }, 0.2);
-  compareDerivatives("pendulum wx", props, sf.angular_velocity.x().derivatives(),
-                     [&](const MassProperties& p) { return run(p).angular_velocity.x(); }, 0.2);
+  compareDerivatives(
+      "pendulum x", props, sf.position.x().derivatives(), [&](const MassProperties& p) { return run(p).position.x(); },
+      0.2);
+  compareDerivatives(
+      "pendulum wx", props, sf.angular_velocity.x().derivatives(),
+      [&](const MassProperties& p) { return run(p).angular_velocity.x(); }, 0.2);
 }
 
 // 7a. Absurd stiffness with a forced large step is detected and explained.
@@ -442,9 +452,10 @@ TEST(RigidSpeed, Tumbler5000Points) {
   t0 = Clock::now();
   const RigidTrajectory<Dual10> trd = simulateRigid(ind, restingState(ind, q, pts, opt), pts, opt);
   const double tdual = std::chrono::duration<double>(Clock::now() - t0).count();
-  std::printf("speed: %zu contact points, 2 s of motion, %ld substeps of %.3g s: double %.3f s, Dual10 %.3f s "
-              "(ratio %.2f)\n",
-              pts.size(), std::lround(2.0 / tr.substep_s), tr.substep_s, td, tdual, tdual / td);
+  std::printf(
+      "speed: %zu contact points, 2 s of motion, %ld substeps of %.3g s: double %.3f s, Dual10 %.3f s "
+      "(ratio %.2f)\n",
+      pts.size(), std::lround(2.0 / tr.substep_s), tr.substep_s, td, tdual, tdual / td);
   EXPECT_NEAR(trd.states.back().position.x().value(), tr.states.back().position.x(), 1e-12);
   EXPECT_LT(tdual, 10.0);  // goal < 2 s on 2 cores; generous bound for a loaded machine
 }

@@ -100,8 +100,9 @@ TEST(SoftBody, LeapfrogEnergyDriftBelowOnePercent) {
     drift = std::max(drift, std::abs(sim.totalEnergy() - E0) / E0);
     max_el = std::max(max_el, sim.elasticEnergy());
   }
-  std::printf("[energy] N=%zu dt=%.3g s (stable %.3g s) 1000 steps, max |E-E0|/E0 = %.3g, max elastic/E0 = %.3f, %.2f s\n",
-              sim.size(), dt, sim.stableTimeStep(), drift, max_el / E0, seconds(t0));
+  std::printf(
+      "[energy] N=%zu dt=%.3g s (stable %.3g s) 1000 steps, max |E-E0|/E0 = %.3g, max elastic/E0 = %.3f, %.2f s\n",
+      sim.size(), dt, sim.stableTimeStep(), drift, max_el / E0, seconds(t0));
   EXPECT_GT(max_el / E0, 0.5);  // the kinetic energy really went into bending
   EXPECT_LT(drift, 0.01);
   EXPECT_EQ(sim.stepCount(), 1000);
@@ -112,9 +113,9 @@ TEST(SoftBody, LeapfrogEnergyDriftBelowOnePercent) {
 //    of L) and first natural frequency (1.8751²/(2πL²))√(EI/(ρA)) by inverse iteration about the rest
 //    state. Resolution: Δx = 2 mm, 10 × 10 particles through the 20 × 20 mm section (10 300
 //    particles), h = 1.2 Δx, second-order (quadratic MLS) kernel gradients, corotated linear with
-//    rotations from the corrected gradient. Measured: deflection +4.9 %, frequency −2.6 %. (First-order gradients are far too soft in bending at any affordable
-//    resolution: +59 % deflection at Δx = 4 mm, because the outer fibres have one-sided
-//    neighbourhoods; second order: +13 % at 4 mm, about +5 % at 2 mm.)
+//    rotations from the corrected gradient. Measured: deflection +4.9 %, frequency −2.6 %. (First-order gradients are
+//    far too soft in bending at any affordable resolution: +59 % deflection at Δx = 4 mm, because the outer fibres have
+//    one-sided neighbourhoods; second order: +13 % at 4 mm, about +5 % at 2 mm.)
 TEST(SoftBody, CantileverStaticDeflectionAndFirstFrequency) {
   const double g = 0.5, dx = 0.002;
   const Beam B = makeBeam(kL, kB, kT, dx, kClampLayers);
@@ -137,10 +138,11 @@ TEST(SoftBody, CantileverStaticDeflectionAndFirstFrequency) {
   const SolveReport rep = sim.solveStatic(no);
   const double z_n = layerZ(sim, B, last), z_n1 = layerZ(sim, B, last - 1);
   const double tip = -(z_n + 0.5 * (z_n - z_n1));  // extrapolated from the last layer centre to x = L
-  std::printf("[cantilever static] Newton %d iterations (%d CG), residual %.2g, %.2f s; tip (x=L) %.5g m, theory "
-              "wL^4/(8EI) %.5g m, error %+.2f %%\n",
-              rep.newton.iterations, rep.newton.cg_iterations, rep.newton.residual, seconds(t0), tip, tip_theory,
-              100.0 * (tip - tip_theory) / tip_theory);
+  std::printf(
+      "[cantilever static] Newton %d iterations (%d CG), residual %.2g, %.2f s; tip (x=L) %.5g m, theory "
+      "wL^4/(8EI) %.5g m, error %+.2f %%\n",
+      rep.newton.iterations, rep.newton.cg_iterations, rep.newton.residual, seconds(t0), tip, tip_theory,
+      100.0 * (tip - tip_theory) / tip_theory);
   EXPECT_TRUE(rep.newton.converged);
   EXPECT_NEAR(tip, tip_theory, 0.05 * tip_theory);
 
@@ -182,9 +184,10 @@ TEST(SoftBody, CantileverFreeVibrationMatchesModalFrequency) {
   }
   ASSERT_GE(crossings.size(), 3u);
   const double f = 1.0 / (crossings.back() - crossings.front());
-  std::printf("[cantilever dynamic] N=%zu dt=%.3g s, %ld steps, f = %.5g Hz, modal %.5g Hz, difference %+.3f %%, "
-              "%.2f s\n",
-              sim.size(), dt, sim.stepCount(), f, f_modal, 100.0 * (f - f_modal) / f_modal, seconds(t0));
+  std::printf(
+      "[cantilever dynamic] N=%zu dt=%.3g s, %ld steps, f = %.5g Hz, modal %.5g Hz, difference %+.3f %%, "
+      "%.2f s\n",
+      sim.size(), dt, sim.stepCount(), f, f_modal, 100.0 * (f - f_modal) / f_modal, seconds(t0));
   EXPECT_NEAR(f, f_modal, 0.01 * f_modal);
 }
 
@@ -198,8 +201,8 @@ TEST(SoftBody, StableTimeStepIsBelowTheLeapfrogLimit) {
     SoftBodySimulator sim(CorotatedSph(B.X, B.V, lameFromYoung(kE, kNu), o));
     sim.setClamped(B.clamp);
     const double limit = 2.0 / sim.maxAngularFrequency(400);
-    std::printf("[stability] order %d: stableTimeStep %.4g s, leapfrog limit 2/omega_max %.4g s, margin %.2f\n",
-                order, sim.stableTimeStep(), limit, limit / sim.stableTimeStep());
+    std::printf("[stability] order %d: stableTimeStep %.4g s, leapfrog limit 2/omega_max %.4g s, margin %.2f\n", order,
+                sim.stableTimeStep(), limit, limit / sim.stableTimeStep());
     EXPECT_LT(sim.stableTimeStep(), limit);
     EXPECT_GT(sim.stableTimeStep(), 0.25 * limit);  // not needlessly small
   }

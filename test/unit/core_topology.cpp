@@ -4,8 +4,8 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <random>
 #include <set>
@@ -127,7 +127,8 @@ int cube(int n) { return n <= 0 ? 0 : n * n * n; }
 
 TEST(Quadric, UnitSphereClosedForm) {
   // Bounds [0, 2]³: centre (1, 1, 1), scale 1, so u = x − (1, 1, 1).
-  std::vector<Eigen::Vector3d> X = {{0, 0, 0}, {2, 2, 2}, {1, 1, 1}, {2, 1, 1}, {1.5, 1, 1}, {1.5, 1.5, 1.5}, {0, 2, 1}};
+  std::vector<Eigen::Vector3d> X = {{0, 0, 0},   {2, 2, 2},       {1, 1, 1}, {2, 1, 1},
+                                    {1.5, 1, 1}, {1.5, 1.5, 1.5}, {0, 2, 1}};
   RepresentationOptions opt;
   opt.kind = "quadric";
   const auto rep = makeRepresentation(opt, X);
@@ -143,9 +144,9 @@ TEST(Quadric, UnitSphereClosedForm) {
 
   // Off-diagonal entries count twice, linear and constant terms as written.
   t.setZero();
-  t[3] = 1.0;   // a_xy
-  t[8] = 0.5;   // b_z
-  t[9] = 0.1;   // c
+  t[3] = 1.0;  // a_xy
+  t[8] = 0.5;  // b_z
+  t[9] = 0.1;  // c
   rep->field(t, &s);
   for (std::size_t i = 0; i < X.size(); ++i) {
     const Eigen::Vector3d u = X[i] - Eigen::Vector3d(1, 1, 1);
@@ -382,8 +383,10 @@ TEST(Neural, GradientMatchesFiniteDifferences) {
   auto w = randomWeights(X.size(), 32);
   int used = 0;
   for (std::size_t i = 0; i < X.size(); ++i) {
-    if (margin[i] < 1e-3) w[i] = 0.0;
-    else ++used;
+    if (margin[i] < 1e-3)
+      w[i] = 0.0;
+    else
+      ++used;
   }
   EXPECT_GT(used, 300);
 
@@ -652,8 +655,9 @@ TEST(TopologyErrors, BadParametersKindsAndOptions) {
     io.epsilon = eps;
     e = errorOf([&] { evaluateIndicator(*q, q->initialParameters(), io, &r); });
     EXPECT_NE(e.find("epsilon"), std::string::npos) << e;
-    EXPECT_NE(errorOf([&] { indicatorBackward(*q, q->initialParameters(), io, std::vector<double>(50, 1.0), &g); })
-                  .find("epsilon"),
+    EXPECT_NE(errorOf([&] {
+                indicatorBackward(*q, q->initialParameters(), io, std::vector<double>(50, 1.0), &g);
+              }).find("epsilon"),
               std::string::npos);
   }
   io.epsilon = 0.05;

@@ -10,19 +10,19 @@
 #include <utility>
 
 #include "test_util.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/geometry/mesh_fill.h"
 #include "topo_gaussian/geometry/mesh_metrics.h"
 #include "topo_gaussian/geometry/shape_generator.h"
 #include "topo_gaussian/geometry/surface_reader.h"
 #include "topo_gaussian/io/volume_ply.h"
 #include "topo_gaussian/physics/default_shapes.h"
-#include "topo_gaussian/common/error.h"
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::geometry;
 using topo_test::errorOf;
-using topo_test::ToolRun;
 using topo_test::runTopo;
+using topo_test::ToolRun;
 
 namespace {
 
@@ -82,13 +82,14 @@ TEST(DefaultShapeMesh, WatertightOutwardAndOnTheSolidsSurface) {
     }
     EXPECT_EQ(off_surface, 0u) << name;
     std::cout << name << ": " << m.points.size() << " vertices, " << m.triangles.size() << " triangles, mesh volume "
-              << I.volume << " m^3, exact " << shape.volume_m3 << " ("
-              << 100 * (I.volume / shape.volume_m3 - 1) << " %)\n";
+              << I.volume << " m^3, exact " << shape.volume_m3 << " (" << 100 * (I.volume / shape.volume_m3 - 1)
+              << " %)\n";
   }
 }
 
 TEST(DefaultShapeMesh, VolumeMatchesTheLatticeCloud) {
-  const std::map<std::string, double> spacing{{"beam", 0.001}, {"finger", 0.001}, {"pear", 0.0015}, {"tumbler", 0.0015}};
+  const std::map<std::string, double> spacing{
+      {"beam", 0.001}, {"finger", 0.001}, {"pear", 0.0015}, {"tumbler", 0.0015}};
   for (const auto& name : defaultShapeNames()) {
     const double mesh_volume = meshIntegrals(makeDefaultShapeMesh(name, 128)).volume;
     const VolumeCloud c = defaultShapeCloud(name, spacing.at(name));
@@ -128,8 +129,8 @@ TEST(DefaultShapeCli, ShapeWritesMeshAndVolume) {
   const double exact = defaultShape("finger").volume_m3;
   EXPECT_NEAR(meshIntegrals(back).volume / exact, 1.0, 0.01);
 
-  const ToolRun v = runTopo("shape tumbler --output " + dir + "/tumbler.obj --resolution 32 --spacing 0.0025 --volume " +
-                            dir + "/tumbler.ply");
+  const ToolRun v = runTopo("shape tumbler --output " + dir +
+                            "/tumbler.obj --resolution 32 --spacing 0.0025 --volume " + dir + "/tumbler.ply");
   ASSERT_EQ(v.code, 0) << v.out;
   EXPECT_TRUE(contains(v.out, "particles")) << v.out;
   const VolumeCloud cloud = io::readVolumePly(dir + "/tumbler.ply");

@@ -2,13 +2,14 @@
 // on Gaussians and points, open surfaces, resolution stability on a real 3DGS model, bad input.
 #include <gtest/gtest.h>
 
-#include <cmath>
 #include <Eigen/Geometry>
+#include <cmath>
 #include <functional>
 #include <random>
 
 #include "shared_data.h"
 #include "test_util.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/geometry/cleaning.h"
 #include "topo_gaussian/geometry/ingest.h"
 #include "topo_gaussian/geometry/interior_fill.h"
@@ -16,7 +17,6 @@
 #include "topo_gaussian/geometry/shape_generator.h"
 #include "topo_gaussian/geometry/surface_reader.h"
 #include "topo_gaussian/io/volume_ply.h"
-#include "topo_gaussian/common/error.h"
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::geometry;
@@ -136,7 +136,8 @@ TEST(MeshFill, OpenSeamedTeapotIsFilledWithoutLeaking) {
   std::size_t in_handle_hole = 0;
   for (const auto& x : c.X) {
     ASSERT_TRUE(((x - rep.bbox_min).array() > -c.spacing).all() && ((x - rep.bbox_max).array() < c.spacing).all());
-    in_handle_hole += (Eigen::Vector2d(x.x(), x.y()) - Eigen::Vector2d(-2.22, 1.45)).norm() < 0.1 && std::abs(x.z()) < 0.1;
+    in_handle_hole +=
+        (Eigen::Vector2d(x.x(), x.y()) - Eigen::Vector2d(-2.22, 1.45)).norm() < 0.1 && std::abs(x.z()) < 0.1;
   }
   EXPECT_EQ(in_handle_hole, 0u);
 }

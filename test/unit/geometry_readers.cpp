@@ -26,11 +26,10 @@
 #error "TOPO_SOURCE_DIR must be defined to the repository root"
 #endif
 
+#include "shared_data.h"  // TOPO_SHARED_FILE: skip (or fail in CI) without ../shared/data
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/geometry/surface_data.h"
 #include "topo_gaussian/geometry/surface_reader.h"
-#include "topo_gaussian/common/error.h"
-#include "shared_data.h"  // TOPO_SHARED_FILE: skip (or fail in CI) without ../shared/data
-
 
 namespace fs = std::filesystem;
 using topo_gaussian::TopoError;
@@ -48,9 +47,9 @@ class TempDir {
   TempDir() {
     static int counter = 0;
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::temp_directory_path() /
-            ("topo_readers_" + std::string(info->name()) + "_" + std::to_string(++counter) + "_" +
-             std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()));
+    path_ =
+        fs::temp_directory_path() / ("topo_readers_" + std::string(info->name()) + "_" + std::to_string(++counter) +
+                                     "_" + std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()));
     fs::create_directories(path_);
   }
   ~TempDir() {
@@ -225,9 +224,9 @@ TEST(RealData, Meshes) {
   };
   // Counts from the files themselves ("v "/"f " lines, OFF headers); all triangle meshes. The teapot
   // is the one open surface (1,036 boundary edges per the data README); the others are closed.
-  const Case cases[] = {{"bunny.off", 3485, 6966, 0},   {"cow.off", 2762, 5520, 0},
-                        {"fandisk.off", 7229, 14454, 0}, {"fish.obj", 945, 1886, 0},
-                        {"penguin.obj", 3362, 6720, 0},  {"spot.obj", 2930, 5856, 0},
+  const Case cases[] = {{"bunny.off", 3485, 6966, 0},         {"cow.off", 2762, 5520, 0},
+                        {"fandisk.off", 7229, 14454, 0},      {"fish.obj", 945, 1886, 0},
+                        {"penguin.obj", 3362, 6720, 0},       {"spot.obj", 2930, 5856, 0},
                         {"teapot_open.obj", 3644, 6320, 1036}};
   for (const Case& c : cases) {
     SCOPED_TRACE(c.file);
@@ -374,8 +373,7 @@ void checkGaussians(const SurfaceData& s) {
     EXPECT_TRUE(s.points[i].isApprox(g.pos[i], 1e-7));
     EXPECT_NEAR(s.opacity[i], 1.0 / (1.0 + std::exp(-g.opacity_raw[i])), 1e-7);
     EXPECT_TRUE(s.scales[i].isApprox(g.scale[i], 1e-6));
-    for (int k = 0; k < 3; ++k)
-      EXPECT_NEAR(s.colors[i][k], std::clamp(0.5 + kC0 * g.dc[i][k], 0.0, 1.0), 1e-7);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(s.colors[i][k], std::clamp(0.5 + kC0 * g.dc[i][k], 0.0, 1.0), 1e-7);
     EXPECT_NEAR(s.rotations[i].norm(), 1.0, 1e-12);
   }
   EXPECT_TRUE(s.rotations[0].isApprox(Eigen::Vector4d(1, 0, 0, 0)));
@@ -691,8 +689,9 @@ TEST(BadInput, EmptyAndHeaderOnly) {
   expectReadError(dir.write("empty.ply", ""), {"empty"});
   expectReadError(dir.write("empty.obj", ""), {"empty"});
   // A header that declares no vertices.
-  expectReadError(dir.write("zero.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 0\n"
-                                        "property float x\nproperty float y\nproperty float z\nend_header\n"),
+  expectReadError(dir.write("zero.ply",
+                            "ply\nformat binary_little_endian 1.0\nelement vertex 0\n"
+                            "property float x\nproperty float y\nproperty float z\nend_header\n"),
                   {"empty"});
   // A header that declares vertices but no data follows.
   expectReadError(dir.write("header_only.ply", kPlyXyzHeader), {"truncated"});
@@ -736,7 +735,8 @@ TEST(BadInput, LyingCounts) {
   std::string c = "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 100000000\nHEIGHT 1\nDATA binary_compressed\n";
   put<std::uint32_t>(c, 4u);
   put<std::uint32_t>(c, 1200000000u);
-  c += "\x02" "abc";
+  c += "\x02"
+       "abc";
   expectReadError(dir.write("lying_c.pcd", c), {"binary_compressed"});
   // OFF declaring more vertices than present.
   expectReadError(dir.write("lying.off", "OFF\n1000000000 1 0\n0 0 0\n"), {"truncated", "1 of the 1000000000"});

@@ -45,11 +45,11 @@ Measured measure(const char* name, const VolumeCloud& c, const std::vector<doubl
   m.solid_volume = solidParticleVolume(c, r);
   m.rel = (m.mesh_volume - m.solid_volume) / m.solid_volume;
   m.smooth = normalSmoothness(mesh);
-  std::printf("[export] %s: %zu particles, %zu triangles, %s; mesh volume %.6e m^3 vs solid particles %.6e m^3 "
-              "(%+.3f %%), smoothness %.4f (max %.3f, edge %.3g m), %.3f s\n",
-              name, c.size(), m.check.triangles, m.check.watertight() ? "watertight" : m.check.summary().c_str(),
-              m.mesh_volume, m.solid_volume, 100 * m.rel, m.smooth.mean, m.smooth.max, m.smooth.mean_edge_length_m,
-              m.seconds);
+  std::printf(
+      "[export] %s: %zu particles, %zu triangles, %s; mesh volume %.6e m^3 vs solid particles %.6e m^3 "
+      "(%+.3f %%), smoothness %.4f (max %.3f, edge %.3g m), %.3f s\n",
+      name, c.size(), m.check.triangles, m.check.watertight() ? "watertight" : m.check.summary().c_str(), m.mesh_volume,
+      m.solid_volume, 100 * m.rel, m.smooth.mean, m.smooth.max, m.smooth.mean_edge_length_m, m.seconds);
   return m;
 }
 
@@ -256,15 +256,16 @@ TEST(SolidMesh, BinaryStlInMillimetresReadsBackWatertightWithTheSameVolume) {
 
 TEST(SolidMesh, RefusesBadInputWithTheReason) {
   const VolumeCloud c = boxLattice(0.01);
-  EXPECT_TRUE(contains(errorOf([&] { solidRegionMesh(c, std::vector<double>(c.size() - 1, 1.0)); }),
-                       "indicator values for"));
+  EXPECT_TRUE(
+      contains(errorOf([&] { solidRegionMesh(c, std::vector<double>(c.size() - 1, 1.0)); }), "indicator values for"));
   EXPECT_TRUE(contains(errorOf([&] { solidRegionMesh(c, std::vector<double>(c.size(), 0.2)); }), "no solid particle"));
   auto nan = std::vector<double>(c.size(), 1.0);
   nan[3] = std::nan("");
   EXPECT_TRUE(contains(errorOf([&] { solidRegionMesh(c, nan); }), "non-finite"));
   VolumeCloud twin = c;
   twin.X[1] = twin.X[0] + Eigen::Vector3d(0.1 * c.spacing, 0, 0);
-  EXPECT_TRUE(contains(errorOf([&] { solidRegionMesh(twin, std::vector<double>(c.size(), 1.0)); }), "same lattice node"));
+  EXPECT_TRUE(
+      contains(errorOf([&] { solidRegionMesh(twin, std::vector<double>(c.size(), 1.0)); }), "same lattice node"));
   VolumeCloud coarse = c;
   coarse.spacing = 1e-7;  // a wrong spacing: a huge lattice, refused before allocating it
   EXPECT_TRUE(contains(errorOf([&] { solidRegionMesh(coarse, std::vector<double>(c.size(), 1.0)); }), "nodes"));

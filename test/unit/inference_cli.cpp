@@ -9,8 +9,8 @@
 
 #include "test_util.h"
 
-using topo_test::ToolRun;
 using topo_test::runTopo;
+using topo_test::ToolRun;
 
 namespace {
 

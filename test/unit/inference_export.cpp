@@ -21,14 +21,13 @@
 #include "topo_gaussian/geometry/mesh_metrics.h"
 #include "topo_gaussian/geometry/solid_mesh.h"
 #include "topo_gaussian/geometry/surface_reader.h"
-#include "topo_gaussian/io/volume_ply.h"
-#include "topo_gaussian/workflow/interior_export.h"
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/inference/report.h"
 #include "topo_gaussian/io/interior_ply.h"
 #include "topo_gaussian/io/run_files.h"
-#include "topo_gaussian/io/run_files.h"
+#include "topo_gaussian/io/volume_ply.h"
 #include "topo_gaussian/vision/slice_picture.h"
+#include "topo_gaussian/workflow/interior_export.h"
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::inference;
@@ -76,10 +75,11 @@ double checkStl(const std::string& name, const std::string& stl, const VolumeClo
   const double stl_volume = geometry::meshIntegrals(mesh).volume * 1e-9;  // mm³ → m³
   const double solid = geometry::solidParticleVolume(cloud, r);
   const double rel = (stl_volume - solid) / solid;
-  std::printf("[export] %s: %zu particles, STL %zu triangles, %s, volume %.6e m^3 vs solid particles %.6e m^3 "
-              "(%+.3f %%), export %.2f s\n",
-              name.c_str(), cloud.size(), k.triangles, k.watertight() ? "watertight" : "NOT watertight", stl_volume, solid,
-              100.0 * rel, seconds);
+  std::printf(
+      "[export] %s: %zu particles, STL %zu triangles, %s, volume %.6e m^3 vs solid particles %.6e m^3 "
+      "(%+.3f %%), export %.2f s\n",
+      name.c_str(), cloud.size(), k.triangles, k.watertight() ? "watertight" : "NOT watertight", stl_volume, solid,
+      100.0 * rel, seconds);
   EXPECT_LT(std::abs(rel), 0.03) << name;
   return rel;
 }
@@ -93,8 +93,10 @@ class ExportCli : public testing::Test {
     const ToolRun f = runTopo("fill --input " + dir_ + "/sphere.obj --output " + dir_ + "/sphere.ply --count 8000");
     ASSERT_EQ(f.code, 0) << f.out;
     // A recovered interior: hung 1 cm off its centre line, the ball needs a cavity on the other side.
-    const ToolRun i = runTopo("infer --task hanging --volume " + dir_ + "/sphere.ply --set hanging_point=0.01,0.005,0.05 "
-                              "--output " + dir_ + "/run --quiet");
+    const ToolRun i = runTopo("infer --task hanging --volume " + dir_ +
+                              "/sphere.ply --set hanging_point=0.01,0.005,0.05 "
+                              "--output " +
+                              dir_ + "/run --quiet");
     ASSERT_EQ(i.code, 0) << i.out;
     ASSERT_EQ(runTopo("generate --shape box --size 0.06 --output " + dir_ + "/box.obj").code, 0);
     ASSERT_EQ(runTopo("fill --input " + dir_ + "/box.obj --output " + dir_ + "/box.ply --count 3000").code, 0);
@@ -106,17 +108,20 @@ std::string ExportCli::dir_;
 }  // namespace
 
 TEST_F(ExportCli, RecoveredInteriorExportsWatertightWithTheSolidVolume) {
-  writeFile(dir_ + "/signal.csv",
-            "# observed and simulated tilt\ntime_s,observed,simulated\n0,10,10\n0.05,7.1,7.0\n0.1,0.2,\n0.15,-6.9,-7.0\n"
-            "0.2,-10,-9.9\n0.25,,-7.2\n");
+  writeFile(
+      dir_ + "/signal.csv",
+      "# observed and simulated tilt\ntime_s,observed,simulated\n0,10,10\n0.05,7.1,7.0\n0.1,0.2,\n0.15,-6.9,-7.0\n"
+      "0.2,-10,-9.9\n0.25,,-7.2\n");
   const auto t0 = std::chrono::steady_clock::now();
   const std::string out = dir_ + "/export";
-  const ToolRun r = runTopo("export --volume " + dir_ + "/sphere.ply --interior " + dir_ + "/run/interior.ply --report " +
-                            dir_ + "/run/report.json --signal " + dir_ + "/signal.csv --output " + out + " --json");
+  const ToolRun r =
+      runTopo("export --volume " + dir_ + "/sphere.ply --interior " + dir_ + "/run/interior.ply --report " + dir_ +
+              "/run/report.json --signal " + dir_ + "/signal.csv --output " + out + " --json");
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(contains(r.out, "[topo export]")) << r.out;
-  for (const char* f : {"interior.ply", "interior.stl", "slices.png", "loss.png", "signal.png", "report.json", "export.json"})
+  for (const char* f :
+       {"interior.ply", "interior.stl", "slices.png", "loss.png", "signal.png", "report.json", "export.json"})
     EXPECT_TRUE(exists(out + "/" + f)) << f << " missing";
 
   const VolumeCloud cloud = io::readVolumePly(dir_ + "/sphere.ply");
@@ -132,7 +137,8 @@ TEST_F(ExportCli, RecoveredInteriorExportsWatertightWithTheSolidVolume) {
   for (const char* key : {"\"watertight\": true", "\"unit\": \"mm\"", "\"relative_difference\"", "\"interface\": {",
                           "\"normal_laplacian_mean\"", "\"loss_history_points\"", "\"signal_rms_difference\""})
     EXPECT_TRUE(contains(ej, key)) << key << " missing from export.json:\n" << ej;
-  EXPECT_TRUE(contains(r.out, "\"solid_bodies\": 1, \"enclosed_voids\": 1")) << "one body around one cavity:\n" << r.out;
+  EXPECT_TRUE(contains(r.out, "\"solid_bodies\": 1, \"enclosed_voids\": 1")) << "one body around one cavity:\n"
+                                                                             << r.out;
   // report.json: the run's report plus the interface section (smoothness of the solid/hollow interface).
   const std::string rep = slurp(out + "/report.json");
   EXPECT_TRUE(contains(rep, "\"loss_history\"") && contains(rep, "\"task\": \"hanging\""));
@@ -163,8 +169,8 @@ TEST_F(ExportCli, MetresOnRequestAndAFullySolidInteriorHasNoInterface) {
   const VolumeCloud cloud = io::readVolumePly(dir_ + "/box.ply");
   const std::vector<double> r(cloud.size(), 1.0), density(cloud.size(), 1000.0);
   writeInteriorPly(dir_ + "/solid_interior.ply", cloud, r, density, false);
-  const ToolRun x = runTopo("export --volume " + dir_ + "/box.ply --interior " + dir_ + "/solid_interior.ply --output " +
-                            dir_ + "/solid --stl-unit m --json");
+  const ToolRun x = runTopo("export --volume " + dir_ + "/box.ply --interior " + dir_ +
+                            "/solid_interior.ply --output " + dir_ + "/solid --stl-unit m --json");
   ASSERT_EQ(x.code, 0) << x.out;
   EXPECT_TRUE(contains(x.out, "none (no hollow part)")) << x.out;
   EXPECT_TRUE(contains(x.out, "\"interface\": null")) << x.out;
@@ -223,9 +229,10 @@ TEST(ExportLibrary, BoxWithACavityWritesEverythingAndReportsTheInterface) {
   }
   ExportOptions o;
   o.output_dir = testing::TempDir() + "/topo_export_lib/nested/dir";  // created
-  o.report_json = "{\n  \"task\": \"tumbler\",\n  \"loss_history\": [{\"iteration\": 1, \"loss\": 0.5}, "
-                  "{\"iteration\": 2, \"loss\": 0.01}, {\"iteration\": 3, \"loss\": null}, {\"iteration\": 4, "
-                  "\"loss\": 1e-5}]\n}\n";
+  o.report_json =
+      "{\n  \"task\": \"tumbler\",\n  \"loss_history\": [{\"iteration\": 1, \"loss\": 0.5}, "
+      "{\"iteration\": 2, \"loss\": 0.01}, {\"iteration\": 3, \"loss\": null}, {\"iteration\": 4, "
+      "\"loss\": 1e-5}]\n}\n";
   o.signals = {{"observed", {0, 0.1, 0.2, 0.3}, {1, 0, -1, 0}}, {"simulated", {0, 0.1, 0.2, 0.3}, {1, 0.1, -0.9, 0}}};
   const auto t0 = std::chrono::steady_clock::now();
   const ExportSummary s = exportInterior(c, r, density, o);
@@ -252,13 +259,15 @@ TEST(ExportLibrary, BoxWithACavityWritesEverythingAndReportsTheInterface) {
 }
 
 TEST(ExportLibrary, RunFilesParseReportsAndSignalsAndNameTheirErrors) {
-  const auto h = lossHistoryFromReport("{\"loss_history\": [{\"iteration\": 3, \"loss\": 2.5e-3, \"gradient_norm\": 1}]}", "r");
+  const auto h =
+      lossHistoryFromReport("{\"loss_history\": [{\"iteration\": 3, \"loss\": 2.5e-3, \"gradient_norm\": 1}]}", "r");
   ASSERT_EQ(h.size(), 1u);
   EXPECT_EQ(h[0].iteration, 3);
   EXPECT_DOUBLE_EQ(h[0].loss, 2.5e-3);
   EXPECT_TRUE(lossHistoryFromReport("{\"loss_history\": []}", "r").empty());
   EXPECT_TRUE(contains(errorOf([] { lossHistoryFromReport("{\"task\": 1}", "my_report.json"); }), "my_report.json"));
-  EXPECT_TRUE(contains(errorOf([] { lossHistoryFromReport("{\"loss_history\": [{\"loss\": \"x\"}]}", "r"); }), "numeric"));
+  EXPECT_TRUE(
+      contains(errorOf([] { lossHistoryFromReport("{\"loss_history\": [{\"loss\": \"x\"}]}", "r"); }), "numeric"));
   EXPECT_EQ(jsonStringField("{\"task\": \"qi\\\"qi\", \"x\": 1}", "task"), "qi\"qi");
   const std::string dir = testing::TempDir();
   writeFile(dir + "/two.csv", "0,1\n0.5,2\n");  // no header, as topo simulate writes without one
@@ -282,7 +291,8 @@ TEST(ExportLibrary, RecoveredBunnyFromSharedData) {
   TaskConfig c = TaskConfig::defaults("hanging");
   Eigen::Vector3d lo, hi;
   cloud.bounds(&lo, &hi);
-  c.setVector("hanging_point", Eigen::Vector3d(cloud.centroid().x() + 0.15 * (hi.x() - lo.x()), cloud.centroid().y(), hi.z()));
+  c.setVector("hanging_point",
+              Eigen::Vector3d(cloud.centroid().x() + 0.15 * (hi.x() - lo.x()), cloud.centroid().y(), hi.z()));
   const InferenceResult res = runInference(c, cloud);
   ExportOptions o;
   o.output_dir = testing::TempDir() + "/topo_export_bunny";

@@ -36,7 +36,7 @@ TEST(MotionTargets, TumblerSignalGetsTheTasksOwnAnalysis) {
   m.amplitude_confidence = 1.0;
   for (std::size_t k = 0; k < ev.task.signal.size(); ++k) {
     m.time_s.push_back(100.0 + ev.task.signal_time_s[k]);  // stamps need not start at 0
-    m.angle_deg.push_back(-ev.task.signal[k]);           // the image angle may have the other sign
+    m.angle_deg.push_back(-ev.task.signal[k]);             // the image angle may have the other sign
   }
   const inference::MotionTargets t = inference::targetsFromMotion(c, m);
   ASSERT_EQ(t.targets.size(), 2u) << t.note;

@@ -63,7 +63,8 @@ void hangingRecovery(const std::string& rel) {
     EXPECT_LT(off, 1e-3 * size) << rel << " " << rep << ": " << res.message;
     EXPECT_TRUE(res.targets_reached) << rel << " " << rep;
     std::printf("[recovery] %s %-8s particles %zu  offset solid %.3e -> %.3e m (size %.3f m)  %d evaluations  %.2f s\n",
-                rel.c_str(), rep.c_str(), cloud.size(), solid_offset, off, size, res.optimizer.iterations, res.optimize_s);
+                rel.c_str(), rep.c_str(), cloud.size(), solid_offset, off, size, res.optimizer.iterations,
+                res.optimize_s);
   }
 }
 
@@ -122,11 +123,14 @@ TEST(Recovery, QiqiTiltsAtThreeFillLevels) {
   for (int k = 0; k < 3; ++k) tilts.push_back(featureValue(truth, "tilt_deg_at_fill_" + std::to_string(k)));
   c.setList("target_tilts_deg", tilts);
   const InferenceResult res = runInference(c, cloud);
-  std::printf("[recovery] qiqi truth tilts %.3f %.3f %.3f deg; start %.3f %.3f %.3f; inferred %.3f %.3f %.3f (%d evaluations, %.1f s)\n",
-              tilts[0], tilts[1], tilts[2], res.initial.task.features[0].value, res.initial.task.features[1].value,
-              res.initial.task.features[2].value, res.final.task.features[0].value, res.final.task.features[1].value,
-              res.final.task.features[2].value, res.optimizer.iterations, res.optimize_s);
+  std::printf(
+      "[recovery] qiqi truth tilts %.3f %.3f %.3f deg; start %.3f %.3f %.3f; inferred %.3f %.3f %.3f (%d evaluations, "
+      "%.1f s)\n",
+      tilts[0], tilts[1], tilts[2], res.initial.task.features[0].value, res.initial.task.features[1].value,
+      res.initial.task.features[2].value, res.final.task.features[0].value, res.final.task.features[1].value,
+      res.final.task.features[2].value, res.optimizer.iterations, res.optimize_s);
   EXPECT_GT(std::abs(res.initial.task.features[0].value - tilts[0]), 1.0) << "the start must differ";
-  for (int k = 0; k < 3; ++k) EXPECT_NEAR(res.final.task.features[k].value, tilts[k], 0.01 * std::max(10.0, std::abs(tilts[k])));
+  for (int k = 0; k < 3; ++k)
+    EXPECT_NEAR(res.final.task.features[k].value, tilts[k], 0.01 * std::max(10.0, std::abs(tilts[k])));
   EXPECT_TRUE(res.targets_reached) << res.message;
 }

@@ -9,11 +9,11 @@
 #include <opencv2/imgproc.hpp>
 
 #include "test_util.h"
-#include "topo_gaussian/workflow/rig_twin.h"
 #include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/vision/motion_tracker.h"
 #include "topo_gaussian/vision/particle_normals.h"
 #include "topo_gaussian/vision/splat_renderer.h"
+#include "topo_gaussian/workflow/rig_twin.h"
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::vision;
@@ -154,9 +154,9 @@ TEST(SplatRenderer, NearestSplatWinsTheZBuffer) {
   const cv::Vec3b blue(255, 0, 0), red(0, 0, 255), background(235, 235, 235);
   cv::Mat green;
   for (const cv::Mat* img : {&a, &b}) {
-    EXPECT_EQ(img->at<cv::Vec3b>(120, 160), red);        // both cover it: the near one wins
-    EXPECT_EQ(img->at<cv::Vec3b>(120, 160 - 8), blue);   // only the far one
-    EXPECT_EQ(img->at<cv::Vec3b>(120, 160 + 21), red);   // only the near one
+    EXPECT_EQ(img->at<cv::Vec3b>(120, 160), red);       // both cover it: the near one wins
+    EXPECT_EQ(img->at<cv::Vec3b>(120, 160 - 8), blue);  // only the far one
+    EXPECT_EQ(img->at<cv::Vec3b>(120, 160 + 21), red);  // only the near one
     EXPECT_EQ(img->at<cv::Vec3b>(120, 160 - 12), background);
     cv::inRange(*img, cv::Scalar(0, 255, 0), cv::Scalar(0, 255, 0), green);
     EXPECT_EQ(cv::countNonZero(green), 0);  // behind the camera
@@ -209,11 +209,13 @@ TEST(ParticleNormals, LatticeNormalsPointOutwards) {
     ++counted;
   }
   mean /= counted;
-  std::printf("[twin] lattice normals on the tumbler's round part: mean %.2f deg, worst %.2f deg from radial (%d particles)\n",
-              mean, worst, counted);
+  std::printf(
+      "[twin] lattice normals on the tumbler's round part: mean %.2f deg, worst %.2f deg from radial (%d particles)\n",
+      mean, worst, counted);
   EXPECT_LT(mean, 6.0);
   EXPECT_LT(worst, 25.0);
-  EXPECT_NE(topo_test::errorOf([&] { estimateOutwardNormals(cloud.X, surface, 0.0); }).find("radius"), std::string::npos);
+  EXPECT_NE(topo_test::errorOf([&] { estimateOutwardNormals(cloud.X, surface, 0.0); }).find("radius"),
+            std::string::npos);
 }
 
 TEST(RigTwin, TumblerTruthAndSeamlessLoop) {
@@ -224,12 +226,13 @@ TEST(RigTwin, TumblerTruthAndSeamlessLoop) {
   solid_o.interior_quadric(9) = 1.0;  // s = 1 everywhere: fully solid
   solid_o.loop_cycles = 2;
   const RigTwin solid(solid_o);
-  std::printf("[twin] tumbler truth: period %.5f s, max tilt %.4f deg, solid fraction %.3f, mass %.4f kg; fully solid: "
-              "period %.5f s; loop %.4f s = %d periods (seam %.4f deg, %.3f mm), amplitude decay %.4f %% per period, "
-              "setup %.2f s\n",
-              T, tilt, twin.solidFraction(), twin.feature("mass_kg"), solid.feature("period_s"), twin.loopSeconds(),
-              twin.loopCycles(), twin.seamRotationDeg(), 1e3 * twin.seamTranslationM(), 100 * twin.amplitudeDecayPerCycle(),
-              twin.simulationSeconds());
+  std::printf(
+      "[twin] tumbler truth: period %.5f s, max tilt %.4f deg, solid fraction %.3f, mass %.4f kg; fully solid: "
+      "period %.5f s; loop %.4f s = %d periods (seam %.4f deg, %.3f mm), amplitude decay %.4f %% per period, "
+      "setup %.2f s\n",
+      T, tilt, twin.solidFraction(), twin.feature("mass_kg"), solid.feature("period_s"), twin.loopSeconds(),
+      twin.loopCycles(), twin.seamRotationDeg(), 1e3 * twin.seamTranslationM(), 100 * twin.amplitudeDecayPerCycle(),
+      twin.simulationSeconds());
   EXPECT_GT(std::abs(solid.feature("period_s") - T), 0.05 * T) << "the true cavity must change the motion clearly";
   EXPECT_LT(twin.solidFraction(), 0.95);
   EXPECT_NEAR(tilt, 10.0, 0.05);  // released at rest at initial_tilt_deg
@@ -295,11 +298,12 @@ TEST(RigTwin, TrackerMeasuresTheTruePeriodAndTiltFromRenderedFrames) {
   const double fps = 60.0, t_start = 0.37 * twin.loopSeconds();  // the window spans seams
   double render_ms = 0;
   const TrackResult r = trackTwin(twin, rigCamera(), t_start, fps, 8.0, &render_ms);
-  std::printf("[twin] tracked %d frames at %.0f fps (render %.2f ms/frame, %zu splats): period %.5f s (truth %.5f, %+.3f %%), "
-              "max tilt %.4f deg (truth %.4f, %+.3f %%), equilibrium %.3f deg, %d cycles, lost %d\n",
-              r.frames_used, fps, render_ms, twin.surfacePoints().size(), r.signal.period_s, T,
-              100 * (r.signal.period_s / T - 1), r.signal.max_tilt_deg, tilt, 100 * (r.signal.max_tilt_deg / tilt - 1),
-              r.signal.equilibrium_deg, r.signal.cycles, r.lost_frames);
+  std::printf(
+      "[twin] tracked %d frames at %.0f fps (render %.2f ms/frame, %zu splats): period %.5f s (truth %.5f, %+.3f %%), "
+      "max tilt %.4f deg (truth %.4f, %+.3f %%), equilibrium %.3f deg, %d cycles, lost %d\n",
+      r.frames_used, fps, render_ms, twin.surfacePoints().size(), r.signal.period_s, T,
+      100 * (r.signal.period_s / T - 1), r.signal.max_tilt_deg, tilt, 100 * (r.signal.max_tilt_deg / tilt - 1),
+      r.signal.equilibrium_deg, r.signal.cycles, r.lost_frames);
   ASSERT_TRUE(r.signal.oscillation_found) << r.message;
   EXPECT_EQ(r.lost_frames, 0);
   EXPECT_NEAR(r.signal.period_s, T, 0.01 * T) << r.message;
@@ -316,7 +320,8 @@ TEST(RigTwin, TrackerMeasuresTheTruePeriodAndTiltFromRenderedFrames) {
     sxy += e * truth;
     sxx += truth * truth;
   }
-  std::printf("[twin] per-frame tilt error: mean %.4f deg, worst %.3f deg, scale %+.4f %%\n", mean, worst, 100 * sxy / sxx);
+  std::printf("[twin] per-frame tilt error: mean %.4f deg, worst %.3f deg, scale %+.4f %%\n", mean, worst,
+              100 * sxy / sxx);
   EXPECT_LT(worst, 0.15);
   EXPECT_LT(std::abs(mean), 0.03);
   EXPECT_LT(std::abs(sxy / sxx), 0.003);  // the tracked tilt is not scaled (perspective, shading)
@@ -328,10 +333,11 @@ TEST(RigTwin, HangingPearSwingsSeamlesslyAndIsTracked) {
   o.shape = "pear";  // its task: hanging from the top centre, released 3° off about world x
   const RigTwin twin(o);
   const double T = twin.feature("swing_period_s");
-  std::printf("[twin] hanging pear: swing period %.5f s (closed form %.5f), loop %.4f s = %d periods (seam %.5f deg), "
-              "decay %.5f %% per period, solid fraction %.3f\n",
-              T, twin.feature("swing_period_closed_form_s"), twin.loopSeconds(), twin.loopCycles(), twin.seamRotationDeg(),
-              100 * twin.amplitudeDecayPerCycle(), twin.solidFraction());
+  std::printf(
+      "[twin] hanging pear: swing period %.5f s (closed form %.5f), loop %.4f s = %d periods (seam %.5f deg), "
+      "decay %.5f %% per period, solid fraction %.3f\n",
+      T, twin.feature("swing_period_closed_form_s"), twin.loopSeconds(), twin.loopCycles(), twin.seamRotationDeg(),
+      100 * twin.amplitudeDecayPerCycle(), twin.solidFraction());
   EXPECT_EQ(twin.config().task(), "hanging");
   EXPECT_NEAR(T, twin.feature("swing_period_closed_form_s"), 0.005 * T);
   EXPECT_LT(twin.solidFraction(), 0.9);
@@ -340,8 +346,8 @@ TEST(RigTwin, HangingPearSwingsSeamlesslyAndIsTracked) {
   EXPECT_LT(std::abs(twin.amplitudeDecayPerCycle()), 1e-4);
   // the camera level with the pear's middle sees it swing: its (major) axis follows the swing
   const TrackResult r = trackTwin(twin, rigCamera(0.06), 0.3, 30.0, 6.0);
-  std::printf("[twin] hanging pear tracked: period %.5f s (%+.3f %%), amplitude %.4f deg, max tilt %.4f deg\n", r.signal.period_s,
-              100 * (r.signal.period_s / T - 1), r.signal.amplitude_deg, r.signal.max_tilt_deg);
+  std::printf("[twin] hanging pear tracked: period %.5f s (%+.3f %%), amplitude %.4f deg, max tilt %.4f deg\n",
+              r.signal.period_s, 100 * (r.signal.period_s / T - 1), r.signal.amplitude_deg, r.signal.max_tilt_deg);
   ASSERT_TRUE(r.signal.oscillation_found) << r.message;
   EXPECT_NEAR(r.signal.period_s, T, 0.01 * T);
   EXPECT_NEAR(r.signal.max_tilt_deg, 3.0, 0.1);

@@ -57,10 +57,13 @@ std::shared_ptr<VolumeCloud> RunFolder::volume_;
 
 TEST_F(RunFolder, ACliRunLoadsAsTheNodeLoadsIt) {
   const std::string out = dir_ + "/cli/tumbler_cli";
-  const ToolRun r = runTopo("infer --task tumbler --volume " + dir_ + "/tumbler.ply --target period_s=0.5 --set max_iterations=2 "
-                            "--quiet --output " + out);
+  const ToolRun r = runTopo("infer --task tumbler --volume " + dir_ +
+                            "/tumbler.ply --target period_s=0.5 --set max_iterations=2 "
+                            "--quiet --output " +
+                            out);
   ASSERT_TRUE(r.code == 0 || r.code == 3) << r.out;
-  for (const char* f : {"volume.ply", "interior.ply", "report.json", "signal.csv", "interior.stl", "slices.png", "export.json"})
+  for (const char* f :
+       {"volume.ply", "interior.ply", "report.json", "signal.csv", "interior.stl", "slices.png", "export.json"})
     EXPECT_TRUE(fs::exists(out + "/" + f)) << f << " missing from the CLI's run folder";
   const io::RunFiles run = io::loadRunFolder(out);
   EXPECT_EQ(run.task, "tumbler");
@@ -79,12 +82,13 @@ TEST_F(RunFolder, TheNodesRunIsReadByTheCli) {
   ASSERT_TRUE(fs::is_directory(o.output_dir));
   EXPECT_EQ(fs::path(o.output_dir).parent_path(), fs::path(dir_ + "/node"));
   EXPECT_EQ(o.files.size(), 4u) << "interior.ply, report.json, signal.csv, volume.ply without the export";
-  const ToolRun s = runTopo("simulate --task tumbler --volume " + o.output_dir + "/volume.ply --interior " + o.output_dir +
-                            "/interior.ply --json");
+  const ToolRun s = runTopo("simulate --task tumbler --volume " + o.output_dir + "/volume.ply --interior " +
+                            o.output_dir + "/interior.ply --json");
   ASSERT_EQ(s.code, 0) << s.out;
   EXPECT_NE(s.out.find("\"period_s\""), std::string::npos) << s.out;
-  const ToolRun e = runTopo("export --volume " + o.output_dir + "/volume.ply --interior " + o.output_dir +
-                            "/interior.ply --report " + o.output_dir + "/report.json --output " + o.output_dir + "/export");
+  const ToolRun e =
+      runTopo("export --volume " + o.output_dir + "/volume.ply --interior " + o.output_dir + "/interior.ply --report " +
+              o.output_dir + "/report.json --output " + o.output_dir + "/export");
   EXPECT_EQ(e.code, 0) << e.out;
   EXPECT_TRUE(fs::exists(o.output_dir + "/export/interior.stl"));
   // report.json carries the interface section even without the export's files.

@@ -6,8 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstdlib>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 
 #include "topo_gaussian/inference/interior_problem.h"
@@ -68,7 +68,7 @@ TEST(SoftTasks, ChamberOffsetToOneSideBendsTowardsTheOther) {
   const double down = feature(task->evaluate(chamber(cloud, 0.02, 0.085, -0.006, -0.0005), nullptr), "bend_angle_deg");
   const double up = feature(task->evaluate(chamber(cloud, 0.02, 0.085, 0.0005, 0.006), nullptr), "bend_angle_deg");
   std::printf("[bend] chamber below the axis: %+.2f deg; above: %+.2f deg\n", down, up);
-  EXPECT_GT(down, 0.1);   // chamber on the -z side: the tip turns towards +z
+  EXPECT_GT(down, 0.1);  // chamber on the -z side: the tip turns towards +z
   EXPECT_LT(up, -0.1);
   EXPECT_NEAR(down, -up, 0.05 * std::abs(down));  // mirror-symmetric shape
 }
@@ -147,7 +147,7 @@ TEST(SoftTasks, FingerRecoveryReachesTheBendingAngle) {
   c.setNumber("youngs_modulus_solid", 2e6);
   c.setNumber("youngs_modulus_hollow", 2e5);
   std::vector<double> truth(10, 0.0), start(10, 0.0);
-  truth[8] = 3.0, truth[9] = 0.09;   // hollow below z_n = -0.03
+  truth[8] = 3.0, truth[9] = 0.09;     // hollow below z_n = -0.03
   start[2] = 100.0, start[9] = -0.25;  // hollow where |z_n| < 0.05
   c.setList("initial_parameters", truth);
   InteriorProblem gt(c, cloud);
@@ -159,11 +159,11 @@ TEST(SoftTasks, FingerRecoveryReachesTheBendingAngle) {
   c.set("max_iterations", "30");
   const InferenceResult res = runInference(c, cloud);
   const double a0 = feature(res.initial.task, "bend_angle_deg"), a1 = feature(res.final.task, "bend_angle_deg");
-  std::printf("[recovery finger] %zu particles: target %.3f deg; start %.3f deg -> %.3f deg (%d evaluations, %.1f s, "
-              "%.2f s each); %s\n",
-              cloud.size(), target, a0, a1, res.optimizer.iterations, res.optimize_s, res.evaluation_s,
-              res.message.c_str());
-  EXPECT_GT(target, 5.0);   // a real bend, not round-off
+  std::printf(
+      "[recovery finger] %zu particles: target %.3f deg; start %.3f deg -> %.3f deg (%d evaluations, %.1f s, "
+      "%.2f s each); %s\n",
+      cloud.size(), target, a0, a1, res.optimizer.iterations, res.optimize_s, res.evaluation_s, res.message.c_str());
+  EXPECT_GT(target, 5.0);                 // a real bend, not round-off
   EXPECT_LT(std::abs(a0), 0.2 * target);  // the start hardly bends
   EXPECT_LT(std::abs(a1 - target), 1.0);
 }

@@ -9,18 +9,18 @@
 #include "test_clouds.h"
 #include "test_util.h"
 #include "topo_gaussian/inference/pipeline.h"
-#include "topo_gaussian/workflow/rig_twin.h"
 #include "topo_gaussian/inference/task.h"
 #include "topo_gaussian/inference/task_config.h"
 #include "topo_gaussian/inference/task_registry.h"
 #include "topo_gaussian/physics/default_shapes.h"
+#include "topo_gaussian/workflow/rig_twin.h"
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::inference;
 using topo_test::errorOf;
 
 TEST(TaskRegistry, NamesInOrderAndTheUnknownTaskErrorListsThem) {
-  const std::vector<std::string> expected = {"hanging", "balance", "stand", "tumbler", "qiqi",
+  const std::vector<std::string> expected = {"hanging", "balance", "stand", "tumbler",   "qiqi",
                                              "ball",    "finger",  "pear",  "cantilever"};
   EXPECT_EQ(TaskConfig::taskNames(), expected);
   ASSERT_EQ(taskDefinitions().size(), expected.size());
@@ -74,9 +74,8 @@ TEST(TaskRegistry, EveryFactoryBuildsItsTask) {
   for (const auto& t : taskDefinitions()) {
     SCOPED_TRACE(t.name);
     const TaskConfig c = TaskConfig::defaults(t.name);
-    const VolumeCloud cloud = t.default_shape.empty()
-                                  ? box
-                                  : defaultShapeCloud(t.default_shape, c.number("default_spacing_m"));
+    const VolumeCloud cloud =
+        t.default_shape.empty() ? box : defaultShapeCloud(t.default_shape, c.number("default_spacing_m"));
     std::unique_ptr<Task> task;
     ASSERT_NO_THROW(task = makeTask(c, cloud));
     ASSERT_NE(task, nullptr);

@@ -8,11 +8,11 @@
 
 #include "test_clouds.h"
 #include "test_util.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/inference/interior_problem.h"
 #include "topo_gaussian/inference/optimizer.h"
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/inference/task_config.h"
-#include "topo_gaussian/common/error.h"
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::inference;
@@ -22,7 +22,8 @@ namespace {
 
 // Relative error of the analytic gradient against central differences, along each of `coords`
 // and along one random direction.
-double gradientError(const InteriorProblem& p, const Eigen::VectorXd& theta, const std::vector<int>& coords, double step) {
+double gradientError(const InteriorProblem& p, const Eigen::VectorXd& theta, const std::vector<int>& coords,
+                     double step) {
   Eigen::VectorXd g;
   p.evaluate(theta, &g);
   double worst = 0;
@@ -119,7 +120,11 @@ TEST(TaskGradient, QiqiThroughTheEquilibrium) {
   const InteriorProblem p(c, cloud);
   Eigen::VectorXd theta = quadricDesign();
   theta[9] = 0.1;  // partly hollow
-  const ProblemEvaluation ev = [&] { ProblemEvaluation e; p.evaluate(theta, nullptr, &e); return e; }();
+  const ProblemEvaluation ev = [&] {
+    ProblemEvaluation e;
+    p.evaluate(theta, nullptr, &e);
+    return e;
+  }();
   EXPECT_GT(ev.task.features.size(), 3u);
   gradientError(p, theta, {0, 1, 4, 6, 8, 9}, 1e-6);
 }
@@ -236,7 +241,7 @@ TEST(Inference, BalanceAndStandReachTheirTargets) {
   const VolumeCloud slab = topo_test::latticeCloud(
       [](const Eigen::Vector3d& x) {
         return std::abs(x.y()) <= 0.05 && ((std::abs(x.x()) <= 0.1 && x.z() >= -0.01 && x.z() <= 0.03) ||
-                                          (x.x() >= -0.1 && x.x() <= -0.04 && x.z() >= -0.03 && x.z() < -0.01));
+                                           (x.x() >= -0.1 && x.x() <= -0.04 && x.z() >= -0.03 && x.z() < -0.01));
       },
       Eigen::Vector3d(-0.1, -0.05, -0.03), Eigen::Vector3d(0.1, 0.05, 0.03), 0.005);
   TaskConfig s = TaskConfig::defaults("stand");

@@ -72,7 +72,7 @@ double bulletPeriod(int* crossings) {
   start.setOrigin(btVector3(0, 0, kR) + btMatrix3x3(q) * btVector3(0, 0, -kH));
   btDefaultMotionState motion(start);
   btRigidBody::btRigidBodyConstructionInfo info(kMass, &motion, &compound,
-                                               btVector3(kInertia.x(), kInertia.y(), kInertia.z()));
+                                                btVector3(kInertia.x(), kInertia.y(), kInertia.z()));
   info.m_friction = 1.0;
   info.m_restitution = 0.0;
   info.m_rollingFriction = 0.0;
@@ -140,11 +140,11 @@ TEST(PeerBullet, TumblerRockingPeriod) {
   size_t npts = 0;
   const double Tb = bulletPeriod(&nb);
   const double To = ourPeriod(&no, &npts);
-  const double Tref =
-      2.0 * kPi * std::sqrt((kInertia.y() + kMass * (kR - kH) * (kR - kH)) / (kMass * kG * kH));
-  std::printf("tumbler period: Bullet %.5f s (%d crossings), ours %.5f s (%zu contact points, %d crossings), "
-              "closed form %.5f s; ours/Bullet - 1 = %+.3f %%\n",
-              Tb, nb, To, npts, no, Tref, 100.0 * (To / Tb - 1.0));
+  const double Tref = 2.0 * kPi * std::sqrt((kInertia.y() + kMass * (kR - kH) * (kR - kH)) / (kMass * kG * kH));
+  std::printf(
+      "tumbler period: Bullet %.5f s (%d crossings), ours %.5f s (%zu contact points, %d crossings), "
+      "closed form %.5f s; ours/Bullet - 1 = %+.3f %%\n",
+      Tb, nb, To, npts, no, Tref, 100.0 * (To / Tb - 1.0));
   ASSERT_GE(nb, 8);
   ASSERT_GE(no, 8);
   EXPECT_NEAR(To / Tb, 1.0, 0.01);

@@ -39,9 +39,10 @@ TEST(InteriorCloud, LayoutColoursAndRoundTrip) {
   const auto msg = topo_ros::toInteriorCloud(cloud, r, rho, e, "object_simulated", ros::Time(3.0));
   EXPECT_EQ(msg.width, cloud.size());
   EXPECT_EQ(msg.header.frame_id, "object_simulated");
-  for (const char* f : {"x", "y", "z", "solid", "density", "stiffness", "rgb"}) EXPECT_TRUE(topo_ros::hasField(msg, f)) << f;
-  EXPECT_EQ(rgbAt(msg, 0), topo_ros::kHollowRgb);  // r = 0
-  EXPECT_EQ(rgbAt(msg, 4), topo_ros::kSolidRgb);   // r = 1
+  for (const char* f : {"x", "y", "z", "solid", "density", "stiffness", "rgb"})
+    EXPECT_TRUE(topo_ros::hasField(msg, f)) << f;
+  EXPECT_EQ(rgbAt(msg, 0), topo_ros::kHollowRgb);                                              // r = 0
+  EXPECT_EQ(rgbAt(msg, 4), topo_ros::kSolidRgb);                                               // r = 1
   EXPECT_EQ(topo_ros::interiorRgb(0.5), 0x824682u) << std::hex << topo_ros::interiorRgb(0.5);  // midway per channel
   const auto back = topo_ros::fromInteriorCloud(msg, "test");
   ASSERT_EQ(back.r.size(), r.size());
@@ -100,7 +101,8 @@ TEST(InteriorMarkers, CentreOfMassSolidCubesGravityAndText) {
   EXPECT_EQ(text->text, "period_s = 0.3 s (target 0.31)");
   std::vector<double> short_r(3, 1.0);
   in.r = &short_r;
-  EXPECT_NE(errorOf([&] { topo_ros::makeInteriorMarkers(in, ros::Time()); }).find("one indicator value"), std::string::npos);
+  EXPECT_NE(errorOf([&] { topo_ros::makeInteriorMarkers(in, ros::Time()); }).find("one indicator value"),
+            std::string::npos);
 }
 
 TEST(BodyMotion, PoseInterpolationAndClamping) {

@@ -55,7 +55,8 @@ TEST(ParamReader, NumberWrongTypeNamesParameterTypesAndExample) {
 TEST(ParamReader, NumberOutOfRangeGivesRangeAndUnit) {
   const std::string e = errorOf([] { param_check::number(XmlRpcValue(0.0), kName, "Hz", Range::above(0), "30"); });
   EXPECT_NE(e.find("is 0 Hz, outside (0, inf) Hz"), std::string::npos) << e;
-  const std::string h = errorOf([] { param_check::number(XmlRpcValue(5000.0), kName, "s", Range::between(0, 3600), "20"); });
+  const std::string h =
+      errorOf([] { param_check::number(XmlRpcValue(5000.0), kName, "s", Range::between(0, 3600), "20"); });
   EXPECT_NE(h.find("outside [0, 3600] s"), std::string::npos) << h;
   const Range open{0, 1, true, true};
   EXPECT_TRUE(open.contains(0.5));
@@ -70,8 +71,9 @@ TEST(ParamReader, IntegerRefusesFractionsAndStrings) {
             std::string::npos);
   EXPECT_NE(errorOf([] { param_check::integer(XmlRpcValue("2"), kName, "", Range(), "1"); }).find("a string"),
             std::string::npos);
-  EXPECT_NE(errorOf([] { param_check::integer(XmlRpcValue(0), kName, "", Range::atLeast(1), "1"); }).find("outside [1, inf)"),
-            std::string::npos);
+  EXPECT_NE(
+      errorOf([] { param_check::integer(XmlRpcValue(0), kName, "", Range::atLeast(1), "1"); }).find("outside [1, inf)"),
+      std::string::npos);
 }
 
 TEST(ParamReader, FlagTextAndChoices) {
@@ -91,14 +93,17 @@ TEST(ParamReader, NumberListsFromListsOrOneString) {
   mixed[1] = 2.5;
   EXPECT_EQ(param_check::numbers(mixed, kName, 2, "px", "[1, 2]"), (std::vector<double>{1, 2.5}));
   EXPECT_EQ(param_check::numbers(XmlRpcValue("[4, 5.5]"), kName, 2, "", "[1, 2]"), (std::vector<double>{4, 5.5}));
-  EXPECT_NE(errorOf([&] { param_check::numbers(list({1, 2}), kName, 3, "", "[1, 2, 3]"); }).find("has 2 entries, not 3"),
+  EXPECT_NE(errorOf([&] {
+              param_check::numbers(list({1, 2}), kName, 3, "", "[1, 2, 3]");
+            }).find("has 2 entries, not 3"),
             std::string::npos);
   EXPECT_NE(errorOf([] { param_check::numbers(XmlRpcValue("one, two"), kName, 0, "", "[1]"); }).find("a string"),
             std::string::npos);
   XmlRpcValue bad;
   bad[0] = 1;
   bad[1] = "x";
-  EXPECT_NE(errorOf([&] { param_check::numbers(bad, kName, 0, "", "[1]"); }).find("entry 1 is a string"), std::string::npos);
+  EXPECT_NE(errorOf([&] { param_check::numbers(bad, kName, 0, "", "[1]"); }).find("entry 1 is a string"),
+            std::string::npos);
 }
 
 TEST(ParamReader, TextListsFromListsOrOneString) {
@@ -108,7 +113,8 @@ TEST(ParamReader, TextListsFromListsOrOneString) {
   EXPECT_EQ(param_check::texts(l, kName, "", ";"), (std::vector<std::string>{"a=1", "hanging_point=0.01,0.005,0.05"}));
   EXPECT_EQ(param_check::texts(XmlRpcValue("a=1; b=0.1,0.2"), kName, "", ";"),
             (std::vector<std::string>{"a=1", "b=0.1,0.2"}));
-  EXPECT_EQ(param_check::texts(XmlRpcValue("['a=1', 'b=2']"), kName, "", "; \t"), (std::vector<std::string>{"a=1", "b=2"}));
+  EXPECT_EQ(param_check::texts(XmlRpcValue("['a=1', 'b=2']"), kName, "", "; \t"),
+            (std::vector<std::string>{"a=1", "b=2"}));
   EXPECT_NE(errorOf([] { param_check::texts(XmlRpcValue(2.0), kName, "", ";"); }).find("not a list of strings"),
             std::string::npos);
 }

@@ -13,7 +13,7 @@ namespace topo_test {
 inline std::string sharedDataDir() { return std::string(TOPO_SOURCE_DIR) + "/../shared/data"; }
 
 inline bool fileExists(const std::string& p) {
-  struct stat st{};
+  struct stat st {};
   return ::stat(p.c_str(), &st) == 0;
 }
 
@@ -25,9 +25,9 @@ inline bool sharedDataRequired() {
 }  // namespace topo_test
 
 /// In a TEST body: sets `var` to the full path of shared/data/<rel>, or skips/fails the test.
-#define TOPO_SHARED_FILE(var, rel)                                                                  \
-  const std::string var = topo_test::sharedDataDir() + "/" + (rel);                                 \
-  if (!topo_test::fileExists(var)) {                                                               \
-    if (topo_test::sharedDataRequired()) FAIL() << "missing shared data file " << var;             \
-    GTEST_SKIP() << "no shared data at " << var;                                                    \
+#define TOPO_SHARED_FILE(var, rel)                                                     \
+  const std::string var = topo_test::sharedDataDir() + "/" + (rel);                    \
+  if (!topo_test::fileExists(var)) {                                                   \
+    if (topo_test::sharedDataRequired()) FAIL() << "missing shared data file " << var; \
+    GTEST_SKIP() << "no shared data at " << var;                                       \
   }

@@ -15,7 +15,9 @@ inline topo_gaussian::VolumeCloud latticeCloud(const std::function<bool(const Ei
   topo_gaussian::VolumeCloud c;
   c.spacing = h;
   const Eigen::Vector3i n = ((hi - lo) / h).array().ceil().cast<int>();
-  auto centre = [&](int i, int j, int k) { return Eigen::Vector3d(lo + h * Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5)); };
+  auto centre = [&](int i, int j, int k) {
+    return Eigen::Vector3d(lo + h * Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5));
+  };
   for (int i = 0; i < n.x(); ++i)
     for (int j = 0; j < n.y(); ++j)
       for (int k = 0; k < n.z(); ++k) {

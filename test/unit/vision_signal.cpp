@@ -24,8 +24,8 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 /// Samples pendulumAngleDeg at scene.fps, with Gaussian noise and randomly dropped samples.
-void sample(const PendulumScene& scene, double noise_deg, double drop_fraction, unsigned seed,
-            std::vector<double>& t, std::vector<double>& y) {
+void sample(const PendulumScene& scene, double noise_deg, double drop_fraction, unsigned seed, std::vector<double>& t,
+            std::vector<double>& y) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, noise_deg);
   std::uniform_real_distribution<double> uni(0.0, 1.0);
@@ -77,9 +77,10 @@ TEST(VisionSignal, UndampedNoisyDroppedSamples) {
     min_conf = std::min(min_conf, f.confidence);
     if (seed == 1) std::printf("[ info ] %s\n", f.message.c_str());
   }
-  std::printf("[ info ] undamped: worst period error %.4f %%, amplitude %.3f deg, equilibrium %.3f deg, "
-              "max tilt %.3f deg, min confidence %.3f\n",
-              100.0 * worst_period, worst_amp, worst_eq, worst_tilt, min_conf);
+  std::printf(
+      "[ info ] undamped: worst period error %.4f %%, amplitude %.3f deg, equilibrium %.3f deg, "
+      "max tilt %.3f deg, min confidence %.3f\n",
+      100.0 * worst_period, worst_amp, worst_eq, worst_tilt, min_conf);
 }
 
 TEST(VisionSignal, CleanSignalIsExact) {
@@ -140,8 +141,8 @@ TEST(VisionSignal, PhaseShiftedSlowFpsHeavierNoise) {
   EXPECT_NEAR(f.amplitude_deg, 15.0, 1.0);
   EXPECT_NEAR(f.equilibrium_deg, 4.0, 1.0);
   EXPECT_GT(f.confidence, 0.5);
-  std::printf("[ info ] phase-shifted 20 fps noise 0.8: period %.4f s, amplitude %.2f, confidence %.3f\n",
-              f.period_s, f.amplitude_deg, f.confidence);
+  std::printf("[ info ] phase-shifted 20 fps noise 0.8: period %.4f s, amplitude %.2f, confidence %.3f\n", f.period_s,
+              f.amplitude_deg, f.confidence);
 }
 
 TEST(VisionSignal, MonotonicRampIsNoOscillation) {
@@ -201,10 +202,8 @@ TEST(VisionSignal, BadInputThrows) {
   EXPECT_THROW(analyseSignal({0.0, 0.1, 0.2}, {1.0, 2.0}), TopoError);
   EXPECT_THROW(analyseSignal({0.0, 0.2, 0.1}, {1.0, 2.0, 3.0}), TopoError);
   EXPECT_THROW(analyseSignal({0.0, 0.1, 0.1}, {1.0, 2.0, 3.0}), TopoError);
-  EXPECT_THROW(analyseSignal({0.0, 0.1, 0.2}, {1.0, std::numeric_limits<double>::quiet_NaN(), 3.0}),
-               TopoError);
-  EXPECT_THROW(analyseSignal({0.0, std::numeric_limits<double>::quiet_NaN(), 0.2}, {1.0, 2.0, 3.0}),
-               TopoError);
+  EXPECT_THROW(analyseSignal({0.0, 0.1, 0.2}, {1.0, std::numeric_limits<double>::quiet_NaN(), 3.0}), TopoError);
+  EXPECT_THROW(analyseSignal({0.0, std::numeric_limits<double>::quiet_NaN(), 0.2}, {1.0, 2.0, 3.0}), TopoError);
   EXPECT_THROW(analyseSignal({}, {}), TopoError);
   try {
     analyseSignal({0.0, 0.1}, {1.0});

@@ -52,7 +52,8 @@ TEST(VisionTracking, MarkerPendulumRecoversPeriodAmplitudeEquilibrium) {
   o.tracker.method = "marker";
   const TrackResult r = trackVideo(path, o);
   std::printf("marker pendulum: %s\n", r.message.c_str());
-  std::printf("pivot (%.2f, %.2f) estimated %d rms %.3f\n", r.pivot.x, r.pivot.y, r.pivot_estimated, r.pivot_fit_rms_px);
+  std::printf("pivot (%.2f, %.2f) estimated %d rms %.3f\n", r.pivot.x, r.pivot.y, r.pivot_estimated,
+              r.pivot_fit_rms_px);
   ASSERT_TRUE(r.signal.oscillation_found) << r.message;
   EXPECT_NEAR(r.signal.period_s, 1.2, 0.005 * 1.2);
   EXPECT_NEAR(r.signal.amplitude_deg, 15.0, 1.0);

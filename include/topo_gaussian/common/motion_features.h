@@ -32,12 +32,12 @@ struct MotionFeatures {
 
   bool oscillation_found = false;
   double period_s = 0.0;
-  double amplitude_deg = 0.0;     ///< mean half peak-to-peak
+  double amplitude_deg = 0.0;  ///< mean half peak-to-peak
   double max_tilt_deg = 0.0;
-  double equilibrium_deg = 0.0;   ///< oscillation centre, or the static pose
-  double log_decrement = 0.0;     ///< damping per cycle
+  double equilibrium_deg = 0.0;  ///< oscillation centre, or the static pose
+  double log_decrement = 0.0;    ///< damping per cycle
   double damping_ratio = 0.0;
-  double bending_angle_deg = 0.0; ///< finger: tip direction minus base direction, final value
+  double bending_angle_deg = 0.0;  ///< finger: tip direction minus base direction, final value
 
   double period_confidence = 0.0;  ///< 0..1
   double amplitude_confidence = 0.0;

@@ -10,11 +10,11 @@
 namespace topo_gaussian::geometry {
 
 struct CleanOptions {
-  double opacity_threshold = 0.02;   ///< Gaussians with sigmoid(opacity) below are dropped
-  int outlier_neighbours = 16;       ///< k of PCL StatisticalOutlierRemoval; 0 disables (meshes: never)
-  double outlier_std_ratio = 3.0;    ///< points farther than mean + ratio·stddev of k-NN distance go
-  double scale = 1.0;                ///< multiply coordinates (and Gaussian sizes), e.g. 0.001 for mm → m
-  bool recenter = false;             ///< move the bounding-box centre to the origin
+  double opacity_threshold = 0.02;  ///< Gaussians with sigmoid(opacity) below are dropped
+  int outlier_neighbours = 16;      ///< k of PCL StatisticalOutlierRemoval; 0 disables (meshes: never)
+  double outlier_std_ratio = 3.0;   ///< points farther than mean + ratio·stddev of k-NN distance go
+  double scale = 1.0;               ///< multiply coordinates (and Gaussian sizes), e.g. 0.001 for mm → m
+  bool recenter = false;            ///< move the bounding-box centre to the origin
   Eigen::Vector3d crop_min = Eigen::Vector3d::Constant(-1e300);  ///< crop box after scaling [m]
   Eigen::Vector3d crop_max = Eigen::Vector3d::Constant(1e300);
 };

@@ -49,20 +49,19 @@ struct DensityFillResult {
   /// Candidate interior cells: filled by the search + parity test (closing_cells = 0), or walled in
   /// by shell in all six directions (closing_cells > 0).
   std::size_t ray_filled_cells = 0;
-  std::size_t leaked_cells = 0;     ///< candidates connected to the outside through gaps (not filled)
+  std::size_t leaked_cells = 0;  ///< candidates connected to the outside through gaps (not filled)
   double open_fraction() const { return ray_filled_cells ? double(leaked_cells) / double(ray_filled_cells) : 0.0; }
 };
 
 /// Gaussians: centres, covariances and opacities (same size). Grid cells are `grid`'s cells.
 DensityFillResult densityFill(const std::vector<Eigen::Vector3d>& centres,
-                              const std::vector<Eigen::Matrix3d>& covariances,
-                              const std::vector<double>& opacity, const Lattice& grid,
-                              const DensityFillOptions& options);
+                              const std::vector<Eigen::Matrix3d>& covariances, const std::vector<double>& opacity,
+                              const Lattice& grid, const DensityFillOptions& options);
 
 /// Splats equal isotropic Gaussians of std dev `sigma` on points whose typical spacing is
 /// `point_spacing`, with opacities chosen so that a densely sampled plane reaches twice the
 /// density threshold on the surface (see the .cpp for the derivation).
-DensityFillResult densityFillPoints(const std::vector<Eigen::Vector3d>& points, double point_spacing,
-                                    double sigma, const Lattice& grid, const DensityFillOptions& options);
+DensityFillResult densityFillPoints(const std::vector<Eigen::Vector3d>& points, double point_spacing, double sigma,
+                                    const Lattice& grid, const DensityFillOptions& options);
 
 }  // namespace topo_gaussian::geometry

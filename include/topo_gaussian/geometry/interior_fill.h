@@ -25,11 +25,11 @@ struct FillOptions {
   /// Largest fraction of the ray-filled interior allowed to leak to the outside through gaps in
   /// the surface; above it the fill is refused with an error that says how open the surface is.
   double max_open_fraction = 0.05;
-  double max_cells = 2.5e8;          ///< refuse lattices (and density grids) with more cells than this
+  double max_cells = 2.5e8;  ///< refuse lattices (and density grids) with more cells than this
 };
 
 struct FillReport {
-  std::string method;                ///< mesh-parity | gaussian-density | point-density | mesh-sample-density
+  std::string method;  ///< mesh-parity | gaussian-density | point-density | mesh-sample-density
   std::size_t points_in = 0;
   std::size_t triangles_in = 0;
   std::size_t particles_out = 0;
@@ -37,10 +37,10 @@ struct FillReport {
   double spacing_m = 0.0;
   double total_volume_m3 = 0.0;
   Eigen::Vector3d bbox_min = Eigen::Vector3d::Zero(), bbox_max = Eigen::Vector3d::Zero();  ///< of the input
-  double open_fraction = 0.0;        ///< leaked / ray-filled cells (density methods), 0 for closed meshes
-  MeshTopology topology;             ///< meshes only
+  double open_fraction = 0.0;  ///< leaked / ray-filled cells (density methods), 0 for closed meshes
+  MeshTopology topology;       ///< meshes only
   std::size_t dense_cells = 0, ray_filled_cells = 0, leaked_cells = 0;
-  int closing_cells = 0;             ///< closing radius used (density methods)
+  int closing_cells = 0;  ///< closing radius used (density methods)
   double seconds = 0.0;
 };
 

@@ -10,8 +10,8 @@ namespace topo_gaussian::geometry {
 
 struct Lattice {
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();  ///< corner of cell (0,0,0) [m]
-  double h = 1.0;                                     ///< cell size [m]
-  std::array<int, 3> n{{0, 0, 0}};                    ///< cells per axis
+  double h = 1.0;                                    ///< cell size [m]
+  std::array<int, 3> n{{0, 0, 0}};                   ///< cells per axis
 
   /// Lattice of cell size h whose cells cover [lo, hi] centred, with `pad` extra cells on each side.
   static Lattice covering(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double h, int pad);
@@ -19,12 +19,8 @@ struct Lattice {
   static double cellCount(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double h, int pad);
 
   std::size_t cells() const { return std::size_t(n[0]) * n[1] * n[2]; }
-  std::size_t index(int i, int j, int k) const {
-    return (std::size_t(k) * n[1] + j) * n[0] + i;
-  }
-  Eigen::Vector3d center(int i, int j, int k) const {
-    return origin + h * Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5);
-  }
+  std::size_t index(int i, int j, int k) const { return (std::size_t(k) * n[1] + j) * n[0] + i; }
+  Eigen::Vector3d center(int i, int j, int k) const { return origin + h * Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5); }
   /// Cell containing p, or false when p is outside the lattice.
   bool cellOf(const Eigen::Vector3d& p, std::array<int, 3>* ijk) const;
 };

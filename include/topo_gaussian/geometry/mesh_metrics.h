@@ -9,8 +9,8 @@
 namespace topo_gaussian::geometry {
 
 struct MeshIntegrals {
-  double volume = 0.0;                               ///< signed; positive for outward normals
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero(); ///< of the enclosed homogeneous solid
+  double volume = 0.0;                                 ///< signed; positive for outward normals
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();  ///< of the enclosed homogeneous solid
   double area = 0.0;
 };
 

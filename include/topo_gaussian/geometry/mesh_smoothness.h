@@ -23,11 +23,11 @@
 namespace topo_gaussian::geometry {
 
 struct NormalSmoothness {
-  double mean = 0.0;              ///< mean |U_i|: the metric (dimensionless, 0 for a plane)
-  double rms = 0.0;               ///< sqrt(mean |U_i|²)
-  double max = 0.0;               ///< largest |U_i|
-  double mean_edge_length_m = 0.0;///< ℓ (for |Δn| ≈ 4 |U| / ℓ² in 1/m²)
-  std::size_t vertices = 0;       ///< vertices with a normal and at least one neighbour
+  double mean = 0.0;                ///< mean |U_i|: the metric (dimensionless, 0 for a plane)
+  double rms = 0.0;                 ///< sqrt(mean |U_i|²)
+  double max = 0.0;                 ///< largest |U_i|
+  double mean_edge_length_m = 0.0;  ///< ℓ (for |Δn| ≈ 4 |U| / ℓ² in 1/m²)
+  std::size_t vertices = 0;         ///< vertices with a normal and at least one neighbour
 };
 
 /// Needs a triangle mesh (any; a closed one for a meaningful value). Vertices without triangles or

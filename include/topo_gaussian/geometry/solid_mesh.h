@@ -30,7 +30,7 @@
 namespace topo_gaussian::geometry {
 
 struct SolidMeshOptions {
-  double iso = 0.5;                  ///< the solid region is r ≥ iso
+  double iso = 0.5;  ///< the solid region is r ≥ iso
   /// Place the vertices by interpolating logit(r) = ln(r / (1 − r)) between particles instead of r.
   /// Every representation gives r = sigmoid(s / ε), so logit(r) is its field s / ε (a signed-distance
   /// -like function for quadric and neural): the vertices then follow the representation's smooth
@@ -41,7 +41,7 @@ struct SolidMeshOptions {
   /// Largest distance of a particle from its lattice node, as a fraction of the spacing (a jittered
   /// fill is at most 0.5 off); more is refused as "not a lattice cloud".
   double lattice_tolerance = 0.5;
-  double max_nodes = 4e8;            ///< refuse lattices larger than this (a wrong spacing)
+  double max_nodes = 4e8;  ///< refuse lattices larger than this (a wrong spacing)
 };
 
 /// Closed mesh (kind Mesh, source "solid region") of the particles with r ≥ iso. r has one value per

@@ -17,18 +17,18 @@ struct SurfaceData {
   SurfaceKind kind = SurfaceKind::Points;
   std::string source;  ///< file name or topic, used in messages
 
-  std::vector<Eigen::Vector3d> points;  ///< positions (mesh: vertices)
-  std::vector<Eigen::Vector3d> normals; ///< optional, same size as points when present
-  std::vector<Eigen::Vector3d> colors;  ///< optional RGB in [0,1] (Gaussians: SH DC term → colour)
+  std::vector<Eigen::Vector3d> points;   ///< positions (mesh: vertices)
+  std::vector<Eigen::Vector3d> normals;  ///< optional, same size as points when present
+  std::vector<Eigen::Vector3d> colors;   ///< optional RGB in [0,1] (Gaussians: SH DC term → colour)
 
   // Gaussians only (same size as points):
-  std::vector<double> opacity;                ///< after sigmoid, in [0,1]
-  std::vector<Eigen::Vector3d> scales;        ///< after exp, standard deviations [m]
-  std::vector<Eigen::Vector4d> rotations;     ///< normalised quaternion (w, x, y, z)
-  std::vector<Eigen::Matrix3d> covariances;   ///< R S Sᵀ Rᵀ
-  int sh_degree = -1;                         ///< 0..3 for Gaussians, -1 otherwise
+  std::vector<double> opacity;               ///< after sigmoid, in [0,1]
+  std::vector<Eigen::Vector3d> scales;       ///< after exp, standard deviations [m]
+  std::vector<Eigen::Vector4d> rotations;    ///< normalised quaternion (w, x, y, z)
+  std::vector<Eigen::Matrix3d> covariances;  ///< R S Sᵀ Rᵀ
+  int sh_degree = -1;                        ///< 0..3 for Gaussians, -1 otherwise
 
-  std::vector<Eigen::Vector3i> triangles;     ///< mesh faces (polygons fan-triangulated)
+  std::vector<Eigen::Vector3i> triangles;  ///< mesh faces (polygons fan-triangulated)
 
   std::size_t size() const { return points.size(); }
   bool hasNormals() const { return !normals.empty() && normals.size() == points.size(); }

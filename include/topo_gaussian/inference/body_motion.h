@@ -26,7 +26,8 @@ BodyPose bodyPoseOf(double t, const State& s, const Eigen::Vector3d& com) {
   BodyPose p;
   p.t = t;
   p.rotation = Eigen::Quaterniond(valueOf(s.orientation.w()), valueOf(s.orientation.x()), valueOf(s.orientation.y()),
-                                  valueOf(s.orientation.z())).normalized();
+                                  valueOf(s.orientation.z()))
+                   .normalized();
   const Eigen::Vector3d pos(valueOf(s.position[0]), valueOf(s.position[1]), valueOf(s.position[2]));
   p.translation = pos - p.rotation * com;
   return p;

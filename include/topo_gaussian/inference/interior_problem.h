@@ -16,11 +16,11 @@
 namespace topo_gaussian::inference {
 
 struct ProblemEvaluation {
-  double loss = 0.0;          ///< task loss + regularisers
+  double loss = 0.0;  ///< task loss + regularisers
   double task_loss = 0.0;
   double volume_term = 0.0;
   double smoothness_term = 0.0;
-  double solid_fraction = 0.0;///< Σ V_i r_i / Σ V_i
+  double solid_fraction = 0.0;  ///< Σ V_i r_i / Σ V_i
   TaskEvaluation task;
 };
 

@@ -11,13 +11,13 @@
 namespace topo_gaussian::inference {
 
 struct OptimizerOptions {
-  std::string method = "lbfgs";     ///< lbfgs | adam
+  std::string method = "lbfgs";  ///< lbfgs | adam
   int max_iterations = 200;
-  double learning_rate = 0.02;      ///< Adam
+  double learning_rate = 0.02;  ///< Adam
   double beta1 = 0.9, beta2 = 0.999, adam_eps = 1e-8;
-  double loss_tolerance = 1e-12;    ///< stop when loss ≤ this
-  double relative_tolerance = 1e-10;///< stop when the relative loss change ≤ this (L-BFGS)
-  double gradient_tolerance = 1e-14;///< stop when ‖g‖ ≤ this
+  double loss_tolerance = 1e-12;      ///< stop when loss ≤ this
+  double relative_tolerance = 1e-10;  ///< stop when the relative loss change ≤ this (L-BFGS)
+  double gradient_tolerance = 1e-14;  ///< stop when ‖g‖ ≤ this
 };
 
 struct IterationInfo {
@@ -29,12 +29,12 @@ struct IterationInfo {
 };
 
 struct OptimizerResult {
-  Eigen::VectorXd theta;            ///< the best design seen
+  Eigen::VectorXd theta;  ///< the best design seen
   double loss = 0.0;
-  int iterations = 0;               ///< objective evaluations with gradient
-  bool converged = false;           ///< a stopping criterion was met (not the iteration limit)
+  int iterations = 0;      ///< objective evaluations with gradient
+  bool converged = false;  ///< a stopping criterion was met (not the iteration limit)
   bool cancelled = false;
-  std::string message;              ///< why it stopped
+  std::string message;  ///< why it stopped
   std::vector<IterationInfo> history;
 };
 

@@ -24,10 +24,10 @@ using oscillation::valueOfScalar;
 
 template <typename S>
 struct OscillationFeatures {
-  bool valid = false;          ///< at least one full period was seen
-  std::string message;         ///< why not, when invalid
+  bool valid = false;   ///< at least one full period was seen
+  std::string message;  ///< why not, when invalid
   S period = S(0);
-  S max_abs = S(0);            ///< max |signal| including the first sample (a release at rest)
+  S max_abs = S(0);  ///< max |signal| including the first sample (a release at rest)
   S equilibrium = S(0);
   S amplitude = S(0);
   int extrema = 0;
@@ -93,8 +93,8 @@ OscillationFeatures<S> analyseOscillation(const std::vector<S>& y, double t0, do
     if (slope == 0) continue;
     const std::size_t i = best - 1;
     const S a = y[i] - f.equilibrium, b = y[i + 1] - f.equilibrium;
-    crossings.push_back(oscillation::crossingTime(t0 + dt * static_cast<double>(i), a,
-                                                  t0 + dt * static_cast<double>(i + 1), b));
+    crossings.push_back(
+        oscillation::crossingTime(t0 + dt * static_cast<double>(i), a, t0 + dt * static_cast<double>(i + 1), b));
   }
   if (crossings.size() < 2) {
     f.message = "fewer than one full period: simulate longer (duration_s)";

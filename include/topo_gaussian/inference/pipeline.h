@@ -17,16 +17,16 @@ namespace topo_gaussian::inference {
 
 struct InferenceResult {
   std::string task, representation;
-  TaskGeometry geometry;          ///< hanging/support/pivot point and gravity of the task
+  TaskGeometry geometry;  ///< hanging/support/pivot point and gravity of the task
   Eigen::VectorXd theta;
-  std::vector<double> r;          ///< indicator of the best design
-  std::vector<double> density;    ///< [kg/m³]
-  ProblemEvaluation initial;      ///< the starting design (fully solid unless configured otherwise)
-  ProblemEvaluation final;        ///< the best design
+  std::vector<double> r;        ///< indicator of the best design
+  std::vector<double> density;  ///< [kg/m³]
+  ProblemEvaluation initial;    ///< the starting design (fully solid unless configured otherwise)
+  ProblemEvaluation final;      ///< the best design
   OptimizerResult optimizer;
-  bool converged = false;         ///< optimiser converged AND every target feature reached
+  bool converged = false;  ///< optimiser converged AND every target feature reached
   bool targets_reached = false;
-  std::string message;            ///< one paragraph for a person: what happened, how close, what to do
+  std::string message;  ///< one paragraph for a person: what happened, how close, what to do
   double setup_s = 0, optimize_s = 0, evaluation_s = 0;  ///< timings; evaluation_s = per loss+gradient
 };
 

@@ -34,16 +34,16 @@ struct Feature {
 /// Geometry a task reports for pictures and report.json (world frame of the target pose).
 struct TaskGeometry {
   bool has_point = false;
-  std::string point_name;                         ///< "hanging_point", "support_point", "pivot_point"
-  Eigen::Vector3d point = Eigen::Vector3d::Zero();///< body frame [m]
+  std::string point_name;                           ///< "hanging_point", "support_point", "pivot_point"
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();  ///< body frame [m]
   Eigen::Vector3d gravity = Eigen::Vector3d(0, 0, -9.81);
 };
 
 struct TaskEvaluation {
   double loss = 0.0;
   std::vector<Feature> features;
-  MassProperties mass;                            ///< of the vessel/object material
-  std::vector<double> signal_time_s, signal;      ///< simulated signal (tilt [deg], ...) when dynamic
+  MassProperties mass;                        ///< of the vessel/object material
+  std::vector<double> signal_time_s, signal;  ///< simulated signal (tilt [deg], ...) when dynamic
   std::string signal_name;
   /// Tracked points over time (ball): rows of t, then x y z per tracked point — the format of
   /// target_trajectory_file, so a simulated design can serve as an observation.

@@ -1,8 +1,8 @@
 // TaskConfig: the parameters of one inference task (config/tasks/*.yaml), typed, with units and
 // documentation, validated on every change. Each task declares its own parameters beside its code
-// (inference/task_registry.h); the parameters every task shares are declared in task_config.cpp. A YAML file gives a task and its parameters; `--set
-// KEY=VALUE` and `--target NAME=VALUE` override single values. Unknown keys and impossible values
-// (negative density, dt ≤ 0, ε ≤ 0, ...) are refused with a message naming the key and the fix.
+// (inference/task_registry.h); the parameters every task shares are declared in task_config.cpp. A YAML file gives a
+// task and its parameters; `--set KEY=VALUE` and `--target NAME=VALUE` override single values. Unknown keys and
+// impossible values (negative density, dt ≤ 0, ε ≤ 0, ...) are refused with a message naming the key and the fix.
 #pragma once
 
 #include <Eigen/Core>
@@ -17,14 +17,14 @@ enum class ParamType { Number, Integer, Boolean, Text, Vector3, List };
 struct ParamSpec {
   std::string name;
   ParamType type = ParamType::Number;
-  std::string doc;          ///< one line, with the unit in brackets ("[m]") or the word "unitless"
-  double min = -1e300;      ///< inclusive lower bound (Number/Integer/List entries)
-  double max = 1e300;       ///< inclusive upper bound
+  std::string doc;      ///< one line, with the unit in brackets ("[m]") or the word "unitless"
+  double min = -1e300;  ///< inclusive lower bound (Number/Integer/List entries)
+  double max = 1e300;   ///< inclusive upper bound
   bool min_exclusive = false;
   std::vector<std::string> choices;  ///< allowed Text values (empty = any)
-  bool is_target = false;   ///< an observed feature (set with --target)
-  std::string unit;         ///< SI unit ("m", "kg/m^3", "deg"), "unitless", or "" for Text/Boolean
-  std::string paper_value;  ///< the value the TopoGaussian paper uses, "" where it gives none
+  bool is_target = false;            ///< an observed feature (set with --target)
+  std::string unit;                  ///< SI unit ("m", "kg/m^3", "deg"), "unitless", or "" for Text/Boolean
+  std::string paper_value;           ///< the value the TopoGaussian paper uses, "" where it gives none
 };
 
 struct ParamValue {
@@ -32,7 +32,7 @@ struct ParamValue {
   std::string text;
   Eigen::Vector3d vec = Eigen::Vector3d::Zero();
   std::vector<double> list;
-  bool set = false;         ///< false: no value (optional parameters, unset targets)
+  bool set = false;  ///< false: no value (optional parameters, unset targets)
 };
 
 class TaskConfig {
@@ -64,7 +64,7 @@ class TaskConfig {
   /// "KEY=VALUE" form (CLI).
   void setAssignment(const std::string& assignment, const std::string& origin = "--set");
 
-  bool has(const std::string& key) const;   ///< known and given a value
+  bool has(const std::string& key) const;  ///< known and given a value
   double number(const std::string& key) const;
   int integer(const std::string& key) const { return static_cast<int>(number(key)); }
   bool boolean(const std::string& key) const { return number(key) != 0.0; }

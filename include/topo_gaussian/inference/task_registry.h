@@ -51,7 +51,8 @@ class TaskParameters {
   Declared text(const std::string& name, const std::string& def, const std::string& doc,
                 std::vector<std::string> choices = {});
   /// def nullptr = no value (an optional point).
-  Declared vector3(const std::string& name, const Eigen::Vector3d* def, const std::string& unit, const std::string& doc);
+  Declared vector3(const std::string& name, const Eigen::Vector3d* def, const std::string& unit,
+                   const std::string& doc);
   /// Empty def = no value.
   Declared list(const std::string& name, std::vector<double> def, const std::string& unit, const std::string& doc,
                 double lo = -1e300, double hi = 1e300);
@@ -79,8 +80,8 @@ using TaskFactory = std::function<std::unique_ptr<Task>(const TaskConfig&, const
 
 /// What the rig twin (workflow/rig_twin.h) needs to replay a task's motion.
 struct RigTwinMotion {
-  std::string duration_parameter;   ///< how long the motion is simulated [s] ("duration_s")
-  std::string period_feature;       ///< the feature holding its period [s] ("period_s")
+  std::string duration_parameter;  ///< how long the motion is simulated [s] ("duration_s")
+  std::string period_feature;      ///< the feature holding its period [s] ("period_s")
   /// Used when duration_parameter is ≤ 0 (a motion that is off by default) [s]; 0: none.
   double fallback_duration_s = 0.0;
   /// The default true interior: a spherical cavity |u − centre| < radius in the normalised

@@ -10,7 +10,7 @@ namespace topo_gaussian::io {
 
 struct LossPoint {
   int iteration = 0;
-  double loss = 0.0;   ///< NaN where the report says null
+  double loss = 0.0;  ///< NaN where the report says null
 };
 
 /// The "loss_history" array of a report.json text (each entry's "iteration" and "loss").

@@ -78,9 +78,8 @@ class CorotatedSph {
  public:
   /// Per-particle material. Throws TopoError for size mismatches, non-finite / non-positive input,
   /// a particle with no neighbour within 2h, or a degenerate (coplanar) neighbourhood.
-  CorotatedSph(const std::vector<Eigen::Vector3d>& X, const std::vector<double>& V,
-               const std::vector<double>& mu, const std::vector<double>& lambda,
-               const CorotatedSphOptions& options = CorotatedSphOptions());
+  CorotatedSph(const std::vector<Eigen::Vector3d>& X, const std::vector<double>& V, const std::vector<double>& mu,
+               const std::vector<double>& lambda, const CorotatedSphOptions& options = CorotatedSphOptions());
   /// Uniform material.
   CorotatedSph(const std::vector<Eigen::Vector3d>& X, const std::vector<double>& V, LameParameters material,
                const CorotatedSphOptions& options = CorotatedSphOptions());
@@ -159,9 +158,9 @@ class CorotatedSph {
   double hourglassEnergy() const;
   /// f = −∂E/∂x with R held fixed (at the last update(); throws after updateState()).
   const std::vector<Eigen::Vector3d>& forces() const;
-  const Eigen::Matrix3d& F(std::size_t i) const { return F_[i]; }        ///< unrotated F_i = I + ∇u_i
+  const Eigen::Matrix3d& F(std::size_t i) const { return F_[i]; }  ///< unrotated F_i = I + ∇u_i
   const Eigen::Matrix3d& R(std::size_t i) const { return R_[i]; }
-  const Eigen::Matrix3d& stress(std::size_t i) const { return P_[i]; }   ///< P_i = ∂ψ/∂F (unrotated)
+  const Eigen::Matrix3d& stress(std::size_t i) const { return P_[i]; }  ///< P_i = ∂ψ/∂F (unrotated)
   /// Corrected full deformation gradient F̃_i = Σ_j V_j x_ji ĝ_ijᵀ = R_i F_i.
   const Eigen::Matrix3d& deformationGradient(std::size_t i) const { return Ft_[i]; }
 
@@ -212,8 +211,8 @@ class CorotatedSph {
   std::vector<Eigen::Vector3d> X_;
   std::vector<double> V_, m_, rho_, mu_, lambda_;
   NeighborList nbr_;
-  std::vector<double> W_;              ///< per CSR entry: W_ij
-  std::vector<Eigen::Vector3d> gh_;    ///< per CSR entry: ĝ_ij = L_i ∇W(X_ji)
+  std::vector<double> W_;            ///< per CSR entry: W_ij
+  std::vector<Eigen::Vector3d> gh_;  ///< per CSR entry: ĝ_ij = L_i ∇W(X_ji)
   std::vector<Eigen::Matrix3d> L_;
   std::size_t linear_fallbacks_ = 0;
 
@@ -226,7 +225,7 @@ class CorotatedSph {
   /// Per CSR entry (k→j): the gather's hourglass weights (W_kj c_j X_jk, W_kj (c_k V_j + c_j V_k)).
   std::vector<std::array<double, 4>> hgw_;
   std::vector<Eigen::Matrix3d> moment_;  ///< C_i = Σ_j V_j W_ij X_ji X_jiᵀ (with the hourglass term)
-  mutable Scratch scratch_;  ///< mutable: hourglassEnergy() sums into scratch_.ev.e_hg
+  mutable Scratch scratch_;              ///< mutable: hourglassEnergy() sums into scratch_.ev.e_hg
 
   std::vector<Eigen::Matrix3d> R_, F_, Ft_, P_;
   std::vector<Eigen::Vector3d> f_, x_;

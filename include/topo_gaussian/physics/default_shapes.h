@@ -35,12 +35,12 @@ namespace topo_gaussian {
 namespace default_shape_dims {
 constexpr double kBeamLength = 0.2, kBeamHalfWidth = 0.01, kBeamHalfHeight = 0.01;
 constexpr double kFingerLength = 0.1, kFingerHalfWidth = 0.01, kFingerHalfHeight = 0.0075;
-constexpr double kFingerTipRadius = kFingerHalfHeight;                    ///< half-cylinder about y
-constexpr double kFingerTipCentreX = kFingerLength - kFingerTipRadius;    ///< 0.0925
+constexpr double kFingerTipRadius = kFingerHalfHeight;                  ///< half-cylinder about y
+constexpr double kFingerTipCentreX = kFingerLength - kFingerTipRadius;  ///< 0.0925
 constexpr double kPearHeight = 0.12;
 constexpr double kPearBulbRadius = 0.04, kPearBulbCentreZ = 0.04;
 constexpr double kPearHeadRadius = 0.02, kPearHeadCentreZ = 0.10;
-constexpr double kPearBlend = 0.04;                                       ///< smooth-minimum width k
+constexpr double kPearBlend = 0.04;  ///< smooth-minimum width k
 constexpr double kTumblerRadius = 0.05, kTumblerCutZ = 0.02;
 }  // namespace default_shape_dims
 

@@ -16,9 +16,9 @@ namespace topo_gaussian {
 
 /// Raw mass moments: linear in the particle masses.
 struct MassMoments {
-  double m0 = 0.0;                                    ///< Σ m_i [kg]
-  Eigen::Vector3d m1 = Eigen::Vector3d::Zero();       ///< Σ m_i x_i [kg m]
-  Eigen::Matrix3d m2 = Eigen::Matrix3d::Zero();       ///< Σ m_i x_i x_iᵀ [kg m²]
+  double m0 = 0.0;                               ///< Σ m_i [kg]
+  Eigen::Vector3d m1 = Eigen::Vector3d::Zero();  ///< Σ m_i x_i [kg m]
+  Eigen::Matrix3d m2 = Eigen::Matrix3d::Zero();  ///< Σ m_i x_i x_iᵀ [kg m²]
 
   /// Packed as [m0, m1x, m1y, m1z, m2xx, m2yy, m2zz, m2xy, m2xz, m2yz].
   Eigen::Matrix<double, 10, 1> toVector() const;
@@ -53,11 +53,10 @@ Eigen::Matrix<double, 10, 10> massPropertiesJacobian(const MassMoments& moments)
 /// Pull a gradient back from the ten mass-property parameters to the particle masses:
 /// dL/dm_i = g_moments · ∂moments/∂m_i, with g_moments = Jᵀ g_props. Overwrites dL_dm (size N).
 void massPropertiesGradientToParticles(const std::vector<Eigen::Vector3d>& X, const MassMoments& moments,
-                                       const Eigen::Matrix<double, 10, 1>& dL_dprops,
-                                       std::vector<double>* dL_dm);
+                                       const Eigen::Matrix<double, 10, 1>& dL_dprops, std::vector<double>* dL_dm);
 
 /// dL/dm_i from a gradient w.r.t. the packed raw moments. Overwrites dL_dm (size N). OpenMP.
-void momentsGradientToParticles(const std::vector<Eigen::Vector3d>& X,
-                                const Eigen::Matrix<double, 10, 1>& dL_dmoments, std::vector<double>* dL_dm);
+void momentsGradientToParticles(const std::vector<Eigen::Vector3d>& X, const Eigen::Matrix<double, 10, 1>& dL_dmoments,
+                                std::vector<double>* dL_dm);
 
 }  // namespace topo_gaussian

@@ -13,8 +13,8 @@ namespace topo_gaussian {
 /// Neighbourhoods in compressed-row form: the neighbours of point i are
 /// indices[offsets[i]] … indices[offsets[i+1] − 1], sorted ascending.
 struct NeighborList {
-  std::vector<int> offsets;   ///< N + 1 entries, offsets[0] = 0
-  std::vector<int> indices;   ///< all neighbour indices, row after row
+  std::vector<int> offsets;  ///< N + 1 entries, offsets[0] = 0
+  std::vector<int> indices;  ///< all neighbour indices, row after row
 
   std::size_t size() const { return offsets.empty() ? 0 : offsets.size() - 1; }  ///< N
   int count(std::size_t i) const { return offsets[i + 1] - offsets[i]; }
@@ -50,17 +50,16 @@ class SpatialGrid {
   double inv_cell_ = 1.0;
   Eigen::Array3i dims_ = Eigen::Array3i::Ones();
   bool dense_ = true;
-  std::vector<int> order_;              ///< point indices grouped by cell (ascending within a cell)
-  std::vector<Eigen::Vector3d> sorted_; ///< positions in order_ order
-  std::vector<int> cell_start_;         ///< dense: ncells + 1 offsets into order_
-  std::vector<std::int64_t> cell_keys_; ///< sparse: sorted distinct cell keys
-  std::vector<int> key_start_;          ///< sparse: cell_keys_.size() + 1 offsets into order_
+  std::vector<int> order_;               ///< point indices grouped by cell (ascending within a cell)
+  std::vector<Eigen::Vector3d> sorted_;  ///< positions in order_ order
+  std::vector<int> cell_start_;          ///< dense: ncells + 1 offsets into order_
+  std::vector<std::int64_t> cell_keys_;  ///< sparse: sorted distinct cell keys
+  std::vector<int> key_start_;           ///< sparse: cell_keys_.size() + 1 offsets into order_
 };
 
 /// Neighbours within `radius_m` (strictly closer) of every point; include_self adds i to its own
 /// row. Throws TopoError for radius ≤ 0 / non-finite or a non-finite point.
-NeighborList buildNeighborList(const std::vector<Eigen::Vector3d>& X, double radius_m,
-                               bool include_self = false);
+NeighborList buildNeighborList(const std::vector<Eigen::Vector3d>& X, double radius_m, bool include_self = false);
 
 // ---------------------------------------------------------------- inline
 

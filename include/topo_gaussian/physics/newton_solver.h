@@ -13,8 +13,8 @@ namespace topo_gaussian {
 
 struct CgResult {
   int iterations = 0;
-  double relative_residual = 0.0;  ///< |b − Ax| / |b|
-  bool negative_curvature = false; ///< stopped at a direction with pᵀAp ≤ 0
+  double relative_residual = 0.0;   ///< |b − Ax| / |b|
+  bool negative_curvature = false;  ///< stopped at a direction with pᵀAp ≤ 0
   bool converged = false;
 };
 
@@ -39,15 +39,15 @@ struct NewtonOptions {
   /// Largest relative residual of an inner solve; each solve uses min(cg_tolerance, outer residual).
   double cg_tolerance = 0.1;
   int cg_max_iterations = 5000;
-  int max_line_search = 30;     ///< halvings
+  int max_line_search = 30;  ///< halvings
 };
 
 struct NewtonResult {
   bool converged = false;
   int iterations = 0;
-  int cg_iterations = 0;       ///< total
-  double residual = 0.0;       ///< final |∇Ψ|∞ / force_scale
-  std::string message;         ///< why it stopped
+  int cg_iterations = 0;  ///< total
+  double residual = 0.0;  ///< final |∇Ψ|∞ / force_scale
+  std::string message;    ///< why it stopped
 };
 
 /// The objective Ψ: value(x) may throw TopoError (e.g. an inverted particle), which the line search

@@ -37,7 +37,8 @@ struct PneumaticActuation {
   void addHessianProduct(const CorotatedSph& sph, double p, const std::vector<Eigen::Vector3d>& dx,
                          std::vector<Eigen::Vector3d>* out) const;
   /// d[i] = a · ∂(∂E_a/∂x)/∂w_i (mixed derivative, for adjoints).
-  std::vector<double> chamberDirectional(const CorotatedSph& sph, double p, const std::vector<Eigen::Vector3d>& a) const;
+  std::vector<double> chamberDirectional(const CorotatedSph& sph, double p,
+                                         const std::vector<Eigen::Vector3d>& a) const;
   /// ∂E_a/∂w_i.
   std::vector<double> chamberEnergies(const CorotatedSph& sph, double p) const;
 };

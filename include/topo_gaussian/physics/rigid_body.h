@@ -37,9 +37,9 @@ inline double valueOf(const Dual10& x) { return x.value(); }
 
 template <typename S>
 struct RigidInertia {
-  S mass;          ///< [kg]
-  Vec3<S> com;     ///< body frame [m]
-  Mat3<S> inertia; ///< about com, body frame [kg m²]
+  S mass;           ///< [kg]
+  Vec3<S> com;      ///< body frame [m]
+  Mat3<S> inertia;  ///< about com, body frame [kg m²]
 };
 
 /// Plain copy (double).
@@ -55,21 +55,21 @@ struct GroundContact {
   /// the number of points so the resting penetration is small (see the .cpp); the value used is
   /// reported in RigidTrajectory::stiffness_used.
   double stiffness_n_per_m = 0.0;
-  double offset_m = 0.0;           ///< δ: particles are pushed out when closer than δ to the plane
-  double damping_ratio = 0.1;      ///< normal damping as a fraction of critical (per contact point)
-  double friction_mu = 1.0;        ///< Coulomb coefficient; large enough → rolling without slipping
+  double offset_m = 0.0;       ///< δ: particles are pushed out when closer than δ to the plane
+  double damping_ratio = 0.1;  ///< normal damping as a fraction of critical (per contact point)
+  double friction_mu = 1.0;    ///< Coulomb coefficient; large enough → rolling without slipping
   bool enabled = true;
 };
 
 struct RigidSimOptions {
   double duration_s = 2.0;
-  double output_dt_s = 5e-3;        ///< sampling interval of the returned trajectory (paper: 5e-3)
-  double max_substep_s = 0.0;       ///< 0 = automatic (stable for the contact stiffness)
+  double output_dt_s = 5e-3;   ///< sampling interval of the returned trajectory (paper: 5e-3)
+  double max_substep_s = 0.0;  ///< 0 = automatic (stable for the contact stiffness)
   Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
   double linear_damping_per_s = 0.0;
   double angular_damping_per_s = 0.0;
   GroundContact ground;
-  bool pivot = false;               ///< ball joint: pivot_body stays at pivot_world
+  bool pivot = false;  ///< ball joint: pivot_body stays at pivot_world
   Eigen::Vector3d pivot_body = Eigen::Vector3d::Zero();
   Eigen::Vector3d pivot_world = Eigen::Vector3d::Zero();
 };
@@ -85,9 +85,9 @@ struct RigidState {
 template <typename S>
 struct RigidTrajectory {
   std::vector<double> time_s;
-  std::vector<RigidState<S>> states;   ///< states[k] at time_s[k]; states[0] is the initial state
-  double substep_s = 0.0;              ///< the integration step used (the smallest one when automatic)
-  double stiffness_used = 0.0;         ///< the penalty stiffness used [N/m]
+  std::vector<RigidState<S>> states;  ///< states[k] at time_s[k]; states[0] is the initial state
+  double substep_s = 0.0;             ///< the integration step used (the smallest one when automatic)
+  double stiffness_used = 0.0;        ///< the penalty stiffness used [N/m]
 };
 
 /// Simulates from `initial` for options.duration_s. contact_points_body are body-frame points

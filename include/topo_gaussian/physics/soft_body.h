@@ -58,9 +58,9 @@ struct RelaxResult {
 
 /// Result of an implicit step or a quasi-static solve.
 struct SolveReport {
-  NewtonResult newton;        ///< of the last Newton solve
+  NewtonResult newton;  ///< of the last Newton solve
   double pressure_pa = 0.0;
-  int load_increments = 1;    ///< static solves: converged load increments (more than asked after halvings)
+  int load_increments = 1;  ///< static solves: converged load increments (more than asked after halvings)
 };
 
 class SoftBodySimulator {
@@ -117,10 +117,10 @@ class SoftBodySimulator {
   /// Implicit Euler step (paper appendix A.2): x_{n+1} minimises the incremental potential
   ///   ½|x − x_n − dt v_n|²_M / dt² + ½ (c/dt)|x − x_n|²_M + E_el(x) + E_a(x; p(t_{n+1})) + E_c(x)
   ///   − Σ m_i g·x_i − f_friction(x_n, v_n)·x
-  /// by Newton's method with matrix-free PCG (systemPreconditioner()) and a backtracking line search; v_{n+1} = (x_{n+1} −
-  /// x_n)/dt. Any dt > 0 is accepted. Requires a conservative elastic model (StVK, or corotated
-  /// linear with SphRotationSource::CorrectedGradient). Throws TopoError naming the step and the
-  /// Newton residual when Newton does not converge (the state is left at the start of the step).
+  /// by Newton's method with matrix-free PCG (systemPreconditioner()) and a backtracking line search; v_{n+1} =
+  /// (x_{n+1} − x_n)/dt. Any dt > 0 is accepted. Requires a conservative elastic model (StVK, or corotated linear with
+  /// SphRotationSource::CorrectedGradient). Throws TopoError naming the step and the Newton residual when Newton does
+  /// not converge (the state is left at the start of the step).
   SolveReport stepImplicit(double dt, const NewtonOptions& newton = NewtonOptions());
   /// Quasi-static equilibrium at the current pressure and gravity by Newton (load stepping over
   /// `load_steps` equal increments of gravity and pressure; an increment that fails is retried
@@ -175,8 +175,8 @@ class SoftBodySimulator {
   double waveSpeed() const { return c_max_; }  ///< c_max [m/s]
   double spacing() const { return dx_; }       ///< Δx [m]
 
-  double kineticEnergy() const;        ///< ½ Σ m_i |v_i|²
-  double gravitationalEnergy() const;  ///< −Σ m_i g·x_i (zero at the origin)
+  double kineticEnergy() const;                           ///< ½ Σ m_i |v_i|²
+  double gravitationalEnergy() const;                     ///< −Σ m_i g·x_i (zero at the origin)
   double elasticEnergy() const { return sph_.energy(); }  ///< elastic + hourglass (the force potential)
   double actuationEnergy() const { return act_.energy(sph_, pressureNow()); }
   double contactEnergy() const { return contact_.energy(x_); }

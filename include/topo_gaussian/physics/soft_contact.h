@@ -19,8 +19,8 @@ namespace topo_gaussian {
 
 struct ContactObstacle {
   enum class Kind { HalfSpace, Box } kind = Kind::HalfSpace;
-  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  ///< HalfSpace: outward unit normal
-  double offset = 0.0;                                ///< HalfSpace: φ(x) = n·x − offset
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();                           ///< HalfSpace: outward unit normal
+  double offset = 0.0;                                                         ///< HalfSpace: φ(x) = n·x − offset
   Eigen::Vector3d lo = Eigen::Vector3d::Zero(), hi = Eigen::Vector3d::Zero();  ///< Box corners
 
   static ContactObstacle ground(double height = 0.0);
@@ -30,10 +30,10 @@ struct ContactObstacle {
 };
 
 struct SoftContactOptions {
-  double stiffness = 0.0;   ///< k [N/m] per particle; ≤ 0 = automatic (set by the simulator)
-  double friction = 0.5;    ///< Coulomb coefficient μ
+  double stiffness = 0.0;       ///< k [N/m] per particle; ≤ 0 = automatic (set by the simulator)
+  double friction = 0.5;        ///< Coulomb coefficient μ
   double slip_velocity = 1e-3;  ///< ε [m/s]: friction regularisation (stick below ~ε)
-  double margin = 0.0;      ///< δ [m]: contact starts at φ = δ (e.g. half the spacing)
+  double margin = 0.0;          ///< δ [m]: contact starts at φ = δ (e.g. half the spacing)
 };
 
 class SoftContact {

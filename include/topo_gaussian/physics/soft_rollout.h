@@ -38,9 +38,9 @@ struct SoftRolloutOptions {
 
 /// ℓ_k for state k (k = 0..steps, t = t0 + k dt). When dl_dx / dl_dv are non-null they are sized
 /// N and zeroed by the caller; the function adds ∂ℓ_k/∂x_k and ∂ℓ_k/∂v_k.
-using SoftStepLoss = std::function<double(int k, double t, const std::vector<Eigen::Vector3d>& x,
-                                          const std::vector<Eigen::Vector3d>& v, std::vector<Eigen::Vector3d>* dl_dx,
-                                          std::vector<Eigen::Vector3d>* dl_dv)>;
+using SoftStepLoss =
+    std::function<double(int k, double t, const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& v,
+                         std::vector<Eigen::Vector3d>* dl_dx, std::vector<Eigen::Vector3d>* dl_dv)>;
 
 struct SoftDesignGradient {
   std::vector<double> mass, mu, lambda, chamber;  ///< ∂L/∂m_i, ∂L/∂μ_i, ∂L/∂λ_i, ∂L/∂w_i
@@ -49,8 +49,8 @@ struct SoftDesignGradient {
 
 struct SoftRolloutResult {
   double loss = 0.0;
-  SoftDesignGradient gradient;   ///< empty unless requested
-  std::size_t peak_states = 0;   ///< most (x, v) states held at once (checkpoints + one segment)
+  SoftDesignGradient gradient;  ///< empty unless requested
+  std::size_t peak_states = 0;  ///< most (x, v) states held at once (checkpoints + one segment)
   /// Their bytes at that peak: 48 per particle and state; an explicit rollout's recomputed segment
   /// also keeps each state's forces (72 per particle and state there).
   std::size_t peak_state_bytes = 0;

@@ -10,10 +10,10 @@
 namespace topo_gaussian {
 
 struct VolumeCloud {
-  std::vector<Eigen::Vector3d> X;   ///< rest positions [m]
-  std::vector<double> V;            ///< particle volumes [m^3]; their sum is the enclosed volume
-  std::vector<std::uint8_t> surface;///< 1 for particles within one spacing of the boundary
-  double spacing = 0.0;             ///< lattice spacing h [m]
+  std::vector<Eigen::Vector3d> X;     ///< rest positions [m]
+  std::vector<double> V;              ///< particle volumes [m^3]; their sum is the enclosed volume
+  std::vector<std::uint8_t> surface;  ///< 1 for particles within one spacing of the boundary
+  double spacing = 0.0;               ///< lattice spacing h [m]
 
   std::size_t size() const { return X.size(); }
   bool empty() const { return X.empty(); }

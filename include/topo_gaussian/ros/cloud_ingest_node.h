@@ -19,8 +19,8 @@ namespace topo_gaussian::topo_ros {
 
 /// The node's private parameters, validated.
 struct CloudIngestParams {
-  std::string surface_file;        ///< ~surface_file: filled once at start when not empty
-  std::string frame_id = "object"; ///< ~frame_id: frame of volumes from files (clouds keep their own)
+  std::string surface_file;         ///< ~surface_file: filled once at start when not empty
+  std::string frame_id = "object";  ///< ~frame_id: frame of volumes from files (clouds keep their own)
   /// ~spacing_m, ~fill_count, ~scale, ~recenter, ~opacity_threshold, ~outlier_neighbours,
   /// ~closing_cells, ~grid_resolution, ~max_open_fraction; unset ones keep the library's defaults
   /// (IngestOptions{}), so the node and `topo fill` agree.

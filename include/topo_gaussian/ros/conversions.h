@@ -23,8 +23,7 @@
 namespace topo_gaussian::topo_ros {
 
 /// Volume cloud as an unorganised PointCloud2 (height 1) in `frame_id` at `stamp`.
-sensor_msgs::PointCloud2 toPointCloud2(const VolumeCloud& cloud, const std::string& frame_id,
-                                       const ::ros::Time& stamp);
+sensor_msgs::PointCloud2 toPointCloud2(const VolumeCloud& cloud, const std::string& frame_id, const ::ros::Time& stamp);
 
 /// Surface points from any PointCloud2 with x y z fields (FLOAT32/FLOAT64 or integer types).
 /// `source` (the topic, or "service request") is named in every error and becomes

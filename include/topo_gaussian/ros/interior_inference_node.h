@@ -13,8 +13,8 @@
 // node reloads the newest complete run and publishes it again (~restore_latest); a `topo infer`
 // folder under ~output_dir loads the same way.
 // The node owns handles, parameters and the latest result; workflow::runInference (the run and its
-// folder, the same call as `topo infer`), simulateInterior and exportInterior do the work. Callbacks may run concurrently (AsyncSpinner): one inference runs at a
-// time, state is guarded by a mutex.
+// folder, the same call as `topo infer`), simulateInterior and exportInterior do the work. Callbacks may run
+// concurrently (AsyncSpinner): one inference runs at a time, state is guarded by a mutex.
 #pragma once
 
 #include <actionlib/server/simple_action_server.h>
@@ -34,8 +34,8 @@
 #include "topo_gaussian/MotionFeatures.h"
 #include "topo_gaussian/SimulateInterior.h"
 #include "topo_gaussian/inference/pipeline.h"
-#include "topo_gaussian/io/run_files.h"
 #include "topo_gaussian/inference/task_config.h"
+#include "topo_gaussian/io/run_files.h"
 
 namespace topo_gaussian::topo_ros {
 
@@ -48,8 +48,8 @@ struct InteriorInferenceParams {
   double replay_rate_hz = 30.0;                   ///< ~replay_rate_hz: tf replay rate (0: no replay)
   double replay_speed = 1.0;                      ///< ~replay_speed: simulated seconds per wall second
   bool export_on_finish = true;                   ///< ~export_on_finish: STL + pictures after every run
-  double max_features_age_s = 0.0;                ///< ~max_features_age_s: older motion features are refused (0: any age)
-  double volume_wait_s = 15.0;                    ///< ~volume_wait_s: a goal before any `volume` waits this long for one
+  double max_features_age_s = 0.0;  ///< ~max_features_age_s: older motion features are refused (0: any age)
+  double volume_wait_s = 15.0;      ///< ~volume_wait_s: a goal before any `volume` waits this long for one
   /// ~restore_latest: at start, reload the newest run under output_dir (volume.ply, interior.ply,
   /// report.json) and publish it, so a restarted node restores rviz and ~export / ~simulate
   bool restore_latest = true;
@@ -62,8 +62,8 @@ InteriorInferenceParams loadInteriorInferenceParams(const ::ros::NodeHandle& pnh
 struct InferenceRequest {
   std::string task, representation;
   std::vector<std::string> overrides, targets;
-  sensor_msgs::PointCloud2 volume;                ///< no points = the latest `volume`
-  topo_gaussian::MotionFeatures features;         ///< empty kind = the latest `motion_features`
+  sensor_msgs::PointCloud2 volume;         ///< no points = the latest `volume`
+  topo_gaussian::MotionFeatures features;  ///< empty kind = the latest `motion_features`
   bool ignore_motion_features = false;
   int max_iterations = 0;
   std::string output_dir;
@@ -74,8 +74,8 @@ struct InferenceOutcome {
   inference::InferenceResult result;
   std::vector<std::string> files;
   std::string output_dir;
-  std::string message;                            ///< result message + notes (targets used, export)
-  sensor_msgs::PointCloud2 interior;              ///< as published on `interior`
+  std::string message;                ///< result message + notes (targets used, export)
+  sensor_msgs::PointCloud2 interior;  ///< as published on `interior`
   bool preempted = false;
 };
 

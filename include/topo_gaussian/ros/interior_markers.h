@@ -21,11 +21,11 @@
 namespace topo_gaussian::topo_ros {
 
 struct InteriorMarkerInput {
-  const VolumeCloud* cloud = nullptr;          ///< particles (object frame)
-  const std::vector<double>* r = nullptr;      ///< indicator per particle
-  MassProperties mass;                         ///< of the design
-  inference::TaskGeometry geometry;            ///< point and gravity of the task
-  std::vector<inference::Feature> features;    ///< achieved (and target) values
+  const VolumeCloud* cloud = nullptr;        ///< particles (object frame)
+  const std::vector<double>* r = nullptr;    ///< indicator per particle
+  MassProperties mass;                       ///< of the design
+  inference::TaskGeometry geometry;          ///< point and gravity of the task
+  std::vector<inference::Feature> features;  ///< achieved (and target) values
   /// Where the object frame sits in the world for the gravity arrow (the replay's first pose).
   Eigen::Isometry3d object_in_world = Eigen::Isometry3d::Identity();
   std::string object_frame = "object_simulated", world_frame = "world";

@@ -21,15 +21,16 @@
 namespace topo_gaussian::topo_ros {
 
 struct MotionTrackerParams {
-  std::string video_file;          ///< ~video_file: tracked once at start when set
-  vision::TrackOptions options;    ///< ~method, ~kind, ~foreground, ~roi [x,y,w,h], ~start_s, ~end_s, ~stride, ~pivot [x,y]
-  double window_s = 20.0;          ///< ~window_s: live stream analysed over windows this long [s]
-  double publish_period_s = 1.0;   ///< ~publish_period_s: live features published this often [s]
+  std::string video_file;  ///< ~video_file: tracked once at start when set
+  vision::TrackOptions
+      options;             ///< ~method, ~kind, ~foreground, ~roi [x,y,w,h], ~start_s, ~end_s, ~stride, ~pivot [x,y]
+  double window_s = 20.0;  ///< ~window_s: live stream analysed over windows this long [s]
+  double publish_period_s = 1.0;  ///< ~publish_period_s: live features published this often [s]
   /// ~stale_after_s: no image for this long → the camera is reported stale (log + a features
   /// message saying so); 0 = never
   double stale_after_s = 5.0;
-  bool plane_given = false;        ///< ~plane [nx, ny, nz, d]: trajectories placed on n·x = d (world) using
-  cv::Vec4d plane;                 ///  the latest camera_info and ~camera_pose
+  bool plane_given = false;                   ///< ~plane [nx, ny, nz, d]: trajectories placed on n·x = d (world) using
+  cv::Vec4d plane;                            ///  the latest camera_info and ~camera_pose
   cv::Matx33d camera_R = cv::Matx33d::eye();  ///< ~camera_pose [x, y, z, qx, qy, qz, qw]: optical frame in the world
   cv::Vec3d camera_t = cv::Vec3d(0, 0, 0);
 };
@@ -61,7 +62,7 @@ class MotionTrackerNode {
   ::ros::Timer timer_;
   std::unique_ptr<vision::MotionTracker> live_;
   double live_start_s_ = 0.0, last_t_s_ = -1.0;
-  ::ros::WallTime last_image_wall_;       ///< for the stale-camera check
+  ::ros::WallTime last_image_wall_;  ///< for the stale-camera check
   bool stale_reported_ = false;
   void finishLive();
   std::string live_frame_id_;

@@ -37,9 +37,11 @@ struct Range {
   bool low_exclusive = false, high_exclusive = false;
 
   static Range any() { return {}; }
-  static Range between(double lo, double hi) { return {lo, hi, false, false}; }     ///< [lo, hi]
-  static Range atLeast(double lo) { return {lo, std::numeric_limits<double>::infinity(), false, false}; }  ///< [lo, inf)
-  static Range above(double lo) { return {lo, std::numeric_limits<double>::infinity(), true, false}; }     ///< (lo, inf)
+  static Range between(double lo, double hi) { return {lo, hi, false, false}; }  ///< [lo, hi]
+  static Range atLeast(double lo) {
+    return {lo, std::numeric_limits<double>::infinity(), false, false};
+  }                                                                                                     ///< [lo, inf)
+  static Range above(double lo) { return {lo, std::numeric_limits<double>::infinity(), true, false}; }  ///< (lo, inf)
   bool contains(double v) const;
   std::string text(const std::string& unit) const;  ///< e.g. "(0, 3600] s"
 };
@@ -68,11 +70,14 @@ class ParamReader {
   /// `node` names the node in log lines (e.g. "motion_tracker").
   ParamReader(const ::ros::NodeHandle& pnh, std::string node);
 
-  double number(const std::string& name, double fallback, const std::string& unit = "", const Range& range = Range()) const;
-  long integer(const std::string& name, long fallback, const std::string& unit = "", const Range& range = Range()) const;
+  double number(const std::string& name, double fallback, const std::string& unit = "",
+                const Range& range = Range()) const;
+  long integer(const std::string& name, long fallback, const std::string& unit = "",
+               const Range& range = Range()) const;
   bool flag(const std::string& name, bool fallback) const;
   /// choices empty: any string.
-  std::string text(const std::string& name, const std::string& fallback, const std::vector<std::string>& choices = {}) const;
+  std::string text(const std::string& name, const std::string& fallback,
+                   const std::vector<std::string>& choices = {}) const;
   /// size > 0: exactly that many entries when set. `example` shows a good value in messages.
   std::vector<double> numbers(const std::string& name, const std::vector<double>& fallback, std::size_t size = 0,
                               const std::string& unit = "", const std::string& example = "") const;

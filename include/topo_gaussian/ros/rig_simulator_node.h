@@ -24,8 +24,8 @@
 #include <vector>
 
 #include "topo_gaussian/RigGroundTruth.h"
-#include "topo_gaussian/workflow/rig_twin.h"
 #include "topo_gaussian/vision/splat_renderer.h"
+#include "topo_gaussian/workflow/rig_twin.h"
 
 namespace topo_gaussian::topo_ros {
 
@@ -36,23 +36,23 @@ struct RigSimulatorParams {
   /// cloud_ingest fills it, so the twin simulates the cloud the inference will see),
   /// ~scan_spacing_m (0.001: point spacing of `surface_cloud`)
   workflow::RigTwinOptions twin;
-  int width = 640, height = 480;            ///< ~width, ~height [px]
-  double fps = 30.0;                        ///< ~fps [frames/s]
-  double horizontal_fov_deg = 8.0;          ///< ~horizontal_fov_deg: gives fx = fy when ~fx/~fy are 0
-  double fx = 0, fy = 0, cx = 0, cy = 0;    ///< ~fx ~fy ~cx ~cy [px]; 0 = from the FOV / image centre
-  double noise_sigma = 2.0;                 ///< ~noise_sigma: Gaussian pixel noise [grey levels]
-  int seed = 1;                             ///< ~seed: noise of frame k uses seed + k
-  std::string world_frame = "world";        ///< ~world_frame
+  int width = 640, height = 480;                ///< ~width, ~height [px]
+  double fps = 30.0;                            ///< ~fps [frames/s]
+  double horizontal_fov_deg = 8.0;              ///< ~horizontal_fov_deg: gives fx = fy when ~fx/~fy are 0
+  double fx = 0, fy = 0, cx = 0, cy = 0;        ///< ~fx ~fy ~cx ~cy [px]; 0 = from the FOV / image centre
+  double noise_sigma = 2.0;                     ///< ~noise_sigma: Gaussian pixel noise [grey levels]
+  int seed = 1;                                 ///< ~seed: noise of frame k uses seed + k
+  std::string world_frame = "world";            ///< ~world_frame
   std::string camera_frame = "camera_optical";  ///< ~camera_frame (optical: x right, y down, z forward)
-  std::string object_frame = "object_true"; ///< ~object_frame: the true body frame
-  double camera_pose_timeout_s = 2.0;       ///< ~camera_pose_timeout_s
+  std::string object_frame = "object_true";     ///< ~object_frame: the true body frame
+  double camera_pose_timeout_s = 2.0;           ///< ~camera_pose_timeout_s
   /// ~default_camera_pose [x y z qx qy qz qw]: camera_frame in world_frame; 1.5 m in front of the
   /// object along −x (its rocking axis), looking horizontally at 4 cm height.
   std::vector<double> default_camera_pose = {-1.5, 0.0, 0.04, -0.5, 0.5, -0.5, 0.5};
-  std::vector<double> object_bgr = {40, 40, 150};       ///< ~object_bgr: a dark red doll
-  std::vector<double> background_bgr = {235, 235, 235}; ///< ~background_bgr: a light backdrop
-  std::vector<double> light_direction = {-1, 0, 1};     ///< ~light_direction (world, towards the light)
-  double splat_radius_m = 0.0;              ///< ~splat_radius_m: 0 = 0.8 × spacing
+  std::vector<double> object_bgr = {40, 40, 150};        ///< ~object_bgr: a dark red doll
+  std::vector<double> background_bgr = {235, 235, 235};  ///< ~background_bgr: a light backdrop
+  std::vector<double> light_direction = {-1, 0, 1};      ///< ~light_direction (world, towards the light)
+  double splat_radius_m = 0.0;                           ///< ~splat_radius_m: 0 = 0.8 × spacing
 };
 
 /// Reads and validates the private parameters (the ~set entries against the task, ~object against

@@ -12,24 +12,23 @@
 namespace topo_gaussian {
 
 struct IndicatorOptions {
-  double epsilon = 0.05;               ///< sigmoid width ε (> 0), in the units of the field
-  std::vector<std::uint8_t> pinned;    ///< empty or size N; 1 = pinned to pinned_value
+  double epsilon = 0.05;             ///< sigmoid width ε (> 0), in the units of the field
+  std::vector<std::uint8_t> pinned;  ///< empty or size N; 1 = pinned to pinned_value
   double pinned_value = 1.0;
 };
 
 /// Particles within `thickness_m` of the boundary: the cloud's surface flags dilated inward by
 /// distance (surface flag 1 or distance to the nearest surface particle < thickness_m).
 /// thickness_m ≤ 0 gives just the surface flags. Grid hashing, O(N).
-std::vector<std::uint8_t> boundaryShell(const std::vector<Eigen::Vector3d>& X,
-                                        const std::vector<std::uint8_t>& surface, double thickness_m);
+std::vector<std::uint8_t> boundaryShell(const std::vector<Eigen::Vector3d>& X, const std::vector<std::uint8_t>& surface,
+                                        double thickness_m);
 
 /// Evaluates r (resized to N). Throws TopoError for ε ≤ 0 or a pinned mask of the wrong size.
-void evaluateIndicator(const Representation& rep, const Eigen::VectorXd& theta,
-                       const IndicatorOptions& options, std::vector<double>* r);
+void evaluateIndicator(const Representation& rep, const Eigen::VectorXd& theta, const IndicatorOptions& options,
+                       std::vector<double>* r);
 
 /// dL/dθ from dL/dr (pinned entries contribute nothing). Overwrites dL_dtheta.
-void indicatorBackward(const Representation& rep, const Eigen::VectorXd& theta,
-                       const IndicatorOptions& options, const std::vector<double>& dL_dr,
-                       Eigen::VectorXd* dL_dtheta);
+void indicatorBackward(const Representation& rep, const Eigen::VectorXd& theta, const IndicatorOptions& options,
+                       const std::vector<double>& dL_dr, Eigen::VectorXd* dL_dtheta);
 
 }  // namespace topo_gaussian

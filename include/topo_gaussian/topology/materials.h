@@ -20,7 +20,7 @@ struct MaterialInterpolation {
   /// Throws TopoError naming `what` for non-finite values, power < 1, floor ≤ 0 or a negative value.
   void validate(const char* what) const;
   double value(double r) const;
-  double derivative(double r) const;   ///< dq/dr (0 where the floor is active)
+  double derivative(double r) const;  ///< dq/dr (0 where the floor is active)
   /// q_i and dq_i/dr_i for all particles (resizes both; dq may be null).
   void apply(const std::vector<double>& r, std::vector<double>* q, std::vector<double>* dq) const;
 };

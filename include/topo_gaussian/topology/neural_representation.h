@@ -30,8 +30,7 @@ class NeuralRepresentation : public Representation {
                      Eigen::VectorXd* dL_dtheta) const override;
 
   /// s at arbitrary positions (same frame as the particles), e.g. to mesh the solid region.
-  void fieldAt(const Eigen::VectorXd& theta, const std::vector<Eigen::Vector3d>& points,
-               std::vector<double>* s) const;
+  void fieldAt(const Eigen::VectorXd& theta, const std::vector<Eigen::Vector3d>& points, std::vector<double>* s) const;
   /// Per particle, the smallest |pre-activation| over all hidden units: how far the particle is
   /// from a ReLU kink (finite differences with steps below this margin are exact to O(h²)).
   void kinkMargin(const Eigen::VectorXd& theta, std::vector<double>* margin) const;

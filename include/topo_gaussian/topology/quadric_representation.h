@@ -23,8 +23,7 @@ class QuadricRepresentation : public Representation {
                      Eigen::VectorXd* dL_dtheta) const override;
 
   /// s at arbitrary positions (same frame as the particles), e.g. to mesh the solid region.
-  void fieldAt(const Eigen::VectorXd& theta, const std::vector<Eigen::Vector3d>& points,
-               std::vector<double>* s) const;
+  void fieldAt(const Eigen::VectorXd& theta, const std::vector<Eigen::Vector3d>& points, std::vector<double>* s) const;
   const NormalisedFrame& frame() const { return frame_; }
   /// ds/dθ at normalised coordinates u (the 10 monomials).
   static Eigen::Matrix<double, 10, 1> basis(const Eigen::Vector3d& u);

@@ -23,7 +23,7 @@ namespace topo_gaussian {
 class Representation {
  public:
   virtual ~Representation() = default;
-  virtual std::string name() const = 0;                 ///< "point", "quadric", "neural"
+  virtual std::string name() const = 0;  ///< "point", "quadric", "neural"
   virtual int numParameters() const = 0;
   /// Parameters of a fully material-B ("solid") design: s_i ≈ +initial_field everywhere.
   virtual Eigen::VectorXd initialParameters() const = 0;
@@ -53,16 +53,16 @@ struct NormalisedFrame {
 };
 
 struct NeuralOptions {
-  int depth = 8;          ///< number of linear layers (hidden layers = depth − 1), paper: 8
-  int width = 512;        ///< hidden width, paper: 512
-  unsigned seed = 1;      ///< weight initialisation seed (deterministic)
+  int depth = 8;               ///< number of linear layers (hidden layers = depth − 1), paper: 8
+  int width = 512;             ///< hidden width, paper: 512
+  unsigned seed = 1;           ///< weight initialisation seed (deterministic)
   double initial_field = 0.3;  ///< the initial output bias: s ≈ +initial_field (solid) everywhere
 };
 
 struct RepresentationOptions {
-  std::string kind = "quadric";     ///< point | quadric | neural
-  double initial_field = 0.3;       ///< s at the start (fully solid): point t_i, quadric c, neural bias
-  double point_bound = 1.0;         ///< point: t_i ∈ [−point_bound, point_bound]
+  std::string kind = "quadric";  ///< point | quadric | neural
+  double initial_field = 0.3;    ///< s at the start (fully solid): point t_i, quadric c, neural bias
+  double point_bound = 1.0;      ///< point: t_i ∈ [−point_bound, point_bound]
   NeuralOptions neural;
 };
 

@@ -11,9 +11,9 @@ namespace topo_gaussian::vision {
 
 struct PlotSeries {
   std::string label;
-  std::vector<double> x, y;      ///< same size; non-finite points (and y ≤ 0 on a log axis) are skipped
+  std::vector<double> x, y;  ///< same size; non-finite points (and y ≤ 0 on a log axis) are skipped
   cv::Scalar bgr = cv::Scalar(160, 60, 0);
-  bool markers = false;          ///< a small circle at every point
+  bool markers = false;  ///< a small circle at every point
 };
 
 struct LinePlot {

@@ -32,11 +32,11 @@
 namespace topo_gaussian::vision {
 
 struct TrackOptions {
-  std::string kind = "pendulum";     ///< pendulum | tilt | trajectory | finger
-  TrackerOptions tracker;            ///< method (marker | silhouette | klt), ROI, HSV ranges, ...
-  VideoOptions video;                ///< start/end time, stride, image-sequence fps
+  std::string kind = "pendulum";  ///< pendulum | tilt | trajectory | finger
+  TrackerOptions tracker;         ///< method (marker | silhouette | klt), ROI, HSV ranges, ...
+  VideoOptions video;             ///< start/end time, stride, image-sequence fps
   bool pivot_given = false;
-  cv::Point2d pivot;                 ///< pendulum pivot in pixels (pivot_given)
+  cv::Point2d pivot;  ///< pendulum pivot in pixels (pivot_given)
   SignalOptions signal;
   double fps = 0.0;                  ///< nominal frame rate for MotionTracker (0: from the timestamps)
   double lost_warn_fraction = 0.05;  ///< more lost frames than this → the message says where
@@ -50,8 +50,8 @@ struct TrajectorySample {
 struct TrackResult {
   std::string source, method, kind;
   double fps = 0.0;
-  int frames_total = 0;              ///< frames in the source (container's count)
-  int frames_used = 0;               ///< frames given to the tracker
+  int frames_total = 0;                  ///< frames in the source (container's count)
+  int frames_used = 0;                   ///< frames given to the tracker
   int first_frame = 0, last_frame = -1;  ///< source frame indices of the range used
   double t_start_s = 0.0, t_end_s = 0.0;
   bool object_found = false;
@@ -75,7 +75,7 @@ struct TrackResult {
   /// NaN where a ray misses the plane. Empty unless placeOnPlane was called.
   std::vector<std::vector<cv::Vec3d>> points_on_plane;
   std::map<std::string, double> confidence;  ///< per feature, 0..1
-  std::string message;               ///< for a person: what was found and what limited it
+  std::string message;                       ///< for a person: what was found and what limited it
 };
 
 /// Kåsa algebraic circle fit; returns false when the points do not define a circle.

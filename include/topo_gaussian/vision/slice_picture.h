@@ -16,14 +16,14 @@
 namespace topo_gaussian::vision {
 
 /// The colours of the slice picture (BGR), exact so that tests can count them.
-const cv::Scalar kSliceSolidBgr(40, 40, 205);     ///< red
-const cv::Scalar kSliceHollowBgr(230, 170, 80);   ///< blue
-const cv::Scalar kSliceOutsideBgr(255, 255, 255); ///< white
+const cv::Scalar kSliceSolidBgr(40, 40, 205);      ///< red
+const cv::Scalar kSliceHollowBgr(230, 170, 80);    ///< blue
+const cv::Scalar kSliceOutsideBgr(255, 255, 255);  ///< white
 
 struct SliceOptions {
-  int along_count = 5;   ///< slices along the longest axis in the bottom row (0: none)
-  double iso = 0.5;      ///< solid is r ≥ iso
-  int width = 1500;      ///< image width in pixels (the height follows)
+  int along_count = 5;  ///< slices along the longest axis in the bottom row (0: none)
+  double iso = 0.5;     ///< solid is r ≥ iso
+  int width = 1500;     ///< image width in pixels (the height follows)
 };
 
 /// Throws TopoError when X and r differ in size, X is empty or spacing is not positive.

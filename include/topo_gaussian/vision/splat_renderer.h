@@ -47,14 +47,14 @@ struct SplatShading {
   double ambient = 0.55;
   double diffuse = 0.45;
   cv::Scalar background_bgr = cv::Scalar(235, 235, 235);
-  double noise_sigma = 0.0;   ///< Gaussian pixel noise, grey levels (0 = none)
-  unsigned noise_seed = 1;    ///< the same seed gives the same noise
+  double noise_sigma = 0.0;  ///< Gaussian pixel noise, grey levels (0 = none)
+  unsigned noise_seed = 1;   ///< the same seed gives the same noise
 };
 
 /// Particles to draw, world frame. colours: one per particle, or one for all (BGR 0..255).
 struct Splats {
-  std::vector<Eigen::Vector3d> positions;   ///< [m]
-  std::vector<Eigen::Vector3d> normals;     ///< outward unit normals (zero: shaded with ambient only)
+  std::vector<Eigen::Vector3d> positions;  ///< [m]
+  std::vector<Eigen::Vector3d> normals;    ///< outward unit normals (zero: shaded with ambient only)
   std::vector<cv::Vec3b> colours;
   double radius_m = 0.002;
 };

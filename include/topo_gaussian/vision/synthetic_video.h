@@ -14,17 +14,17 @@ struct PendulumScene {
   double fps = 30.0;
   double duration_s = 6.0;
   double period_s = 1.2;
-  double amplitude_deg = 15.0;       ///< initial swing about the equilibrium
-  double equilibrium_deg = 0.0;      ///< 0 = hanging straight down (image +y)
-  double damping_ratio = 0.0;        ///< exponential decay of the amplitude
+  double amplitude_deg = 15.0;               ///< initial swing about the equilibrium
+  double equilibrium_deg = 0.0;              ///< 0 = hanging straight down (image +y)
+  double damping_ratio = 0.0;                ///< exponential decay of the amplitude
   cv::Point2d pivot = cv::Point2d(320, 60);  ///< pixels
-  double length_px = 300.0;          ///< pivot → bob centre
+  double length_px = 300.0;                  ///< pivot → bob centre
   double bob_radius_px = 25.0;
-  cv::Scalar bob_bgr = cv::Scalar(0, 0, 230);   ///< red bob (the marker)
-  double rod_width_px = 6.0;         ///< a dark rod from the pivot to the bob (the silhouette)
-  double noise_sigma = 0.0;          ///< Gaussian pixel noise (grey levels)
-  double blur_px = 0.0;              ///< Gaussian blur sigma
-  bool moving_background = false;    ///< a drifting texture behind the pendulum
+  cv::Scalar bob_bgr = cv::Scalar(0, 0, 230);  ///< red bob (the marker)
+  double rod_width_px = 6.0;                   ///< a dark rod from the pivot to the bob (the silhouette)
+  double noise_sigma = 0.0;                    ///< Gaussian pixel noise (grey levels)
+  double blur_px = 0.0;                        ///< Gaussian blur sigma
+  bool moving_background = false;              ///< a drifting texture behind the pendulum
   unsigned seed = 1;
 };
 
@@ -38,9 +38,9 @@ struct FingerScene {
   double fps = 30.0;
   double duration_s = 2.0;
   cv::Point2d base = cv::Point2d(120, 240);
-  double base_angle_deg = 0.0;       ///< direction of the base segment (0 = image +x)
-  double final_bend_deg = 40.0;      ///< tip direction minus base direction at the end
-  double segment_px = 180.0;         ///< length of each of the two segments
+  double base_angle_deg = 0.0;   ///< direction of the base segment (0 = image +x)
+  double final_bend_deg = 40.0;  ///< tip direction minus base direction at the end
+  double segment_px = 180.0;     ///< length of each of the two segments
   double width_px = 40.0;
   cv::Scalar body_bgr = cv::Scalar(40, 160, 40);
   double noise_sigma = 0.0;

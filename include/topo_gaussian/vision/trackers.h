@@ -23,31 +23,31 @@ struct HsvRange {
 std::vector<HsvRange> defaultRedRanges();
 
 struct TrackerOptions {
-  std::string method = "marker";      ///< marker | silhouette | klt
-  cv::Rect roi;                       ///< empty and not roi_given: the whole frame
-  bool roi_given = false;             ///< an explicitly empty ROI is then an error
-  std::vector<HsvRange> hsv;          ///< marker colour; empty = defaultRedRanges()
-  double min_area_px = 30.0;          ///< smallest blob / contour accepted
-  int morph_kernel_px = 5;            ///< opening kernel (0 = none)
+  std::string method = "marker";  ///< marker | silhouette | klt
+  cv::Rect roi;                   ///< empty and not roi_given: the whole frame
+  bool roi_given = false;         ///< an explicitly empty ROI is then an error
+  std::vector<HsvRange> hsv;      ///< marker colour; empty = defaultRedRanges()
+  double min_area_px = 30.0;      ///< smallest blob / contour accepted
+  int morph_kernel_px = 5;        ///< opening kernel (0 = none)
   /// silhouette: mog2 | otsu | auto. auto = otsu for MotionTracker kinds tilt and finger (an object
   /// that rocks or bends in place stays where it was, so a background model would absorb it), mog2
   /// otherwise; finger always uses otsu.
   std::string foreground = "auto";
   int klt_max_points = 40;
-  int klt_min_points = 8;             ///< re-seed below this
-  double klt_fb_max_px = 1.0;         ///< forward–backward error limit
+  int klt_min_points = 8;      ///< re-seed below this
+  double klt_fb_max_px = 1.0;  ///< forward–backward error limit
 };
 
 struct Measurement {
   bool found = false;
-  cv::Point2d centroid;               ///< marker / silhouette centroid / mean of the KLT points
+  cv::Point2d centroid;  ///< marker / silhouette centroid / mean of the KLT points
   double area_px = 0.0;
-  double axis_angle_deg = 0.0;        ///< silhouette: principal axis (pointing image-up) from image-up, + towards image-right
-  double elongation = 0.0;            ///< silhouette: sqrt(λmax/λmin) of the moments (1 = round)
-  std::vector<cv::Point> contour;     ///< marker blob / silhouette outline (full-frame pixels)
-  cv::Mat mask;                       ///< silhouette: foreground of the largest contour (ROI-sized, CV_8U), else empty
-  std::vector<cv::Point2f> points;    ///< klt: current points
-  std::vector<int> point_ids;         ///< klt: stable id of each point (re-seeded points get new ids)
+  double axis_angle_deg = 0.0;  ///< silhouette: principal axis (pointing image-up) from image-up, + towards image-right
+  double elongation = 0.0;      ///< silhouette: sqrt(λmax/λmin) of the moments (1 = round)
+  std::vector<cv::Point> contour;   ///< marker blob / silhouette outline (full-frame pixels)
+  cv::Mat mask;                     ///< silhouette: foreground of the largest contour (ROI-sized, CV_8U), else empty
+  std::vector<cv::Point2f> points;  ///< klt: current points
+  std::vector<int> point_ids;       ///< klt: stable id of each point (re-seeded points get new ids)
 };
 
 class Tracker {

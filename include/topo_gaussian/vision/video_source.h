@@ -50,7 +50,7 @@ class VideoSource {
   bool sequence_ = false;
   std::vector<std::string> files_;
   cv::VideoCapture cap_;
-  cv::Mat pending_;          // first frame decoded while opening
+  cv::Mat pending_;  // first frame decoded while opening
   bool has_pending_ = false;
   double pending_t_ = 0.0;
   double fps_ = 30.0;

@@ -23,14 +23,14 @@
 namespace topo_gaussian::workflow {
 
 struct InferenceRunRequest {
-  inference::TaskConfig config;                 ///< task, representation and overrides already applied
-  std::shared_ptr<const VolumeCloud> volume;    ///< null: the task's default shape, else an error
+  inference::TaskConfig config;                            ///< task, representation and overrides already applied
+  std::shared_ptr<const VolumeCloud> volume;               ///< null: the task's default shape, else an error
   std::shared_ptr<const motion::MotionFeatures> observed;  ///< optional: targets and the observed signal
-  std::vector<std::string> targets;             ///< "NAME=VALUE", applied after (over) the observed ones
-  std::string targets_origin = "targets";       ///< names them in messages ("--target", "goal targets")
-  std::string parameters_origin = "--set";      ///< where parameters go instead ("--set", "goal overrides")
-  std::string missing_targets_hint;             ///< appended to the error when a needed target is missing
-  std::string output_dir;                       ///< this folder (created when missing), or else
+  std::vector<std::string> targets;                        ///< "NAME=VALUE", applied after (over) the observed ones
+  std::string targets_origin = "targets";                  ///< names them in messages ("--target", "goal targets")
+  std::string parameters_origin = "--set";                 ///< where parameters go instead ("--set", "goal overrides")
+  std::string missing_targets_hint;                        ///< appended to the error when a needed target is missing
+  std::string output_dir;                                  ///< this folder (created when missing), or else
   std::string output_parent;                    ///< a new folder <output_parent>/<task>_<YYYYmmdd_HHMMSS>[_N]
   bool export_files = true;                     ///< also the STL and the pictures
   inference::ProgressCallback progress;         ///< per iteration; false cancels (best design so far)
@@ -38,16 +38,16 @@ struct InferenceRunRequest {
 };
 
 struct InferenceRunOutcome {
-  inference::TaskConfig config;                 ///< as run: with the targets set
-  std::shared_ptr<const VolumeCloud> volume;    ///< as run (the default shape when none was given)
+  inference::TaskConfig config;               ///< as run: with the targets set
+  std::shared_ptr<const VolumeCloud> volume;  ///< as run (the default shape when none was given)
   inference::InferenceResult result;
-  bool cancelled = false;                       ///< stopped by the progress callback: best design so far
+  bool cancelled = false;  ///< stopped by the progress callback: best design so far
   std::string output_dir;
-  std::vector<std::string> files;               ///< written, full paths
+  std::vector<std::string> files;  ///< written, full paths
   std::string report_json;
-  std::vector<io::SignalSeries> signals;        ///< observed (aligned) and simulated, as drawn in signal.png
-  std::vector<std::string> notes;               ///< for a person: where volume and targets came from, what failed
-  std::string message;                          ///< result.message with the notes (the front end says "cancelled")
+  std::vector<io::SignalSeries> signals;  ///< observed (aligned) and simulated, as drawn in signal.png
+  std::vector<std::string> notes;         ///< for a person: where volume and targets came from, what failed
+  std::string message;                    ///< result.message with the notes (the front end says "cancelled")
 };
 
 /// Runs the request. Throws TopoError before any optimisation for a missing volume, a missing

@@ -28,15 +28,15 @@ struct InterfaceQuality {
   double iso = 0.5;
   std::size_t particles = 0, solid_particles = 0;
   geometry::ManifoldCheck check;
-  double mesh_volume_m3 = 0.0;        ///< enclosed by the mesh (divergence theorem)
-  double solid_volume_m3 = 0.0;       ///< Σ V_i over r_i ≥ iso
-  double volume_difference = 0.0;     ///< (mesh − solid) / solid
+  double mesh_volume_m3 = 0.0;     ///< enclosed by the mesh (divergence theorem)
+  double solid_volume_m3 = 0.0;    ///< Σ V_i over r_i ≥ iso
+  double volume_difference = 0.0;  ///< (mesh − solid) / solid
   /// The paper's quality metric over the designed solid/hollow interface (mesh vertices between a
   /// solid and a hollow particle; vertices = 0 when nothing is hollow) ...
   geometry::NormalSmoothness interface_smoothness;
   /// ... and over the whole printable mesh (with the object's outer boundary, a lattice staircase).
   geometry::NormalSmoothness smoothness;
-  double mesh_s = 0.0;                ///< time to extract, check and measure
+  double mesh_s = 0.0;  ///< time to extract, check and measure
 };
 
 /// Meshes the solid region (r ≥ iso) of a lattice cloud and measures it; the mesh is returned in
@@ -53,25 +53,25 @@ std::string withInterfaceSection(const std::string& report_json, const Interface
                                  const std::string& source = "report.json");
 
 struct ExportOptions {
-  std::string output_dir;                ///< created when missing
-  std::string report_json;               ///< text of the run's report.json ("" = none)
+  std::string output_dir;                     ///< created when missing
+  std::string report_json;                    ///< text of the run's report.json ("" = none)
   std::string report_source = "report.json";  ///< its name, for messages
-  std::vector<io::SignalSeries> signals;     ///< series for signal.png (first: observed, second: simulated)
-  double iso = 0.5;                      ///< solid is r ≥ iso
-  double stl_scale = 1000.0;             ///< STL coordinates = metres × scale (1000: millimetres)
-  std::string stl_unit = "mm";           ///< written in the STL header and export.json
-  bool continuous = false;               ///< interior.ply comment: r is a density fraction
-  std::string title = "interior";        ///< heading of the pictures
+  std::vector<io::SignalSeries> signals;      ///< series for signal.png (first: observed, second: simulated)
+  double iso = 0.5;                           ///< solid is r ≥ iso
+  double stl_scale = 1000.0;                  ///< STL coordinates = metres × scale (1000: millimetres)
+  std::string stl_unit = "mm";                ///< written in the STL header and export.json
+  bool continuous = false;                    ///< interior.ply comment: r is a density fraction
+  std::string title = "interior";             ///< heading of the pictures
 };
 
 struct ExportSummary {
   InterfaceQuality interface;
   std::string output_dir;
-  std::vector<std::string> files;        ///< written, in order (file names inside output_dir)
-  std::vector<std::string> notes;        ///< what was not written and why
+  std::vector<std::string> files;  ///< written, in order (file names inside output_dir)
+  std::vector<std::string> notes;  ///< what was not written and why
   std::size_t loss_points = 0;
   std::vector<std::string> signal_labels;
-  double signal_rms_difference = 0.0;    ///< simulated − observed (first two series), NaN when not computed
+  double signal_rms_difference = 0.0;  ///< simulated − observed (first two series), NaN when not computed
   double stl_scale = 1000.0;
   std::string stl_unit = "mm";
   double pictures_s = 0.0, total_s = 0.0;

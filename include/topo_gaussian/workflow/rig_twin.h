@@ -36,21 +36,21 @@
 namespace topo_gaussian::workflow {
 
 struct RigTwinOptions {
-  std::string shape = "tumbler";           ///< a default shape (defaultShapeNames())
-  double spacing_m = 0.0025;               ///< lattice spacing of the particle cloud [m]
-  std::string task;                        ///< task name or YAML path; empty = the shape's task (tumbler → tumbler)
-  std::string task_dir;                    ///< where task names resolve to NAME.yaml (TaskConfig::load)
-  std::vector<std::string> overrides;      ///< "KEY=VALUE" task parameters
-  Eigen::VectorXd interior_quadric;        ///< θ (10); empty = defaultInteriorQuadric(task)
-  int loop_cycles = 8;                     ///< the loop is cut within the first loop_cycles periods (≥ 2)
-  bool undamped = true;                    ///< contact_damping_ratio = 0 (before the overrides), for a seamless loop
+  std::string shape = "tumbler";       ///< a default shape (defaultShapeNames())
+  double spacing_m = 0.0025;           ///< lattice spacing of the particle cloud [m]
+  std::string task;                    ///< task name or YAML path; empty = the shape's task (tumbler → tumbler)
+  std::string task_dir;                ///< where task names resolve to NAME.yaml (TaskConfig::load)
+  std::vector<std::string> overrides;  ///< "KEY=VALUE" task parameters
+  Eigen::VectorXd interior_quadric;    ///< θ (10); empty = defaultInteriorQuadric(task)
+  int loop_cycles = 8;                 ///< the loop is cut within the first loop_cycles periods (≥ 2)
+  bool undamped = true;                ///< contact_damping_ratio = 0 (before the overrides), for a seamless loop
   /// A surface file (mesh, points, 3DGS) of the object, filled exactly as cloud_ingest / `topo fill`
   /// fill it (geometry::ingestFile at spacing_m, default cleaning): the twin then simulates the very
   /// particle cloud the lab pipeline will infer on (a plain lattice, contact on its staircase), so
   /// its truth is reachable by construction. Empty: the default shape `shape` with its surface on
   /// the true boundary (above).
   std::string surface_file;
-  double scan_spacing_m = 0.001;           ///< point spacing of the simulated scan (scanPoints); 0 = spacing_m
+  double scan_spacing_m = 0.001;  ///< point spacing of the simulated scan (scanPoints); 0 = spacing_m
 };
 
 class RigTwin {
@@ -78,8 +78,8 @@ class RigTwin {
   const DefaultShape& shape() const { return shape_; }
   /// The simulated cloud: lattice of spacing_m, surface particles on the true boundary (body frame).
   const VolumeCloud& cloud() const { return cloud_; }
-  const std::vector<double>& indicator() const { return r_; }     ///< true r_i (1 solid, 0 hollow)
-  const std::vector<double>& density() const { return density_; } ///< true ρ_i [kg/m³]
+  const std::vector<double>& indicator() const { return r_; }      ///< true r_i (1 solid, 0 hollow)
+  const std::vector<double>& density() const { return density_; }  ///< true ρ_i [kg/m³]
   double solidFraction() const { return truth_.solid_fraction; }
   /// The task's evaluation of the true interior, as configured (features, mass, signal, motion).
   const inference::ProblemEvaluation& truth() const { return truth_; }
@@ -101,15 +101,15 @@ class RigTwin {
   /// interpolated (translation linear, rotation slerp) between the simulated samples.
   inference::BodyPose poseAt(double t_s) const;
   double loopSeconds() const { return loop_s_; }
-  int loopCycles() const { return loop_periods_; }                 ///< periods in one loop
-  double seamRotationDeg() const { return seam_rotation_deg_; }    ///< pose jump at the seam
+  int loopCycles() const { return loop_periods_; }               ///< periods in one loop
+  double seamRotationDeg() const { return seam_rotation_deg_; }  ///< pose jump at the seam
   double seamTranslationM() const { return seam_translation_m_; }
   /// Relative loss of swing amplitude per period over the loop, (1 − A_last/A_0)/periods.
   double amplitudeDecayPerCycle() const { return decay_per_cycle_; }
   /// The simulated signal of the looped motion (tilt or swing angle, degrees) and its times.
   const std::vector<double>& loopSignal() const { return loop_signal_; }
   const std::vector<double>& loopSignalTime() const { return loop_time_; }
-  double simulationSeconds() const { return simulation_s_; }       ///< wall time of both simulations
+  double simulationSeconds() const { return simulation_s_; }  ///< wall time of both simulations
 
  private:
   void buildSurface();
