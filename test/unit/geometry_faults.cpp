@@ -404,3 +404,26 @@ TEST(UpAxis, YUpBunnyStandsOnZ) {
   EXPECT_NEAR(zmin, 0.033, 0.005);  // bunny.off's y runs from 0.033 to 0.187 m
   EXPECT_NEAR(zmax, 0.187, 0.005);
 }
+
+TEST(UpAxis, ReadmeBunnyExampleRuns) {
+  TOPO_SHARED_FILE(bunny, "meshes/bunny.off");
+  // The commands of README.md's first inference example, run as written (was exit 3: Y-up bunny).
+  std::ifstream in(std::string(TOPO_SOURCE_DIR) + "/README.md");
+  std::string line;
+  bool in_example = false;
+  std::vector<std::string> commands;
+  while (std::getline(in, line)) {
+    if (line.rfind("Infer an interior", 0) == 0) in_example = true;
+    if (in_example && line.rfind("topo ", 0) == 0) commands.push_back(line.substr(5));
+    if (in_example && !commands.empty() && line == "```") break;
+  }
+  ASSERT_EQ(commands.size(), 3u);
+  EXPECT_NE(commands[0].find("--up-axis y"), std::string::npos) << commands[0];
+  const std::string d = scratch("readme_bunny");
+  for (std::string c : commands) {
+    const std::size_t at = c.find("../shared/data");
+    if (at != std::string::npos) c.replace(at, 14, topo_test::sharedDataDir());
+    const auto r = topo_test::runTool("cd " + d + " && " + TOPO_TOOL_PATH, c, topo_test::Stderr::Capture);
+    EXPECT_EQ(r.code, 0) << c << "\n" << r.out;
+  }
+}
