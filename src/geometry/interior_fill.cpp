@@ -183,7 +183,14 @@ class Filler {
       if (sparse_spacing_ < 0.0) sparse_spacing_ = typicalPointSpacing(s_.points, 0.9);
       if (d.min_sigma_m < 0.0) d.min_sigma_m = sparse_spacing_;
       if (d.closing_m < 0.0) d.closing_m = 3.0 * sparse_spacing_;
-      grid = densityGrid(g, 3.0 * std::max(robustSigmaMax(), d.min_sigma_m));
+      const double sigma_max = robustSigmaMax();
+      if (!(sigma_max <= 10.0 * longest))  // the grid's padding is 3σ: it must stay of the object's size
+        throw TopoError(s_.source,
+                        "99 % of its Gaussians are up to " + numberText(sigma_max, 3) +
+                            " m wide (standard deviation), more than ten times the object (" + numberText(longest, 3) +
+                            " m): the scale_* values are not log standard deviations in metres, or the file is corrupt",
+                        "re-export the 3DGS model (scale_0..2 hold log standard deviations in metres)");
+      grid = densityGrid(g, 3.0 * std::max(sigma_max, d.min_sigma_m));
       res = densityFill(s_.points, s_.covariances, s_.opacity, grid, d);
       r_.closing_cells = d.closing_cells < 0 ? std::max(1, int(std::ceil(d.closing_m / g))) : d.closing_cells;
     } else {

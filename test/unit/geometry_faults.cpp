@@ -141,6 +141,22 @@ TEST(HugeCoordinates, LibraryFillRefusesThemWithoutCleaning) {
   EXPECT_NE(errorOf([&] { cleanSurface(s, c); }).find("beyond"), std::string::npos);
 }
 
+TEST(HugeCoordinates, GaussiansWiderThanTheObjectAreRefused) {
+  SurfaceData g;
+  g.kind = SurfaceKind::Gaussians;
+  g.source = "wide gaussians";
+  g.sh_degree = 0;
+  for (const auto& p : fibonacci(0.05, 500)) {
+    g.points.push_back(p.cast<double>());
+    g.scales.emplace_back(1e30, 1e30, 1e30);  // exp(69): a corrupt scale_* column
+    g.rotations.emplace_back(1, 0, 0, 0);
+    g.covariances.push_back(gaussianCovariance(g.scales.back(), g.rotations.back()));
+    g.opacity.push_back(0.9);
+  }
+  const std::string m = errorOf([&] { fillInterior(g, FillOptions{}); });
+  EXPECT_NE(m.find("more than ten times the object"), std::string::npos) << m;
+}
+
 // ------------------------------------------------------------------ 4. output is the input
 
 TEST(OutputIsInput, RefusedAndSourceKept) {
