@@ -201,6 +201,7 @@ class Filler {
       if (mesh) {
         if (d.closing_m < 0.0) d.closing_m = g;
         grid = densityGrid(g, 3.0 * sigma_floor);
+        checkSamples(0.5 * g);
         res = densityFillPoints(sampleTriangles(s_, 0.5 * g), 0.5 * g, sigma_floor, grid, d);
       } else {
         // The nearest-neighbour distance matches the spacing of even samplings only; random ones
@@ -229,6 +230,27 @@ class Filler {
     const int pad = 2 + int(std::ceil(reach / g));
     checkGrid(Lattice::cellCount(lo_, hi_, g, pad), kDensityBytesPerCell, g, o_, s_, "density grid cells");
     return Lattice::covering(lo_, hi_, g, pad);
+  }
+
+  // Refuses before sampling an open mesh's triangles when the samples would not fit in memory (a
+  // few huge triangles at a fine spacing).
+  void checkSamples(double step) {
+    double n = 0.0;
+    for (const auto& t : s_.triangles) {
+      const Eigen::Vector3d &a = s_.points[t[0]], &b = s_.points[t[1]], &c = s_.points[t[2]];
+      const double k = std::ceil(std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()}) / step);
+      n += (k + 1.0) * (k + 2.0) / 2.0;
+    }
+    const double limit = o_.max_memory_bytes > 0.0 ? o_.max_memory_bytes : 0.5 * physicalMemoryBytes();
+    if (limit > 0.0 && n * 24.0 > limit)
+      throw TopoError(s_.source,
+                      "sampling its triangles every " + numberText(step, 3) +
+                          " m (the mesh is open, so it is filled "
+                          "by the density method) would take " +
+                          numberText(n, 3) + " points, about " + numberText(n * 24.0 / 1e9, 3) +
+                          " GB of memory (limit " + numberText(limit / 1e9, 3) + " GB)",
+                      "close the mesh (e.g. MeshLab: Close Holes) for the exact inside test, or use a larger spacing "
+                      "(--spacing) or fewer particles (--count)");
   }
 
   // 99th percentile of the Gaussians' largest standard deviation (floaters excluded).
@@ -332,7 +354,7 @@ std::string boxText(const Eigen::Vector3d& e) {
 }
 
 // One warning line per repair of a mesh (see repairMesh), and the fallback when it stays open.
-void meshWarnings(FillReport& r) {
+void meshWarnings(FillReport& r, int max_hole_edges) {
   const MeshRepairReport& m = r.repair;
   if (m.faces_dropped())
     r.warnings.push_back("dropped " + std::to_string(m.faces_dropped()) + " of the " + std::to_string(m.faces_in) +
@@ -341,8 +363,9 @@ void meshWarnings(FillReport& r) {
                          std::to_string(m.duplicate_faces) + " duplicated");
   if (m.holes_closed)
     r.warnings.push_back("closed " + std::to_string(m.holes_closed) + " small hole(s) (" +
-                         std::to_string(m.hole_edges) +
-                         " boundary edges in all, e.g. where a vertex with NaN coordinates was removed) with fans");
+                         std::to_string(m.hole_edges) + " boundary edges in all; loops of at most " +
+                         std::to_string(max_hole_edges) +
+                         " edges, e.g. where a vertex with NaN coordinates was removed) with fans");
   if (m.ignored_faces)
     r.warnings.push_back("left out " + std::to_string(m.ignored_faces) + " face(s) (" +
                          numberText(m.ignored_area_m2, 3) + " m², " +
@@ -374,7 +397,7 @@ VolumeCloud fillInterior(const SurfaceData& input, const FillOptions& o, FillRep
                       "has no usable faces: all " + std::to_string(input.triangles.size()) +
                           " repeat a vertex or have a NaN/infinite corner",
                       "re-export the mesh from a mesh editor; check the exporter's coordinate output");
-    meshWarnings(r);
+    meshWarnings(r, o.mesh_repair.max_hole_edges);
   }
   const SurfaceData& s = is_mesh ? repaired : input;
   if (!is_mesh)
