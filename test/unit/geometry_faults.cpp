@@ -337,6 +337,17 @@ TEST(BoundedMemory, FillEstimatesItsMemoryBeforeAllocating) {
   EXPECT_NE(m.find("--spacing"), std::string::npos) << m;
 }
 
+TEST(BoundedMemory, OutOfMemoryIsNamedWithAFix) {
+  const std::string d = scratch("oom");
+  writeObj(makeSphere(0.05, 24, 12), d + "/s.obj");
+  // 1.5 GB of address space for 4e7 particles: was "unexpected error: std::bad_alloc".
+  const auto r = topo_test::runTool("ulimit -v 1500000; " + std::string(TOPO_TOOL_PATH),
+                                    "fill --input " + d + "/s.obj --output " + d + "/o.ply --count 40000000");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("out of memory"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("--count"), std::string::npos) << r.out;
+}
+
 // ------------------------------------------------------------------ 11. messages that name the cause
 
 TEST(Messages, GridResolutionFarPointsAndOpenFractionSayTheRealFix) {
