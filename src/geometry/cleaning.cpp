@@ -60,6 +60,8 @@ CleanReport cleanSurface(SurfaceData& s, const CleanOptions& o) {
   for (std::size_t i = 0; i < s.size(); ++i)
     keep[i] = (s.points[i].array() >= o.crop_min.array()).all() && (s.points[i].array() <= o.crop_max.array()).all();
   r.cropped = keepAndCount(s, keep);
+  // Before anything reaches PCL/FLANN (float k-d trees): coordinates near FLT_MAX abort inside FLANN.
+  checkCoordinateRange(s);
 
   // 3. transparent Gaussians
   if (s.kind == SurfaceKind::Gaussians) {

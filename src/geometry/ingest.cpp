@@ -1,8 +1,10 @@
 #include "topo_gaussian/geometry/ingest.h"
 
+#include <Eigen/Geometry>
 #include <chrono>
 #include <sstream>
 
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/geometry/surface_reader.h"
 
 namespace topo_gaussian::geometry {
@@ -24,14 +26,53 @@ std::string jsonString(const std::string& s) {
 
 }  // namespace
 
+void applyUpAxis(SurfaceData& s, const std::string& up) {
+  // Rows of the rotation R (new = R old) that takes the named axis to +z.
+  Eigen::Matrix3d R;
+  if (up == "z" || up == "+z")
+    return;
+  else if (up == "-z")
+    R << 1, 0, 0, 0, -1, 0, 0, 0, -1;  // 180° about x
+  else if (up == "y" || up == "+y")
+    R << 1, 0, 0, 0, 0, -1, 0, 1, 0;  // +90° about x: y → z, z → −y
+  else if (up == "-y")
+    R << 1, 0, 0, 0, 0, 1, 0, -1, 0;  // −90° about x
+  else if (up == "x" || up == "+x")
+    R << 0, 0, -1, 0, 1, 0, 1, 0, 0;  // −90° about y: x → z, z → −x
+  else if (up == "-x")
+    R << 0, 0, 1, 0, 1, 0, -1, 0, 0;  // +90° about y
+  else
+    throw TopoError(s.source, "up axis '" + up + "' is not one of x y z -x -y -z",
+                    "name the input's up axis, e.g. y for Y-up meshes (--up-axis y)");
+  for (auto& p : s.points) p = R * p;
+  for (auto& n : s.normals) n = R * n;
+  for (auto& C : s.covariances) C = R * C * R.transpose();
+  const Eigen::Quaterniond qr(R);
+  for (auto& q : s.rotations) {
+    const Eigen::Quaterniond r = qr * Eigen::Quaterniond(q[0], q[1], q[2], q[3]);
+    q = Eigen::Vector4d(r.w(), r.x(), r.y(), r.z());
+  }
+}
+
 IngestResult ingestSurface(SurfaceData surface, const IngestOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
   IngestResult r;
   r.input = surface.source;
   r.kind = surface.kind;
+  r.up_axis = options.up_axis;
+  applyUpAxis(surface, options.up_axis);
+  const std::size_t triangles_before = surface.triangles.size();
   r.clean = cleanSurface(surface, options.clean);
+  if (r.clean.non_finite)
+    r.warnings.push_back(
+        "dropped " + std::to_string(r.clean.non_finite) + " point(s) with NaN/infinite values" +
+        (surface.kind == SurfaceKind::Mesh
+             ? " and the " + std::to_string(triangles_before - surface.triangles.size()) + " face(s) using them"
+             : std::string()));
   r.cloud = fillInterior(surface, options.fill, &r.fill);
   r.fill.points_in = r.clean.points_in;
+  r.fill.triangles_in = triangles_before;
+  r.warnings.insert(r.warnings.end(), r.fill.warnings.begin(), r.fill.warnings.end());
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
 }
@@ -63,7 +104,12 @@ std::string toJson(const IngestResult& r) {
     << ",\"surface_particles\":" << f.surface_particles << ",\"spacing_m\":" << f.spacing_m
     << ",\"total_volume_m3\":" << f.total_volume_m3 << ",\"bbox_min\":" << vec(f.bbox_min)
     << ",\"bbox_max\":" << vec(f.bbox_max) << ",\"open_fraction\":" << open
-    << ",\"boundary_edges\":" << f.topology.boundary_edges << ",\"seconds\":" << r.seconds << "}";
+    << ",\"boundary_edges\":" << f.topology.boundary_edges << ",\"seconds\":" << r.seconds
+    << ",\"up_axis\":" << jsonString(r.up_axis) << ",\"faces_dropped\":" << f.repair.faces_dropped()
+    << ",\"holes_closed\":" << f.repair.holes_closed << ",\"faces_ignored\":" << f.repair.ignored_faces
+    << ",\"fallback\":" << jsonString(f.fallback) << ",\"warnings\":[";
+  for (std::size_t i = 0; i < r.warnings.size(); ++i) j << (i ? "," : "") << jsonString(r.warnings[i]);
+  j << "]}";
   return j.str();
 }
 

@@ -4,6 +4,7 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
+#include <unistd.h>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <chrono>
@@ -39,6 +40,29 @@ double typicalPointSpacing(const std::vector<Eigen::Vector3d>& pts, double quant
   return d[k];
 }
 
+// Spacing s of the surface sampling from the area each point covers (areal density 1/s²): the
+// median over a subsample of π r_k² / (k − 1/3), r_k the distance to the k-th nearest neighbour
+// (unbiased for uniformly random points, whose nearest-neighbour distance is only ~half of s).
+double arealPointSpacing(const std::vector<Eigen::Vector3d>& pts) {
+  constexpr int k = 16;
+  if (pts.size() <= std::size_t(k) + 1) return 0.0;
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+  cloud->resize(pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) cloud->points[i].getVector3fMap() = pts[i].cast<float>();
+  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
+  tree.setInputCloud(cloud);
+  const std::size_t step = std::max<std::size_t>(1, pts.size() / 2000);
+  std::vector<double> area;
+  std::vector<int> idx(k + 1);
+  std::vector<float> d2(k + 1);
+  for (std::size_t i = 0; i < pts.size(); i += step)
+    if (tree.nearestKSearch(cloud->points[i], k + 1, idx, d2) == k + 1 && d2[k] > 0.f)
+      area.push_back(M_PI * double(d2[k]) / (k - 1.0 / 3.0));
+  if (area.empty()) return 0.0;
+  std::nth_element(area.begin(), area.begin() + area.size() / 2, area.end());
+  return std::sqrt(area[area.size() / 2]);
+}
+
 // Points on every triangle, no farther apart than `step`.
 std::vector<Eigen::Vector3d> sampleTriangles(const SurfaceData& mesh, double step) {
   std::vector<Eigen::Vector3d> out;
@@ -70,12 +94,70 @@ Occupancy resample(const Lattice& grid, const std::vector<std::uint8_t>& solid, 
   return o;
 }
 
-void checkCells(double cells, double max_cells, double h, const std::string& name, const char* what) {
-  if (cells > max_cells)
-    throw TopoError(name,
-                    std::string("spacing ") + numberText(h, 3) + " m would create " + numberText(cells, 3) + " " +
-                        what + " (limit " + numberText(max_cells, 3) + ")",
-                    "use a larger spacing (--spacing) or a smaller particle count (--count)");
+// Physical memory [bytes] (0 when unknown).
+double physicalMemoryBytes() {
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
+  return pages > 0 && page > 0 ? double(pages) * double(page) : 0.0;
+}
+
+// Memory per grid cell while filling [bytes]: density grids hold ~12 per-cell arrays (node and cell
+// densities, search bits, parity counts, two distance transforms, masks); the output lattice holds the
+// inside flags and, per solid cell, a particle (position, volume, surface flag).
+constexpr double kDensityBytesPerCell = 40.0;
+constexpr double kLatticeBytesPerCell = 36.0;
+
+// When the bounding box is set by a few far points: a description of it (else ""), for messages.
+std::string farPointsNote(const std::vector<Eigen::Vector3d>& pts) {
+  if (pts.size() < 20) return "";
+  Eigen::Vector3d robust, full;
+  std::vector<double> c(pts.size());
+  for (int k = 0; k < 3; ++k) {
+    for (std::size_t i = 0; i < pts.size(); ++i) c[i] = pts[i][k];
+    const auto mm = std::minmax_element(c.begin(), c.end());
+    full[k] = *mm.second - *mm.first;
+    const std::size_t a = c.size() / 100, b = c.size() - 1 - c.size() / 100;
+    std::nth_element(c.begin(), c.begin() + a, c.end());
+    const double lo = c[a];
+    std::nth_element(c.begin(), c.begin() + b, c.end());
+    robust[k] = c[b] - lo;
+  }
+  if (!(full.maxCoeff() > 10.0 * robust.maxCoeff())) return "";
+  return "its bounding box (" + numberText(full.maxCoeff(), 3) +
+         " m across) is set by a few far points: 98 % of the "
+         "points lie within " +
+         numberText(robust.maxCoeff(), 3) + " m";
+}
+
+// Refuses a grid that has too many cells or would not fit in memory, naming the real cause.
+void checkGrid(double cells, double bytes_per_cell, double h, const FillOptions& o, const SurfaceData& s,
+               const char* what) {
+  const double memory_limit = o.max_memory_bytes > 0.0 ? o.max_memory_bytes : 0.5 * physicalMemoryBytes();
+  const double bytes = cells * bytes_per_cell;
+  const bool too_many = cells > o.max_cells, too_big = memory_limit > 0.0 && bytes > memory_limit;
+  if (!too_many && !too_big) return;
+  const double allowed = std::min(o.max_cells, memory_limit > 0.0 ? memory_limit / bytes_per_cell : o.max_cells);
+  const double h_ok = h * std::cbrt(cells / allowed) * 1.05;
+  std::string problem = "spacing " + numberText(h, 3) + " m would create " + numberText(cells, 3) + " " + what +
+                        " needing about " + numberText(bytes / 1e9, 3) + " GB of memory (limit " +
+                        numberText(allowed, 3) + " cells, " +
+                        (memory_limit > 0.0 ? numberText(memory_limit / 1e9, 3) + " GB" : std::string("unknown")) +
+                        (o.max_memory_bytes > 0.0 ? "" : ": half of this machine's memory") + ")";
+  std::string fix;
+  const std::string far = farPointsNote(s.points);
+  if (!far.empty()) {
+    problem += "; " + far;
+    fix =
+        "crop the far points (--crop-min/--crop-max X,Y,Z around the object) or remove them with outlier removal "
+        "(--outlier-neighbours 16 --outlier-std 3); a larger spacing would only blur the object";
+  } else if (o.grid_resolution > 0 && std::string(what) == "density grid cells") {
+    const int res_ok = std::max(8, int(double(o.grid_resolution) * std::cbrt(allowed / cells) * 0.95));
+    fix = "lower the density grid resolution (--grid-resolution " + std::to_string(res_ok) +
+          " or less; 0 uses the lattice spacing)";
+  } else {
+    fix = "use a spacing of at least " + numberText(h_ok, 3) + " m (--spacing " + numberText(h_ok, 3) +
+          ") or fewer particles (--count)";
+  }
+  throw TopoError(s.source, problem, fix);
 }
 
 class Filler {
@@ -85,9 +167,9 @@ class Filler {
   }
 
   Occupancy fillAt(double h) {
-    checkCells(Lattice::cellCount(lo_, hi_, h, 1), o_.max_cells, h, s_.source, "lattice cells");
+    checkGrid(Lattice::cellCount(lo_, hi_, h, 1), kLatticeBytesPerCell, h, o_, s_, "lattice cells");
     const Lattice out = Lattice::covering(lo_, hi_, h, 1);
-    if (s_.kind == SurfaceKind::Mesh && r_.topology.closed()) {
+    if (s_.kind == SurfaceKind::Mesh && r_.repair.closed) {
       r_.method = "mesh-parity";
       return Occupancy{out, meshInsideParity(s_, out)};
     }
@@ -101,7 +183,14 @@ class Filler {
       if (sparse_spacing_ < 0.0) sparse_spacing_ = typicalPointSpacing(s_.points, 0.9);
       if (d.min_sigma_m < 0.0) d.min_sigma_m = sparse_spacing_;
       if (d.closing_m < 0.0) d.closing_m = 3.0 * sparse_spacing_;
-      grid = densityGrid(g, 3.0 * std::max(robustSigmaMax(), d.min_sigma_m));
+      const double sigma_max = robustSigmaMax();
+      if (!(sigma_max <= 10.0 * longest))  // the grid's padding is 3σ: it must stay of the object's size
+        throw TopoError(s_.source,
+                        "99 % of its Gaussians are up to " + numberText(sigma_max, 3) +
+                            " m wide (standard deviation), more than ten times the object (" + numberText(longest, 3) +
+                            " m): the scale_* values are not log standard deviations in metres, or the file is corrupt",
+                        "re-export the 3DGS model (scale_0..2 hold log standard deviations in metres)");
+      grid = densityGrid(g, 3.0 * std::max(sigma_max, d.min_sigma_m));
       res = densityFill(s_.points, s_.covariances, s_.opacity, grid, d);
       r_.closing_cells = d.closing_cells < 0 ? std::max(1, int(std::ceil(d.closing_m / g))) : d.closing_cells;
     } else {
@@ -112,11 +201,16 @@ class Filler {
       if (mesh) {
         if (d.closing_m < 0.0) d.closing_m = g;
         grid = densityGrid(g, 3.0 * sigma_floor);
+        checkSamples(0.5 * g);
         res = densityFillPoints(sampleTriangles(s_, 0.5 * g), 0.5 * g, sigma_floor, grid, d);
       } else {
-        if (point_spacing_ < 0.0) point_spacing_ = typicalPointSpacing(s_.points);
+        // The nearest-neighbour distance matches the spacing of even samplings only; random ones
+        // (and scans) leave gaps twice as wide, so take the spacing from the area per point too.
+        if (point_spacing_ < 0.0)
+          point_spacing_ = std::max(typicalPointSpacing(s_.points), arealPointSpacing(s_.points));
         if (sparse_spacing_ < 0.0) sparse_spacing_ = typicalPointSpacing(s_.points, 0.9);
         if (d.closing_m < 0.0) d.closing_m = 3.0 * sparse_spacing_;
+        if (o_.split_point_shell) d.split_shell = true;
         const double sigma = std::max(sigma_floor, point_spacing_);
         grid = densityGrid(g, 3.0 * sigma);
         res = densityFillPoints(s_.points, std::max(point_spacing_, 1e-12), sigma, grid, d);
@@ -134,8 +228,29 @@ class Filler {
  private:
   Lattice densityGrid(double g, double reach) {
     const int pad = 2 + int(std::ceil(reach / g));
-    checkCells(Lattice::cellCount(lo_, hi_, g, pad), o_.max_cells, g, s_.source, "density grid cells");
+    checkGrid(Lattice::cellCount(lo_, hi_, g, pad), kDensityBytesPerCell, g, o_, s_, "density grid cells");
     return Lattice::covering(lo_, hi_, g, pad);
+  }
+
+  // Refuses before sampling an open mesh's triangles when the samples would not fit in memory (a
+  // few huge triangles at a fine spacing).
+  void checkSamples(double step) {
+    double n = 0.0;
+    for (const auto& t : s_.triangles) {
+      const Eigen::Vector3d &a = s_.points[t[0]], &b = s_.points[t[1]], &c = s_.points[t[2]];
+      const double k = std::ceil(std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()}) / step);
+      n += (k + 1.0) * (k + 2.0) / 2.0;
+    }
+    const double limit = o_.max_memory_bytes > 0.0 ? o_.max_memory_bytes : 0.5 * physicalMemoryBytes();
+    if (limit > 0.0 && n * 24.0 > limit)
+      throw TopoError(s_.source,
+                      "sampling its triangles every " + numberText(step, 3) +
+                          " m (the mesh is open, so it is filled "
+                          "by the density method) would take " +
+                          numberText(n, 3) + " points, about " + numberText(n * 24.0 / 1e9, 3) +
+                          " GB of memory (limit " + numberText(limit / 1e9, 3) + " GB)",
+                      "close the mesh (e.g. MeshLab: Close Holes) for the exact inside test, or use a larger spacing "
+                      "(--spacing) or fewer particles (--count)");
   }
 
   // 99th percentile of the Gaussians' largest standard deviation (floaters excluded).
@@ -157,13 +272,16 @@ class Filler {
       detail += "; the mesh has " + std::to_string(r_.topology.boundary_edges) + " boundary edges (" +
                 numberText(100.0 * r_.topology.openFraction(), 3) + " % of its edges, " +
                 numberText(r_.topology.boundary_length, 3) + " m of open boundary)";
-    throw TopoError(s_.source, "the surface is open: " + detail,
-                    "close the holes (e.g. MeshLab: Close Holes, or scan the missing sides), or seal gaps up to "
-                    "2·N grid cells (" +
-                        numberText(g, 3) + " m each; N was " + std::to_string(r_.closing_cells) +
-                        ") with closing_cells = N (CLI --closing-cells N), "
-                        "or accept a partial fill by raising max_open_fraction above " +
-                        numberText(r_.open_fraction, 3));
+    std::string fix =
+        "close the holes (e.g. MeshLab: Close Holes, or scan the missing sides), or seal gaps up to 2·N grid cells (" +
+        numberText(g, 3) + " m each; N was " + std::to_string(r_.closing_cells) +
+        ") with closing_cells = N (CLI --closing-cells N)";
+    if (r_.open_fraction < 1.0)
+      fix += ", or accept a partial fill by raising max_open_fraction (CLI --max-open-fraction, at most 1) to " +
+             numberText(std::min(1.0, r_.open_fraction * 1.01 + 1e-3), 3);
+    else
+      fix += "; all of it leaks, so no max_open_fraction can accept it";
+    throw TopoError(s_.source, "the surface is open: " + detail, fix);
   }
 
   const SurfaceData& s_;
@@ -225,26 +343,72 @@ void validateFillOptions(const FillOptions& o, const std::string& what) {
   if (d.min_sigma_cells < 0.0 || d.closing_cells < -1 || d.closing_cells > 64 || d.leak_check_closing_cells < 0)
     bad("min_sigma_cells must be >= 0 and closing_cells in -1..64", "use the defaults 0.5 and -1 (automatic)");
   if (o.max_open_fraction < 0.0 || o.max_open_fraction > 1.0)
-    bad("max_open_fraction " + numberText(o.max_open_fraction, 3) + " is outside [0, 1]", "use the default 0.02");
+    bad("max_open_fraction " + numberText(o.max_open_fraction, 3) + " is outside [0, 1]",
+        "give a fraction in [0, 1] (default " + numberText(kDefaultMaxOpenFraction, 3) + ")");
 }
 
-VolumeCloud fillInterior(const SurfaceData& s, const FillOptions& o, FillReport* report) {
+namespace {
+
+std::string boxText(const Eigen::Vector3d& e) {
+  return numberText(e.x(), 3) + " × " + numberText(e.y(), 3) + " × " + numberText(e.z(), 3) + " m";
+}
+
+// One warning line per repair of a mesh (see repairMesh), and the fallback when it stays open.
+void meshWarnings(FillReport& r, int max_hole_edges) {
+  const MeshRepairReport& m = r.repair;
+  if (m.faces_dropped())
+    r.warnings.push_back("dropped " + std::to_string(m.faces_dropped()) + " of the " + std::to_string(m.faces_in) +
+                         " faces: " + std::to_string(m.degenerate_faces) + " with a repeated vertex, " +
+                         std::to_string(m.nonfinite_faces) + " with a NaN/infinite corner, " +
+                         std::to_string(m.duplicate_faces) + " duplicated");
+  if (m.holes_closed)
+    r.warnings.push_back("closed " + std::to_string(m.holes_closed) + " small hole(s) (" +
+                         std::to_string(m.hole_edges) + " boundary edges in all; loops of at most " +
+                         std::to_string(max_hole_edges) +
+                         " edges, e.g. where a vertex with NaN coordinates was removed) with fans");
+  if (m.ignored_faces)
+    r.warnings.push_back("left out " + std::to_string(m.ignored_faces) + " face(s) (" +
+                         numberText(m.ignored_area_m2, 3) + " m², " +
+                         numberText(100.0 * m.ignored_area_m2 / std::max(m.total_area_m2, 1e-300), 3) +
+                         " % of the area) that bound no volume (stray triangles, fins, loose open pieces); the "
+                         "closed rest is filled by the exact inside test");
+}
+
+}  // namespace
+
+VolumeCloud fillInterior(const SurfaceData& input, const FillOptions& o, FillReport* report) {
   const auto t0 = std::chrono::steady_clock::now();
-  validateFillOptions(o, s.source + " fill options");
+  validateFillOptions(o, input.source + " fill options");
   FillReport local;
   FillReport& r = report ? *report : local;
   r = FillReport{};
-  r.points_in = s.size();
-  r.triangles_in = s.triangles.size();
-  if (s.points.empty()) throw TopoError(s.source, "has no points", "check that the file or topic carries a surface");
-  for (const auto& p : s.points)
-    if (!p.allFinite())
-      throw TopoError(s.source, "has NaN or infinite coordinates", "clean the surface first (cleanSurface drops them)");
+  r.points_in = input.size();
+  r.triangles_in = input.triangles.size();
+  if (input.points.empty())
+    throw TopoError(input.source, "has no points", "check that the file or topic carries a surface");
+  const bool is_mesh = input.kind == SurfaceKind::Mesh;
+  SurfaceData repaired;
+  if (is_mesh) {
+    if (input.triangles.empty())
+      throw TopoError(input.source, "is a mesh without faces", "export the faces too, or load it as a point cloud");
+    repaired = repairMesh(input, &r.repair, o.mesh_repair);
+    if (repaired.triangles.empty())
+      throw TopoError(input.source,
+                      "has no usable faces: all " + std::to_string(input.triangles.size()) +
+                          " repeat a vertex or have a NaN/infinite corner",
+                      "re-export the mesh from a mesh editor; check the exporter's coordinate output");
+    meshWarnings(r, o.mesh_repair.max_hole_edges);
+  }
+  const SurfaceData& s = is_mesh ? repaired : input;
+  if (!is_mesh)
+    for (const auto& p : s.points)
+      if (!p.allFinite())
+        throw TopoError(s.source, "has NaN or infinite coordinates",
+                        "clean the surface first (cleanSurface drops them)");
+  checkCoordinateRange(s);
   surfaceBounds(s, &r.bbox_min, &r.bbox_max);
   const Eigen::Vector3d ext = r.bbox_max - r.bbox_min;
-  if (s.kind == SurfaceKind::Mesh && s.triangles.empty())
-    throw TopoError(s.source, "is a mesh without faces", "export the faces too, or load it as a point cloud");
-  if (s.kind != SurfaceKind::Mesh && s.size() < 4)
+  if (!is_mesh && s.size() < 4)
     throw TopoError(s.source, "has only " + std::to_string(s.size()) + " point(s): no volume can be enclosed",
                     "give a surface sampled all around the object");
   if (ext.minCoeff() <= 0.0)
@@ -253,10 +417,31 @@ VolumeCloud fillInterior(const SurfaceData& s, const FillOptions& o, FillReport*
                         std::string(ext.x() <= 0   ? "x"
                                     : ext.y() <= 0 ? "y"
                                                    : "z") +
-                        " (bounding box " + numberText(ext.x(), 3) + " × " + numberText(ext.y(), 3) + " × " +
-                        numberText(ext.z(), 3) + " m): it encloses no volume",
+                        " (bounding box " + boxText(ext) + "): it encloses no volume",
                     "give a surface that surrounds a solid, not a flat patch");
-  if (s.kind == SurfaceKind::Mesh) r.topology = analyseMesh(s);
+  if (ext.maxCoeff() > o.warn_extent_m) {
+    const std::string far = farPointsNote(s.points);
+    r.warnings.push_back("the surface is " + numberText(ext.maxCoeff(), 3) + " m across (bounding box " + boxText(ext) +
+                         ")" + (far.empty() ? "" : "; " + far) +
+                         ": if it was modelled in millimetres, give --scale 0.001 (CleanOptions::scale)");
+  }
+  if (o.spacing_m > 0.0 && o.spacing_m >= ext.minCoeff())
+    throw TopoError(s.source,
+                    "the object is " + boxText(ext) + ": its thinnest side (" + numberText(ext.minCoeff(), 3) +
+                        " m) is not larger than the spacing " + numberText(o.spacing_m, 3) +
+                        " m, so the fill would be a slab of whole cells, not its shape",
+                    "use a spacing of at most " + numberText(ext.minCoeff() / 10.0, 3) + " m (--spacing " +
+                        numberText(ext.minCoeff() / 10.0, 3) + ", ten cells across) or give --count instead");
+  if (is_mesh) {
+    r.topology = analyseMesh(s);
+    if (!r.repair.closed) {
+      r.fallback = "the mesh is not closed (" + std::to_string(r.topology.boundary_edges) + " boundary edges, " +
+                   numberText(r.topology.boundary_length, 3) + " m of open boundary, after repair)";
+      r.warnings.push_back(r.fallback +
+                           ": filled by the density method on samples of its triangles instead of the exact inside "
+                           "test; close it (e.g. MeshLab: Close Holes) for an exact fill");
+    }
+  }
 
   Filler filler(s, o, r);
   double h = o.spacing_m;

@@ -78,6 +78,7 @@ SurfaceData readObj(const std::string& bytes, const std::string& name) {
             name, lineText(ln) + ": a vertex needs three numbers 'v x y z', got " + detail::quoted(line, 60), kObjFix);
       }
       out.points.push_back(p);
+      if (out.points.size() > kMaxSurfacePoints) detail::checkPointCount(out.points.size(), name, "vertices");
     } else if (w[0] == "f") {
       ++face_count;
       if (w.size() < 4) {
@@ -108,6 +109,9 @@ SurfaceData readObj(const std::string& bytes, const std::string& name) {
       }
       detail::fanTriangulate(polygon, out.triangles);
       tri_origin.resize(out.triangles.size(), {face_count, ln});
+      if (out.triangles.size() > 2 * kMaxSurfacePoints)
+        detail::checkPointCount(out.triangles.size() / 2, name,
+                                "triangles (counted half: a closed mesh has two per vertex)");
     }
     // Everything else (vt, vn, vp, o, g, s, usemtl, mtllib, l, p, ...) carries no geometry we need.
   }
@@ -184,6 +188,11 @@ SurfaceData readOff(const std::string& bytes, const std::string& name) {
         name, lineText(ln) + ": expected the counts 'vertices faces edges', got " + detail::quoted(line, 60), kOffFix);
   }
 
+  // Counts the text could hold (a vertex line takes >= 6 bytes, a face line >= 8) must be within the
+  // limits; larger ones are reported as a truncated file when the data runs out.
+  if (nv <= cur.remaining() / 6) detail::checkPointCount(nv, name, "vertices");
+  if (nf <= cur.remaining() / 8)
+    detail::checkPointCount(nf / 2, name, "faces (counted half: a closed mesh has two per vertex)");
   // A vertex line has at least 5 characters ("0 0 0") and a face line at least 7 ("3 0 1 2").
   out.points.reserve(detail::cappedReserve(nv, cur.remaining(), 6));
   for (std::uint64_t i = 0; i < nv; ++i) {
@@ -354,6 +363,7 @@ SurfaceData readStl(const std::string& bytes, const std::string& name) {
   const std::uint64_t binary_size = 84 + 50ull * count;
   // A binary STL is exactly 84 + 50 × count bytes, even when its header happens to start with "solid".
   if (has_count && bytes.size() == binary_size) {
+    detail::checkPointCount(count / 2, name, "triangles (counted half: a closed mesh has two per vertex)");
     readStlBinary(bytes, count, out);
   } else if (startsWithSolid(bytes)) {
     const std::string problem = readStlAscii(bytes, out);

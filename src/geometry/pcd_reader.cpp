@@ -298,6 +298,7 @@ void readAsciiPoints(const std::string& bytes, const PcdHeader& h, const FieldRo
   for (const PcdField& f : h.fields) values_per_point += f.count;
   // Each value takes at least one character and a separator: reserve no more than the text can hold.
   const std::size_t reserve = detail::cappedReserve(h.points, cur.remaining(), 2 * values_per_point);
+  if (reserve >= h.points) detail::checkPointCount(h.points, name);  // the text could hold them all
   out.points.reserve(reserve);
   if (roles.normal[0]) out.normals.reserve(reserve);
   if (roles.rgb) out.colors.reserve(reserve);
@@ -365,6 +366,7 @@ SurfaceData readPcd(const std::string& bytes, const std::string& name) {
                           " of the " + std::to_string(h.points) + " points)",
                       kTruncatedFix);
     }
+    detail::checkPointCount(h.points, name);
     readBinaryPoints(
         h, roles, [&](const PcdField& f, std::size_t i) { return data + i * step + f.offset; }, out);
   } else {
@@ -398,6 +400,7 @@ SurfaceData readPcd(const std::string& bytes, const std::string& name) {
                           std::to_string(packed) + " compressed bytes, more than LZF can produce (corrupt file)",
                       kTruncatedFix);
     }
+    detail::checkPointCount(h.points, name);
     std::vector<unsigned char> raw(unpacked);
     const long long got = lzfDecompress(data + 8, packed, raw.data(), raw.size());
     if (got != static_cast<long long>(unpacked)) {

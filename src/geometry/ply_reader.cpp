@@ -516,9 +516,11 @@ void readBody(Source& src, const PlyHeader& h, bool binary, SurfaceData& out, co
   bool face_done = false;
   for (const PlyElement& el : h.elements) {
     checkElementFits(src, el, binary, name);
+    if (&el == vertex) detail::checkPointCount(vertex->count, name, "vertices");
     if (&el == vertex) {
       readVertices(src, el, layout, faces, out, name);
     } else if (el.name == "face" && !face_done && el.count > 0) {
+      detail::checkPointCount(el.count / 2, name, "faces (counted half: a closed mesh has two per vertex)");
       readFaces(src, el, vertex->count, out, name);
       face_done = true;
     } else {
@@ -551,6 +553,18 @@ SurfaceData readPly(const std::string& bytes, const std::string& name) {
     const bool swap = big == detail::hostIsLittleEndian();
     BinarySource src(reinterpret_cast<const unsigned char*>(data), reinterpret_cast<const unsigned char*>(end), swap);
     readBody(src, header, true, out, name);
+    // Data left over means the header's types or counts do not describe the data (e.g. 'uchar'
+    // declared where the exporter wrote float): what was read is garbage. A few trailing bytes (a
+    // newline some exporters add) are tolerated.
+    const std::size_t total = static_cast<std::size_t>(end - data), used = total - src.remaining();
+    if (src.remaining() > 16 && src.remaining() > used / 64) {
+      throw TopoError(name,
+                      "the header describes " + std::to_string(used) + " bytes of binary data, but " +
+                          std::to_string(total) + " bytes follow it (" + std::to_string(src.remaining()) +
+                          " left over): the declared property types or element counts do not match the data",
+                      "re-export the file; or correct the header so that every property's type (float, uchar, ...) "
+                      "and every element count matches what the exporter wrote");
+    }
   }
   detail::requirePoints(out, name, "the PLY vertex element has 0 vertices",
                         "export a PLY with at least one vertex (element vertex N, N > 0)");

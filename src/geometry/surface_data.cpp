@@ -3,10 +3,33 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <string>
 
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 
 namespace topo_gaussian::geometry {
+
+void checkCoordinateRange(const SurfaceData& s) {
+  std::size_t beyond = 0;
+  double largest = 0.0;
+  for (const auto& p : s.points)
+    for (int k = 0; k < 3; ++k)
+      if (std::isfinite(p[k]) && std::abs(p[k]) > kMaxCoordinateM) {
+        largest = std::max(largest, std::abs(p[k]));
+        ++beyond;
+      }
+  if (!beyond) return;
+  throw TopoError(s.source,
+                  std::to_string(beyond) + " coordinate(s) of its " + std::to_string(s.points.size()) +
+                      " points lie beyond ±" + numberText(kMaxCoordinateM, 3) + " m (largest " +
+                      numberText(largest, 3) +
+                      " m), where distances overflow; a binary file whose header names the wrong byte order or "
+                      "property type reads like this",
+                  "check the file's header against its data (re-export it); if the unit is wrong, scale it "
+                  "(--scale, e.g. 0.001 for millimetres); if a few points are stray, crop them "
+                  "(--crop-min/--crop-max X,Y,Z)");
+}
 
 const char* toString(SurfaceKind kind) {
   switch (kind) {

@@ -1,4 +1,4 @@
-// readSurface: loads a file into memory and picks the reader by extension.
+// readSurface: loads a regular file (size-checked) into memory and picks the reader by extension.
 #include "topo_gaussian/geometry/surface_reader.h"
 
 #include <filesystem>
@@ -23,17 +23,36 @@ std::string readFileBytes(const std::string& path) {
     throw TopoError(path, "is a directory, not a file",
                     std::string("give the path of a surface file (") + detail::supportedExtensions() + ")");
   }
+  if (!fs::is_regular_file(st)) {
+    // A FIFO would block until a writer appears, /dev/zero or /dev/urandom would be read forever.
+    throw TopoError(path, "is not a regular file (a pipe, device or socket): it cannot be read as a surface",
+                    "save the surface to a regular file first (e.g. cat the stream into a .ply) and give that path");
+  }
+  const std::uintmax_t size = fs::file_size(path, ec);
+  if (ec) throw TopoError(path, "its size cannot be read (" + ec.message() + ")", "check the path and its permissions");
+  if (size > kMaxSurfaceFileBytes) {
+    throw TopoError(path,
+                    "is " + std::to_string(size) + " bytes, more than the " + std::to_string(kMaxSurfaceFileBytes) +
+                        " bytes (2 GiB) topo reads: it would need about " +
+                        std::to_string((size * 3 / 1000000000) + 1) + " GB of memory to parse",
+                    "downsample the surface first (e.g. CloudCompare: Subsample, or MeshLab: Quadric Edge Collapse "
+                    "Decimation) or crop it to the object; the fill needs far fewer points");
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     throw TopoError(path, "the file cannot be opened (no read permission?)", "check the file's permissions");
   }
   std::string bytes;
-  // Read in chunks: works for regular files and for pipes, whose size is not known up front.
+  bytes.reserve(static_cast<std::size_t>(size));
+  // Read in chunks, never more than the size checked above (the file may grow while we read).
   char buf[1 << 16];
-  while (in.read(buf, sizeof(buf)) || in.gcount() > 0) {
+  while (bytes.size() <= kMaxSurfaceFileBytes && (in.read(buf, sizeof(buf)) || in.gcount() > 0)) {
     bytes.append(buf, static_cast<std::size_t>(in.gcount()));
     if (in.eof()) break;
   }
+  if (bytes.size() > kMaxSurfaceFileBytes)
+    throw TopoError(path, "grew beyond " + std::to_string(kMaxSurfaceFileBytes) + " bytes while it was read",
+                    "wait until the file is written completely, then read it again");
   if (in.bad()) throw TopoError(path, "reading the file failed (I/O error)", "check the disk and copy the file again");
   if (bytes.empty()) {
     throw TopoError(path, "the file is empty (0 bytes)", "copy or export the file again; it has no content");

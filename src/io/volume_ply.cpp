@@ -1,5 +1,7 @@
 #include "topo_gaussian/io/volume_ply.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <sstream>
@@ -46,6 +48,29 @@ VolumeCloud readVolumePly(const std::string& path) {
     c.X[i] = Eigen::Vector3d(v[0], v[1], v[2]);
     c.V[i] = v[3];
     c.surface[i] = std::uint8_t(bytes[body + i * kRecord + 16]);
+  }
+  // Name the real problem before VolumeCloud::validate, which checks the spacing first.
+  std::size_t bad = 0, first_bad = n;
+  for (std::size_t i = 0; i < n; ++i)
+    if (!(c.V[i] > 0.0) || !std::isfinite(c.V[i])) {
+      ++bad;
+      first_bad = std::min(first_bad, i);
+    }
+  if (bad)
+    throw TopoError(path,
+                    std::to_string(bad) + " of its " + std::to_string(n) +
+                        " particles have a volume that is not a positive finite number (the first: particle " +
+                        std::to_string(first_bad) + ", volume " + std::to_string(c.V[first_bad]) + " m^3)",
+                    "every particle needs its volume in m^3 (> 0); write the file with `topo fill --output FILE.ply`");
+  if (!(c.spacing > 0.0) || !std::isfinite(c.spacing)) {
+    if (n == 0) {
+      c.validate(path);
+      return c;
+    }
+    // No (valid) "comment spacing h": a lattice particle's volume is h³.
+    std::vector<double> v(c.V.begin(), c.V.end());
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    c.spacing = std::cbrt(v[v.size() / 2]);
   }
   c.validate(path);
   return c;

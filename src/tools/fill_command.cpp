@@ -1,5 +1,7 @@
+#include <filesystem>
 #include <iostream>
 #include <sstream>
+#include <system_error>
 
 #include "args.h"
 #include "commands.h"
@@ -23,6 +25,8 @@ const char* kHelp =
     "  --count N                 target particle count instead (default 50000, met within ~15 %)\n"
     "  --json                    print one JSON object with the numbers on stdout\n"
     "  --png FILE                also write a picture (cut-away view and centre slice)\n"
+    "  --up-axis A               the input's up axis: x y z -x -y -z (default z); rotated to +z before\n"
+    "                            cleaning (Y-up meshes such as bunny.off: --up-axis y)\n"
     "  --scale F                 multiply coordinates, e.g. 0.001 for millimetres (default 1)\n"
     "  --recenter                move the bounding-box centre to the origin\n"
     "  --crop-min X,Y,Z --crop-max X,Y,Z   keep only points inside this box (metres)\n"
@@ -37,7 +41,23 @@ const char* kHelp =
     "  --ray-direction D         PhysGaussian parity ray direction (default 4)\n"
     "  --closing-cells N         seal gaps up to 2N grid cells by closing (default -1: automatic, from the\n"
     "                            point spacing; 0: PhysGaussian's ray-parity fill with a leak check)\n"
-    "  --max-open-fraction F     refuse when more of the interior leaks outside (default 0.05)\n";
+    "  --max-open-fraction F     refuse when more of the interior leaks outside (0..1, default 0.05)\n"
+    "\n"
+    "Warnings (repairs of a mesh, a fallback to the density method, a suspiciously large object) go to\n"
+    "stderr as '[topo fill] warning: ...' lines and into --json's \"warnings\". The output must not be the\n"
+    "input. Exit codes: 0 done, 1 bad input (the message names the file, the problem and the fix),\n"
+    "2 bad command line.\n";
+
+// True when `output` names the same file as `input` (also through a symlink, "./", "..").
+bool sameFile(const std::string& input, const std::string& output) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::exists(output, ec) && fs::equivalent(input, output, ec)) return true;
+  const fs::path a = fs::weakly_canonical(input, ec);
+  if (ec) return false;
+  const fs::path b = fs::weakly_canonical(output, ec);
+  return !ec && a == b;
+}
 
 Eigen::Vector3d vec3(const Args& a, const std::string& name, const Eigen::Vector3d& fallback) {
   if (!a.has(name)) return fallback;
@@ -54,9 +74,26 @@ Eigen::Vector3d vec3(const Args& a, const std::string& name, const Eigen::Vector
 
 int fillCommand(const std::vector<std::string>& argv) {
   const Args a(argv, {"json", "recenter", "help"},
-               {"input", "output", "spacing", "count", "png", "scale", "crop-min", "crop-max", "opacity-threshold",
-                "outlier-neighbours", "outlier-std", "jitter", "grid-resolution", "density-threshold",
-                "search-threshold", "exclude-direction", "ray-direction", "closing-cells", "max-open-fraction"});
+               {"input",
+                "output",
+                "spacing",
+                "count",
+                "png",
+                "up-axis",
+                "scale",
+                "crop-min",
+                "crop-max",
+                "opacity-threshold",
+                "outlier-neighbours",
+                "outlier-std",
+                "jitter",
+                "grid-resolution",
+                "density-threshold",
+                "search-threshold",
+                "exclude-direction",
+                "ray-direction",
+                "closing-cells",
+                "max-open-fraction"});
   if (a.has("help")) {
     std::cout << kHelp;
     return 0;
@@ -65,7 +102,18 @@ int fillCommand(const std::vector<std::string>& argv) {
   if (!a.has("output")) throw UsageError("--output VOLUME.ply is required");
   if (a.has("spacing") && a.has("count")) throw UsageError("give --spacing or --count, not both");
 
+  const std::string input = a.str("input"), output = a.str("output");
+  if (sameFile(input, output))
+    throw UsageError("--output " + output + " is the input file itself: writing it would destroy the surface; give " +
+                     "another name, e.g. --output " + std::filesystem::path(output).stem().string() + "_volume.ply");
+  if (a.has("png") && sameFile(input, a.str("png")))
+    throw UsageError("--png " + a.str("png") + " is the input file itself; give another name");
   geometry::IngestOptions o;
+  o.up_axis = a.str("up-axis", "z");
+  if (o.up_axis == "+x" || o.up_axis == "+y" || o.up_axis == "+z") o.up_axis = o.up_axis.substr(1);
+  if (o.up_axis != "x" && o.up_axis != "y" && o.up_axis != "z" && o.up_axis != "-x" && o.up_axis != "-y" &&
+      o.up_axis != "-z")
+    throw UsageError("--up-axis expects x, y, z, -x, -y or -z, got '" + o.up_axis + "'");
   o.fill.spacing_m = a.num("spacing", 0.0);
   if (a.has("spacing") && !(o.fill.spacing_m > 0.0)) throw UsageError("--spacing must be a positive number of metres");
   const long count = a.integer("count", long(o.fill.target_count));
@@ -88,12 +136,12 @@ int fillCommand(const std::vector<std::string>& argv) {
   o.clean.crop_min = vec3(a, "crop-min", o.clean.crop_min);
   o.clean.crop_max = vec3(a, "crop-max", o.clean.crop_max);
 
-  const std::string input = a.str("input"), output = a.str("output");
   std::cerr << "[topo fill] reading, cleaning and filling " << input << " ..." << std::endl;
   const geometry::IngestResult r = geometry::ingestFile(input, o);
   std::cerr << "[topo fill] " << toString(r.kind) << " (" << r.clean.points_in << " points) -> " << r.cloud.size()
             << " particles, volume " << r.cloud.totalVolume() << " m^3, spacing " << r.cloud.spacing << " m ("
             << r.fill.method << ", " << r.seconds << " s)" << std::endl;
+  for (const std::string& w : r.warnings) std::cerr << "[topo fill] warning: " << w << std::endl;
   io::writeVolumePly(r.cloud, output);
   std::cerr << "[topo fill] wrote " << output << std::endl;
   if (a.has("png")) {

@@ -1,5 +1,6 @@
 // `topo`: the command-line front end. Subcommands: fill, generate, shape, infer, simulate, tasks, track, export.
 #include <iostream>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,12 @@ int main(int argc, char** argv) {
     return 2;
   } catch (const topo_gaussian::TopoError& e) {
     std::cerr << "topo " << cmd << ": error: " << e.what() << "\n";
+    return 1;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "topo " << cmd
+              << ": error: out of memory: the input or the grids it needs did not fit in this machine's memory. "
+                 "Fix: use a larger --spacing or a smaller --count, downsample or crop the input, or run on a "
+                 "machine with more memory\n";
     return 1;
   } catch (const std::exception& e) {
     std::cerr << "topo " << cmd << ": unexpected error: " << e.what() << "\n";

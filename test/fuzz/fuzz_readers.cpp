@@ -1,13 +1,14 @@
 // libFuzzer entry point for the surface file readers.
 // The first byte selects the reader (0 PLY, 1 PCD, 2 OBJ, 3 OFF, 4 STL; taken modulo 5), the rest is
-// the file. A TopoError is the expected answer to bad bytes; any other exception escaping, a sanitizer
-// report, or a result that breaks the SurfaceData invariants is a bug in the readers.
+// the file; meshes that read are then repaired (repairMesh). A TopoError is the expected answer to bad bytes; any other
+// exception escaping, a sanitizer report, or a result that breaks the SurfaceData invariants is a bug in the readers.
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
 #include <string>
 
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/geometry/mesh_repair.h"
 #include "topo_gaussian/geometry/surface_reader.h"
 
 namespace {
@@ -58,6 +59,16 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         break;
     }
     checkInvariants(s);
+    if (s.kind == SurfaceKind::Mesh) {
+      // The mesh repair runs on whatever a reader returns (NaN corners, repeated and out-of-range
+      // indices are its business): it must not crash and must return a consistent mesh.
+      MeshRepairReport report;
+      const SurfaceData repaired = repairMesh(s, &report);
+      for (const auto& t : repaired.triangles)
+        for (int k = 0; k < 3; ++k)
+          if (t[k] < 0 || static_cast<std::size_t>(t[k]) >= repaired.points.size()) std::abort();
+      if (report.closed && repaired.triangles.empty()) std::abort();
+    }
   } catch (const topo_gaussian::TopoError&) {
     // expected for malformed input
   }

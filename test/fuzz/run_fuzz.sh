@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Runs the reader fuzzer for a bounded time and writes a JUnit XML result.
 # Usage: run_fuzz.sh <fuzz_readers binary> <seed corpus dir> <junit xml out>
-# Environment: TOPO_FUZZ_SECONDS (default 30). Crash inputs are kept next to the XML file in
+# Environment: TOPO_FUZZ_SECONDS (default 30); TOPO_FUZZ_RUNS=N stops after N executions instead
+# (TOPO_FUZZ_SECONDS then only caps the time, default 3600). Crash inputs are kept next to the XML file in
 # fuzz_artifacts/ so that they can be replayed with: <binary> <artifact>
 set -u
 
@@ -12,7 +13,12 @@ fi
 bin=$1
 corpus=$2
 xml=$3
-seconds=${TOPO_FUZZ_SECONDS:-30}
+runs=${TOPO_FUZZ_RUNS:-}
+if [ -n "$runs" ]; then
+  seconds=${TOPO_FUZZ_SECONDS:-3600}
+else
+  seconds=${TOPO_FUZZ_SECONDS:-30}
+fi
 
 work=$(mktemp -d "${TMPDIR:-/tmp}/topo_fuzz.XXXXXX")
 trap 'rm -rf "$work"' EXIT
@@ -21,16 +27,19 @@ mkdir -p "$work/corpus" "$work/artifacts"
 if [ -d "$corpus" ]; then
   cp -r "$corpus"/. "$work/corpus/"
 fi
-dict_args=()
+extra_args=()
+if [ -n "$runs" ]; then
+  extra_args+=("-runs=$runs")
+fi
 dict="$(cd "$(dirname "$0")" && pwd)/readers.dict"
 if [ -f "$dict" ]; then
-  dict_args=("-dict=$dict")
+  extra_args+=("-dict=$dict")
 fi
 
 start=$(date +%s)
 if [ -x "$bin" ]; then
   "$bin" "$work/corpus" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 \
-    -artifact_prefix="$work/artifacts/" -print_final_stats=1 ${dict_args[@]+"${dict_args[@]}"} >"$work/log" 2>&1
+    -artifact_prefix="$work/artifacts/" -print_final_stats=1 ${extra_args[@]+"${extra_args[@]}"} >"$work/log" 2>&1
   status=$?
 else
   echo "fuzz binary not found or not executable: $bin" >"$work/log"

@@ -197,12 +197,13 @@ TEST(DensityFill, PointSphereVolume) {
   const double R = 0.05;
   FillReport rep;
   FillOptions o;
+  o.split_point_shell = false;  // the whole splat shell: one splat radius too far out, never too small
   const VolumeCloud c = fillInterior(pointSphere(R, 8000), o, &rep);
   EXPECT_EQ(rep.method, "point-density");
   EXPECT_GT(c.totalVolume() / sphereVolume(R), 0.99);
   EXPECT_LT(c.totalVolume() / sphereVolume(R), 1.15);
-  o.density.split_shell = true;
-  EXPECT_NEAR(fillInterior(pointSphere(R, 8000), o).totalVolume() / sphereVolume(R), 1.0, 0.05);
+  // Default: the shell's inner half only (split_point_shell).
+  EXPECT_NEAR(fillInterior(pointSphere(R, 8000), FillOptions{}).totalVolume() / sphereVolume(R), 1.0, 0.05);
 }
 
 TEST(DensityFill, OpenSphereCapIsRefused) {
@@ -308,7 +309,7 @@ TEST(Fill, BadInputNamesTheProblem) {
   huge.spacing_m = 1e-6;  // a 0.1 m torus at 1 µm: ~10^15 cells
   const std::string h = errorOf([&] { fillInterior(makeTorus(0.06, 0.03), huge); });
   EXPECT_NE(h.find("spacing 1e-06 m would create"), std::string::npos) << h;
-  EXPECT_NE(h.find("use a larger spacing"), std::string::npos) << h;
+  EXPECT_NE(h.find("use a spacing of at least"), std::string::npos) << h;
 
   FillOptions bad;
   bad.density.ray_cast_direction = 9;

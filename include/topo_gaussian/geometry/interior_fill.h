@@ -7,13 +7,18 @@
 
 #include <Eigen/Core>
 #include <string>
+#include <vector>
 
 #include "topo_gaussian/geometry/density_fill.h"
 #include "topo_gaussian/geometry/mesh_fill.h"
+#include "topo_gaussian/geometry/mesh_repair.h"
 #include "topo_gaussian/geometry/surface_data.h"
 #include "topo_gaussian/physics/volume_cloud.h"
 
 namespace topo_gaussian::geometry {
+
+/// Default of FillOptions::max_open_fraction (also quoted in messages and `topo fill --help`).
+constexpr double kDefaultMaxOpenFraction = 0.05;
 
 struct FillOptions {
   double spacing_m = 0.0;            ///< lattice spacing [m]; 0 → chosen from target_count
@@ -24,8 +29,17 @@ struct FillOptions {
   DensityFillOptions density;        ///< PhysGaussian parameters (Gaussians, points, open meshes)
   /// Largest fraction of the ray-filled interior allowed to leak to the outside through gaps in
   /// the surface; above it the fill is refused with an error that says how open the surface is.
-  double max_open_fraction = 0.05;
+  double max_open_fraction = kDefaultMaxOpenFraction;
   double max_cells = 2.5e8;  ///< refuse lattices (and density grids) with more cells than this
+  /// Refuse a fill whose grids would need more memory than this [bytes]; 0 = half the physical memory.
+  double max_memory_bytes = 0.0;
+  /// Warn (suggesting scale 0.001) when the surface's bounding box is larger than this [m].
+  double warn_extent_m = 20.0;
+  /// Point clouds: keep only the inner half of the splat shell (density.split_shell), so the solid
+  /// ends at the sampled surface rather than one splat radius outside it (+12..27 % volume on random
+  /// samplings of a sphere without it, +1.5..6.4 % with it). Gaussians follow density.split_shell.
+  bool split_point_shell = true;
+  MeshRepairOptions mesh_repair;  ///< meshes: which holes are closed and which open pieces are left out
 };
 
 struct FillReport {
@@ -42,11 +56,18 @@ struct FillReport {
   std::size_t dense_cells = 0, ray_filled_cells = 0, leaked_cells = 0;
   int closing_cells = 0;  ///< closing radius used (density methods)
   double seconds = 0.0;
+  MeshRepairReport repair;  ///< meshes only: faces dropped, holes closed, open pieces left out
+  /// Why a mesh was not filled by the exact inside test ("" when it was, or for other inputs).
+  std::string fallback;
+  /// One line each: every repair, fallback and suspicion (a suspiciously large object, ...). Never
+  /// silent: the CLI prints them and --json lists them.
+  std::vector<std::string> warnings;
 };
 
-/// Throws TopoError naming surface.source for: no points, fewer than 4 points, zero extent, a
-/// spacing that would exceed max_cells, an open surface beyond max_open_fraction, or a surface
-/// that encloses no volume at this spacing.
+/// Throws TopoError naming surface.source for: no points, fewer than 4 points, zero extent,
+/// coordinates beyond kMaxCoordinateM, an object thinner than the given spacing, a spacing that would
+/// exceed max_cells or max_memory_bytes, an open surface beyond max_open_fraction, or a surface that
+/// encloses no volume at this spacing. Meshes are repaired first (repairMesh), with warnings.
 VolumeCloud fillInterior(const SurfaceData& surface, const FillOptions& options, FillReport* report = nullptr);
 
 /// Checks the options alone (ranges, direction codes); throws TopoError naming `what`.

@@ -39,6 +39,15 @@ struct SurfaceData {
   void keep(const std::vector<bool>& flags);
 };
 
+/// Largest coordinate magnitude a surface may have [m]. Beyond it squared distances in float (PCL's
+/// k-d trees) overflow and FLANN aborts; no object a lab fills is 1000 km from its origin, so such
+/// values are a unit error or a corrupt file (wrong byte order or property type in a binary header).
+constexpr double kMaxCoordinateM = 1e6;
+
+/// Throws TopoError naming `surface.source` when a finite coordinate exceeds kMaxCoordinateM (with
+/// how many points do, the largest value, and the fix). NaN/infinite values are left to cleaning.
+void checkCoordinateRange(const SurfaceData& surface);
+
 /// Covariance R S Sᵀ Rᵀ of a Gaussian from its scale (std devs) and quaternion (w,x,y,z).
 Eigen::Matrix3d gaussianCovariance(const Eigen::Vector3d& scale, const Eigen::Vector4d& quat_wxyz);
 
