@@ -74,10 +74,18 @@ SoftRollout::SoftRollout(SoftBodySimulator* sim, const SoftRolloutOptions& optio
                         " s, or SoftIntegrator::ImplicitEuler, which has no stability limit");
   }
   if (opt_.checkpoint_every <= 0) opt_.checkpoint_every = static_cast<int>(std::ceil(std::sqrt(double(opt_.steps))));
+  // Budgets before the first step: steps × particles, and the states a gradient run keeps
+  // (checkpoints + one recomputed segment with forces, 72 bytes per particle and state).
+  const double n = static_cast<double>(sim_->size());
+  checkStepBudget("soft-body rollout", opt_.dt, opt_.dt * opt_.steps, n, "dt_s");
+  const double K = opt_.checkpoint_every;
+  checkMemoryBudget("soft-body rollout", std::ceil(opt_.steps / K) + K + 1, 72.0 * n,
+                    "use a larger dt_s, a shorter duration_s or a coarser particle spacing");
 }
 
 void SoftRollout::stepForward(int k) {
   SoftBodySimulator& s = *sim_;
+  pollStop(s.options().should_stop);
   const double dt = opt_.dt;
   if (opt_.integrator == SoftIntegrator::ImplicitEuler) {
     s.stepImplicit(dt, opt_.newton);
@@ -167,6 +175,7 @@ SoftRolloutResult SoftRollout::run(const SoftStepLoss& loss, bool with_gradient)
     const std::size_t segment_bytes = states.size() * (keep_forces ? kStateWithForces : kState);
     res.peak_state_bytes = std::max(res.peak_state_bytes, (checkpoints.size() * kState + segment_bytes) * n);
     for (int k = k1 - 1; k >= k0; --k) {
+      pollStop(s.options().should_stop);
       const Vec3s& xk = states[k - k0].first;
       const Vec3s& vk = states[k - k0].second;
       Vec3s xbn(n, Eigen::Vector3d::Zero()), vbn(n, Eigen::Vector3d::Zero());
