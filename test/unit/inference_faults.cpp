@@ -15,6 +15,8 @@
 #include "test_util.h"
 #include "topo_gaussian/inference/optimizer.h"
 #include "topo_gaussian/inference/pipeline.h"
+#include "topo_gaussian/io/interior_ply.h"
+#include "topo_gaussian/io/volume_ply.h"
 #include "topo_gaussian/physics/rigid_body.h"
 #include "topo_gaussian/physics/soft_rollout.h"
 #include "topo_gaussian/workflow/inference_run.h"
@@ -227,4 +229,96 @@ TEST(PointOutside, HangingPointFarFromTheObjectIsAWarningAndNamedInTheMessage) {
   // Inside: no warning.
   c.set("hanging_point", "0.015,0.005,0.03");
   EXPECT_TRUE(runInference(c, cloud).warnings.empty());
+}
+
+// ------------------------------------------------------------------ the same through `topo`
+
+namespace {
+
+struct CliFiles {
+  std::string dir, volume, interior;
+  VolumeCloud cloud;
+};
+
+const CliFiles& cliFiles() {
+  static const CliFiles f = [] {
+    CliFiles c;
+    c.dir = tempDir("cli");
+    std::system(("mkdir -p '" + c.dir + "'").c_str());
+    c.cloud = topo_test::tumblerCloud(0.05, 0.5, 0.01);
+    c.volume = c.dir + "/volume.ply";
+    c.interior = c.dir + "/interior.ply";
+    io::writeVolumePly(c.cloud, c.volume);
+    const std::vector<double> r(c.cloud.size(), 1.0), rho(c.cloud.size(), 1000.0);
+    io::writeInteriorPly(c.interior, c.cloud, r, rho, false);
+    return c;
+  }();
+  return f;
+}
+
+}  // namespace
+
+TEST(Cli, BudgetsAreRefusedWithTheNumbersNotBadAlloc) {
+  const CliFiles& f = cliFiles();
+  const std::string base = "simulate --task tumbler --volume " + f.volume + " --target period_s=0.5 ";
+  const topo_test::ToolRun steps = topo_test::runTopo(base + "--set duration_s=2 --set max_substep_s=1e-12");
+  EXPECT_EQ(steps.code, 1) << steps.out;
+  EXPECT_NE(steps.out.find("2e+12 steps; the limit is 1e+08"), std::string::npos) << steps.out;
+  const topo_test::ToolRun memory = topo_test::runTopo(base + "--set duration_s=2 --set dt_s=1e-7");
+  EXPECT_EQ(memory.code, 1) << memory.out;
+  EXPECT_NE(memory.out.find("GB; the limit is 1.07 GB"), std::string::npos) << memory.out;
+  EXPECT_EQ(memory.out.find("bad_alloc"), std::string::npos) << memory.out;
+}
+
+TEST(Cli, InteriorOfAnotherVolumeOrWithNaNIsRefusedNamingTheParticle) {
+  const CliFiles& f = cliFiles();
+  VolumeCloud moved = f.cloud;
+  for (auto& x : moved.X) x.x() += 1.0;
+  const std::vector<double> r(f.cloud.size(), 1.0), rho(f.cloud.size(), 1000.0);
+  io::writeInteriorPly(f.dir + "/moved.ply", moved, r, rho, false);
+  std::vector<double> r_nan = r;
+  r_nan[7] = std::nan("");
+  io::writeInteriorPly(f.dir + "/nan.ply", f.cloud, r_nan, rho, false);
+  for (const char* cmd : {"simulate --task tumbler --target period_s=0.5", "export --output /tmp/unused_export"}) {
+    const std::string base = std::string(cmd) + " --volume " + f.volume + " --interior " + f.dir;
+    const topo_test::ToolRun m = topo_test::runTopo(base + "/moved.ply");
+    EXPECT_EQ(m.code, 1) << cmd << ": " << m.out;
+    EXPECT_NE(m.out.find("particle 0 is at"), std::string::npos) << cmd << ": " << m.out;
+    EXPECT_NE(m.out.find("computed on another volume"), std::string::npos) << cmd << ": " << m.out;
+    const topo_test::ToolRun n = topo_test::runTopo(base + "/nan.ply");
+    EXPECT_EQ(n.code, 1) << cmd << ": " << n.out;
+    EXPECT_NE(n.out.find("particle 7 has r = nan"), std::string::npos) << cmd << ": " << n.out;
+  }
+  // The interior of this volume is accepted.
+  const topo_test::ToolRun ok = topo_test::runTopo("simulate --task tumbler --target period_s=0.5 --volume " +
+                                                   f.volume + " --interior " + f.interior);
+  EXPECT_EQ(ok.code, 0) << ok.out;
+}
+
+TEST(Cli, ATaskThatIsADirectoryOrAMapValueIsNamedWithFileAndKey) {
+  const CliFiles& f = cliFiles();
+  const topo_test::ToolRun d =
+      topo_test::runTopo("infer --task " + f.dir + " --volume " + f.volume + " --output " + f.dir + "/run_dir");
+  EXPECT_EQ(d.code, 1) << d.out;
+  EXPECT_NE(d.out.find(f.dir + ": is a directory, not a task file"), std::string::npos) << d.out;
+  const std::string yaml = f.dir + "/map_value.yaml";
+  std::ofstream(yaml) << "task: tumbler\ngravity: {x: 1}\n";
+  const topo_test::ToolRun m = topo_test::runTopo("simulate --task " + yaml + " --volume " + f.volume);
+  EXPECT_EQ(m.code, 1) << m.out;
+  EXPECT_NE(m.out.find(yaml + " gravity: is a map, not a value"), std::string::npos) << m.out;
+  std::ofstream(yaml) << "task: {name: tumbler}\n";
+  const topo_test::ToolRun t = topo_test::runTopo("simulate --task " + yaml + " --volume " + f.volume);
+  EXPECT_EQ(t.code, 1) << t.out;
+  EXPECT_NE(t.out.find(yaml + " task: is a map"), std::string::npos) << t.out;
+}
+
+TEST(Cli, OneIterationRunsAndAPointOutsideIsAWarningLine) {
+  const CliFiles& f = cliFiles();
+  const topo_test::ToolRun r = topo_test::runTopo("infer --task hanging --volume " + f.volume +
+                                                  " --set max_iterations=1 --set hanging_point=0.5,0,0.02 " +
+                                                  "--no-export --output " + f.dir + "/one");
+  EXPECT_EQ(r.code, 3) << r.out;  // ran, target not reached
+  EXPECT_EQ(r.out.find("0 values"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("[topo infer] warning: hanging_point"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("may be unreachable"), std::string::npos) << r.out;
 }
