@@ -74,13 +74,8 @@ SoftRollout::SoftRollout(SoftBodySimulator* sim, const SoftRolloutOptions& optio
                         " s, or SoftIntegrator::ImplicitEuler, which has no stability limit");
   }
   if (opt_.checkpoint_every <= 0) opt_.checkpoint_every = static_cast<int>(std::ceil(std::sqrt(double(opt_.steps))));
-  // Budgets before the first step: steps × particles, and the states a gradient run keeps
-  // (checkpoints + one recomputed segment with forces, 72 bytes per particle and state).
-  const double n = static_cast<double>(sim_->size());
-  checkStepBudget("soft-body rollout", opt_.dt, opt_.dt * opt_.steps, n, "dt_s");
-  const double K = opt_.checkpoint_every;
-  checkMemoryBudget("soft-body rollout", std::ceil(opt_.steps / K) + K + 1, 72.0 * n,
-                    "use a larger dt_s, a shorter duration_s or a coarser particle spacing");
+  // Step budget before the first step: steps × particles (the memory of a gradient run: run()).
+  checkStepBudget("soft-body rollout", opt_.dt, opt_.dt * opt_.steps, static_cast<double>(sim_->size()), "dt_s");
 }
 
 void SoftRollout::stepForward(int k) {
@@ -122,6 +117,9 @@ SoftRolloutResult SoftRollout::run(const SoftStepLoss& loss, bool with_gradient)
   const std::size_t n = s.size();
   const int N = opt_.steps, K = opt_.checkpoint_every;
   const double dt = opt_.dt, t0 = s.time();
+  if (with_gradient)  // checkpoints + one recomputed segment with forces, 72 bytes per particle and state
+    checkMemoryBudget("soft-body rollout", std::ceil(double(N) / K) + K + 1, 72.0 * double(n),
+                      "use a larger dt_s, a shorter duration_s or a coarser particle spacing");
   SoftRolloutResult res;
   auto tf = std::chrono::steady_clock::now();
   std::vector<std::pair<Vec3s, Vec3s>> checkpoints;
