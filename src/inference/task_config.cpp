@@ -45,17 +45,24 @@ std::vector<double> parseNumbers(const std::string& key, std::string text, const
   return out;
 }
 
-std::size_t editDistance(const std::string& a, const std::string& b) {
+/// Levenshtein distance of a and b, or limit + 1 as soon as it must exceed limit (every entry of a
+/// row above it).
+std::size_t editDistance(const std::string& a, const std::string& b, std::size_t limit) {
+  const std::size_t longer = std::max(a.size(), b.size()), shorter = std::min(a.size(), b.size());
+  if (longer - shorter > limit) return limit + 1;  // at least the length difference
   std::vector<std::size_t> d(b.size() + 1);
   for (std::size_t j = 0; j <= b.size(); ++j) d[j] = j;
   for (std::size_t i = 1; i <= a.size(); ++i) {
     std::size_t prev = d[0];
     d[0] = i;
+    std::size_t row_min = d[0];
     for (std::size_t j = 1; j <= b.size(); ++j) {
       const std::size_t cur = d[j];
       d[j] = std::min({d[j] + 1, d[j - 1] + 1, prev + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      row_min = std::min(row_min, d[j]);
       prev = cur;
     }
+    if (row_min > limit) return limit + 1;
   }
   return d[b.size()];
 }
@@ -212,7 +219,9 @@ void TaskConfig::set(const std::string& key_in, const std::string& value_in, con
     std::string nearest;
     std::size_t best = 1000;
     for (const auto& sp : specs_) {
-      const std::size_t d = editDistance(key, sp.name);
+      // Only names within 4 edits are suggested: the distance stops counting above that (a long
+      // garbage key took milliseconds per name).
+      const std::size_t d = editDistance(key, sp.name, 4);
       if (d < best) best = d, nearest = sp.name;
     }
     throw TopoError(origin + " " + key, "unknown parameter of task '" + task_ + "'",
