@@ -74,7 +74,7 @@ class BallTask : public Task {
     // initial_velocity is the velocity of the centroid: v_c = v0 + ω × (c − centroid).
     s0.velocity = v0_.cast<Dual10>() + w0.cross(I.com - centroid_.cast<Dual10>());
     s0.angular_velocity = w0;
-    const RigidTrajectory<Dual10> traj = simulateRigid(I, s0, contact_, options_);
+    const RigidTrajectory<Dual10> traj = simulateRigid(I, s0, contact_, withStop(options_, should_stop_));
     auto pointAt = [&](std::size_t k, const Eigen::Vector3d& b) -> Vec3<Dual10> {
       const auto& s = traj.states[k];
       return s.position + s.orientation * (b.cast<Dual10>() - I.com);

@@ -71,6 +71,8 @@ class CantileverTask : public SoftTask {
       sim->setGravity(Eigen::Vector3d::Zero());
       const double dt = 0.9 * sim->stableTimeStep();
       const long max_steps = static_cast<long>((periods_ + 1.0) / f_modal / dt) + 10;
+      checkStepBudget("cantilever free vibration", dt, double(max_steps) * dt, double(cloud_.size()),
+                      "fewer vibration_periods or a coarser default_spacing_m");
       double prev = tipZ(*sim);
       std::vector<double> crossings;
       const std::size_t want = static_cast<std::size_t>(std::lround(2.0 * periods_)) + 1;

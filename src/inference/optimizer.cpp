@@ -27,11 +27,35 @@ struct Tracker {
   Eigen::VectorXd failed_x;  ///< the last design the task could not evaluate
   double scale = 1.0;        ///< L-BFGS sees scale × loss (NLopt's L-BFGS stops when every gradient entry is tiny)
 
+  /// A loss far above the best, so a line search steps back (cancelled or failed evaluations).
+  double refusedLoss(const Eigen::VectorXd& x, Eigen::VectorXd* g) const {
+    if (g) g->setZero(x.size());
+    return have_best ? 1e3 * (1.0 + std::abs(result.loss)) : std::numeric_limits<double>::infinity();
+  }
+
+  void cancel() {
+    result.cancelled = true;
+    stop = true;
+  }
+
   double call(const Eigen::VectorXd& x, Eigen::VectorXd* g) {
+    if (options.should_stop && options.should_stop()) {
+      cancel();
+      return refusedLoss(x, g);
+    }
+    if (result.evaluations >= options.max_iterations) {  // the limit counts every evaluation
+      stop = true;
+      if (result.message.empty()) result.message = "iteration limit reached";
+      return refusedLoss(x, g);
+    }
+    ++result.evaluations;
     double loss;
     try {
       loss = f(x, g);
       failures = 0;
+    } catch (const SimulationCancelled&) {
+      cancel();
+      return refusedLoss(x, g);
     } catch (const std::exception& e) {
       if (!have_best) throw;
       // A trial design the task cannot evaluate (e.g. a tumbler that no longer rocks): report a loss
@@ -127,6 +151,7 @@ OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, cons
       Eigen::Map<const Eigen::VectorXd> xv(x, nn);
       Eigen::VectorXd g(nn);
       const double loss = tr->call(xv, grad ? &g : nullptr);
+      if (tr->result.cancelled) throw nlopt::forced_stop();
       if (grad) Eigen::Map<Eigen::VectorXd>(grad, nn) = tr->scale * g;
       // A vanishing gradient ends the run only at the best design so far: a trial step into a
       // saturated region (every r_i at 0 or 1, e.g. the chamber gone) also has a zero gradient, but
@@ -188,8 +213,8 @@ OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, cons
         opt.set_upper_bounds(ub);
       }
       best_at_start = t.have_best ? t.result.loss : best_at_start;
-      const int left = options.max_iterations - t.result.iterations;
-      if (left < 2) break;
+      const int left = options.max_iterations - t.result.evaluations;
+      if (left < 1) break;
       opt.set_maxeval(left);
       std::vector<double> x(start.data(), start.data() + n);
       double fx = 0;
@@ -229,6 +254,10 @@ OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, cons
     throw TopoError("optimizer '" + options.method + "'", "unknown", "use lbfgs or adam");
   }
   OptimizerResult& r = t.result;
+  if (r.theta.size() == 0) {  // cancelled (or stopped) before any design was evaluated: the start
+    r.theta = x0;
+    r.loss = std::numeric_limits<double>::infinity();
+  }
   if (r.cancelled)
     r.message = "cancelled: returning the best design so far";
   else if (!t.error.empty())

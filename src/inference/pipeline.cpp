@@ -39,22 +39,41 @@ std::vector<double> particleStiffness(const TaskConfig& config, const std::vecto
 }
 
 InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud, const ProgressCallback& progress,
-                             const EvaluationCallback& on_evaluation) {
+                             const EvaluationCallback& on_evaluation, const StopCheck& should_stop) {
   const auto t0 = Clock::now();
   InteriorProblem problem(config, cloud);
   problem.task().requireTargets();
+  problem.setShouldStop(should_stop);
   InferenceResult res;
   res.task = config.task();
   res.representation = problem.representation().name();
   res.geometry = problem.task().geometry();
+  const std::string outside = pointOutsideObjectNote(res.geometry, cloud);
+  if (!outside.empty()) res.warnings.push_back(outside);
   const Eigen::VectorXd theta0 = problem.initialParameters();
   Eigen::VectorXd lo, hi, g;
   problem.bounds(&lo, &hi);
   const auto te = Clock::now();
-  problem.evaluate(theta0, &g, &res.initial);
+  try {
+    problem.evaluate(theta0, &g, &res.initial);
+  } catch (const SimulationCancelled&) {  // before any design was evaluated: the start design
+    res.cancelled = true;
+    res.theta = theta0;
+    res.optimizer.theta = theta0;
+    res.optimizer.cancelled = true;
+    res.optimizer.message = "cancelled: returning the best design so far";
+    problem.indicator(res.theta, &res.r);
+    problem.task().density().apply(res.r, &res.density, nullptr);
+    res.setup_s = secondsSince(t0);
+    res.message = "task " + res.task + " (" + res.representation +
+                  "): cancelled during the first simulation, before any design was evaluated; the start design "
+                  "is returned unevaluated.";
+    return res;
+  }
   res.evaluation_s = secondsSince(te);
   res.setup_s = secondsSince(t0) - res.evaluation_s;
   OptimizerOptions oo;
+  oo.should_stop = should_stop;
   oo.method = config.text("optimizer");
   oo.max_iterations = config.integer("max_iterations");
   oo.learning_rate = config.number("learning_rate");
@@ -62,18 +81,40 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   oo.relative_tolerance = config.number("relative_tolerance");
   oo.gradient_tolerance = config.number("gradient_tolerance");
   const auto to = Clock::now();
+  // The best evaluation's details are kept, so a cancelled run need not simulate the best design again.
+  ProblemEvaluation best = res.initial;
+  double best_loss = res.initial.loss;
+  Eigen::VectorXd best_theta = theta0;
   const auto objective = [&](const Eigen::VectorXd& th, Eigen::VectorXd* gr) {
-    if (!on_evaluation) return problem.evaluate(th, gr);
     ProblemEvaluation details;
     const double loss = problem.evaluate(th, gr, &details);
-    on_evaluation(details);
+    if (on_evaluation) on_evaluation(details);
+    if (loss < best_loss) {
+      best_loss = loss;
+      best_theta = th;
+      best = std::move(details);
+    }
     return loss;
   };
   res.optimizer = minimize(objective, theta0, lo, hi, oo, progress);
   res.optimize_s = secondsSince(to);
   if (res.optimizer.iterations > 0) res.evaluation_s = res.optimize_s / res.optimizer.iterations;
+  res.cancelled = res.optimizer.cancelled;
+  if (res.cancelled && !(res.optimizer.loss < best_loss)) {  // the start design was the best one
+    res.optimizer.theta = best_theta;
+    res.optimizer.loss = best_loss;
+  }
   res.theta = res.optimizer.theta;
-  problem.evaluate(res.theta, nullptr, &res.final);
+  if (res.cancelled) {
+    res.final = res.theta == best_theta ? best : res.initial;
+  } else {
+    try {
+      problem.evaluate(res.theta, nullptr, &res.final);
+    } catch (const SimulationCancelled&) {  // cancelled while re-simulating the best design
+      res.cancelled = res.optimizer.cancelled = true;
+      res.final = res.theta == best_theta ? best : res.initial;
+    }
+  }
   problem.indicator(res.theta, &res.r);
   problem.task().density().apply(res.r, &res.density, nullptr);
 
@@ -99,6 +140,10 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   } else {
     head << msg.str() << "Not converged: raise max_iterations or try another optimizer/representation.";
   }
+  if (!res.targets_reached)
+    for (const auto& w : res.warnings)
+      head << " The target may be unreachable because the " << res.geometry.point_name << " lies outside the object ("
+           << w << ").";
   res.message = head.str();
   return res;
 }

@@ -37,4 +37,10 @@ inline RigidSimOptions rigidOptionsFromConfig(const TaskConfig& c, const Eigen::
   return o;
 }
 
+/// A copy of o whose time loop polls stop (Task::shouldStop()).
+inline RigidSimOptions withStop(RigidSimOptions o, const StopCheck& stop) {
+  o.should_stop = stop;
+  return o;
+}
+
 }  // namespace topo_gaussian::inference

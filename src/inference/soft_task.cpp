@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 
 namespace topo_gaussian::inference {
 
@@ -60,12 +61,30 @@ double cloudSpacing(const VolumeCloud& cloud) {
   return std::cbrt(v / static_cast<double>(cloud.size()));
 }
 
+/// The spacing of a cloud whose particles lie on a lattice (every offset from the first particle a
+/// whole number of spacings, within 5 %): SPH needs lattice neighbourhoods. Throws naming the first
+/// particle off the lattice.
+double latticeSpacing(const VolumeCloud& cloud, const std::string& task) {
+  const double h = cloudSpacing(cloud);
+  for (std::size_t i = 1; i < cloud.size(); ++i) {
+    const Eigen::Vector3d q = (cloud.X[i] - cloud.X[0]) / h;
+    const Eigen::Vector3d off = (q - q.array().round().matrix()).cwiseAbs();
+    if (off.maxCoeff() > 0.05)
+      throw TopoError("volume cloud for task '" + task + "'",
+                      "particle " + std::to_string(i) + " is " + numberText(off.maxCoeff() * h, 3) +
+                          " m off the lattice of spacing " + numberText(h, 4) + " m through particle 0 (soft tasks " +
+                          "need lattice particles for their SPH neighbourhoods)",
+                      "fill the surface with topo fill (a lattice), or give the cloud's spacing");
+  }
+  return h;
+}
+
 }  // namespace
 
 SoftTask::SoftTask(const TaskConfig& c, const VolumeCloud& cloud)
     : Task(c, cloud, false),
       sph_(cloud.X, cloud.V, lameFromYoung(c.number("youngs_modulus_solid"), c.number("poisson_ratio")),
-           sphOptionsFromConfig(c, cloudSpacing(cloud))) {
+           sphOptionsFromConfig(c, latticeSpacing(cloud, c.task()))) {
   const LameParameters solid = lameFromYoung(c.number("youngs_modulus_solid"), c.number("poisson_ratio"));
   const LameParameters hollow = lameFromYoung(c.number("youngs_modulus_hollow"), c.number("poisson_ratio_hollow"));
   E_solid_ = c.number("youngs_modulus_solid");
@@ -102,7 +121,9 @@ SoftTask::Materials SoftTask::materials(const std::vector<double>& r, bool with_
 std::unique_ptr<SoftBodySimulator> SoftTask::simulator(const Materials& m) const {
   CorotatedSph sph = sph_;
   sph.setMaterial(m.mu, m.lambda);
-  auto sim = std::make_unique<SoftBodySimulator>(std::move(sph), sim_options_);
+  SoftBodyOptions options = sim_options_;
+  options.should_stop = should_stop_;
+  auto sim = std::make_unique<SoftBodySimulator>(std::move(sph), options);
   sim->setMasses(m.mass);
   return sim;
 }

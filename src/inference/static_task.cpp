@@ -149,6 +149,7 @@ class StaticTask : public Task {
     o.pivot = true;
     o.pivot_body = point_;
     o.pivot_world = R_ * point_;
+    o.should_stop = should_stop_;
     const RigidInertia<double> I = toInertia(ev.mass);
     const Eigen::Quaterniond q0(Eigen::AngleAxisd(swing_tilt_ * M_PI / 180.0, Eigen::Vector3d::UnitX()) *
                                 Eigen::Quaterniond(R_));

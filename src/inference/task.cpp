@@ -1,9 +1,13 @@
 #include "topo_gaussian/inference/task.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
+#include <limits>
+#include <sstream>
 
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/inference/task_registry.h"
 
 namespace topo_gaussian::inference {
@@ -23,6 +27,11 @@ Eigen::Matrix3d targetRotation(double roll_deg, double pitch_deg) {
 Task::Task(const TaskConfig& config, const VolumeCloud& cloud, bool require_gravity)
     : name_(config.task()), cloud_(cloud) {
   cloud.validate("volume cloud for task '" + config.task() + "'");
+  if (cloud.size() < kMinTaskParticles)
+    throw TopoError("volume cloud for task '" + config.task() + "'",
+                    "has " + std::to_string(cloud.size()) + " particle" + (cloud.size() == 1 ? "" : "s") +
+                        ", too few to infer an interior (at least " + std::to_string(kMinTaskParticles) + ")",
+                    "fill the surface with a smaller spacing (topo fill --spacing), e.g. spacing <= size / 10");
   density_.value_r0 = config.number("density_hollow");
   density_.value_r1 = config.number("density_solid");
   density_.power = config.number("density_power");
@@ -70,6 +79,26 @@ void Task::chainToIndicator(const RigidMass& mass, const Eigen::Matrix<double, 1
   massPropertiesGradientToParticles(cloud_.X, mass.moments, dL_dprops, &dL_dm);
   dL_dr->resize(dL_dm.size());
   for (std::size_t i = 0; i < dL_dm.size(); ++i) (*dL_dr)[i] = dL_dm[i] * mass.dm_dr[i];
+}
+
+std::string pointOutsideObjectNote(const TaskGeometry& geometry, const VolumeCloud& cloud) {
+  if (!geometry.has_point || cloud.empty()) return "";
+  Eigen::Vector3d lo, hi;
+  cloud.bounds(&lo, &hi);
+  const double h = cloud.spacing > 0 ? cloud.spacing : std::cbrt(cloud.totalVolume() / double(cloud.size()));
+  const Eigen::Vector3d& p = geometry.point;
+  double nearest = std::numeric_limits<double>::infinity();
+  for (const auto& x : cloud.X) nearest = std::min(nearest, (x - p).squaredNorm());
+  nearest = std::sqrt(nearest);
+  const bool outside_box = ((p.array() < lo.array() - h) || (p.array() > hi.array() + h)).any();
+  if (!outside_box && nearest <= 2.0 * h) return "";
+  std::ostringstream os;
+  os << geometry.point_name << " (" << numberText(p.x()) << ", " << numberText(p.y()) << ", " << numberText(p.z())
+     << ") m lies outside the object: " << numberText(nearest) << " m from the nearest particle (spacing "
+     << numberText(h) << " m), the particles span (" << numberText(lo.x()) << ".." << numberText(hi.x()) << ", "
+     << numberText(lo.y()) << ".." << numberText(hi.y()) << ", " << numberText(lo.z()) << ".." << numberText(hi.z())
+     << ") m; fine for a hook, otherwise check its units and frame (body frame, metres)";
+  return os.str();
 }
 
 std::unique_ptr<Task> makeTask(const TaskConfig& config, const VolumeCloud& cloud) {

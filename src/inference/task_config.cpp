@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -44,17 +45,24 @@ std::vector<double> parseNumbers(const std::string& key, std::string text, const
   return out;
 }
 
-std::size_t editDistance(const std::string& a, const std::string& b) {
+/// Levenshtein distance of a and b, or limit + 1 as soon as it must exceed limit (every entry of a
+/// row above it).
+std::size_t editDistance(const std::string& a, const std::string& b, std::size_t limit) {
+  const std::size_t longer = std::max(a.size(), b.size()), shorter = std::min(a.size(), b.size());
+  if (longer - shorter > limit) return limit + 1;  // at least the length difference
   std::vector<std::size_t> d(b.size() + 1);
   for (std::size_t j = 0; j <= b.size(); ++j) d[j] = j;
   for (std::size_t i = 1; i <= a.size(); ++i) {
     std::size_t prev = d[0];
     d[0] = i;
+    std::size_t row_min = d[0];
     for (std::size_t j = 1; j <= b.size(); ++j) {
       const std::size_t cur = d[j];
       d[j] = std::min({d[j] + 1, d[j - 1] + 1, prev + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      row_min = std::min(row_min, d[j]);
       prev = cur;
     }
+    if (row_min > limit) return limit + 1;
   }
   return d[b.size()];
 }
@@ -116,7 +124,10 @@ void declareCommonParameters(TaskParameters& p) {
   p.number("smoothness_radius_m", 0.0, "m", "neighbour radius of the smoothness regulariser [m]; 0 = 1.5 x spacing", 0);
   // optimiser
   p.text("optimizer", "lbfgs", "lbfgs (NLopt LD_LBFGS, bounded) | adam", {"lbfgs", "adam"});
-  p.integer("max_iterations", 200, "unitless", "iteration limit, unitless", 1, 1e7);
+  p.integer("max_iterations", 200, "unitless",
+            "limit on the optimiser's evaluations of loss and gradient (each simulates the design once; an L-BFGS "
+            "line search may use several per iteration), unitless",
+            1, 1e7);
   p.number("learning_rate", 0.02, "unitless", "Adam step size, unitless", 0, 1e300, true);
   p.number("loss_tolerance", 1e-12, "unitless", "stop when the loss is below this, unitless", 0);
   p.number("relative_tolerance", 1e-10, "unitless",
@@ -208,7 +219,9 @@ void TaskConfig::set(const std::string& key_in, const std::string& value_in, con
     std::string nearest;
     std::size_t best = 1000;
     for (const auto& sp : specs_) {
-      const std::size_t d = editDistance(key, sp.name);
+      // Only names within 4 edits are suggested: the distance stops counting above that (a long
+      // garbage key took milliseconds per name).
+      const std::size_t d = editDistance(key, sp.name, 4);
       if (d < best) best = d, nearest = sp.name;
     }
     throw TopoError(origin + " " + key, "unknown parameter of task '" + task_ + "'",
@@ -353,17 +366,32 @@ std::string TaskConfig::help() const {
 }
 
 namespace {
-std::string nodeText(const YAML::Node& n) {
+
+/// The value of a key as text: a scalar, or a flat list of scalars joined by commas. Anything else
+/// (a map, a nested list, no value) is refused naming `where` (the file and the key).
+std::string nodeText(const YAML::Node& n, const std::string& where) {
+  if (n.IsScalar()) return n.Scalar();
   if (n.IsSequence()) {
     std::string s;
-    for (const auto& e : n) s += (s.empty() ? "" : ",") + e.as<std::string>();
+    for (const auto& e : n) {
+      if (!e.IsScalar())
+        throw TopoError(where, "holds a nested list or map", "write a flat list of numbers such as [0, 0, -9.81]");
+      s += (s.empty() ? "" : ",") + e.Scalar();
+    }
     return s;
   }
-  return n.as<std::string>();
+  if (n.IsMap()) throw TopoError(where, "is a map, not a value", "write `key: value` (a number, a word or a list)");
+  throw TopoError(where, "has no value", "write a value after the colon, or remove the key");
 }
+
 }  // namespace
 
 TaskConfig TaskConfig::fromYamlFile(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw TopoError(
+        path, "is a directory, not a task file",
+        "give a task YAML file (e.g. " + path + "/tumbler.yaml) or a task name: " + joinNames(TaskConfig::taskNames()));
   YAML::Node root;
   try {
     root = YAML::LoadFile(path);
@@ -372,24 +400,44 @@ TaskConfig TaskConfig::fromYamlFile(const std::string& path) {
                     "check the path (or give a task name: " + joinNames(TaskConfig::taskNames()) + ")");
   } catch (const YAML::Exception& e) {
     throw TopoError(path, std::string("is not valid YAML: ") + e.what(), "fix the syntax at the reported line");
+  } catch (const std::exception& e) {  // e.g. an unreadable file: iostream errors carry no path
+    throw TopoError(path, std::string("cannot be read as a task file: ") + e.what(), "check that it is a text file");
   }
   if (!root.IsMap() || !root["task"])
     throw TopoError(path, "has no `task:` key",
                     "start the file with `task: NAME` (" + joinNames(TaskConfig::taskNames()) + ")");
-  TaskConfig c = defaults(root["task"].as<std::string>());
-  c.source_ = path;
-  for (const auto& kv : root) {
-    const std::string key = kv.first.as<std::string>();
-    if (key == "task" || key == "description") continue;
-    if (key == "targets") {
-      if (!kv.second.IsMap())
-        throw TopoError(path + " targets", "is not a map", "write `targets:` followed by `name: value` lines");
-      for (const auto& t : kv.second) c.set(t.first.as<std::string>(), nodeText(t.second), path);
-      continue;
+  std::string key = "task";
+  try {
+    const std::string task = nodeText(root["task"], path + " task");
+    TaskConfig c;
+    try {
+      c = defaults(task);
+    } catch (const TopoError& e) {
+      throw TopoError(path + " task: " + e.what());
     }
-    c.set(key, nodeText(kv.second), path);
+    c.source_ = path;
+    for (const auto& kv : root) {
+      if (!kv.first.IsScalar())
+        throw TopoError(path, "has a key that is not a name (a list or map as a key)", "write `name: value` lines");
+      key = kv.first.Scalar();
+      if (key == "task" || key == "description") continue;
+      if (key == "targets") {
+        if (!kv.second.IsMap())
+          throw TopoError(path + " targets", "is not a map", "write `targets:` followed by `name: value` lines");
+        for (const auto& t : kv.second) {
+          if (!t.first.IsScalar())
+            throw TopoError(path + " targets", "has a key that is not a name", "write `name: value` lines");
+          key = "targets " + t.first.Scalar();
+          c.set(t.first.Scalar(), nodeText(t.second, path + " " + key), path);
+        }
+        continue;
+      }
+      c.set(key, nodeText(kv.second, path + " " + key), path);
+    }
+    return c;
+  } catch (const YAML::Exception& e) {
+    throw TopoError(path + " " + key, std::string("cannot be read: ") + e.what(), "write `name: value` lines");
   }
-  return c;
 }
 
 TaskConfig TaskConfig::load(const std::string& name_or_path, const std::string& task_dir) {

@@ -58,7 +58,7 @@ class TumblerTask : public Task {
     const Eigen::Quaterniond q0(Eigen::AngleAxisd(tilt0_, axis_));
     RigidState<Dual10> s0 = restingState(inertia, q0, contact_, options_);
     s0.angular_velocity = (omega0_ * axis_).cast<Dual10>();
-    RigidTrajectory<Dual10> traj = simulateRigid(inertia, s0, contact_, options_);
+    RigidTrajectory<Dual10> traj = simulateRigid(inertia, s0, contact_, withStop(options_, should_stop_));
     // The candidate set covers tilts up to reach_deg_: if the motion went further, redo it with all
     // surface particles (never silently miss a contact).
     double max_tilt = 0;
@@ -69,7 +69,7 @@ class TumblerTask : public Task {
       max_tilt = std::max(max_tilt, std::acos(std::max(-1.0, std::min(1.0, u.z()))) * kDeg);
     }
     if (max_tilt > reach_deg_ - 5.0 && contact_.size() < all_contact_.size())
-      traj = simulateRigid(inertia, s0, all_contact_, options_);
+      traj = simulateRigid(inertia, s0, all_contact_, withStop(options_, should_stop_));
     // Signed tilt about the rocking axis: rotating ez by φ about a gives cos φ ez + sin φ (a × ez).
     const Eigen::Vector3d ez(0, 0, 1), side = axis_.cross(ez);
     std::vector<Dual10> phi(traj.states.size());

@@ -704,6 +704,21 @@ RigidTrajectory<S> simulateRigid(const RigidInertia<S>& inertia, const RigidStat
     }
     return std::max<long>(1, static_cast<long>(std::ceil(out_dt / h - 1e-9)));
   };
+  // ---- budgets, before anything is allocated: substeps (the smallest step the run starts with) and
+  // the stored trajectory (one state per output sample, plus what a task derives from each).
+  {
+    double h0 = std::min(dt_base, out_dt);
+    if (auto_dt && cs.active) h0 = std::min(h0, contactStep(cs.n_near, cs.lever));
+    checkStepBudget(
+        "rigid simulation", h0, options.duration_s,
+        static_cast<double>(std::max<std::size_t>(1, contact_points_body.size())),
+        auto_dt ? "a shorter duration_s (the automatic substep is set by the contact stiffness)" : "max_substep_s");
+    const double samples = std::ceil(options.duration_s / out_dt - 1e-9) + 1.0;
+    const double min_dt = options.duration_s * (sizeof(RigidState<S>) + 136.0) / kMaxSimulationBytes;
+    checkMemoryBudget("rigid simulation", samples, sizeof(RigidState<S>) + 136.0,
+                      "use a larger dt_s (the sampling step, output_dt_s) >= " + numberText(min_dt, 3) +
+                          " s or a shorter duration_s");
+  }
   const long n_out = std::max<long>(1, static_cast<long>(std::ceil(options.duration_s / out_dt - 1e-9)));
 
   RigidTrajectory<S> traj;
@@ -757,6 +772,7 @@ RigidTrajectory<S> simulateRigid(const RigidInertia<S>& inertia, const RigidStat
     dt = out_dt / static_cast<double>(n_sub);
     traj.substep_s = std::min(traj.substep_s, dt);
     for (long j = 0; j < n_sub; ++j) {
+      if ((step & 63) == 0) pollStop(options.should_stop);
       state = sim.step(state, dt);
       ++step;
       t_now = (k - 1) * out_dt + (j + 1) * dt;

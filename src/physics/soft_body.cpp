@@ -379,6 +379,7 @@ SolveReport SoftBodySimulator::newtonSolve(const std::string& where, double dt, 
   std::vector<Eigen::Vector3d> cur;
   NewtonObjective obj;
   obj.value = [&](const Eigen::VectorXd& z) {
+    pollStop(opt_.should_stop);
     cur = unpack(z);
     x_ = cur;
     refreshForces(where);
@@ -421,6 +422,7 @@ SolveReport SoftBodySimulator::stepImplicit(double dt, const NewtonOptions& newt
   if (!std::isfinite(dt) || dt <= 0.0)
     throw TopoError("SoftBodySimulator::stepImplicit", "time step dt = " + std::to_string(dt) + " s is not positive",
                     "use dt > 0");
+  pollStop(opt_.should_stop);
   const long k = steps_ + 1;
   const std::vector<Eigen::Vector3d> x0 = x_, v0 = v_;
   const double t0 = time_;
@@ -527,6 +529,7 @@ void SoftBodySimulator::step(double dt) {
     s << "time step dt = " << dt << " s is not positive";
     throw TopoError("SoftBodySimulator::step", s.str(), "use 0 < dt <= stableTimeStep()");
   }
+  pollStop(opt_.should_stop);
   if (dt > dt_stable_) {
     std::ostringstream s;
     s << "time step dt = " << dt << " s exceeds the explicit stability estimate stableTimeStep() = " << dt_stable_
@@ -587,6 +590,9 @@ void SoftBodySimulator::advance(double duration, double safety) {
     throw TopoError("SoftBodySimulator::advance", "duration must be >= 0 and safety in (0, 1]",
                     "e.g. advance(0.1, 0.5)");
   if (duration == 0.0) return;
+  checkStepBudget("soft-body simulation (advance)", safety * dt_stable_, duration, static_cast<double>(size()),
+                  "a coarser particle spacing, a softer material or a shorter duration (the stable step is " +
+                      std::to_string(dt_stable_) + " s)");
   const long n = static_cast<long>(std::ceil(duration / (safety * dt_stable_)));
   const double dt = duration / static_cast<double>(n);
   for (long s = 0; s < n; ++s) step(dt);
@@ -632,6 +638,7 @@ RelaxResult SoftBodySimulator::relaxToEquilibrium(double tolerance, int max_step
   for (auto& v : v_) v.setZero();
   RelaxResult res;
   for (int it = 0; it <= max_steps; ++it) {
+    pollStop(opt_.should_stop);
     res.residual = residual();
     res.iterations = it;
     if (res.residual <= tolerance) {

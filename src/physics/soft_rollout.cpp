@@ -74,10 +74,13 @@ SoftRollout::SoftRollout(SoftBodySimulator* sim, const SoftRolloutOptions& optio
                         " s, or SoftIntegrator::ImplicitEuler, which has no stability limit");
   }
   if (opt_.checkpoint_every <= 0) opt_.checkpoint_every = static_cast<int>(std::ceil(std::sqrt(double(opt_.steps))));
+  // Step budget before the first step: steps × particles (the memory of a gradient run: run()).
+  checkStepBudget("soft-body rollout", opt_.dt, opt_.dt * opt_.steps, static_cast<double>(sim_->size()), "dt_s");
 }
 
 void SoftRollout::stepForward(int k) {
   SoftBodySimulator& s = *sim_;
+  pollStop(s.options().should_stop);
   const double dt = opt_.dt;
   if (opt_.integrator == SoftIntegrator::ImplicitEuler) {
     s.stepImplicit(dt, opt_.newton);
@@ -114,6 +117,9 @@ SoftRolloutResult SoftRollout::run(const SoftStepLoss& loss, bool with_gradient)
   const std::size_t n = s.size();
   const int N = opt_.steps, K = opt_.checkpoint_every;
   const double dt = opt_.dt, t0 = s.time();
+  if (with_gradient)  // checkpoints + one recomputed segment with forces, 72 bytes per particle and state
+    checkMemoryBudget("soft-body rollout", std::ceil(double(N) / K) + K + 1, 72.0 * double(n),
+                      "use a larger dt_s, a shorter duration_s or a coarser particle spacing");
   SoftRolloutResult res;
   auto tf = std::chrono::steady_clock::now();
   std::vector<std::pair<Vec3s, Vec3s>> checkpoints;
@@ -167,6 +173,7 @@ SoftRolloutResult SoftRollout::run(const SoftStepLoss& loss, bool with_gradient)
     const std::size_t segment_bytes = states.size() * (keep_forces ? kStateWithForces : kState);
     res.peak_state_bytes = std::max(res.peak_state_bytes, (checkpoints.size() * kState + segment_bytes) * n);
     for (int k = k1 - 1; k >= k0; --k) {
+      pollStop(s.options().should_stop);
       const Vec3s& xk = states[k - k0].first;
       const Vec3s& vk = states[k - k0].second;
       Vec3s xbn(n, Eigen::Vector3d::Zero()), vbn(n, Eigen::Vector3d::Zero());

@@ -202,6 +202,9 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
     if (!go) stopped = true;
     return go && ::ros::ok();
   };
+  // Polled inside the simulations' time loops: a cancelled goal stops within a few ms of work (the
+  // ~infer service has no cancel: no goal is active then; shutdown stops both).
+  run.should_stop = [this] { return !::ros::ok() || (server_->isActive() && server_->isPreemptRequested()); };
   run.on_evaluation = [&](const inference::ProblemEvaluation& ev) {
     std::lock_guard<std::mutex> lock(eval_mutex);
     last = ev;

@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <iomanip>
 #include <iostream>
+#include <new>
 #include <sstream>
 
 #include "args.h"
@@ -137,9 +138,10 @@ int inferCommand(const std::vector<std::string>& argv) {
   };
   std::cerr << "[topo infer] task " << config.task() << " (" << config.source() << "), representation "
             << config.text("representation") << ", optimizer " << config.text("optimizer") << ", at most "
-            << config.integer("max_iterations") << " iterations\n";
+            << config.integer("max_iterations") << " evaluations (max_iterations)\n";
   const workflow::InferenceRunOutcome out = workflow::runInference(rq);
   const inference::InferenceResult& res = out.result;
+  for (const auto& w : res.warnings) std::cerr << "[topo infer] warning: " << w << "\n";
   std::cerr << "[topo infer] " << out.message << "\n";
   for (const auto& f : res.final.task.features) {
     std::cerr << "[topo infer]   " << std::setw(28) << std::left << f.name << " " << f.value << " " << f.unit;
@@ -173,10 +175,32 @@ int simulateCommand(const std::vector<std::string>& argv) {
   }
   const VolumeCloud cloud = volumeOrDefaultShape(a, targeted);
   std::vector<double> r;
-  if (a.has("interior")) r = io::readInteriorPly(a.str("interior"), cloud.size());
+  if (a.has("interior")) {
+    const std::string path = a.str("interior");
+    const io::InteriorPly interior = io::readInteriorPlyData(path, cloud.size());  // count, r in [0, 1]
+    // Same count is not enough: the interior must have been computed on these particles.
+    const double tolerance = 0.01 * (cloud.spacing > 0 ? cloud.spacing : 1e-3);
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      if ((interior.X[i] - cloud.X[i]).norm() <= tolerance) continue;
+      std::ostringstream msg;
+      msg << "particle " << i << " is at (" << interior.X[i].transpose() << ") but particle " << i << " of the volume ("
+          << (a.has("volume") ? a.str("volume") : std::string("the task's default shape")) << ") is at ("
+          << cloud.X[i].transpose() << "): the interior was computed on another volume";
+      throw TopoError(path, msg.str(), "give the volume that topo infer was run on (--volume of that run)");
+    }
+    r = interior.r;
+  }
   const inference::InteriorProblem problem(targeted, cloud);
-  const inference::ProblemEvaluation ev =
-      problem.evaluateIndicator(r.empty() ? std::vector<double>(cloud.size(), 1.0) : r, nullptr);
+  for (const auto& w : {inference::pointOutsideObjectNote(problem.task().geometry(), cloud)})
+    if (!w.empty()) std::cerr << "[topo simulate] warning: " << w << "\n";
+  inference::ProblemEvaluation ev;
+  try {
+    ev = problem.evaluateIndicator(r.empty() ? std::vector<double>(cloud.size(), 1.0) : r, nullptr);
+  } catch (const std::bad_alloc&) {
+    throw TopoError("task " + targeted.task() + " (" + std::to_string(cloud.size()) + " particles)",
+                    "ran out of memory while simulating",
+                    "use a larger dt_s, a shorter duration_s or fewer particles (a larger spacing)");
+  }
   if (a.has("signal")) {
     std::ostringstream os;
     os << "time_s," << (ev.task.signal_name.empty() ? "value" : ev.task.signal_name) << "\n" << std::setprecision(10);

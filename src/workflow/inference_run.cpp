@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <iomanip>
+#include <new>
 #include <sstream>
 
 #include "topo_gaussian/common/error.h"
@@ -89,7 +90,25 @@ std::vector<io::SignalSeries> comparisonSignals(const motion::MotionFeatures* ob
   return out;
 }
 
-InferenceRunOutcome runInference(InferenceRunRequest rq) {
+namespace {
+
+/// std::bad_alloc → what ran out and what to change.
+[[noreturn]] void outOfMemory(const inference::TaskConfig& config, const VolumeCloud* volume, const char* stage) {
+  std::string sizes;
+  for (const char* key : {"duration_s", "dt_s", "max_substep_s"})
+    if (config.has(key)) sizes += std::string(sizes.empty() ? "" : ", ") + key + " = " + numberText(config.number(key));
+  throw TopoError("task " + config.task() + " (" + (volume ? std::to_string(volume->size()) : std::string("?")) +
+                      " particles" + (sizes.empty() ? "" : ", " + sizes) + ")",
+                  std::string("ran out of memory while ") + stage,
+                  "use a larger dt_s, a shorter duration_s, fewer particles (topo fill --count / a larger spacing) "
+                  "or a simpler representation");
+}
+
+}  // namespace
+
+namespace {
+
+InferenceRunOutcome runUnguarded(const InferenceRunRequest& rq) {
   InferenceRunOutcome out;
   out.volume = volumeFor(rq, &out.notes);
   inference::TaskConfig config = rq.config;
@@ -125,8 +144,9 @@ InferenceRunOutcome runInference(InferenceRunRequest rq) {
     throw TopoError("inference run", "has no output folder", "give an output directory");
   }
 
-  out.result = inference::runInference(config, *out.volume, rq.progress, rq.on_evaluation);
-  out.cancelled = out.result.optimizer.cancelled;
+  out.result = inference::runInference(config, *out.volume, rq.progress, rq.on_evaluation, rq.should_stop);
+  out.cancelled = out.result.cancelled || out.result.optimizer.cancelled;
+  for (const auto& w : out.result.warnings) out.notes.push_back("warning: " + w);
   const auto& res = out.result;
   const std::string dir = out.output_dir + "/";
   const bool continuous = config.boolean("continuous_material");
@@ -172,6 +192,16 @@ InferenceRunOutcome runInference(InferenceRunRequest rq) {
   out.message = msg.str();
   out.config = std::move(config);
   return out;
+}
+
+}  // namespace
+
+InferenceRunOutcome runInference(InferenceRunRequest rq) {
+  try {
+    return runUnguarded(rq);
+  } catch (const std::bad_alloc&) {
+    outOfMemory(rq.config, rq.volume.get(), "simulating and optimising");
+  }
 }
 
 }  // namespace topo_gaussian::workflow

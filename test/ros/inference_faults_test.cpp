@@ -84,6 +84,48 @@ TEST(InferenceFaults, ServicesBeforeAnyResultAnswerWithAReason) {
   EXPECT_NE(sim.response.message.find("no inference has run"), std::string::npos) << sim.response.message;
 }
 
+TEST(InferenceFaults, AStepBudgetOverrideAbortsWithTheNumbers) {
+  topo_gaussian::InferInteriorGoal g;
+  g.task = "tumbler";
+  g.volume = tumblerVolume();
+  g.targets = {"period_s=0.5"};
+  g.overrides = {"max_substep_s=1e-12"};
+  const std::string why = abortReason(g);
+  EXPECT_NE(why.find("2e+12 steps"), std::string::npos) << why;
+  EXPECT_NE(why.find("max_substep_s >="), std::string::npos) << "names the fix: " << why;
+}
+
+TEST(InferenceFaults, ASlowGoalCancelledIsPreemptedWithinTwoSecondsAndTheNextGoalIsAccepted) {
+  Client c("infer_interior", false);
+  ASSERT_TRUE(c.waitForServer(ros::Duration(30.0)));
+  topo_gaussian::InferInteriorGoal g;
+  g.task = "tumbler";
+  g.volume = tumblerVolume();
+  g.targets = {"period_s=0.5"};
+  g.overrides = {"max_substep_s=2e-7"};  // 1e7 substeps per simulation: minutes without a cancel
+  c.sendGoal(g);
+  const ros::WallTime sent = ros::WallTime::now();
+  while (c.getState() != actionlib::SimpleClientGoalState::ACTIVE &&
+         ros::WallTime::now() - sent < ros::WallDuration(10))
+    ros::WallDuration(0.02).sleep();
+  ASSERT_EQ(c.getState(), actionlib::SimpleClientGoalState::ACTIVE);
+  ros::WallDuration(1.0).sleep();  // well inside the first simulation
+  const ros::WallTime cancelled = ros::WallTime::now();
+  c.cancelGoal();
+  ASSERT_TRUE(c.waitForResult(ros::Duration(10.0)));
+  const double latency_s = (ros::WallTime::now() - cancelled).toSec();
+  std::printf("cancel to PREEMPTED: %.3f s\n", latency_s);
+  EXPECT_EQ(c.getState(), actionlib::SimpleClientGoalState::PREEMPTED) << c.getResult()->message;
+  EXPECT_LT(latency_s, 2.0);
+  EXPECT_TRUE(c.getResult()->preempted);
+  // The node is free again: the next goal is accepted and runs.
+  g.overrides.clear();
+  g.max_iterations = 1;
+  c.sendGoal(g);
+  ASSERT_TRUE(c.waitForResult(ros::Duration(60.0)));
+  EXPECT_EQ(c.getState(), actionlib::SimpleClientGoalState::SUCCEEDED) << c.getResult()->message;
+}
+
 std::uint32_t g_valid_result_points = 0;  // set by the valid goal, checked after the restart
 std::string g_valid_result_dir;           // its run folder, read back by the CLI
 

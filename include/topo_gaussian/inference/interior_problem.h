@@ -41,6 +41,8 @@ class InteriorProblem {
   void indicator(const Eigen::VectorXd& theta, std::vector<double>* r) const;
 
   const Task& task() const { return *task_; }
+  /// Polled by the task's simulations (Task::setShouldStop): true throws SimulationCancelled.
+  void setShouldStop(StopCheck stop) { task_->setShouldStop(std::move(stop)); }
   const Representation& representation() const { return *representation_; }
   const IndicatorOptions& indicatorOptions() const { return indicator_; }
   const VolumeCloud& cloud() const { return cloud_; }

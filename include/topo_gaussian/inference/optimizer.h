@@ -1,6 +1,13 @@
 // Optimisers (paper §7): NLopt LD_LBFGS with box bounds, and Adam (written here). Both report
 // progress every iteration (iteration, loss, gradient norm, elapsed), can be cancelled from the
-// progress callback (returning false), and always return the best design seen.
+// progress callback (returning false) or from should_stop (polled before every evaluation; a
+// simulation polling it too throws SimulationCancelled, which ends the run), and always return the
+// best design seen.
+//
+// max_iterations counts evaluations of the loss and its gradient (each simulates one design once),
+// for both methods, failed evaluations included: an L-BFGS iteration may evaluate several trial
+// designs in its line search, an Adam iteration evaluates one. OptimizerResult::iterations is that
+// count of the evaluations that succeeded; it never exceeds max_iterations.
 #pragma once
 
 #include <Eigen/Core>
@@ -8,16 +15,19 @@
 #include <string>
 #include <vector>
 
+#include "topo_gaussian/physics/run_limits.h"
+
 namespace topo_gaussian::inference {
 
 struct OptimizerOptions {
   std::string method = "lbfgs";  ///< lbfgs | adam
-  int max_iterations = 200;
-  double learning_rate = 0.02;  ///< Adam
+  int max_iterations = 200;      ///< evaluations of loss and gradient (see the header comment)
+  double learning_rate = 0.02;   ///< Adam
   double beta1 = 0.9, beta2 = 0.999, adam_eps = 1e-8;
   double loss_tolerance = 1e-12;      ///< stop when loss ≤ this
   double relative_tolerance = 1e-10;  ///< stop when the relative loss change ≤ this (L-BFGS)
   double gradient_tolerance = 1e-14;  ///< stop when ‖g‖ ≤ this
+  StopCheck should_stop;              ///< polled before every evaluation; true cancels
 };
 
 struct IterationInfo {
@@ -31,7 +41,8 @@ struct IterationInfo {
 struct OptimizerResult {
   Eigen::VectorXd theta;  ///< the best design seen
   double loss = 0.0;
-  int iterations = 0;      ///< objective evaluations with gradient
+  int iterations = 0;      ///< objective evaluations with gradient that succeeded (≤ max_iterations)
+  int evaluations = 0;     ///< every objective call, failed ones included (≤ max_iterations)
   bool converged = false;  ///< a stopping criterion was met (not the iteration limit)
   bool cancelled = false;
   std::string message;  ///< why it stopped

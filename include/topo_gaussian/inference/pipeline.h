@@ -26,7 +26,9 @@ struct InferenceResult {
   OptimizerResult optimizer;
   bool converged = false;  ///< optimiser converged AND every target feature reached
   bool targets_reached = false;
-  std::string message;  ///< one paragraph for a person: what happened, how close, what to do
+  bool cancelled = false;             ///< by progress or should_stop: the best design evaluated so far
+  std::vector<std::string> warnings;  ///< for a person, not errors (e.g. a hanging point outside the object)
+  std::string message;                ///< one paragraph for a person: what happened, how close, what to do
   double setup_s = 0, optimize_s = 0, evaluation_s = 0;  ///< timings; evaluation_s = per loss+gradient
 };
 
@@ -35,10 +37,15 @@ using EvaluationCallback = std::function<void(const ProblemEvaluation&)>;
 
 /// Runs the optimisation. progress is called once per iteration; returning false cancels (the best
 /// design so far is returned). on_evaluation (optional) sees every evaluated design, before the
-/// progress call of its iteration. Throws TopoError for bad input before the optimisation starts.
+/// progress call of its iteration. should_stop (optional) is polled inside every simulation's time
+/// loop and between evaluations: a cancel takes effect within a few ms of work and returns the best
+/// design evaluated so far (the start design, unevaluated, when the first evaluation was cut short)
+/// without simulating it again. max_iterations bounds the optimiser's evaluations (optimizer.h);
+/// the run also evaluates the start design before them. Throws TopoError for bad input before the
+/// optimisation starts, including a simulation over its step or memory budget (run_limits.h).
 InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
                              const ProgressCallback& progress = nullptr,
-                             const EvaluationCallback& on_evaluation = nullptr);
+                             const EvaluationCallback& on_evaluation = nullptr, const StopCheck& should_stop = nullptr);
 
 /// The default shape a task brings when no volume is given (finger → finger, pear → pear,
 /// cantilever → beam; "" for tasks that need a volume). Its spacing is the task's default_spacing_m.

@@ -14,6 +14,7 @@
 #include "topo_gaussian/inference/body_motion.h"
 #include "topo_gaussian/inference/task_config.h"
 #include "topo_gaussian/physics/mass_properties.h"
+#include "topo_gaussian/physics/run_limits.h"
 #include "topo_gaussian/physics/volume_cloud.h"
 #include "topo_gaussian/topology/materials.h"
 
@@ -68,6 +69,10 @@ class Task {
   void masses(const std::vector<double>& r, std::vector<double>* m, std::vector<double>* dm_dr) const;
   /// Object size used to make losses dimensionless: bounding-box diagonal [m].
   double size() const { return size_; }
+  /// Polled by the task's simulations (physics/run_limits.h): when it returns true they throw
+  /// SimulationCancelled within a few ms of work. Set before evaluating; null = never stop.
+  void setShouldStop(StopCheck stop) { should_stop_ = std::move(stop); }
+  const StopCheck& shouldStop() const { return should_stop_; }
 
  protected:
   /// require_gravity: refuse a zero gravity vector (rigid tasks; soft tasks may run without, e.g.
@@ -89,7 +94,17 @@ class Task {
   double size_ = 1.0;
   Eigen::Vector3d lo_, hi_;
   TaskGeometry geometry_;
+  StopCheck should_stop_;
 };
+
+/// Fewest particles a task accepts: an interior is inferred from how its particles differ, and the
+/// mass moments of fewer particles cannot change independently.
+constexpr std::size_t kMinTaskParticles = 8;
+
+/// A note when the task's hanging/support/pivot point lies outside the object: outside the
+/// particles' bounding box grown by one spacing, or farther than two spacings from every particle
+/// ("" when it is inside or the task has none). Not an error: the object may hang from a hook.
+std::string pointOutsideObjectNote(const TaskGeometry& geometry, const VolumeCloud& cloud);
 
 /// Builds the task named by config.task() (its registered factory, inference/task_registry.h). The
 /// cloud must outlive the task.

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "topo_gaussian/physics/mass_properties.h"
+#include "topo_gaussian/physics/run_limits.h"
 
 namespace topo_gaussian {
 
@@ -72,6 +73,8 @@ struct RigidSimOptions {
   bool pivot = false;  ///< ball joint: pivot_body stays at pivot_world
   Eigen::Vector3d pivot_body = Eigen::Vector3d::Zero();
   Eigen::Vector3d pivot_world = Eigen::Vector3d::Zero();
+  /// Polled every 64 substeps; true throws SimulationCancelled (physics/run_limits.h).
+  StopCheck should_stop;
 };
 
 template <typename S>
@@ -93,7 +96,10 @@ struct RigidTrajectory {
 /// Simulates from `initial` for options.duration_s. contact_points_body are body-frame points
 /// (usually the surface particles). Throws TopoError on bad input (non-positive mass or inertia,
 /// dt ≤ 0, NaN) and when the simulation diverges (NaN or energy growth): the message names the step,
-/// the time, the likely cause and suggests a smaller step.
+/// the time, the likely cause and suggests a smaller step. Before the first step it refuses (TopoError
+/// with the numbers) more than kMaxSimulationSteps substeps, kMaxParticleSteps substeps × contact
+/// points, or a trajectory over kMaxSimulationBytes (physics/run_limits.h); throws SimulationCancelled
+/// when options.should_stop returns true.
 template <typename S>
 RigidTrajectory<S> simulateRigid(const RigidInertia<S>& inertia, const RigidState<S>& initial,
                                  const std::vector<Eigen::Vector3d>& contact_points_body,

@@ -31,6 +31,7 @@
 #include "topo_gaussian/physics/newton_solver.h"
 #include "topo_gaussian/physics/pneumatic_actuation.h"
 #include "topo_gaussian/physics/rest_stiffness.h"
+#include "topo_gaussian/physics/run_limits.h"
 #include "topo_gaussian/physics/soft_contact.h"
 
 namespace topo_gaussian {
@@ -46,6 +47,9 @@ struct SoftBodyOptions {
   /// particles (factorised once per material and inertia; memory grows with the fill), Jacobi
   /// above it. 0 = always Jacobi.
   std::size_t cholesky_max_particles = 20000;
+  /// Polled every step (explicit, implicit), every Newton line-search evaluation, FIRE iteration and
+  /// SoftRollout step; true throws SimulationCancelled (physics/run_limits.h).
+  StopCheck should_stop;
 };
 
 struct RelaxResult {
@@ -165,7 +169,8 @@ class SoftBodySimulator {
   /// Largest load per particle [N] (gravity, pressure, elastic scale): the Newton force scale.
   double forceScale() const;
 
-  /// Advances by `duration` seconds in ceil(duration / (safety·stableTimeStep())) equal steps.
+  /// Advances by `duration` seconds in ceil(duration / (safety·stableTimeStep())) equal steps;
+  /// refuses (TopoError, before the first step) more than the step budget of run_limits.h.
   void advance(double duration, double safety = 0.5);
   long stepCount() const { return steps_; }
   double time() const { return time_; }

@@ -11,6 +11,7 @@
 // A run folder written here loads with io::loadRunFolder, whichever front end wrote it.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -35,13 +36,16 @@ struct InferenceRunRequest {
   bool export_files = true;                     ///< also the STL and the pictures
   inference::ProgressCallback progress;         ///< per iteration; false cancels (best design so far)
   inference::EvaluationCallback on_evaluation;  ///< every evaluated design
+  /// Polled inside every simulation's time loop and between evaluations (a cancelled goal, Ctrl-C):
+  /// true stops the run within a few ms of work with the best design so far (cancelled = true).
+  std::function<bool()> should_stop;
 };
 
 struct InferenceRunOutcome {
   inference::TaskConfig config;               ///< as run: with the targets set
   std::shared_ptr<const VolumeCloud> volume;  ///< as run (the default shape when none was given)
   inference::InferenceResult result;
-  bool cancelled = false;  ///< stopped by the progress callback: best design so far
+  bool cancelled = false;  ///< stopped by the progress callback or should_stop: best design so far
   std::string output_dir;
   std::vector<std::string> files;  ///< written, full paths
   std::string report_json;
@@ -51,8 +55,10 @@ struct InferenceRunOutcome {
 };
 
 /// Runs the request. Throws TopoError before any optimisation for a missing volume, a missing
-/// target, an invalid override or an output folder that cannot be created; afterwards the files are
-/// written even when the run was cancelled.
+/// target, an invalid override, a simulation over its step or memory budget (physics/run_limits.h)
+/// or an output folder that cannot be created; afterwards the files are written even when the run
+/// was cancelled. Memory that runs out anyway (std::bad_alloc) becomes a TopoError that names the
+/// task, the particles and the parameters that set the size (dt_s, duration_s, the spacing).
 InferenceRunOutcome runInference(InferenceRunRequest request);
 
 /// The series a person compares: the observed signal of `observed` (started at its first turning point
