@@ -140,7 +140,10 @@ bool VideoSource::decodeNext(cv::Mat& bgr, double& t_s, int& index) {
     return true;
   }
   cv::Mat raw;
-  if (!cap_.read(raw) || raw.empty()) return false;
+  if (!cap_.read(raw) || raw.empty()) {
+    stopped_ = true;
+    return false;
+  }
   bgr = toBgr(raw);
   index = next_index_++;
   ++decoded_;
