@@ -241,6 +241,8 @@ TEST(Params, InvalidValuesNameTheParameter) {
   EXPECT_NE(loadWith("max_open_fraction", 2.0).find("~max_open_fraction"), std::string::npos);
   EXPECT_NE(loadWith("frame_id", std::string("")).find("~frame_id"), std::string::npos);
   EXPECT_NE(loadWith("recenter", 1).find("true or false"), std::string::npos);
+  EXPECT_NE(loadWith("up_axis", std::string("up")).find("~up_axis"), std::string::npos);
+  EXPECT_EQ(loadWith("up_axis", std::string("-y")), "");
   // Accepted: a whole number written as a double (YAML 5e4), and a spacing given as an integer.
   EXPECT_EQ(loadWith("fill_count", 5e4), "");
   EXPECT_EQ(loadWith("spacing_m", 1), "");
