@@ -4,6 +4,7 @@
 
 #include <exception>
 
+#include "topo_gaussian/ros/ascii_text.h"
 #include "topo_gaussian/ros/cloud_ingest_node.h"
 
 int main(int argc, char** argv) {
@@ -15,7 +16,7 @@ int main(int argc, char** argv) {
     topo_gaussian::topo_ros::CloudIngestNode node(nh, pnh);
     ros::spin();
   } catch (const std::exception& e) {  // invalid parameters
-    ROS_FATAL("cloud_ingest: %s", e.what());
+    ROS_FATAL("cloud_ingest: %s", topo_gaussian::topo_ros::asciiText(e.what()).c_str());
     return 1;
   }
   return 0;

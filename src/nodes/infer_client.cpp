@@ -18,6 +18,7 @@
 #include "topo_gaussian/InferInteriorAction.h"
 #include "topo_gaussian/MotionFeatures.h"
 #include "topo_gaussian/RigGroundTruth.h"
+#include "topo_gaussian/ros/ascii_text.h"
 #include "topo_gaussian/ros/param_reader.h"
 
 namespace {
@@ -59,7 +60,7 @@ int main(int argc, char** argv) {
     timeout_s = r.number("timeout_s", timeout_s, "s", Range::above(0.0));
     truth_topic = r.text("ground_truth_topic", "");
   } catch (const std::exception& e) {
-    ROS_FATAL("infer_client: %s", e.what());
+    ROS_FATAL("infer_client: %s", topo_gaussian::topo_ros::asciiText(e.what()).c_str());
     return 1;
   }
   ros::AsyncSpinner spinner(1);

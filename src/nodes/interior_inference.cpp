@@ -5,6 +5,7 @@
 
 #include <exception>
 
+#include "topo_gaussian/ros/ascii_text.h"
 #include "topo_gaussian/ros/interior_inference_node.h"
 
 int main(int argc, char** argv) {
@@ -16,7 +17,7 @@ int main(int argc, char** argv) {
     spinner.start();
     ros::waitForShutdown();
   } catch (const std::exception& e) {  // invalid parameters
-    ROS_FATAL("interior_inference: %s", e.what());
+    ROS_FATAL("interior_inference: %s", topo_gaussian::topo_ros::asciiText(e.what()).c_str());
     return 1;
   }
   return 0;

@@ -5,6 +5,7 @@
 
 #include <exception>
 
+#include "topo_gaussian/ros/ascii_text.h"
 #include "topo_gaussian/ros/motion_tracker_node.h"
 
 int main(int argc, char** argv) {
@@ -14,7 +15,7 @@ int main(int argc, char** argv) {
     topo_gaussian::topo_ros::MotionTrackerNode node(nh, pnh);
     ros::spin();
   } catch (const std::exception& e) {  // invalid parameters
-    ROS_FATAL("motion_tracker: %s", e.what());
+    ROS_FATAL("motion_tracker: %s", topo_gaussian::topo_ros::asciiText(e.what()).c_str());
     return 1;
   }
   return 0;

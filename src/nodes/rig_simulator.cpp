@@ -6,6 +6,7 @@
 
 #include <exception>
 
+#include "topo_gaussian/ros/ascii_text.h"
 #include "topo_gaussian/ros/rig_simulator_node.h"
 
 int main(int argc, char** argv) {
@@ -15,7 +16,7 @@ int main(int argc, char** argv) {
     topo_gaussian::topo_ros::RigSimulatorNode node(nh, pnh);
     ros::spin();
   } catch (const std::exception& e) {  // invalid parameters or a failed twin simulation
-    ROS_FATAL("rig_simulator: %s", e.what());
+    ROS_FATAL("rig_simulator: %s", topo_gaussian::topo_ros::asciiText(e.what()).c_str());
     return 1;
   }
   return 0;

@@ -1,12 +1,18 @@
 #include "topo_gaussian/ros/cloud_ingest_node.h"
 
+#include <sys/stat.h>
+
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <exception>
 #include <limits>
+#include <new>
 #include <sstream>
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/ros/ascii_text.h"
 #include "topo_gaussian/ros/conversions.h"
 #include "topo_gaussian/ros/param_reader.h"
 #include "topo_gaussian/ros/service_guard.h"
@@ -25,6 +31,9 @@ CloudIngestParams loadCloudIngestParams(const ::ros::NodeHandle& pnh) {
   p.surface_file = reader.text("surface_file", "");
   p.frame_id = reader.text("frame_id", p.frame_id);
   if (p.frame_id.empty()) bad("frame_id", "is empty", "name the object's body frame, e.g. object");
+  p.up_axis = reader.text("up_axis", p.up_axis);
+  upAxisVector(p.up_axis, reader.displayName("up_axis"));  // x y z -x -y -z, or a TopoError naming it
+  p.options.up_axis = p.up_axis;
 
   fill.spacing_m = reader.number("spacing_m", fill.spacing_m, "m");
   if (fill.spacing_m < 0.0)
@@ -67,6 +76,32 @@ CloudIngestParams loadCloudIngestParams(const ::ros::NodeHandle& pnh) {
   return p;
 }
 
+Eigen::Vector3d upAxisVector(const std::string& axis, const std::string& name) {
+  const std::string a = axis.size() == 2 && axis[0] == '+' ? axis.substr(1) : axis;
+  const double sign = !a.empty() && a[0] == '-' ? -1.0 : 1.0;
+  const std::string letter = sign < 0 ? a.substr(1) : a;
+  if (letter == "x") return Eigen::Vector3d(sign, 0, 0);
+  if (letter == "y") return Eigen::Vector3d(0, sign, 0);
+  if (letter == "z") return Eigen::Vector3d(0, 0, sign);
+  throw TopoError(name, "is '" + axis + "', not an axis",
+                  "use one of x y z -x -y -z: the object's up direction in its file or cloud frame (default z)");
+}
+
+void checkSurfaceFile(const std::string& path, const std::string& what) {
+  struct stat st {};
+  if (path.empty() || ::stat(path.c_str(), &st) != 0) return;  // missing: the reader says so
+  if (S_ISREG(st.st_mode)) return;
+  const char* kind = S_ISFIFO(st.st_mode)   ? "a FIFO (named pipe)"
+                     : S_ISDIR(st.st_mode)  ? "a directory"
+                     : S_ISCHR(st.st_mode)  ? "a character device"
+                     : S_ISBLK(st.st_mode)  ? "a block device"
+                     : S_ISSOCK(st.st_mode) ? "a socket"
+                                            : "not a regular file";
+  throw TopoError(what,
+                  "'" + path + "' is " + std::string(kind) + ", not a regular file (reading it could block the node)",
+                  "give the path of a surface file: .ply .pcd .obj .off .stl");
+}
+
 geometry::IngestOptions requestOptions(const topo_gaussian::FillInterior::Request& req,
                                        const geometry::IngestOptions& defaults, const std::string& service) {
   geometry::IngestOptions o = defaults;
@@ -103,30 +138,50 @@ std::string describe(const geometry::IngestResult& r) {
 }
 
 CloudIngestNode::CloudIngestNode(const ::ros::NodeHandle& nh, const ::ros::NodeHandle& pnh)
-    : nh_(nh), pnh_(pnh), params_(loadCloudIngestParams(pnh)) {
+    : nh_(nh), pnh_(pnh), fill_nh_(nh), params_(loadCloudIngestParams(pnh)) {
+  fill_nh_.setCallbackQueue(&fill_queue_);
   volume_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("volume", 1, /*latch=*/true);
-  surface_sub_ = nh_.subscribe("surface_cloud", 1, &CloudIngestNode::onSurfaceCloud, this);
+  surface_sub_ = fill_nh_.subscribe("surface_cloud", 1, &CloudIngestNode::onSurfaceCloud, this);
   fill_srv_ = pnh_.advertiseService("fill_interior", &CloudIngestNode::onFillInterior, this);
   ROS_INFO("cloud_ingest: publishing %s (latched, frame %s), listening on %s, service %s",
            volume_pub_.getTopic().c_str(), params_.frame_id.c_str(), surface_sub_.getTopic().c_str(),
            fill_srv_.getService().c_str());
-  fillStartupFile();
-}
-
-void CloudIngestNode::fillStartupFile() {
+  fill_spinner_ = std::make_unique<::ros::AsyncSpinner>(1, &fill_queue_);
+  fill_spinner_->start();
   if (params_.surface_file.empty()) {
     ROS_INFO("cloud_ingest: no ~surface_file; waiting for clouds on %s or calls to %s", surface_sub_.getTopic().c_str(),
              fill_srv_.getService().c_str());
-    return;
+  } else {
+    startup_timer_ = fill_nh_.createWallTimer(
+        ::ros::WallDuration(0.001), [this](const ::ros::WallTimerEvent&) { fillStartupFile(); }, /*oneshot=*/true);
   }
+}
+
+CloudIngestNode::~CloudIngestNode() {
+  startup_timer_.stop();
+  surface_sub_.shutdown();
+  fill_queue_.disable();
+  fill_spinner_->stop();  // waits for a fill in progress
+  fill_queue_.clear();
+}
+
+void CloudIngestNode::fillStartupFile() {
+  std::string why;
   try {
+    checkSurfaceFile(params_.surface_file, pnh_.resolveName("surface_file"));
     const geometry::IngestResult r = geometry::ingestFile(params_.surface_file, params_.options);
     publish(toPointCloud2(r.cloud, params_.frame_id, ::ros::Time::now()));
-    ROS_INFO("cloud_ingest: %s", describe(r).c_str());
+    ROS_INFO("cloud_ingest: %s", asciiText(describe(r)).c_str());
+    return;
+  } catch (const std::bad_alloc&) {
+    why = params_.surface_file + ": out of memory; raise ~spacing_m or lower ~fill_count";
   } catch (const std::exception& e) {
-    ROS_ERROR("cloud_ingest: ~surface_file not filled: %s. The node keeps running: publish a cloud on %s or call %s",
-              e.what(), surface_sub_.getTopic().c_str(), fill_srv_.getService().c_str());
+    why = e.what();
+  } catch (...) {
+    why = params_.surface_file + ": unknown exception";
   }
+  ROS_ERROR("cloud_ingest: ~surface_file not filled: %s. The node keeps running: publish a cloud on %s or call %s",
+            asciiText(why).c_str(), surface_sub_.getTopic().c_str(), fill_srv_.getService().c_str());
 }
 
 void CloudIngestNode::onSurfaceCloud(const sensor_msgs::PointCloud2ConstPtr& msg) {
@@ -136,9 +191,18 @@ void CloudIngestNode::onSurfaceCloud(const sensor_msgs::PointCloud2ConstPtr& msg
     const std::string frame = msg->header.frame_id.empty() ? params_.frame_id : msg->header.frame_id;
     const ::ros::Time stamp = msg->header.stamp.isZero() ? ::ros::Time::now() : msg->header.stamp;
     publish(toPointCloud2(r.cloud, frame, stamp));
-    ROS_INFO("cloud_ingest: %s", describe(r).c_str());
-  } catch (const std::exception& e) {  // TopoError, and e.g. bad_alloc for an absurd cloud
-    ROS_ERROR("cloud_ingest: cloud on %s not filled (last good volume stays published): %s", topic.c_str(), e.what());
+    ROS_INFO("cloud_ingest: %s", asciiText(describe(r)).c_str());
+  } catch (const std::bad_alloc&) {
+    ROS_ERROR(
+        "cloud_ingest: cloud on %s (%u x %u points) not filled (last good volume stays published): out of memory; "
+        "raise ~spacing_m, lower ~fill_count, or publish fewer points",
+        topic.c_str(), msg->width, msg->height);
+  } catch (const std::exception& e) {  // TopoError: bad input, named with the fix
+    ROS_ERROR("cloud_ingest: cloud on %s not filled (last good volume stays published): %s", topic.c_str(),
+              asciiText(e.what()).c_str());
+  } catch (...) {
+    ROS_ERROR("cloud_ingest: cloud on %s not filled (last good volume stays published): unknown exception",
+              topic.c_str());
   }
 }
 
@@ -152,6 +216,7 @@ bool CloudIngestNode::onFillInterior(topo_gaussian::FillInterior::Request& req,
     std::string frame = params_.frame_id;
     ::ros::Time stamp = ::ros::Time::now();
     if (!req.surface_file.empty()) {
+      checkSurfaceFile(req.surface_file, service + " surface_file");
       r = geometry::ingestFile(req.surface_file, options);
     } else {
       if (std::size_t(req.surface.width) * req.surface.height == 0)
@@ -169,7 +234,8 @@ bool CloudIngestNode::onFillInterior(topo_gaussian::FillInterior::Request& req,
     res.message = describe(r);
     res.success = true;
     if (req.publish) publish(res.volume);
-    ROS_INFO("cloud_ingest: %s: %s%s", service.c_str(), res.message.c_str(), req.publish ? " (published)" : "");
+    ROS_INFO("cloud_ingest: %s: %s%s", service.c_str(), asciiText(res.message).c_str(),
+             req.publish ? " (published)" : "");
   });  // errors travel in the response, never as a failed call
 }
 

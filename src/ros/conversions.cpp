@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 
 namespace topo_gaussian::topo_ros {
 
@@ -64,6 +65,29 @@ double loadAs(std::uint8_t datatype, const std::uint8_t* p) {
       return load<double>(p);
     default:
       return std::nan("");
+  }
+}
+
+std::string datatypeName(std::uint8_t datatype) {
+  switch (datatype) {
+    case PointField::INT8:
+      return "INT8";
+    case PointField::UINT8:
+      return "UINT8";
+    case PointField::INT16:
+      return "INT16";
+    case PointField::UINT16:
+      return "UINT16";
+    case PointField::INT32:
+      return "INT32";
+    case PointField::UINT32:
+      return "UINT32";
+    case PointField::FLOAT32:
+      return "FLOAT32";
+    case PointField::FLOAT64:
+      return "FLOAT64";
+    default:
+      return "unknown (" + std::to_string(int(datatype)) + ")";
   }
 }
 
@@ -131,6 +155,20 @@ class CloudReader {
     return i;
   }
 
+  /// require() for a coordinate: FLOAT32 or FLOAT64 only. An integer field (a uint8 'x') holds no
+  /// position in metres: reading it as metres would fill a box of 0..255 m.
+  int requirePosition(const std::string& name, const std::string& needed_for) const {
+    const int i = require(name, needed_for);
+    const auto t = msg_.fields[std::size_t(i)].datatype;
+    if (t != PointField::FLOAT32 && t != PointField::FLOAT64)
+      throw TopoError(source_,
+                      "position field '" + name + "' has type " + datatypeName(t) +
+                          ", not a coordinate in metres (FLOAT32 or FLOAT64)",
+                      "publish x y z as FLOAT32 (or FLOAT64) metres; convert scaled integer coordinates before "
+                      "publishing");
+    return i;
+  }
+
   double get(std::size_t point, int field) const {
     const auto& f = msg_.fields[std::size_t(field)];
     const std::size_t r = point / msg_.width, c = point % msg_.width;
@@ -169,6 +207,7 @@ sensor_msgs::PointCloud2 toPointCloud2(const VolumeCloud& cloud, const std::stri
   modifier.resize(n);
   msg.is_dense = true;
   msg.is_bigendian = false;
+  if (n == 0) return msg;  // the iterators dereference data.front(): not on an empty cloud
 
   sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z"), v(msg, "volume");
   sensor_msgs::PointCloud2Iterator<std::uint8_t> s(msg, "surface");
@@ -186,7 +225,7 @@ sensor_msgs::PointCloud2 toPointCloud2(const VolumeCloud& cloud, const std::stri
 geometry::SurfaceData toSurfaceData(const sensor_msgs::PointCloud2& msg, const std::string& source) {
   const CloudReader in(msg, source);
   const std::string xyz = "x y z fields (FLOAT32 coordinates in metres)";
-  const int fx = in.require("x", xyz), fy = in.require("y", xyz), fz = in.require("z", xyz);
+  const int fx = in.requirePosition("x", xyz), fy = in.requirePosition("y", xyz), fz = in.requirePosition("z", xyz);
   const int nx = in.find("normal_x"), ny = in.find("normal_y"), nz = in.find("normal_z");
   const bool normals = nx >= 0 && ny >= 0 && nz >= 0;
 
@@ -197,6 +236,13 @@ geometry::SurfaceData toSurfaceData(const sensor_msgs::PointCloud2& msg, const s
   if (normals) s.normals.reserve(in.size());
   for (std::size_t i = 0; i < in.size(); ++i) {
     s.points.emplace_back(in.get(i, fx), in.get(i, fy), in.get(i, fz));
+    const Eigen::Vector3d& p = s.points.back();
+    for (int k = 0; k < 3; ++k)
+      if (std::abs(p[k]) > kMaxCoordinateM)  // false for NaN: NaN points are kept, cleaning drops them
+        throw TopoError(source,
+                        "point " + std::to_string(i) + " has " + "xyz"[k] + " = " + numberText(p[k], 6) +
+                            " m, beyond the " + numberText(kMaxCoordinateM, 6) + " m a surface can reach",
+                        "publish coordinates in metres (a scan's far or invalid points as NaN), or crop the cloud");
     if (normals) s.normals.emplace_back(in.get(i, nx), in.get(i, ny), in.get(i, nz));
   }
   return s;
@@ -205,7 +251,8 @@ geometry::SurfaceData toSurfaceData(const sensor_msgs::PointCloud2& msg, const s
 VolumeCloud fromPointCloud2(const sensor_msgs::PointCloud2& msg, const std::string& source) {
   const CloudReader in(msg, source);
   const std::string layout = "the volume layout: x y z volume (FLOAT32) and surface (UINT8)";
-  const int fx = in.require("x", layout), fy = in.require("y", layout), fz = in.require("z", layout);
+  const int fx = in.requirePosition("x", layout), fy = in.requirePosition("y", layout),
+            fz = in.requirePosition("z", layout);
   const int fv = in.require("volume", layout);
   const int fs = in.find("surface");
 
@@ -258,6 +305,7 @@ sensor_msgs::PointCloud2 toInteriorCloud(const VolumeCloud& cloud, const std::ve
   modifier.resize(n);
   msg.is_dense = true;
   msg.is_bigendian = false;
+  if (n == 0) return msg;  // the iterators dereference data.front(): not on an empty cloud
   sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z"), s(msg, "solid"), d(msg, "density"),
       e(msg, "stiffness"), c(msg, "rgb");
   for (std::size_t i = 0; i < n; ++i, ++x, ++y, ++z, ++s, ++d, ++e, ++c) {
@@ -277,7 +325,8 @@ sensor_msgs::PointCloud2 toInteriorCloud(const VolumeCloud& cloud, const std::ve
 InteriorPoints fromInteriorCloud(const sensor_msgs::PointCloud2& msg, const std::string& source) {
   const CloudReader in(msg, source);
   const std::string layout = "the interior layout: x y z solid (FLOAT32; solid = r in [0, 1])";
-  const int fx = in.require("x", layout), fy = in.require("y", layout), fz = in.require("z", layout);
+  const int fx = in.requirePosition("x", layout), fy = in.requirePosition("y", layout),
+            fz = in.requirePosition("z", layout);
   const int fr = in.require("solid", layout);
   InteriorPoints out;
   out.X.reserve(in.size());

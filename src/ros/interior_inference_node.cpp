@@ -2,15 +2,19 @@
 
 #include <geometry_msgs/TransformStamped.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <limits>
+#include <regex>
 #include <sstream>
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/inference/interior_problem.h"
 #include "topo_gaussian/io/run_folder.h"
 #include "topo_gaussian/io/task_dir.h"
+#include "topo_gaussian/ros/ascii_text.h"
 #include "topo_gaussian/ros/body_pose_msg.h"
 #include "topo_gaussian/ros/conversions.h"
 #include "topo_gaussian/ros/interior_markers.h"
@@ -95,7 +99,7 @@ void InteriorInferenceNode::onVolume(const sensor_msgs::PointCloud2ConstPtr& msg
     ROS_INFO("interior_inference: volume of %zu particles (spacing %.4g m, %.4g m^3) in frame '%s'", cloud->size(),
              cloud->spacing, cloud->totalVolume(), msg->header.frame_id.c_str());
   } catch (const std::exception& e) {
-    ROS_ERROR("interior_inference: ignored a volume: %s", e.what());
+    ROS_ERROR("interior_inference: ignored a volume: %s", asciiText(e.what()).c_str());
   }
 }
 
@@ -303,12 +307,51 @@ void InteriorInferenceNode::onReplay(const ::ros::WallTimerEvent&) {
   tf_.sendTransform(toTransformStamped(p, params_.world_frame, params_.object_frame, ::ros::Time::now()));
 }
 
+std::vector<std::string> unfinishedRunFolders(const std::string& parent, const std::string& newer_than) {
+  namespace fs = std::filesystem;
+  static const std::regex kRunName(R"(.+_[0-9]{8}_[0-9]{6}(_[0-9]+)?)");
+  std::error_code ec;
+  fs::file_time_type since = fs::file_time_type::min();
+  if (!newer_than.empty()) {
+    const fs::path report = fs::path(newer_than) / "report.json";
+    since = fs::exists(report, ec) ? fs::last_write_time(report, ec) : fs::last_write_time(newer_than, ec);
+    if (ec) since = fs::file_time_type::min();
+  }
+  std::vector<std::pair<fs::file_time_type, std::string>> found;
+  for (const auto& e : fs::directory_iterator(parent, ec)) {
+    std::error_code dec;
+    if (!e.is_directory(dec) || !std::regex_match(e.path().filename().string(), kRunName)) continue;
+    if (fs::exists(e.path() / "report.json", dec)) continue;  // a run: findLatestRun judges it
+    const auto t = fs::last_write_time(e.path(), dec);
+    if (dec || t < since) continue;
+    std::vector<std::string> files;
+    for (const auto& f : fs::directory_iterator(e.path(), dec)) files.push_back(f.path().filename().string());
+    std::sort(files.begin(), files.end());
+    std::string have;
+    for (const auto& f : files) have += (have.empty() ? "" : " ") + f;
+    found.emplace_back(t, e.path().string() +
+                              ": no report.json, so the run did not finish (the node stopped, "
+                              "crashed or was killed while it ran); it holds " +
+                              (files.empty() ? std::string("no files") : have) + "; delete it or run the goal again");
+  }
+  std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::vector<std::string> out;
+  for (auto& f : found) out.push_back(std::move(f.second));
+  return out;
+}
+
 void InteriorInferenceNode::restoreLatest() {
   // The newest complete run under ~output_dir (volume.ply, interior.ply and a report.json naming
   // its task); newer ones that do not load are skipped, each with the reason.
   const io::LatestRun latest = io::findLatestRun(params_.output_dir);
-  for (const auto& why : latest.skipped) ROS_WARN("interior_inference: restore skipped %s", why.c_str());
-  if (!latest.found) return;
+  for (const auto& why : unfinishedRunFolders(params_.output_dir, latest.found ? latest.run.dir : ""))
+    ROS_WARN("interior_inference: restore skipped %s", asciiText(why).c_str());
+  for (const auto& why : latest.skipped) ROS_WARN("interior_inference: restore skipped %s", asciiText(why).c_str());
+  if (!latest.found) {
+    if (!latest.skipped.empty())
+      ROS_WARN("interior_inference: no complete run under %s to restore", params_.output_dir.c_str());
+    return;
+  }
   const io::RunFiles& run = latest.run;
   try {
     auto cloud = std::make_shared<const VolumeCloud>(run.volume);
@@ -331,7 +374,8 @@ void InteriorInferenceNode::restoreLatest() {
     ROS_INFO("interior_inference: restored the latest result from %s (task %s, %zu particles): published on %s",
              run.dir.c_str(), config.task().c_str(), cloud->size(), interior_pub_.getTopic().c_str());
   } catch (const std::exception& e) {
-    ROS_WARN("interior_inference: could not restore the latest result from %s: %s", run.dir.c_str(), e.what());
+    ROS_WARN("interior_inference: could not restore the latest result from %s: %s", run.dir.c_str(),
+             asciiText(e.what()).c_str());
   }
 }
 
@@ -340,7 +384,7 @@ void InteriorInferenceNode::execute(const topo_gaussian::InferInteriorGoalConstP
   std::unique_lock<std::mutex> running(run_mutex_, std::try_to_lock);
   if (!running.owns_lock()) {
     result.message = "another inference (a ~infer call) is running: wait for it to finish, then send the goal again";
-    ROS_WARN("interior_inference: goal aborted: %s", result.message.c_str());
+    ROS_WARN("interior_inference: goal aborted: %s", asciiText(result.message).c_str());
     server_->setAborted(result, result.message);
     return;
   }
@@ -371,14 +415,14 @@ void InteriorInferenceNode::execute(const topo_gaussian::InferInteriorGoalConstP
     result.solid_fraction = res.final.solid_fraction;
     result.output_dir = out.output_dir;
     result.files = out.files;
-    ROS_INFO("interior_inference: %s", out.message.c_str());
+    ROS_INFO("interior_inference: %s", asciiText(out.message).c_str());
     if (out.preempted)
       server_->setPreempted(result, result.message);
     else
       server_->setSucceeded(result, result.message);
   } catch (const std::exception& e) {
     result.message = e.what();
-    ROS_ERROR("interior_inference: goal aborted: %s", e.what());
+    ROS_ERROR("interior_inference: goal aborted: %s", asciiText(e.what()).c_str());
     server_->setAborted(result, result.message);
   }
 }
@@ -413,7 +457,7 @@ bool InteriorInferenceNode::onInfer(topo_gaussian::Infer::Request& req, topo_gau
     res.solid_fraction = out.result.final.solid_fraction;
     res.output_dir = out.output_dir;
     res.files = out.files;
-    ROS_INFO("interior_inference: ~infer: %s", out.message.c_str());
+    ROS_INFO("interior_inference: ~infer: %s", asciiText(out.message).c_str());
   });
 }
 
@@ -470,7 +514,7 @@ bool InteriorInferenceNode::onSimulate(topo_gaussian::SimulateInterior::Request&
     res.message = os.str();
     for (auto& c : res.message)
       if (c == '\n') c = ';';
-    ROS_INFO("interior_inference: ~simulate: %s", res.message.c_str());
+    ROS_INFO("interior_inference: ~simulate: %s", asciiText(res.message).c_str());
   });
 }
 
@@ -515,7 +559,7 @@ bool InteriorInferenceNode::onExport(topo_gaussian::ExportInterior::Request& req
        << 100 * s.interface.volume_difference << std::noshowpos << " % vs the solid particles";
     for (const auto& n : s.notes) os << "; " << n;
     res.message = os.str();
-    ROS_INFO("interior_inference: ~export: %s", res.message.c_str());
+    ROS_INFO("interior_inference: ~export: %s", asciiText(res.message).c_str());
   });
 }
 

@@ -3,9 +3,12 @@
 #include <cv_bridge/cv_bridge.h>
 #include <sensor_msgs/image_encodings.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/ros/ascii_text.h"
 #include "topo_gaussian/ros/motion_features_msg.h"
 #include "topo_gaussian/ros/param_reader.h"
 #include "topo_gaussian/ros/service_guard.h"
@@ -13,6 +16,44 @@
 #include "topo_gaussian/vision/motion_features.h"
 
 namespace topo_gaussian::topo_ros {
+StampWindow::Decision StampWindow::next(double stamp_s) {
+  Decision d;
+  if (!started_) {
+    started_ = true;
+    start_s_ = last_s_ = stamp_s;
+    d.action = Action::Start;
+    return d;
+  }
+  const double step = stamp_s - last_s_;
+  char text[256];
+  if (std::abs(step) > max_jump_s_ || !std::isfinite(step)) {
+    std::snprintf(text, sizeof text,
+                  "the stamp jumped %s by %.3f s (from %.3f s to %.3f s; more than ~max_stamp_jump_s %.3g s): the "
+                  "analysis window restarts at this frame; check the camera's clock",
+                  step < 0 ? "back" : "forward", std::abs(step), last_s_, stamp_s, max_jump_s_);
+    d.warning = text;
+    d.action = Action::Restart;
+    start_s_ = last_s_ = stamp_s;
+    return d;
+  }
+  if (step <= 0) {
+    std::snprintf(text, sizeof text, "stamp %.3f s is not after the previous frame's (%.3f s); frame skipped", stamp_s,
+                  last_s_);
+    d.warning = text;
+    d.action = Action::Skip;
+    return d;
+  }
+  last_s_ = stamp_s;
+  if (stamp_s - start_s_ > window_s_) {
+    start_s_ = stamp_s;
+    d.action = Action::Restart;
+    return d;
+  }
+  d.action = Action::Add;
+  d.t_s = stamp_s - start_s_;
+  return d;
+}
+
 MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh) {
   const ParamReader r(pnh, "motion_tracker");
   MotionTrackerParams p;
@@ -62,6 +103,7 @@ MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh) {
   }
   p.window_s = r.number("window_s", 20.0, "s", Range::above(0.0));
   p.publish_period_s = r.number("publish_period_s", 1.0, "s", Range::above(0.0));
+  p.max_stamp_jump_s = r.number("max_stamp_jump_s", p.max_stamp_jump_s, "s", Range::above(0.0));
   p.stale_after_s = r.number("stale_after_s", 5.0, "s", Range::atLeast(0.0));  // 0: never report a stale camera
   vision::MotionTracker check(p.options);  // validates kind and method (throws TopoError)
   return p;
@@ -84,7 +126,10 @@ cv::Mat imageToBgr(const sensor_msgs::Image& msg, const std::string& topic) {
 }
 
 MotionTrackerNode::MotionTrackerNode(const ::ros::NodeHandle& nh, const ::ros::NodeHandle& pnh)
-    : nh_(nh), pnh_(pnh), params_(loadMotionTrackerParams(pnh)) {
+    : nh_(nh),
+      pnh_(pnh),
+      params_(loadMotionTrackerParams(pnh)),
+      window_(params_.window_s, std::min(params_.max_stamp_jump_s, params_.window_s)) {
   features_pub_ = nh_.advertise<topo_gaussian::MotionFeatures>("motion_features", 1, true);
   debug_pub_ = pnh_.advertise<sensor_msgs::Image>("debug_image", 2);
   image_sub_ = nh_.subscribe("image", 5, &MotionTrackerNode::onImage, this);
@@ -125,9 +170,9 @@ void MotionTrackerNode::trackStartupFile() {
       debug_pub_.publish(img.toImageMsg());
     });
     publish(r, "camera");
-    ROS_INFO("motion_tracker: %s: %s", params_.video_file.c_str(), r.message.c_str());
+    ROS_INFO("motion_tracker: %s: %s", params_.video_file.c_str(), asciiText(r.message).c_str());
   } catch (const std::exception& e) {
-    ROS_ERROR("motion_tracker: ~video_file: %s", e.what());
+    ROS_ERROR("motion_tracker: ~video_file: %s", asciiText(e.what()).c_str());
   }
 }
 
@@ -138,7 +183,7 @@ void MotionTrackerNode::onImage(const sensor_msgs::ImageConstPtr& msg) {
   try {
     bgr = imageToBgr(*msg, image_sub_.getTopic());
   } catch (const std::exception& e) {
-    ROS_ERROR_THROTTLE(5.0, "motion_tracker: %s", e.what());
+    ROS_ERROR_THROTTLE(5.0, "motion_tracker: %s", asciiText(e.what()).c_str());
     return;
   }
   const double t = msg->header.stamp.isZero() ? ::ros::Time::now().toSec() : msg->header.stamp.toSec();
@@ -147,18 +192,17 @@ void MotionTrackerNode::onImage(const sensor_msgs::ImageConstPtr& msg) {
     ROS_INFO("motion_tracker: %s publishes again", image_sub_.getTopic().c_str());
     stale_reported_ = false;
   }
-  if (last_t_s_ >= 0 && t <= last_t_s_) {
-    ROS_WARN_THROTTLE(5.0, "motion_tracker: %s: stamp %.3f s is not after the previous frame's; frame skipped",
-                      image_sub_.getTopic().c_str(), t);
+  const StampWindow::Decision d = window_.next(t);
+  if (d.action == StampWindow::Action::Skip) {
+    ROS_WARN_THROTTLE(5.0, "motion_tracker: %s: %s", image_sub_.getTopic().c_str(), d.warning.c_str());
     return;
   }
+  if (!d.warning.empty())  // a jump: its own throttle, so skipped frames do not hide it
+    ROS_WARN_THROTTLE(5.0, "motion_tracker: %s: %s", image_sub_.getTopic().c_str(), d.warning.c_str());
   try {
-    if (!live_ || t - live_start_s_ > params_.window_s) {
+    if (!live_ || d.action != StampWindow::Action::Add)
       live_ = std::make_unique<vision::MotionTracker>(params_.options);
-      live_start_s_ = t;
-    }
-    live_->addFrame(bgr, t - live_start_s_);
-    last_t_s_ = t;
+    live_->addFrame(bgr, d.t_s);
     live_frame_id_ = msg->header.frame_id;
     live_dirty_ = true;
     if (debug_pub_.getNumSubscribers() > 0) {
@@ -166,8 +210,9 @@ void MotionTrackerNode::onImage(const sensor_msgs::ImageConstPtr& msg) {
       debug_pub_.publish(img.toImageMsg());
     }
   } catch (const std::exception& e) {
-    ROS_ERROR_THROTTLE(5.0, "motion_tracker: %s: %s", image_sub_.getTopic().c_str(), e.what());
+    ROS_ERROR_THROTTLE(5.0, "motion_tracker: %s: %s", image_sub_.getTopic().c_str(), asciiText(e.what()).c_str());
     live_.reset();
+    window_.reset();
   }
 }
 
@@ -179,7 +224,7 @@ void MotionTrackerNode::finishLive() {
     r.source = image_sub_.getTopic();
     publish(r, live_frame_id_);
   } catch (const std::exception& e) {
-    ROS_ERROR_THROTTLE(5.0, "motion_tracker: %s", e.what());
+    ROS_ERROR_THROTTLE(5.0, "motion_tracker: %s", asciiText(e.what()).c_str());
   }
 }
 
@@ -203,6 +248,7 @@ void MotionTrackerNode::onTimer(const ::ros::TimerEvent&) {
                   " s; check the camera driver";
       features_pub_.publish(m);
       live_.reset();
+      window_.reset();
       live_dirty_ = false;
     }
   }

@@ -14,6 +14,7 @@
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/io/task_dir.h"
 #include "topo_gaussian/physics/default_shapes.h"
+#include "topo_gaussian/ros/ascii_text.h"
 #include "topo_gaussian/ros/body_pose_msg.h"
 #include "topo_gaussian/ros/conversions.h"
 #include "topo_gaussian/ros/param_reader.h"
@@ -217,7 +218,7 @@ RigSimulatorNode::RigSimulatorNode(const ::ros::NodeHandle& nh, const ::ros::Nod
       tw.shape().name.c_str(), tw.config().task().c_str(), tw.cloud().size(), tw.surfacePoints().size(),
       tw.solidFraction(), listText(theta).c_str(), o.interior_quadric.size() ? "" : " (default cavity)",
       tw.scanPoints().size());
-  ROS_INFO("rig_simulator: ground truth: %s", features.c_str());
+  ROS_INFO("rig_simulator: ground truth: %s", asciiText(features).c_str());
   ROS_INFO(
       "rig_simulator: motion loops every %.4f s (%d periods; seam %.3f deg / %.3f mm; amplitude decay %.3f %% per "
       "period%s); set up in %.2f s",
@@ -310,7 +311,7 @@ void RigSimulatorNode::onTimer(const ::ros::TimerEvent&) {
   try {
     img = vision::renderSplats(camera_, world, shading_);
   } catch (const std::exception& e) {
-    ROS_ERROR_THROTTLE(5.0, "rig_simulator: rendering failed: %s", e.what());
+    ROS_ERROR_THROTTLE(5.0, "rig_simulator: rendering failed: %s", asciiText(e.what()).c_str());
     return;
   }
   render_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

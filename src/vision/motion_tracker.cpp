@@ -216,8 +216,15 @@ int MotionTracker::framesAdded() const { return static_cast<int>(impl_->t_all.si
 
 void MotionTracker::addFrame(const cv::Mat& bgr, double t_s) {
   Impl& s = *impl_;
-  if (bgr.empty() || bgr.type() != CV_8UC3)
-    throw TopoError("frame at t = " + fixedText(t_s, 3) + " s", "is not an 8-bit BGR image", "pass CV_8UC3 frames");
+  if (bgr.empty())
+    throw TopoError("frame at t = " + fixedText(t_s, 3) + " s",
+                    "is empty (" + std::to_string(bgr.cols) + "x" + std::to_string(bgr.rows) + " pixels)",
+                    "pass the camera's frames as they are; check the driver or the decoder that produced an empty one");
+  if (bgr.type() != CV_8UC3)
+    throw TopoError("frame at t = " + fixedText(t_s, 3) + " s",
+                    "is not an 8-bit BGR image (" + std::to_string(bgr.channels()) + " channels of " +
+                        std::to_string(8 * bgr.elemSize1()) + " bits)",
+                    "pass CV_8UC3 frames");
   if (!s.t_all.empty() && !(t_s > s.t_all.back()))
     throw TopoError("frame at t = " + fixedText(t_s, 3) + " s",
                     "timestamps must increase (previous " + fixedText(s.t_all.back(), 3) + " s)",
@@ -561,12 +568,30 @@ TrackResult trackVideo(const std::string& path, const TrackOptions& options,
     mt.addFrame(frame, t);
     if (overlay_sink) overlay_sink(mt.overlay());
   }
+  // A file that stops decoding well before its announced length is truncated or damaged: say so,
+  // instead of the analysis's "too few frames" advice about the recording.
+  const std::string truncated =
+      src.endedEarly() ? "the file is truncated or unreadable after frame " + std::to_string(src.framesDecoded()) +
+                             " (" + fixedText(src.framesDecoded() / src.fps(), 2) + " s; the container announces " +
+                             std::to_string(src.frameCount()) + " frames)"
+                       : std::string();
+  const std::string repair =
+      "copy the complete file again or re-encode what is left, e.g. `ffmpeg -err_detect ignore_err -i IN -c:v libx264 "
+      "OUT.mp4`";
+  if (!truncated.empty() && mt.framesAdded() == 0) throw TopoError(path, truncated, repair);
   if (mt.framesAdded() == 0)
     throw TopoError(path,
                     "no frames in the requested time range (" + fixedText(options.video.start_s, 2) + " s to " +
                         (options.video.end_s < 0 ? std::string("end") : fixedText(options.video.end_s, 2) + " s") + ")",
                     "check --start/--end against the video's length");
-  TrackResult r = mt.finish();
+  TrackResult r;
+  try {
+    r = mt.finish();
+  } catch (const TopoError& e) {
+    if (truncated.empty()) throw;
+    throw TopoError(path, truncated + ", so the motion cannot be analysed (" + e.what() + ")", repair);
+  }
+  if (!truncated.empty()) r.message = "warning: " + truncated + "; " + r.message;
   r.source = path;
   r.fps = src.fps();
   r.frames_total = std::max(src.frameCount(), src.framesDecoded());

@@ -102,8 +102,11 @@ VideoSource::VideoSource(const std::string& path, const VideoOptions& options) :
     throw TopoError(path, "video file does not exist or cannot be read",
                     "check the path (--video) and the file permissions");
   if (!cap_.open(path, cv::CAP_FFMPEG))
-    throw TopoError(path, "cannot be opened as a video (unknown container or codec)",
-                    "convert it, e.g. `ffmpeg -i IN -c:v libx264 OUT.mp4`, or give an image sequence");
+    throw TopoError(path,
+                    "cannot be opened as a video: an unknown container or codec, or a file cut off before its "
+                    "index (an .mp4/.mov copied or recorded only in part has no 'moov' index and cannot be read)",
+                    "copy or record the file again; for an unknown format convert it, e.g. `ffmpeg -i IN -c:v "
+                    "libx264 OUT.mp4`, or give an image sequence");
   const double fps = cap_.get(cv::CAP_PROP_FPS);
   fps_ = (std::isfinite(fps) && fps > 0.5 && fps < 10000) ? fps : opt_.sequence_fps;
   frame_count_ = static_cast<int>(std::max(0.0, cap_.get(cv::CAP_PROP_FRAME_COUNT)));
@@ -140,7 +143,10 @@ bool VideoSource::decodeNext(cv::Mat& bgr, double& t_s, int& index) {
     return true;
   }
   cv::Mat raw;
-  if (!cap_.read(raw) || raw.empty()) return false;
+  if (!cap_.read(raw) || raw.empty()) {
+    stopped_ = true;
+    return false;
+  }
   bgr = toBgr(raw);
   index = next_index_++;
   ++decoded_;

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
-# Runs the reader fuzzer for a bounded time and writes a JUnit XML result.
-# Usage: run_fuzz.sh <fuzz_readers binary> <seed corpus dir> <junit xml out>
+# Runs a fuzzer (fuzz_readers, fuzz_task_config, fuzz_ros_conversions) for a bounded time and writes a
+# JUnit XML result.
+# Usage: run_fuzz.sh <fuzz binary> <seed corpus dir> <junit xml out>
+# The dictionary is <name without fuzz_>.dict beside this script, when there is one (readers.dict).
 # Environment: TOPO_FUZZ_SECONDS (default 30); TOPO_FUZZ_RUNS=N stops after N executions instead
 # (TOPO_FUZZ_SECONDS then only caps the time, default 3600). Crash inputs are kept next to the XML file in
 # fuzz_artifacts/ so that they can be replayed with: <binary> <artifact>
@@ -31,7 +33,8 @@ extra_args=()
 if [ -n "$runs" ]; then
   extra_args+=("-runs=$runs")
 fi
-dict="$(cd "$(dirname "$0")" && pwd)/readers.dict"
+name=$(basename "$bin")
+dict="$(cd "$(dirname "$0")" && pwd)/${name#fuzz_}.dict"
 if [ -f "$dict" ]; then
   extra_args+=("-dict=$dict")
 fi
@@ -62,9 +65,9 @@ escape() { tr -d '\000-\010\013\014\016-\037' | sed -e 's/&/\&amp;/g' -e 's/</\&
   failures=0
   [ "$status" -ne 0 ] && failures=1
   echo "<testsuite name=\"fuzz\" tests=\"1\" failures=\"$failures\" errors=\"0\" time=\"$elapsed\">"
-  echo "  <testcase classname=\"fuzz.readers\" name=\"fuzz_readers\" time=\"$elapsed\">"
+  echo "  <testcase classname=\"fuzz.${name#fuzz_}\" name=\"$name\" time=\"$elapsed\">"
   if [ "$status" -ne 0 ]; then
-    echo "    <failure message=\"fuzz_readers exited with status $status\">"
+    echo "    <failure message=\"$name exited with status $status\">"
     tail -n 80 "$work/log" | escape
     echo "    </failure>"
   fi

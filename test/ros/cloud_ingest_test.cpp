@@ -11,6 +11,9 @@
 #include <sensor_msgs/PointField.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
 
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -238,6 +241,8 @@ TEST(Params, InvalidValuesNameTheParameter) {
   EXPECT_NE(loadWith("max_open_fraction", 2.0).find("~max_open_fraction"), std::string::npos);
   EXPECT_NE(loadWith("frame_id", std::string("")).find("~frame_id"), std::string::npos);
   EXPECT_NE(loadWith("recenter", 1).find("true or false"), std::string::npos);
+  EXPECT_NE(loadWith("up_axis", std::string("up")).find("~up_axis"), std::string::npos);
+  EXPECT_EQ(loadWith("up_axis", std::string("-y")), "");
   // Accepted: a whole number written as a double (YAML 5e4), and a spacing given as an integer.
   EXPECT_EQ(loadWith("fill_count", 5e4), "");
   EXPECT_EQ(loadWith("spacing_m", 1), "");
@@ -429,6 +434,115 @@ TEST(CloudIngest, SurfaceCloudTopicFillsSphere) {
   EXPECT_LT(c.centroid().norm(), c.spacing);
   EXPECT_GT(c.surfaceCount(), 0u);
   EXPECT_LT(c.surfaceCount(), c.size());
+}
+
+// ------------------------------------------------------------------ faults: the node survives and keeps serving
+
+/// The test's publisher on /surface_cloud, once cloud_ingest subscribes (null otherwise).
+ros::Publisher* surfacePublisher() {
+  static ros::Publisher pub;
+  if (!pub) {
+    ros::NodeHandle nh;
+    pub = nh.advertise<PointCloud2>("/surface_cloud", 1, /*latch=*/true);
+  }
+  for (int i = 0; i < 100 && pub.getNumSubscribers() == 0; ++i) ros::Duration(0.05).sleep();
+  return pub.getNumSubscribers() > 0 ? &pub : nullptr;
+}
+
+/// A small good request: the node answers it with success when it is alive and serving.
+bool nodeStillFills(std::string* why) {
+  topo_gaussian::FillInterior srv;
+  srv.request.surface = sphereCloud(0.05, 800, 0);
+  srv.request.target_count = 500;
+  srv.request.publish = false;
+  if (!ros::service::waitForService(fillService(), ros::Duration(5.0))) {
+    *why = fillService() + " is gone: the node died";
+    return false;
+  }
+  if (!callFill(srv)) {
+    *why = "the call to " + fillService() + " failed";
+    return false;
+  }
+  *why = srv.response.message;
+  return srv.response.success && srv.response.count > 0;
+}
+
+TEST(CloudIngestFaults, AbsurdAndNanOnlyCloudsOnTheTopicKeepTheNodeAndItsVolume) {
+  REQUIRE_SETUP();
+  ros::Publisher* pub = surfacePublisher();
+  ASSERT_TRUE(pub) << "cloud_ingest does not subscribe /surface_cloud";
+  auto latched = ros::topic::waitForMessage<PointCloud2>("/volume", ros::Duration(5.0));
+  ASSERT_TRUE(latched);
+  const VolumeCloud good = tr::fromPointCloud2(*latched, "/volume");
+  const std::size_t before = g_volumes->count();
+  // Coordinates near FLT_MAX (FLANN aborted the whole node on these), then a cloud of NaN only.
+  PointCloud2 huge = sphereCloud(0.05, 2000, 0);
+  sensor_msgs::PointCloud2Iterator<float> x(huge, "x");
+  for (int i = 0; i < 2000; ++i, ++x)
+    if (i % 3 == 0) {
+      x[0] = (i % 2 ? 3e38f : -3e38f);
+      x[1] = 3e38f;
+      x[2] = -3e38f;
+    }
+  pub->publish(huge);
+  ros::Duration(2.0).sleep();
+  pub->publish(sphereCloud(0.05, 0, 3000));
+  ros::Duration(2.0).sleep();
+  std::string why;
+  EXPECT_TRUE(nodeStillFills(&why)) << why;
+  // Nothing new published; the latched volume is still the last good one.
+  EXPECT_EQ(g_volumes->count(), before);
+  latched = ros::topic::waitForMessage<PointCloud2>("/volume", ros::Duration(5.0));
+  ASSERT_TRUE(latched) << "no latched volume after the bad clouds";
+  EXPECT_EQ(tr::fromPointCloud2(*latched, "/volume").size(), good.size());
+  // The same cloud in a request: refused with the reason, in the response.
+  topo_gaussian::FillInterior srv;
+  srv.request.surface = huge;
+  ASSERT_TRUE(callFill(srv));
+  EXPECT_FALSE(srv.response.success);
+  EXPECT_NE(srv.response.message.find("1e+06 m"), std::string::npos) << srv.response.message;
+  // A uint8 x y z cloud: refused naming the field and its type.
+  srv.request.surface = sphereCloud(0.05, 100, 0);
+  for (auto& f : srv.request.surface.fields) f.datatype = PointField::UINT8;
+  ASSERT_TRUE(callFill(srv));
+  EXPECT_FALSE(srv.response.success);
+  EXPECT_NE(srv.response.message.find("UINT8"), std::string::npos) << srv.response.message;
+}
+
+TEST(CloudIngestFaults, ServiceAnswersWithinASecondWhileALargeTopicFillRuns) {
+  REQUIRE_SETUP();
+  ros::Publisher* pub = surfacePublisher();
+  ASSERT_TRUE(pub);
+  const std::size_t before = g_volumes->count();
+  pub->publish(sphereCloud(0.05, 2000000, 0));  // ~10 s of filling on the lab machine
+  ros::Duration(1.5).sleep();                   // delivered, and the fill under way
+  ASSERT_EQ(g_volumes->count(), before) << "the large fill finished too fast to test anything";
+  topo_gaussian::FillInterior srv;  // neither file nor cloud: answered at once when the node serves
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_TRUE(callFill(srv));
+  const double waited_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const bool fill_running = g_volumes->count() == before;
+  EXPECT_FALSE(srv.response.success);
+  EXPECT_LT(waited_s, 1.0) << "~fill_interior waited for the topic fill";
+  EXPECT_TRUE(fill_running) << "the topic fill ended before the service answered: the test proves nothing";
+  // A FIFO as the surface file: refused, not read (reading it would block until a writer comes).
+  const std::string fifo = "/tmp/cloud_ingest_test_" + std::to_string(::getpid()) + ".fifo";
+  ::unlink(fifo.c_str());
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  topo_gaussian::FillInterior from_fifo;
+  from_fifo.request.surface_file = fifo;
+  const auto t1 = std::chrono::steady_clock::now();
+  const bool called = callFill(from_fifo);
+  const double fifo_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+  ::unlink(fifo.c_str());
+  ASSERT_TRUE(called);
+  EXPECT_FALSE(from_fifo.response.success);
+  EXPECT_NE(from_fifo.response.message.find("FIFO"), std::string::npos) << from_fifo.response.message;
+  EXPECT_LT(fifo_s, 1.0);
+  // The large fill still completes and is published.
+  const auto big = g_volumes->waitBeyond(before, 90.0);
+  ASSERT_TRUE(big) << "the large topic fill never published";
+  EXPECT_GT(tr::fromPointCloud2(*big, "/volume").size(), 0u);
 }
 
 }  // namespace

@@ -149,6 +149,60 @@ TEST(MotionTrackerNode, ImageStreamGivesTheSamePeriod) {
   EXPECT_NE(why.find("no image on /image"), std::string::npos) << "no stale-camera report: '" << why << "'";
 }
 
+// Three frames stamped 1e6 s in the future, then a normal 30 Hz stream: the stream used to be dropped
+// frame by frame forever ("not after the previous frame's"); now the jump restarts the window and
+// the stream's features arrive.
+TEST(MotionTrackerNode, FutureStampsDoNotStallTheStream) {
+  ros::NodeHandle nh;
+  ros::Publisher pub = nh.advertise<sensor_msgs::Image>("/image", 300);
+  std::mutex mu;
+  topo_gaussian::MotionFeatures last;
+  bool got = false;
+  const ros::Time start = ros::Time::now();
+  ros::Subscriber sub = nh.subscribe<topo_gaussian::MotionFeatures>(
+      "/motion_features", 10, [&](const topo_gaussian::MotionFeaturesConstPtr& m) {
+        std::lock_guard<std::mutex> l(mu);
+        if (m->source == "/image" && m->header.stamp > start && m->message.rfind("stale:", 0) != 0) {
+          last = *m;
+          got = true;
+        }
+      });
+  for (int i = 0; i < 100 && pub.getNumSubscribers() == 0; ++i) ros::Duration(0.05).sleep();
+  ASSERT_GT(pub.getNumSubscribers(), 0u);
+  const vis::PendulumScene s = scene();
+  const std::vector<cv::Mat> frames = vis::renderPendulum(s);
+  for (int k = 0; k < 3; ++k) {
+    cv_bridge::CvImage img(std_msgs::Header(), "bgr8", frames[std::size_t(k)]);
+    img.header.stamp = ros::Time(1e6 + 400.0 + k / s.fps);
+    img.header.frame_id = "camera";
+    pub.publish(img.toImageMsg());
+    ros::Duration(0.012).sleep();
+  }
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    cv_bridge::CvImage img(std_msgs::Header(), "bgr8", frames[k]);
+    img.header.stamp = ros::Time(400.0 + k / s.fps);
+    img.header.frame_id = "camera";
+    pub.publish(img.toImageMsg());
+    ros::Duration(0.012).sleep();
+  }
+  const ros::Time deadline = ros::Time::now() + ros::Duration(30.0);
+  topo_gaussian::MotionFeatures f;
+  while (ros::Time::now() < deadline) {
+    {
+      std::lock_guard<std::mutex> l(mu);
+      if (got && last.frames_used >= static_cast<int>(0.9 * frames.size())) {
+        f = last;
+        break;
+      }
+    }
+    ros::Duration(0.1).sleep();
+  }
+  ASSERT_GE(f.frames_used, static_cast<int>(0.9 * frames.size()))
+      << "the 30 Hz stream after three future frames gave no features (frames dropped?); last: " << last.message;
+  EXPECT_TRUE(f.oscillation_found) << f.message;
+  EXPECT_NEAR(f.period_s, s.period_s, 0.01 * s.period_s) << f.message;
+}
+
 // ParamReader through a real parameter server: absent → defaults, a good value, a wrong type and
 // a value out of range (the latter two name the parameter as "~name (/resolved/name)").
 TEST(MotionTrackerParams, TypedAndChecked) {

@@ -3,14 +3,22 @@
 //        service ~fill_interior (FillInterior.srv)
 //   out: topic `volume` (PointCloud2, latched; fields x y z volume surface)
 // The node owns the ROS handles and the parameters; geometry::ingestFile/ingestSurface do the work.
-// Callbacks run on the caller's spinner (ros::spin: one at a time), so fills never overlap.
+// Threads: clouds on `surface_cloud` and the ~surface_file at start are filled on the node's own
+// callback queue and thread (one at a time, newest cloud wins), so ~fill_interior keeps answering
+// on the caller's spinner while a long topic fill runs (a 5e6-point cloud takes ~25 s). Nothing a
+// fill throws (TopoError, std::bad_alloc, any exception) stops the node: the error is logged and the
+// last good volume stays latched on `volume`.
 #pragma once
 
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
 
+#include <atomic>
 #include <cstddef>
+#include <memory>
 #include <string>
+#include <utility>
 
 #include "topo_gaussian/FillInterior.h"
 #include "topo_gaussian/geometry/ingest.h"
@@ -21,6 +29,9 @@ namespace topo_gaussian::topo_ros {
 struct CloudIngestParams {
   std::string surface_file;         ///< ~surface_file: filled once at start when not empty
   std::string frame_id = "object";  ///< ~frame_id: frame of volumes from files (clouds keep their own)
+  /// ~up_axis: the object's up direction in its input frame, one of x y z -x -y -z (default z);
+  /// passed to geometry::IngestOptions::up_axis (the fill turns that axis to +z).
+  std::string up_axis = "z";
   /// ~spacing_m, ~fill_count, ~scale, ~recenter, ~opacity_threshold, ~outlier_neighbours,
   /// ~closing_cells, ~grid_resolution, ~max_open_fraction; unset ones keep the library's defaults
   /// (IngestOptions{}), so the node and `topo fill` agree.
@@ -30,6 +41,15 @@ struct CloudIngestParams {
 /// Reads the private parameters from `pnh` (unset: the defaults of CloudIngestParams) and
 /// validates them. Throws TopoError naming the parameter, its value and the fix.
 CloudIngestParams loadCloudIngestParams(const ::ros::NodeHandle& pnh);
+
+/// The axis names ~up_axis accepts, and the unit vector of one ("-y" → (0, -1, 0)). Throws TopoError
+/// naming `name` for anything else.
+Eigen::Vector3d upAxisVector(const std::string& axis, const std::string& name);
+
+/// A surface path the node can read: refuses a FIFO, a directory or a device (reading a FIFO would
+/// block the node) with TopoError naming `what` and the path. A missing path passes (the reader
+/// names it with its own message).
+void checkSurfaceFile(const std::string& path, const std::string& what);
 
 /// The options for one ~fill_interior request: the request's non-zero fields over `defaults`.
 /// Throws TopoError naming `service` for negative or non-finite values.
@@ -42,9 +62,11 @@ std::string describe(const geometry::IngestResult& result);
 class CloudIngestNode {
  public:
   /// Loads parameters (throws TopoError on invalid ones), advertises `volume`, subscribes
-  /// `surface_cloud`, offers ~fill_interior, then fills ~surface_file when it is set. A failure of
-  /// that first fill is logged with ROS_ERROR and the node keeps running.
+  /// `surface_cloud` on the node's fill queue, offers ~fill_interior, starts the fill thread and
+  /// queues the fill of ~surface_file when it is set. A failure of that first fill is logged with
+  /// ROS_ERROR and the node keeps running.
   CloudIngestNode(const ::ros::NodeHandle& nh, const ::ros::NodeHandle& pnh);
+  ~CloudIngestNode();
 
   const CloudIngestParams& params() const { return params_; }
   /// Volumes published on `volume` so far.
@@ -57,11 +79,15 @@ class CloudIngestNode {
   void publish(const sensor_msgs::PointCloud2& volume);
 
   ::ros::NodeHandle nh_, pnh_;
-  CloudIngestParams params_;
-  ::ros::Publisher volume_pub_;
+  ::ros::NodeHandle fill_nh_;  ///< nh_ on fill_queue_: `surface_cloud` and the startup fill
+  ::ros::CallbackQueue fill_queue_;
+  std::unique_ptr<::ros::AsyncSpinner> fill_spinner_;  ///< the one thread that serves fill_queue_
+  const CloudIngestParams params_;                     ///< read-only after construction: no lock needed
+  ::ros::Publisher volume_pub_;                        ///< publish() is thread-safe in roscpp
   ::ros::Subscriber surface_sub_;
   ::ros::ServiceServer fill_srv_;
-  std::size_t published_ = 0;
+  ::ros::WallTimer startup_timer_;  ///< one shot on fill_queue_: fills ~surface_file
+  std::atomic<std::size_t> published_{0};
 };
 
 }  // namespace topo_gaussian::topo_ros

@@ -1,8 +1,8 @@
 // Conversions between the library's types and ROS messages.
 //  - VolumeCloud  -> sensor_msgs/PointCloud2 "volume layout": x y z volume (FLOAT32, m and m^3) and
 //    surface (UINT8, 1 within one spacing of the boundary), padded to a 20-byte point.
-//  - PointCloud2  -> geometry::SurfaceData (kind Points) for filling: x y z required, of any numeric
-//    type; normal_x/y/z used when all three are present. NaN points are kept here, cleaning drops them.
+//  - PointCloud2  -> geometry::SurfaceData (kind Points) for filling: x y z required, FLOAT32 or
+//    FLOAT64; normal_x/y/z used when all three are present. NaN points are kept here, cleaning drops them.
 //  - PointCloud2 (volume layout) -> VolumeCloud, for tests and later nodes.
 //  - an inferred interior <-> PointCloud2 "interior layout": x y z solid density stiffness rgb, all
 //    FLOAT32 (m, r in [0, 1], kg/m^3, Pa or 0 for rigid tasks, and rgb packed as PCL and rviz read
@@ -25,16 +25,21 @@ namespace topo_gaussian::topo_ros {
 /// Volume cloud as an unorganised PointCloud2 (height 1) in `frame_id` at `stamp`.
 sensor_msgs::PointCloud2 toPointCloud2(const VolumeCloud& cloud, const std::string& frame_id, const ::ros::Time& stamp);
 
-/// Surface points from any PointCloud2 with x y z fields (FLOAT32/FLOAT64 or integer types).
+/// Coordinates beyond this (in metres, either sign) are refused by toSurfaceData: no surface the lab
+/// scans is 1000 km across, and values near FLT_MAX overflow the fill's arithmetic.
+constexpr double kMaxCoordinateM = 1e6;
+
+/// Surface points from any PointCloud2 with x y z fields of type FLOAT32 or FLOAT64 (metres).
 /// `source` (the topic, or "service request") is named in every error and becomes
-/// SurfaceData::source. Throws TopoError for a missing x/y/z field, a field that lies outside the
-/// point, a data array shorter than width*height points, or a big-endian cloud.
+/// SurfaceData::source. Throws TopoError for a missing x/y/z field, an x/y/z field of another type
+/// (an integer field is not metres: the error names the field, its type and the fix), a field that
+/// lies outside the point, a data array shorter than width*height points, a big-endian cloud, or a
+/// coordinate beyond ±kMaxCoordinateM (NaN points are kept: cleaning drops them).
 geometry::SurfaceData toSurfaceData(const sensor_msgs::PointCloud2& msg, const std::string& source);
 
-/// Reads a cloud in the volume layout (x y z volume required, surface optional = 0). The spacing is
-/// not carried by the message: it is recovered as the cube root of the median particle volume.
-/// Throws TopoError naming `source` for missing fields or malformed data (not for bad values:
-/// call VolumeCloud::validate for that).
+/// Reads a cloud in the volume layout (x y z volume required, x y z FLOAT32/FLOAT64; surface optional = 0). The spacing
+/// is not carried by the message: it is recovered as the cube root of the median particle volume. Throws TopoError
+/// naming `source` for missing fields or malformed data (not for bad values: call VolumeCloud::validate for that).
 VolumeCloud fromPointCloud2(const sensor_msgs::PointCloud2& msg, const std::string& source);
 
 /// Colours of the interior layout (0xRRGGBB).

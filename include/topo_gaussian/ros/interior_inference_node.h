@@ -58,6 +58,13 @@ struct InteriorInferenceParams {
 /// Reads and validates the private parameters; throws TopoError naming the parameter and the fix.
 InteriorInferenceParams loadInteriorInferenceParams(const ::ros::NodeHandle& pnh);
 
+/// Run folders under `parent` (named <stem>_<YYYYmmdd_HHMMSS>[_N], as io::createRunFolder makes
+/// them) that have no report.json: runs that never finished (the node was killed or crashed while it
+/// worked). io::findLatestRun passes over them silently; the restore names them. Only folders changed
+/// after `newer_than` (a run folder, e.g. the one restored; empty: all) are listed, newest first,
+/// each as "DIR: why".
+std::vector<std::string> unfinishedRunFolders(const std::string& parent, const std::string& newer_than);
+
 /// What one inference needs (the common part of an action goal and an ~infer request).
 struct InferenceRequest {
   std::string task, representation;

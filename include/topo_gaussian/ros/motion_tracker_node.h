@@ -26,6 +26,9 @@ struct MotionTrackerParams {
       options;             ///< ~method, ~kind, ~foreground, ~roi [x,y,w,h], ~start_s, ~end_s, ~stride, ~pivot [x,y]
   double window_s = 20.0;  ///< ~window_s: live stream analysed over windows this long [s]
   double publish_period_s = 1.0;  ///< ~publish_period_s: live features published this often [s]
+  /// ~max_stamp_jump_s: a frame stamped this much before or after the previous one restarts the
+  /// window (StampWindow) [s]
+  double max_stamp_jump_s = 10.0;
   /// ~stale_after_s: no image for this long → the camera is reported stale (log + a features
   /// message saying so); 0 = never
   double stale_after_s = 5.0;
@@ -33,6 +36,36 @@ struct MotionTrackerParams {
   cv::Vec4d plane;                            ///  the latest camera_info and ~camera_pose
   cv::Matx33d camera_R = cv::Matx33d::eye();  ///< ~camera_pose [x, y, z, qx, qy, qz, qw]: optical frame in the world
   cv::Vec3d camera_t = cv::Vec3d(0, 0, 0);
+};
+
+/// The live stream's time line: which frame stamps go into the current analysis window. A camera
+/// whose clock jumps (a driver restart, a bag replayed with --clock, three frames stamped 1e6 s
+/// ahead) must not stall the tracker: a jump of more than max_jump_s, back or forward, restarts the
+/// window at the new frame with a warning that names the jump; a small step back (reordered frames)
+/// skips the frame; a window older than window_s restarts silently.
+class StampWindow {
+ public:
+  enum class Action {
+    Start,    ///< first frame (or first after reset()): a new window starts here
+    Add,      ///< next frame of the current window, at relative time t_s
+    Skip,     ///< not after the previous frame, within max_jump_s: dropped
+    Restart,  ///< a new window starts here (the window is full, or the stamp jumped)
+  };
+  struct Decision {
+    Action action = Action::Start;
+    double t_s = 0.0;     ///< the frame's time in the window [s] (0 for Start/Restart)
+    std::string warning;  ///< non-empty for a jump or a skipped frame: what happened, in ASCII
+  };
+  StampWindow(double window_s, double max_jump_s) : window_s_(window_s), max_jump_s_(max_jump_s) {}
+  /// Decides where the frame stamped `stamp_s` goes, and moves the window accordingly.
+  Decision next(double stamp_s);
+  /// Forget the window (after a tracker error or a stale camera): the next frame starts one.
+  void reset() { started_ = false; }
+
+ private:
+  double window_s_, max_jump_s_;
+  bool started_ = false;
+  double start_s_ = 0.0, last_s_ = 0.0;
 };
 
 /// Reads and validates the private parameters; throws TopoError naming the parameter and the fix.
@@ -61,7 +94,7 @@ class MotionTrackerNode {
   ::ros::ServiceServer service_;
   ::ros::Timer timer_;
   std::unique_ptr<vision::MotionTracker> live_;
-  double live_start_s_ = 0.0, last_t_s_ = -1.0;
+  StampWindow window_;
   ::ros::WallTime last_image_wall_;  ///< for the stale-camera check
   bool stale_reported_ = false;
   void finishLive();

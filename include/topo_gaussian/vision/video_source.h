@@ -7,6 +7,8 @@
 
 #include <opencv2/core.hpp>
 #include <opencv2/videoio.hpp>
+
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -37,6 +39,12 @@ class VideoSource {
   cv::Size frameSize() const { return size_; }
   /// Frames decoded so far (including skipped ones) and the index of the last returned frame.
   int framesDecoded() const { return decoded_; }
+  /// True once decoding stopped (end of data, or a frame that does not decode) clearly before the
+  /// frame count the container announces: the file is truncated or damaged after framesDecoded()
+  /// frames. False for a file read to its announced end, or one whose end was never reached.
+  bool endedEarly() const {
+    return stopped_ && !sequence_ && frame_count_ > 0 && decoded_ + std::max(2, frame_count_ / 50) < frame_count_;
+  }
   int lastIndex() const { return last_index_; }
   /// Timestamps of every frame returned so far.
   const std::vector<double>& timestamps() const { return times_; }
@@ -63,6 +71,7 @@ class VideoSource {
   double last_msec_ = -1.0;
   int last_msec_index_ = -1;
   bool msec_ok_ = true;
+  bool stopped_ = false;  ///< the decoder gave no more frames
   std::vector<double> times_;
   std::vector<int> indices_;
 };

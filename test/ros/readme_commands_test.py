@@ -1,0 +1,200 @@
+#!/usr/bin/env python3
+"""Every command in README.md's ```bash blocks runs.
+
+Extracts the fenced ```bash blocks of README.md (continuation lines joined, comment-only lines
+dropped) and runs each command, in README order, in one scratch directory laid out like the
+repository root (build -> the build directory, ../shared -> the shared data beside the repository),
+after `source BUILD/devel/setup.bash` and the README's earlier `source`/`export` lines (as in the
+reader's shell session). A command must exit 0 within its time limit; the failure
+names the command and shows its output.
+
+- Long-running commands that serve until stopped (`roslaunch ...`) run until they have done their
+  first job (LONG_RUNNING: a message on a topic), must not log an error, and are then stopped with
+  SIGINT.
+- Commands that cannot run here are in SKIP, each with the reason and where the same thing is
+  tested instead. A command that is neither run nor in SKIP fails the test, so a new README command
+  needs a decision.
+
+Run by rostest (test/ros/readme_commands.test.in), so `roslaunch` and `rosrun` find the rostest's
+master: args `--build BUILD_DIR`.
+"""
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import unittest
+
+import rospy
+import rostest
+
+PKG = "topo_gaussian"
+HERE = os.path.dirname(os.path.abspath(__file__))
+SOURCE = os.path.normpath(os.path.join(HERE, "..", ".."))
+README = os.path.join(SOURCE, "README.md")
+
+# Commands not run here, by prefix, with the reason (and where the same thing is tested).
+SKIP = {
+    "make demo": "builds and runs the whole lab loop for minutes; the same launch and client run in "
+                 "test/ros/demo_tumbler.test.in",
+    "make test": "runs every test, this one included (recursion)",
+    "roslaunch topo_gaussian demo.launch gui:=true": "opens rviz (needs a display); demo.launch runs headless in "
+                                                     "test/ros/demo_tumbler.test.in and rviz in rviz_screenshot.test.in",
+    "roslaunch topo_gaussian tumbler_rig.launch twin:=false": "needs the lab's camera and /data/doll.ply",
+    "rosservice call /interior_inference/infer": "needs interior_inference running with a volume; the same "
+                                                 "~infer call succeeds in test/ros/rviz_screenshot.test.in",
+    "rosrun topo_gaussian infer_client": "needs the lab loop running (demo.launch); it runs in "
+                                         "test/ros/demo_tumbler.test.in",
+}
+
+# Commands that serve until stopped: (prefix, topic whose first message means "started cleanly",
+# seconds to wait for it).
+LONG_RUNNING = [
+    ("roslaunch topo_gaussian cloud_ingest.launch", "/volume", 120.0),
+]
+
+COMMAND_TIMEOUT_S = 900.0
+
+
+def readme_commands(path):
+    """The commands of the ```bash blocks, in order, as (line number, command)."""
+    commands = []
+    with open(path, encoding="utf-8") as f:
+        lines = f.read().split("\n")
+    in_block = False
+    pending, pending_line = "", 0
+    for number, line in enumerate(lines, start=1):
+        if not in_block:
+            in_block = line.strip() == "```bash"
+            continue
+        if line.strip() == "```":
+            in_block = False
+            continue
+        text = line.strip()
+        if not pending and (not text or text.startswith("#")):
+            continue
+        if not pending:
+            pending_line = number
+        if text.endswith("\\"):
+            pending += text[:-1] + " "
+            continue
+        commands.append((pending_line, re.sub(r"\s+", " ", pending + text).strip()))
+        pending = ""
+    return commands
+
+
+def matches(command, prefix):
+    return command == prefix or command.startswith(prefix + " ")
+
+
+def build_dir():
+    if "--build" in sys.argv:
+        return os.path.abspath(sys.argv[sys.argv.index("--build") + 1])
+    return os.path.join(SOURCE, "build")
+
+
+class ReadmeCommands(unittest.TestCase):
+    scratch = None
+    session = []  # the README's `source` and `export` lines run so far: every later command runs after them
+
+    @classmethod
+    def setUpClass(cls):
+        cls.build = build_dir()
+        cls.root = tempfile.mkdtemp(prefix="topo_readme_")
+        cls.scratch = os.path.join(cls.root, "topo_gaussian")
+        os.mkdir(cls.scratch)
+        os.symlink(cls.build, os.path.join(cls.scratch, "build"))
+        shared = os.path.normpath(os.path.join(SOURCE, "..", "shared"))
+        cls.has_shared = os.path.isdir(os.path.join(shared, "data"))
+        if cls.has_shared:
+            os.symlink(shared, os.path.join(cls.root, "shared"))
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.root, ignore_errors=True)
+
+    def shell(self, command):
+        """bash running `command` after the environment and the session so far, one line each (a
+        README line may end in a # comment)."""
+        setup = os.path.join(self.build, "devel", "setup.bash")
+        lines = ['source "%s"' % setup, 'cd "%s"' % self.scratch] + self.session
+        script = "".join("%s\n[ $? -eq 0 ] || exit 97\n" % line for line in lines)
+        return ["bash", "-c", "set -o pipefail\n" + script + command + "\n"]
+
+    def run_command(self, line, command):
+        for prefix, reason in SKIP.items():
+            if matches(command, prefix):
+                self.skipTest("README.md:%d `%s`: %s" % (line, command, reason))
+        if "../shared/" in command and not self.has_shared:
+            self.skipTest("README.md:%d `%s`: ../shared/data is not there (CI always has it)" % (line, command))
+        for prefix, topic, wait_s in LONG_RUNNING:
+            if matches(command, prefix):
+                return self.run_until_started(line, command, topic, wait_s)
+        start = time.time()
+        try:
+            p = subprocess.run(self.shell(command), stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                               timeout=COMMAND_TIMEOUT_S, start_new_session=True)
+        except subprocess.TimeoutExpired as e:
+            out = (e.output or b"").decode(errors="replace")
+            self.fail("README.md:%d `%s` ran longer than %.0f s; output:\n%s" % (line, command, COMMAND_TIMEOUT_S,
+                                                                                  out[-4000:]))
+        out = p.stdout.decode(errors="replace")
+        if p.returncode == 0 and re.match(r"(source|export) ", command):
+            ReadmeCommands.session.append(command)
+        self.assertEqual(p.returncode, 0, "README.md:%d `%s` exited %d after %.1f s; output:\n%s" %
+                         (line, command, p.returncode, time.time() - start, out[-4000:]))
+
+    def run_until_started(self, line, command, topic, wait_s):
+        """Starts a serving command, waits for its first message on `topic`, stops it with SIGINT."""
+        from rospy import AnyMsg
+        got = threading.Event()
+        sub = rospy.Subscriber(topic, AnyMsg, lambda _msg: got.set())
+        log = tempfile.TemporaryFile()
+        p = subprocess.Popen(self.shell(command), stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+        try:
+            deadline = time.time() + wait_s
+            while time.time() < deadline and not got.is_set() and p.poll() is None:
+                time.sleep(0.2)
+            alive = p.poll() is None
+        finally:
+            if p.poll() is None:
+                os.killpg(p.pid, signal.SIGINT)
+                try:
+                    p.wait(30)
+                except subprocess.TimeoutExpired:
+                    os.killpg(p.pid, signal.SIGKILL)
+                    p.wait()
+            sub.unregister()
+        log.seek(0)
+        out = log.read().decode(errors="replace")
+        what = "README.md:%d `%s`" % (line, command)
+        self.assertTrue(alive, "%s exited %s before its first message on %s; output:\n%s" %
+                        (what, p.returncode, topic, out[-4000:]))
+        self.assertTrue(got.is_set(), "%s published nothing on %s within %.0f s; output:\n%s" %
+                        (what, topic, wait_s, out[-4000:]))
+        errors = [l for l in out.splitlines() if "[ERROR]" in l or "[FATAL]" in l or "has died" in l]
+        self.assertEqual(errors, [], "%s logged errors:\n%s" % (what, "\n".join(errors)))
+
+
+def add_tests():
+    commands = readme_commands(README)
+    for index, (line, command) in enumerate(commands):
+        slug = re.sub(r"[^A-Za-z0-9]+", "_", command)[:50].strip("_")
+        name = "test_%02d_line%d_%s" % (index, line, slug)
+        setattr(ReadmeCommands, name, lambda self, l=line, c=command: self.run_command(l, c))
+
+    def test_found_commands(self):
+        self.assertGreaterEqual(len(commands), 8, "README.md's ```bash blocks: %r" % commands)
+
+    ReadmeCommands.test_found_commands = test_found_commands
+
+
+add_tests()
+
+if __name__ == "__main__":
+    rospy.init_node("readme_commands_test", anonymous=True)
+    rostest.rosrun(PKG, "readme_commands", ReadmeCommands)
