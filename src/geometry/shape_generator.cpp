@@ -2,9 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
+#include <sstream>
 
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/io/text_file.h"
 #include "topo_gaussian/physics/default_shapes.h"
 
 namespace topo_gaussian::geometry {
@@ -175,13 +176,12 @@ SurfaceData makeDefaultShapeMesh(const std::string& name, int resolution) {
 }
 
 void writeObj(const SurfaceData& mesh, const std::string& path) {
-  std::ofstream f(path);
-  if (!f) throw TopoError(path, "cannot be opened for writing", "check the directory exists and is writable");
+  std::ostringstream f;  // written atomically at the end (io/text_file.h)
   f.precision(9);
   f << "# " << mesh.source << " (topo_gaussian)\n";
   for (const auto& p : mesh.points) f << "v " << p.x() << ' ' << p.y() << ' ' << p.z() << '\n';
   for (const auto& t : mesh.triangles) f << "f " << t[0] + 1 << ' ' << t[1] + 1 << ' ' << t[2] + 1 << '\n';
-  if (!f) throw TopoError(path, "could not be written completely", "check free disk space");
+  io::writeTextFile(path, f.str());
 }
 
 }  // namespace topo_gaussian::geometry

@@ -3,10 +3,10 @@
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <cstring>
-#include <fstream>
 #include <vector>
 
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/io/text_file.h"
 
 namespace topo_gaussian::geometry {
 
@@ -32,17 +32,15 @@ void writeStlBinary(const SurfaceData& mesh, const std::string& path, double sca
                         "build the mesh with valid vertex indices");
   if (mesh.triangles.size() > 0xFFFFFFFFull)
     throw TopoError(path, "has more triangles than binary STL can count (2^32 - 1)", "use a coarser volume");
-  std::ofstream out(path, std::ios::binary);
-  if (!out) throw TopoError(path, "cannot be opened for writing", "check the directory exists and is writable");
+  std::string out;  // the whole file, written atomically at the end (io/text_file.h)
+  out.reserve(84 + 50 * mesh.triangles.size());
   std::string text = header;
   if (text.rfind("solid", 0) == 0) text = "binary STL: " + text;
   unsigned char head[84] = {};
   std::memcpy(head, text.data(), std::min<std::size_t>(text.size(), 80));
   const std::uint32_t count = std::uint32_t(mesh.triangles.size());
   for (int k = 0; k < 4; ++k) head[80 + k] = static_cast<unsigned char>(count >> (8 * k));
-  out.write(reinterpret_cast<const char*>(head), 84);
-  std::vector<unsigned char> buf;
-  buf.reserve(50 * 4096);
+  out.append(reinterpret_cast<const char*>(head), 84);
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     const auto& tri = mesh.triangles[t];
     const Eigen::Vector3d a = mesh.points[tri[0]] * scale, b = mesh.points[tri[1]] * scale,
@@ -54,14 +52,9 @@ void writeStlBinary(const SurfaceData& mesh, const std::string& path, double sca
     const Eigen::Vector3d* v[4] = {&n, &a, &b, &c};
     for (int q = 0; q < 4; ++q)
       for (int k = 0; k < 3; ++k) putFloat(rec + 12 * q + 4 * k, (*v[q])[k]);
-    buf.insert(buf.end(), rec, rec + 50);
-    if (buf.size() >= 50 * 4096) {
-      out.write(reinterpret_cast<const char*>(buf.data()), std::streamsize(buf.size()));
-      buf.clear();
-    }
+    out.append(reinterpret_cast<const char*>(rec), 50);
   }
-  out.write(reinterpret_cast<const char*>(buf.data()), std::streamsize(buf.size()));
-  if (!out) throw TopoError(path, "could not be written completely", "check the free disk space");
+  io::writeTextFile(path, out);
 }
 
 }  // namespace topo_gaussian::geometry

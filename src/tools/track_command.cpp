@@ -16,6 +16,7 @@
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/io/motion_features_json.h"
 #include "topo_gaussian/vision/camera_model.h"
+#include "topo_gaussian/vision/figure.h"
 #include "topo_gaussian/vision/motion_features.h"
 #include "topo_gaussian/vision/motion_tracker.h"
 
@@ -140,8 +141,7 @@ void writePlot(const vision::TrackResult& r, const std::string& path) {
     cv::putText(img, "no signal: " + r.message.substr(0, 90), cv::Point(20, H / 2), cv::FONT_HERSHEY_SIMPLEX, 0.5,
                 cv::Scalar(0, 0, 200), 1, cv::LINE_AA);
   }
-  if (!cv::imwrite(path, img))
-    throw TopoError(path, "the plot cannot be written", "give a writable .png path for --plot");
+  vision::writePng(img, path);
 }
 
 }  // namespace

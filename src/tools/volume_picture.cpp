@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/vision/figure.h"
 
 namespace topo_gaussian::tools {
 
@@ -84,13 +85,7 @@ void writeVolumePicture(const VolumeCloud& c, const std::string& title, const st
               cv::FONT_HERSHEY_SIMPLEX, 0.5, kText, 1, cv::LINE_AA);
   cv::putText(img, "slice z = centroid (top view)", cv::Point(660, 652), cv::FONT_HERSHEY_SIMPLEX, 0.5, kText, 1,
               cv::LINE_AA);
-  bool ok = false;
-  try {
-    ok = cv::imwrite(path, img);
-  } catch (const cv::Exception& e) {
-    throw TopoError(path, std::string("cannot be written as PNG: ") + e.what(), "give a writable path ending in .png");
-  }
-  if (!ok) throw TopoError(path, "cannot be written as PNG", "give a writable path ending in .png");
+  vision::writePng(img, path);
 }
 
 }  // namespace topo_gaussian::tools

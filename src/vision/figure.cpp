@@ -1,9 +1,13 @@
 #include "topo_gaussian/vision/figure.h"
 
+#include <unistd.h>
 #include <cmath>
+
 #include <cstdio>
+#include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <vector>
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
@@ -11,14 +15,32 @@
 namespace topo_gaussian::vision {
 
 void writePng(const cv::Mat& img, const std::string& path) {
+  // Encoded in memory, written to a temporary file beside the target and renamed over it, so an
+  // interrupted write never leaves a truncated picture where a good one was.
+  const auto dot = path.find_last_of('.');
+  const std::string ext =
+      dot == std::string::npos || path.find('/', dot) != std::string::npos ? ".png" : path.substr(dot);
+  std::vector<unsigned char> bytes;
   bool ok = false;
   try {
-    ok = cv::imwrite(path, img);
+    ok = !img.empty() && cv::imencode(ext, img, bytes);
   } catch (const cv::Exception& e) {
-    throw TopoError(path, std::string("cannot be written as PNG: ") + e.what(), "give a writable path ending in .png");
+    throw TopoError(path, std::string("cannot be encoded as a picture: ") + e.what(), "give a path ending in .png");
   }
-  if (!ok)
-    throw TopoError(path, "cannot be written as PNG", "give a writable path ending in .png in an existing directory");
+  if (!ok) throw TopoError(path, "cannot be encoded as a picture", "give a path ending in .png");
+  const std::string tmp = path + ".tmp" + std::to_string(::getpid());
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+    if (!out) {
+      std::remove(tmp.c_str());
+      throw TopoError(path, "cannot be written", "give a writable path in an existing directory (and free disk space)");
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw TopoError(path, "cannot be replaced", "check the permissions of the file and its directory");
+  }
 }
 
 double niceStepBelow(double limit) {
