@@ -20,20 +20,38 @@ namespace topo_gaussian::geometry {
 
 namespace {
 
-// Distance to the nearest other point over a subsample, at the given quantile (0.5: the typical
-// sampling spacing; 0.9: the spacing in the sparse parts of the surface).
-double typicalPointSpacing(const std::vector<Eigen::Vector3d>& pts, double quantile = 0.5) {
+// Squared distances to the nearest and to the k-th nearest other point, over a subsample of at most
+// ~2000 points, from one k-d tree (entries 0 where a point has duplicates that close).
+struct NeighbourDistances {
+  static constexpr int k = 16;
+  std::vector<float> nearest2, kth2;
+};
+NeighbourDistances neighbourDistances(const std::vector<Eigen::Vector3d>& pts) {
+  NeighbourDistances out;
+  if (pts.size() < 2) return out;
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
   cloud->resize(pts.size());
   for (std::size_t i = 0; i < pts.size(); ++i) cloud->points[i].getVector3fMap() = pts[i].cast<float>();
   pcl::KdTreeFLANN<pcl::PointXYZ> tree;
   tree.setInputCloud(cloud);
+  const int want = std::min<int>(NeighbourDistances::k + 1, int(pts.size()));
   const std::size_t step = std::max<std::size_t>(1, pts.size() / 2000);
+  std::vector<int> idx(want);
+  std::vector<float> d2(want);
+  for (std::size_t i = 0; i < pts.size(); i += step) {
+    const int found = tree.nearestKSearch(cloud->points[i], want, idx, d2);
+    if (found >= 2) out.nearest2.push_back(d2[1]);
+    if (found == NeighbourDistances::k + 1) out.kth2.push_back(d2[NeighbourDistances::k]);
+  }
+  return out;
+}
+
+// Distance to the nearest other point at the given quantile (0.5: the typical sampling spacing; 0.9:
+// the spacing in the sparse parts of the surface).
+double typicalPointSpacing(const NeighbourDistances& n, double quantile) {
   std::vector<double> d;
-  std::vector<int> idx(2);
-  std::vector<float> d2(2);
-  for (std::size_t i = 0; i < pts.size(); i += step)
-    if (tree.nearestKSearch(cloud->points[i], 2, idx, d2) == 2 && d2[1] > 0.f) d.push_back(std::sqrt(double(d2[1])));
+  for (float d2 : n.nearest2)
+    if (d2 > 0.f) d.push_back(std::sqrt(double(d2)));
   if (d.empty()) return 0.0;
   const std::size_t k = std::min(d.size() - 1, std::size_t(quantile * double(d.size())));
   std::nth_element(d.begin(), d.begin() + k, d.end());
@@ -41,23 +59,13 @@ double typicalPointSpacing(const std::vector<Eigen::Vector3d>& pts, double quant
 }
 
 // Spacing s of the surface sampling from the area each point covers (areal density 1/s²): the
-// median over a subsample of π r_k² / (k − 1/3), r_k the distance to the k-th nearest neighbour
+// median over the subsample of π r_k² / (k − 1/3), r_k the distance to the k-th nearest neighbour
 // (unbiased for uniformly random points, whose nearest-neighbour distance is only ~half of s).
-double arealPointSpacing(const std::vector<Eigen::Vector3d>& pts) {
-  constexpr int k = 16;
-  if (pts.size() <= std::size_t(k) + 1) return 0.0;
-  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
-  cloud->resize(pts.size());
-  for (std::size_t i = 0; i < pts.size(); ++i) cloud->points[i].getVector3fMap() = pts[i].cast<float>();
-  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
-  tree.setInputCloud(cloud);
-  const std::size_t step = std::max<std::size_t>(1, pts.size() / 2000);
+double arealPointSpacing(const NeighbourDistances& n) {
+  constexpr int k = NeighbourDistances::k;
   std::vector<double> area;
-  std::vector<int> idx(k + 1);
-  std::vector<float> d2(k + 1);
-  for (std::size_t i = 0; i < pts.size(); i += step)
-    if (tree.nearestKSearch(cloud->points[i], k + 1, idx, d2) == k + 1 && d2[k] > 0.f)
-      area.push_back(M_PI * double(d2[k]) / (k - 1.0 / 3.0));
+  for (float d2 : n.kth2)
+    if (d2 > 0.f) area.push_back(M_PI * double(d2) / (k - 1.0 / 3.0));
   if (area.empty()) return 0.0;
   std::nth_element(area.begin(), area.begin() + area.size() / 2, area.end());
   return std::sqrt(area[area.size() / 2]);
@@ -180,7 +188,7 @@ class Filler {
     if (s_.kind == SurfaceKind::Gaussians) {
       r_.method = "gaussian-density";
       DensityFillOptions d = o_.density;
-      if (sparse_spacing_ < 0.0) sparse_spacing_ = typicalPointSpacing(s_.points, 0.9);
+      if (sparse_spacing_ < 0.0) sparse_spacing_ = typicalPointSpacing(neighbourDistances(s_.points), 0.9);
       if (d.min_sigma_m < 0.0) d.min_sigma_m = sparse_spacing_;
       if (d.closing_m < 0.0) d.closing_m = 3.0 * sparse_spacing_;
       const double sigma_max = robustSigmaMax();
@@ -206,9 +214,11 @@ class Filler {
       } else {
         // The nearest-neighbour distance matches the spacing of even samplings only; random ones
         // (and scans) leave gaps twice as wide, so take the spacing from the area per point too.
-        if (point_spacing_ < 0.0)
-          point_spacing_ = std::max(typicalPointSpacing(s_.points), arealPointSpacing(s_.points));
-        if (sparse_spacing_ < 0.0) sparse_spacing_ = typicalPointSpacing(s_.points, 0.9);
+        if (point_spacing_ < 0.0 || sparse_spacing_ < 0.0) {  // one k-d tree for both
+          const NeighbourDistances n = neighbourDistances(s_.points);
+          if (point_spacing_ < 0.0) point_spacing_ = std::max(typicalPointSpacing(n, 0.5), arealPointSpacing(n));
+          if (sparse_spacing_ < 0.0) sparse_spacing_ = typicalPointSpacing(n, 0.9);
+        }
         if (d.closing_m < 0.0) d.closing_m = 3.0 * sparse_spacing_;
         if (o_.split_point_shell) d.split_shell = true;
         const double sigma = std::max(sigma_floor, point_spacing_);

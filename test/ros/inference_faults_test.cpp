@@ -223,14 +223,8 @@ TEST(InferenceFaults, ANodeRestoresARunOfTheCli) {
 /// output (it must stop at start, naming the parameter).
 int runNode(const std::string& node, const std::string& args, std::string* out) {
   static int run = 0;  // a new name each time: private parameters persist on the parameter server
-  const std::string cmd =
-      std::string(TOPO_NODE_DIR) + "/" + node + " __name:=bad_" + node + std::to_string(++run) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return -1;
-  char buf[512];
-  while (fgets(buf, sizeof buf, p)) *out += buf;
-  const int st = pclose(p);
-  return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return shell(std::string(TOPO_NODE_DIR) + "/" + node + " __name:=bad_" + node + std::to_string(++run) + " " + args,
+               out);
 }
 
 TEST(InferenceFaults, ParametersOutOfRangeStopTheNodesAtStartNamingThem) {

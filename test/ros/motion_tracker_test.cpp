@@ -65,6 +65,21 @@ TEST(MotionTrackerNode, ExtractMotionFromAGeneratedVideo) {
   EXPECT_NE(bad.response.message.find("/tmp/no_such_video.mp4"), std::string::npos) << bad.response.message;
 }
 
+/// The latest features once they use at least `frames` frames (the callback fills `last` and `got`
+/// under `mu`), or empty features (frames_used 0) after 30 s.
+topo_gaussian::MotionFeatures waitForFeatures(std::mutex& mu, const bool& got,
+                                              const topo_gaussian::MotionFeatures& last, int frames) {
+  const ros::Time deadline = ros::Time::now() + ros::Duration(30.0);
+  while (ros::Time::now() < deadline) {
+    {
+      std::lock_guard<std::mutex> l(mu);
+      if (got && last.frames_used >= frames) return last;
+    }
+    ros::Duration(0.1).sleep();
+  }
+  return topo_gaussian::MotionFeatures();
+}
+
 TEST(MotionTrackerNode, ImageStreamGivesTheSamePeriod) {
   ros::NodeHandle nh;
   ros::Publisher pub = nh.advertise<sensor_msgs::Image>("/image", 300);
@@ -107,18 +122,7 @@ TEST(MotionTrackerNode, ImageStreamGivesTheSamePeriod) {
     ros::Duration(0.012).sleep();
   }
   // Wait for features covering (almost) the whole stream.
-  const ros::Time deadline = ros::Time::now() + ros::Duration(30.0);
-  topo_gaussian::MotionFeatures f;
-  while (ros::Time::now() < deadline) {
-    {
-      std::lock_guard<std::mutex> l(mu);
-      if (got && last.frames_used >= static_cast<int>(0.9 * frames.size())) {
-        f = last;
-        break;
-      }
-    }
-    ros::Duration(0.1).sleep();
-  }
+  const topo_gaussian::MotionFeatures f = waitForFeatures(mu, got, last, static_cast<int>(0.9 * frames.size()));
   ASSERT_GE(f.frames_used, static_cast<int>(0.9 * frames.size())) << "no complete features on /motion_features";
   EXPECT_TRUE(f.oscillation_found) << f.message;
   EXPECT_NEAR(f.period_s, s.period_s, 0.01 * s.period_s) << f.message;
@@ -185,18 +189,7 @@ TEST(MotionTrackerNode, FutureStampsDoNotStallTheStream) {
     pub.publish(img.toImageMsg());
     ros::Duration(0.012).sleep();
   }
-  const ros::Time deadline = ros::Time::now() + ros::Duration(30.0);
-  topo_gaussian::MotionFeatures f;
-  while (ros::Time::now() < deadline) {
-    {
-      std::lock_guard<std::mutex> l(mu);
-      if (got && last.frames_used >= static_cast<int>(0.9 * frames.size())) {
-        f = last;
-        break;
-      }
-    }
-    ros::Duration(0.1).sleep();
-  }
+  const topo_gaussian::MotionFeatures f = waitForFeatures(mu, got, last, static_cast<int>(0.9 * frames.size()));
   ASSERT_GE(f.frames_used, static_cast<int>(0.9 * frames.size()))
       << "the 30 Hz stream after three future frames gave no features (frames dropped?); last: " << last.message;
   EXPECT_TRUE(f.oscillation_found) << f.message;
