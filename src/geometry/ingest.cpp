@@ -101,9 +101,10 @@ std::string toJson(const IngestResult& r) {
     << f.method << "\",\"points_in\":" << r.clean.points_in << ",\"points_after_cleaning\":"
     << (r.clean.points_in - r.clean.non_finite - r.clean.transparent - r.clean.outliers - r.clean.cropped)
     << ",\"triangles_in\":" << f.triangles_in << ",\"particles_out\":" << f.particles_out
-    << ",\"surface_particles\":" << f.surface_particles << ",\"spacing_m\":" << f.spacing_m
-    << ",\"total_volume_m3\":" << f.total_volume_m3 << ",\"bbox_min\":" << vec(f.bbox_min)
-    << ",\"bbox_max\":" << vec(f.bbox_max) << ",\"open_fraction\":" << open
+    << ",\"surface_particles\":" << f.surface_particles << ",\"contact_samples\":" << f.contact_samples
+    << ",\"contact_spacing_m\":" << f.contact_spacing_m << ",\"contact_area_m2\":" << f.contact_area_m2
+    << ",\"spacing_m\":" << f.spacing_m << ",\"total_volume_m3\":" << f.total_volume_m3
+    << ",\"bbox_min\":" << vec(f.bbox_min) << ",\"bbox_max\":" << vec(f.bbox_max) << ",\"open_fraction\":" << open
     << ",\"boundary_edges\":" << f.topology.boundary_edges << ",\"seconds\":" << r.seconds
     << ",\"up_axis\":" << jsonString(r.up_axis) << ",\"faces_dropped\":" << f.repair.faces_dropped()
     << ",\"holes_closed\":" << f.repair.holes_closed << ",\"faces_ignored\":" << f.repair.ignored_faces

@@ -473,6 +473,10 @@ VolumeCloud fillInterior(const SurfaceData& input, const FillOptions& o, FillRep
   if (cloud.empty())
     throw TopoError(s.source, "encloses no volume at spacing " + numberText(h, 3) + " m (" + r.method + ")",
                     "check that the surface is closed (a partial scan has no inside), or use a finer spacing");
+  cloud.contact = sampleContactSurface(s, cloud, o.contact, &r.warnings);
+  r.contact_samples = cloud.contact.size();
+  r.contact_spacing_m = cloud.contact.spacing;
+  r.contact_area_m2 = cloud.contact.totalArea();
   r.spacing_m = cloud.spacing;
   r.particles_out = cloud.size();
   r.surface_particles = cloud.surfaceCount();

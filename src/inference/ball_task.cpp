@@ -25,10 +25,12 @@ class BallTask : public Task {
     v0_ = c.vector3("initial_velocity");
     w0_ = c.vector3("initial_angular_velocity");
     centroid_ = cloud.centroid();
-    for (std::size_t i = 0; i < cloud.size(); ++i)
-      if (cloud.surface[i]) contact_.push_back(cloud.X[i]);
+    std::string note;
+    contact_ = groundContactPoints(cloud, &note, &options_.ground.point_weights);
+    if (!note.empty()) notes_.push_back(note);
     if (contact_.empty())
-      throw TopoError("volume cloud", "has no surface particles for ground contact", "fill it with `topo fill`");
+      throw TopoError("volume cloud", "has neither contact samples nor surface particles for ground contact",
+                      "fill it with `topo fill`");
     const auto& pp = c.list("pivot_points");
     if (!pp.empty()) {
       if (pp.size() % 3 != 0) throw TopoError("pivot_points", "needs x,y,z triples", "give 3 numbers per point");

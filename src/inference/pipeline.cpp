@@ -50,6 +50,7 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   res.geometry = problem.task().geometry();
   const std::string outside = pointOutsideObjectNote(res.geometry, cloud);
   if (!outside.empty()) res.warnings.push_back(outside);
+  for (const auto& note : problem.task().notes()) res.warnings.push_back(note);
   const Eigen::VectorXd theta0 = problem.initialParameters();
   Eigen::VectorXd lo, hi, g;
   problem.bounds(&lo, &hi);
@@ -140,10 +141,9 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   } else {
     head << msg.str() << "Not converged: raise max_iterations or try another optimizer/representation.";
   }
-  if (!res.targets_reached)
-    for (const auto& w : res.warnings)
-      head << " The target may be unreachable because the " << res.geometry.point_name << " lies outside the object ("
-           << w << ").";
+  if (!res.targets_reached && !outside.empty())
+    head << " The target may be unreachable because the " << res.geometry.point_name << " lies outside the object ("
+         << outside << ").";
   res.message = head.str();
   return res;
 }

@@ -35,12 +35,14 @@ class TumblerTask : public Task {
     cycles_ = c.integer("measured_cycles");
     if (c.has("period_s")) period_target_ = c.number("period_s");
     if (c.has("max_tilt_deg")) tilt_target_ = c.number("max_tilt_deg");
-    for (std::size_t i = 0; i < cloud.size(); ++i)
-      if (cloud.surface[i]) all_contact_.push_back(cloud.X[i]);
+    std::string note;
+    all_contact_ = groundContactPoints(cloud, &note, &all_weights_);
+    if (!note.empty()) notes_.push_back(note);
     if (all_contact_.empty())
-      throw TopoError("volume cloud", "has no surface particles for ground contact",
-                      "fill it with `topo fill` (it flags the surface)");
-    selectContactCandidates(cloud.spacing > 0 ? cloud.spacing : 0.01 * size_);
+      throw TopoError("volume cloud", "has neither contact samples nor surface particles for ground contact",
+                      "fill it with `topo fill` (it samples the true surface and flags the boundary particles)");
+    const double spacing = groundContactSpacing(cloud);
+    selectContactCandidates(spacing > 0 ? spacing : 0.01 * size_);
     geometry_.has_point = false;
   }
 
@@ -69,7 +71,7 @@ class TumblerTask : public Task {
       max_tilt = std::max(max_tilt, std::acos(std::max(-1.0, std::min(1.0, u.z()))) * kDeg);
     }
     if (max_tilt > reach_deg_ - 5.0 && contact_.size() < all_contact_.size())
-      traj = simulateRigid(inertia, s0, all_contact_, withStop(options_, should_stop_));
+      traj = simulateRigid(inertia, s0, all_contact_, withStop(options_all_, should_stop_));
     // Signed tilt about the rocking axis: rotating ez by φ about a gives cos φ ez + sin φ (a × ez).
     const Eigen::Vector3d ez(0, 0, 1), side = axis_.cross(ez);
     std::vector<Dual10> phi(traj.states.size());
@@ -131,12 +133,20 @@ class TumblerTask : public Task {
       }
     }
     contact_.clear();
+    options_all_ = options_;
+    options_all_.ground.point_weights = all_weights_;
+    options_.ground.point_weights.clear();
     for (std::size_t i = 0; i < keep.size(); ++i)
-      if (keep[i]) contact_.push_back(all_contact_[i]);
+      if (keep[i]) {
+        contact_.push_back(all_contact_[i]);
+        if (!all_weights_.empty()) options_.ground.point_weights.push_back(all_weights_[i]);
+      }
   }
 
-  RigidSimOptions options_;
+  RigidSimOptions options_;      ///< with the candidates' weights
+  RigidSimOptions options_all_;  ///< with every contact point's weight
   std::vector<Eigen::Vector3d> all_contact_;
+  std::vector<double> all_weights_;
   double reach_deg_ = 90;
   Eigen::Vector3d axis_, up_;
   double tilt0_ = 0, omega0_ = 0, w_period_ = 1, w_tilt_ = 1;

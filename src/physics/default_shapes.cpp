@@ -1,11 +1,14 @@
 #include "topo_gaussian/physics/default_shapes.h"
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/physics/neighbor_list.h"
 
 namespace topo_gaussian {
 
@@ -170,8 +173,83 @@ VolumeCloud defaultShapeCloud(const DefaultShape& shape, double h) {
         c.V.push_back(v);
         c.surface.push_back(surface ? 1 : 0);
       }
+  const double fine = cells * 8.0 <= kMaxLatticeCells ? 0.5 * h : h;
+  c.contact = shapeContactSamples(shape, fine);
   c.validate("default " + shape.name + " cloud");
   return c;
+}
+
+ContactSamples shapeContactSamples(const DefaultShape& shape, double s) {
+  if (!(s > 0.0) || !std::isfinite(s))
+    throw TopoError("contact spacing for the " + shape.name + " shape", metres(s) + " is not a positive length",
+                    "use a positive spacing");
+  const Eigen::Vector3d extent = shape.hi - shape.lo;
+  Eigen::Vector3i n;
+  for (int a = 0; a < 3; ++a) n[a] = std::max(1, int(std::ceil(extent[a] / s - 1e-9))) + 2;
+  const double points = double(n.x()) * n.y() * n.z();
+  if (points > kMaxLatticeCells)
+    throw TopoError("contact spacing for the " + shape.name + " shape",
+                    metres(s) + " would need " + std::to_string(std::llround(points)) + " lattice points",
+                    "use a spacing of at least " + metres(std::cbrt(extent.prod() / kMaxLatticeCells) * 1.01));
+  const Eigen::Vector3d origin = 0.5 * (shape.lo + shape.hi) - 0.5 * s * n.cast<double>();
+  auto at = [&](int i, int j, int k) {
+    return Eigen::Vector3d(origin + s * Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5));
+  };
+  auto id = [&](int i, int j, int k) { return (std::size_t(i) * n.y() + j) * n.z() + k; };
+  std::vector<std::uint8_t> in(static_cast<std::size_t>(points), 0);
+  for (int i = 0; i < n.x(); ++i)
+    for (int j = 0; j < n.y(); ++j)
+      for (int k = 0; k < n.z(); ++k) in[id(i, j, k)] = shape.inside(at(i, j, k)) ? 1 : 0;
+  ContactSamples out;
+  out.origin = "shape surface";
+  out.spacing = s;
+  std::vector<int> axis;
+  std::vector<double> sign;
+  for (int i = 0; i < n.x(); ++i)
+    for (int j = 0; j < n.y(); ++j)
+      for (int k = 0; k < n.z(); ++k)
+        for (int a = 0; a < 3; ++a) {
+          const int i2 = i + (a == 0), j2 = j + (a == 1), k2 = k + (a == 2);
+          if (i2 >= n.x() || j2 >= n.y() || k2 >= n.z() || in[id(i, j, k)] == in[id(i2, j2, k2)]) continue;
+          Eigen::Vector3d p_in = at(i, j, k), p_out = at(i2, j2, k2);
+          if (!in[id(i, j, k)]) std::swap(p_in, p_out);
+          for (int it = 0; it < 60 && (p_out - p_in).norm() > 1e-12; ++it) {
+            const Eigen::Vector3d mid = 0.5 * (p_in + p_out);
+            (shape.inside(mid) ? p_in : p_out) = mid;
+          }
+          out.X.push_back(0.5 * (p_in + p_out));
+          axis.push_back(a);
+          sign.push_back(in[id(i, j, k)] ? 1.0 : -1.0);  // +1: inside → outside along +a
+        }
+  const SpatialGrid grid(out.X, 2.5 * s);
+  out.normal.resize(out.X.size());
+  out.area.resize(out.X.size());
+  const double r2 = 2.5 * s * 2.5 * s;
+  for (std::size_t q = 0; q < out.X.size(); ++q) {
+    const Eigen::Vector3d& p = out.X[q];
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
+    int m = 0;
+    grid.query(p, [&](int, const Eigen::Vector3d& x) {
+      if ((x - p).squaredNorm() < r2) {
+        c += x;
+        C += x * x.transpose();
+        ++m;
+      }
+    });
+    Eigen::Vector3d nq = Eigen::Vector3d::Unit(axis[q]) * sign[q];
+    if (m >= 4) {
+      c /= m;
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(C / m - c * c.transpose());
+      Eigen::Vector3d e = es.eigenvectors().col(0);
+      if (e[axis[q]] * sign[q] < 0) e = -e;
+      // At an edge or a corner the plane fit is meaningless; the crossing's axis is the better guess.
+      if (std::abs(e[axis[q]]) > 0.2) nq = e.normalized();
+    }
+    out.normal[q] = nq;
+    out.area[q] = s * s * std::abs(nq[axis[q]]);
+  }
+  return out;
 }
 
 }  // namespace topo_gaussian

@@ -232,11 +232,21 @@ void validateState(const RigidState<S>& s, bool pivot) {
     throw TopoError("rigid initial state: position/velocity", "is not finite", "pass finite values");
 }
 
-void validatePoints(const std::vector<Eigen::Vector3d>& pts) {
+void validatePoints(const std::vector<Eigen::Vector3d>& pts, const std::vector<double>& weights) {
   for (size_t i = 0; i < pts.size(); ++i)
     if (!pts[i].allFinite())
       throw TopoError("rigid contact points", "point " + std::to_string(i) + " is not finite (NaN or inf)",
                       "remove non-finite points from the contact cloud");
+  if (!weights.empty() && weights.size() != pts.size())
+    throw TopoError(
+        "rigid options: ground.point_weights",
+        "has " + std::to_string(weights.size()) + " weights for " + std::to_string(pts.size()) + " contact points",
+        "give one weight per contact point, or none");
+  for (size_t i = 0; i < weights.size(); ++i)
+    if (!(weights[i] > 0.0) || !std::isfinite(weights[i]))
+      throw TopoError("rigid options: ground.point_weights",
+                      "weight " + std::to_string(i) + " is " + numberText(weights[i], 4),
+                      "give positive finite weights (a point's share of the surface area over the mean share)");
 }
 
 // ------------------------------------------------------------------------------------ contact setup
@@ -285,7 +295,8 @@ struct ContactSetup {
   double spacing = 0.0;
   int lowest = -1;            ///< index of the lowest point in the reference orientation
   std::vector<int> rest_set;  ///< points in contact at rest (relative height < pen_rest)
-  double rest_sum_h = 0.0;    ///< Σ relative heights over rest_set
+  double rest_sum_h = 0.0;    ///< Σ w_j h_j (relative heights) over rest_set
+  double rest_sum_w = 0.0;    ///< Σ w_j over rest_set
 };
 
 ContactSetup makeContactSetup(double m, const Eigen::Vector3d& com, const Eigen::Matrix3d& R,
@@ -306,21 +317,25 @@ ContactSetup makeContactSetup(double m, const Eigen::Vector3d& com, const Eigen:
     }
   }
   for (size_t i = 0; i < n; ++i) h[i] -= hmin;
-  std::vector<double> sorted = h;
+  const std::vector<double>& wt = o.ground.point_weights;
+  auto weight = [&](size_t i) { return wt.empty() ? 1.0 : wt[i]; };
+  std::vector<std::pair<double, double>> sorted(n);  // (relative height, weight)
+  for (size_t i = 0; i < n; ++i) sorted[i] = {h[i], weight(i)};
   std::sort(sorted.begin(), sorted.end());
 
   if (o.ground.stiffness_n_per_m > 0.0) {
     cs.auto_k = false;
     cs.k_value = o.ground.stiffness_n_per_m;
-    // Solve k Σ_{h_j < pen} (pen − h_j) = m g_n, piecewise linear in pen.
+    // Solve k Σ_{h_j < pen} w_j (pen − h_j) = m g_n, piecewise linear in pen.
     const double w = m * gn / cs.k_value;
-    double sum = 0.0;
-    cs.pen_rest = w + sorted[0];
+    double sum = 0.0, wsum = 0.0;
+    cs.pen_rest = w / sorted[0].second + sorted[0].first;
     for (size_t j = 0; j < n; ++j) {
-      sum += sorted[j];
-      const double pen = (w + sum) / static_cast<double>(j + 1);
+      sum += sorted[j].second * sorted[j].first;
+      wsum += sorted[j].second;
+      const double pen = (w + sum) / wsum;
       cs.pen_rest = pen;
-      if (j + 1 == n || pen <= sorted[j + 1]) break;
+      if (j + 1 == n || pen <= sorted[j + 1].first) break;
     }
   } else {
     cs.auto_k = true;
@@ -329,17 +344,19 @@ ContactSetup makeContactSetup(double m, const Eigen::Vector3d& com, const Eigen:
     if (cs.size > 0.0) target = target > 0.0 ? std::min(target, 0.01 * cs.size) : 0.01 * cs.size;
     if (!(target > 0.0)) target = 1e-3;
     double s = 0.0;
-    for (size_t j = 0; j < n && sorted[j] < target; ++j) s += target - sorted[j];
+    for (size_t j = 0; j < n && sorted[j].first < target; ++j) s += sorted[j].second * (target - sorted[j].first);
     cs.kappa = gn / s;
     cs.k_value = m * cs.kappa;
     cs.pen_rest = target;
   }
   cs.rest_sum_h = 0.0;
+  cs.rest_sum_w = 0.0;
   int near = 0;
   for (size_t i = 0; i < n; ++i) {
     if (h[i] < cs.pen_rest || static_cast<int>(i) == cs.lowest) {
       cs.rest_set.push_back(static_cast<int>(i));
-      cs.rest_sum_h += h[i];
+      cs.rest_sum_h += weight(i) * h[i];
+      cs.rest_sum_w += weight(i);
     }
     if (h[i] < 2.0 * cs.pen_rest || static_cast<int>(i) == cs.lowest) {
       ++near;
@@ -407,6 +424,8 @@ class RigidSim {
         by_[i] = pts[i].y() - com_v_.y();
         bz_[i] = pts[i].z() - com_v_.z();
       }
+      w_ = o.ground.point_weights;
+      if (w_.empty()) w_.assign(n, 1.0);
       anchor_.assign(n, Vec2<S>::Zero());
       flag_.assign(n, 0);
     } else {
@@ -468,8 +487,9 @@ class RigidSim {
       const S pen = S(height_ + delta_) - x.z();
       if (!(valueOf(pen) > 0.0)) continue;
       const Vec3<S> vel = v + w.cross(r);
-      const S fs = k_ * pen;
-      S fn = fs - c_ * vel.z();
+      const S ki = k_ * w_[i], ci = c_ * w_[i];
+      const S fs = ki * pen;
+      S fn = fs - ci * vel.z();
       if (valueOf(fn) < 0.0) {
         fn = S(0.0);
       } else if (valueOf(fn) > 2.0 * valueOf(fs)) {
@@ -484,7 +504,7 @@ class RigidSim {
             anchor_[i] = xt;
           } else {
             const Vec2<S> dsp = xt - anchor_[i];
-            const S sp2 = k_ * k_ * dsp.squaredNorm();
+            const S sp2 = ki * ki * dsp.squaredNorm();
             const double limv = valueOf(lim);
             if (valueOf(sp2) > limv * limv) {
               if (limv > 0.0) {
@@ -498,9 +518,9 @@ class RigidSim {
           flag_[i] = 1;
           now.push_back(i);
         }
-        const S nc = -c_;
+        const S nc = -ci;
         ft = nc * Vec2<S>(vel.x(), vel.y());
-        if (flag_[i] == 1) ft -= k_ * (xt - anchor_[i]);
+        if (flag_[i] == 1) ft -= ki * (xt - anchor_[i]);
         const S f2 = ft.squaredNorm();
         const double limv = valueOf(lim);
         if (valueOf(f2) > limv * limv) {
@@ -577,7 +597,7 @@ class RigidSim {
       for (int i : c) {
         const Vec3<S> x = s.position + R * (lift<S>(pts_[i]) - com_);
         const S pen = S(height_ + delta_) - x.z();
-        if (valueOf(pen) > 0.0) e += S(0.5) * k_ * pen * pen;
+        if (valueOf(pen) > 0.0) e += S(0.5) * k_ * w_[i] * pen * pen;
       }
     }
     return e;
@@ -624,6 +644,7 @@ class RigidSim {
   bool contact_ = false;
   double height_ = 0.0, delta_ = 0.0, mu_ = 0.0;
   S k_, c_;
+  std::vector<double> w_;  ///< GroundContact::point_weights, or all 1
   std::vector<double> bx_, by_, bz_;
   std::vector<Vec2<S>> anchor_;
   std::vector<char> flag_;   ///< 0 free, 1 anchored, 2 stale (during an update)
@@ -647,7 +668,7 @@ RigidTrajectory<S> simulateRigid(const RigidInertia<S>& inertia, const RigidStat
   validateInertia(inertia);
   validateOptions(options, true);
   validateState(initial, options.pivot);
-  validatePoints(contact_points_body);
+  validatePoints(contact_points_body, options.ground.point_weights);
 
   const double m = valueOf(inertia.mass);
   const Eigen::Vector3d com = val(inertia.com);
@@ -797,7 +818,7 @@ RigidState<S> restingState(const RigidInertia<S>& inertia, const Eigen::Quaterni
                            const std::vector<Eigen::Vector3d>& contact_points_body, const RigidSimOptions& options) {
   validateInertia(inertia);
   validateOptions(options, false);
-  validatePoints(contact_points_body);
+  validatePoints(contact_points_body, options.ground.point_weights);
   if (contact_points_body.empty())
     throw TopoError("restingState: contact points", "the list is empty, nothing can rest on the ground",
                     "pass the surface particles of the object");
@@ -809,10 +830,10 @@ RigidState<S> restingState(const RigidInertia<S>& inertia, const Eigen::Quaterni
   o.ground.enabled = true;
   const ContactSetup cs = makeContactSetup(valueOf(inertia.mass), val(inertia.com), R, contact_points_body, o);
   // Resting penetration of the lowest point with the rest contact set (piecewise linear in m):
-  // k Σ_{rest} (pen − h_j) = m g_n  →  pen = (m g_n / k + Σ h_j) / n.
+  // k Σ_{rest} w_j (pen − h_j) = m g_n  →  pen = (m g_n / k + Σ w_j h_j) / Σ w_j.
   const S k = stiffnessOf(cs, inertia.mass);
   const double gn = normalGravity(o);
-  const S pen = (inertia.mass * S(gn) / k + S(cs.rest_sum_h)) / S(static_cast<double>(cs.rest_set.size()));
+  const S pen = (inertia.mass * S(gn) / k + S(cs.rest_sum_h)) / S(cs.rest_sum_w);
   const Mat3<S> Rs = lift<S>(R);
   const Vec3<S> r_low = Rs * (lift<S>(contact_points_body[cs.lowest]) - inertia.com);
   RigidState<S> s;
@@ -845,7 +866,7 @@ S rigidEnergy(const RigidInertia<S>& inertia, const RigidState<S>& state,
               const std::vector<Eigen::Vector3d>& contact_points_body, const RigidSimOptions& options) {
   validateInertia(inertia);
   validateOptions(options, false);
-  validatePoints(contact_points_body);
+  validatePoints(contact_points_body, options.ground.point_weights);
   RigidState<S> s = state;
   s.orientation = normalizedQ(state.orientation);
   // The automatic stiffness is evaluated in this state's orientation (the same value a simulation

@@ -7,6 +7,38 @@
 
 namespace topo_gaussian {
 
+double ContactSamples::totalArea() const {
+  double s = 0.0;
+  for (double a : area) s += a;
+  return s;
+}
+
+std::vector<Eigen::Vector3d> groundContactPoints(const VolumeCloud& cloud, std::string* note,
+                                                 std::vector<double>* weights) {
+  if (note) note->clear();
+  if (weights) weights->clear();
+  if (!cloud.contact.empty()) {
+    if (weights) {
+      const double mean = cloud.contact.totalArea() / double(cloud.contact.size());
+      for (double a : cloud.contact.area) weights->push_back(a / mean);
+    }
+    return cloud.contact.X;
+  }
+  std::vector<Eigen::Vector3d> out;
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (i < cloud.surface.size() && cloud.surface[i]) out.push_back(cloud.X[i]);
+  if (note)
+    *note = "the volume has no contact samples on the true surface: ground contact uses its " +
+            std::to_string(out.size()) +
+            " surface particles (the lattice staircase; rocking periods can be off by several %); fill it again "
+            "with `topo fill` to get them";
+  return out;
+}
+
+double groundContactSpacing(const VolumeCloud& cloud) {
+  return cloud.contact.empty() || !(cloud.contact.spacing > 0) ? cloud.spacing : cloud.contact.spacing;
+}
+
 double VolumeCloud::totalVolume() const {
   double s = 0.0;
   for (double v : V) s += v;
@@ -56,6 +88,25 @@ void VolumeCloud::validate(const std::string& what) const {
     if (!(V[i] > 0.0) || !std::isfinite(V[i]))
       throw TopoError(what, "particle " + std::to_string(i) + " has volume " + std::to_string(V[i]),
                       "every particle needs a positive finite volume");
+  }
+  const ContactSamples& c = contact;
+  if (c.empty()) return;
+  if (c.normal.size() != c.size() || c.area.size() != c.size())
+    throw TopoError(what,
+                    "has " + std::to_string(c.size()) + " contact samples but " + std::to_string(c.normal.size()) +
+                        " normals and " + std::to_string(c.area.size()) + " areas",
+                    "give one normal and one area per contact sample");
+  if (!(c.spacing > 0.0) || !std::isfinite(c.spacing))
+    throw TopoError(what, "has contact sample spacing " + std::to_string(c.spacing),
+                    "set the contact samples' spacing (a positive length in m)");
+  for (std::size_t k = 0; k < c.size(); ++k) {
+    if (!c.X[k].allFinite() || !c.normal[k].allFinite() || std::abs(c.normal[k].norm() - 1.0) > 1e-3 ||
+        !(c.area[k] > 0.0) || !std::isfinite(c.area[k]))
+      throw TopoError(what,
+                      "contact sample " + std::to_string(k) +
+                          " has a non-finite position, a normal that is not of unit length, or an area that is not "
+                          "positive",
+                      "write the volume again with `topo fill`");
   }
 }
 

@@ -132,8 +132,9 @@ std::string describe(const geometry::IngestResult& r) {
   s.precision(6);
   s << "filled " << r.input << " (" << geometry::toString(r.kind) << ", " << r.clean.points_in
     << " points): " << r.cloud.size() << " particles (" << r.cloud.surfaceCount() << " on the surface), volume "
-    << r.cloud.totalVolume() << " m^3, spacing " << r.cloud.spacing << " m, " << r.seconds << " s, method "
-    << r.fill.method;
+    << r.cloud.totalVolume() << " m^3, spacing " << r.cloud.spacing << " m, " << r.cloud.contact.size()
+    << " contact samples on the true surface (spacing " << r.cloud.contact.spacing << " m), " << r.seconds
+    << " s, method " << r.fill.method;
   return s.str();
 }
 
@@ -141,11 +142,12 @@ CloudIngestNode::CloudIngestNode(const ::ros::NodeHandle& nh, const ::ros::NodeH
     : nh_(nh), pnh_(pnh), fill_nh_(nh), params_(loadCloudIngestParams(pnh)) {
   fill_nh_.setCallbackQueue(&fill_queue_);
   volume_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("volume", 1, /*latch=*/true);
+  contact_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("contact_samples", 1, /*latch=*/true);
   surface_sub_ = fill_nh_.subscribe("surface_cloud", 1, &CloudIngestNode::onSurfaceCloud, this);
   fill_srv_ = pnh_.advertiseService("fill_interior", &CloudIngestNode::onFillInterior, this);
-  ROS_INFO("cloud_ingest: publishing %s (latched, frame %s), listening on %s, service %s",
-           volume_pub_.getTopic().c_str(), params_.frame_id.c_str(), surface_sub_.getTopic().c_str(),
-           fill_srv_.getService().c_str());
+  ROS_INFO("cloud_ingest: publishing %s and %s (latched, frame %s), listening on %s, service %s",
+           volume_pub_.getTopic().c_str(), contact_pub_.getTopic().c_str(), params_.frame_id.c_str(),
+           surface_sub_.getTopic().c_str(), fill_srv_.getService().c_str());
   fill_spinner_ = std::make_unique<::ros::AsyncSpinner>(1, &fill_queue_);
   fill_spinner_->start();
   if (params_.surface_file.empty()) {
@@ -170,7 +172,7 @@ void CloudIngestNode::fillStartupFile() {
   try {
     checkSurfaceFile(params_.surface_file, pnh_.resolveName("surface_file"));
     const geometry::IngestResult r = geometry::ingestFile(params_.surface_file, params_.options);
-    publish(toPointCloud2(r.cloud, params_.frame_id, ::ros::Time::now()));
+    publish(r.cloud, params_.frame_id, ::ros::Time::now());
     ROS_INFO("cloud_ingest: %s", asciiText(describe(r)).c_str());
     return;
   } catch (const std::bad_alloc&) {
@@ -190,7 +192,7 @@ void CloudIngestNode::onSurfaceCloud(const sensor_msgs::PointCloud2ConstPtr& msg
     const geometry::IngestResult r = geometry::ingestSurface(toSurfaceData(*msg, topic), params_.options);
     const std::string frame = msg->header.frame_id.empty() ? params_.frame_id : msg->header.frame_id;
     const ::ros::Time stamp = msg->header.stamp.isZero() ? ::ros::Time::now() : msg->header.stamp;
-    publish(toPointCloud2(r.cloud, frame, stamp));
+    publish(r.cloud, frame, stamp);
     ROS_INFO("cloud_ingest: %s", asciiText(describe(r)).c_str());
   } catch (const std::bad_alloc&) {
     ROS_ERROR(
@@ -233,14 +235,16 @@ bool CloudIngestNode::onFillInterior(topo_gaussian::FillInterior::Request& req,
     res.method = r.fill.method;
     res.message = describe(r);
     res.success = true;
-    if (req.publish) publish(res.volume);
+    if (req.publish) publish(r.cloud, frame, stamp);
     ROS_INFO("cloud_ingest: %s: %s%s", service.c_str(), asciiText(res.message).c_str(),
              req.publish ? " (published)" : "");
   });  // errors travel in the response, never as a failed call
 }
 
-void CloudIngestNode::publish(const sensor_msgs::PointCloud2& volume) {
-  volume_pub_.publish(volume);
+void CloudIngestNode::publish(const VolumeCloud& cloud, const std::string& frame, const ::ros::Time& stamp) {
+  // The contact samples first: a subscriber pairs them with the volume of the same stamp.
+  contact_pub_.publish(toContactCloud(cloud.contact, frame, stamp));
+  volume_pub_.publish(toPointCloud2(cloud, frame, stamp));
   ++published_;
 }
 

@@ -274,6 +274,62 @@ VolumeCloud fromPointCloud2(const sensor_msgs::PointCloud2& msg, const std::stri
   return c;
 }
 
+sensor_msgs::PointCloud2 toContactCloud(const ContactSamples& c, const std::string& frame_id,
+                                        const ::ros::Time& stamp) {
+  const std::size_t n = c.size();
+  if (c.normal.size() != n || c.area.size() != n)
+    throw TopoError("contact samples",
+                    "has " + std::to_string(n) + " positions but " + std::to_string(c.normal.size()) + " normals and " +
+                        std::to_string(c.area.size()) + " areas",
+                    "give one normal and one area per sample");
+  sensor_msgs::PointCloud2 msg;
+  msg.header.frame_id = frame_id;
+  msg.header.stamp = stamp;
+  msg.height = 1;
+  sensor_msgs::PointCloud2Modifier modifier(msg);
+  modifier.setPointCloud2Fields(7, "x", 1, PointField::FLOAT32, "y", 1, PointField::FLOAT32, "z", 1,
+                                PointField::FLOAT32, "normal_x", 1, PointField::FLOAT32, "normal_y", 1,
+                                PointField::FLOAT32, "normal_z", 1, PointField::FLOAT32, "area", 1,
+                                PointField::FLOAT32);
+  modifier.resize(n);
+  msg.is_dense = true;
+  msg.is_bigendian = false;
+  if (n == 0) return msg;
+  sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), nx(msg, "normal_x"), a(msg, "area");
+  for (std::size_t k = 0; k < n; ++k, ++x, ++nx, ++a) {
+    for (int d = 0; d < 3; ++d) {
+      x[d] = float(c.X[k][d]);
+      nx[d] = float(c.normal[k][d]);
+    }
+    *a = float(c.area[k]);
+  }
+  return msg;
+}
+
+ContactSamples fromContactCloud(const sensor_msgs::PointCloud2& msg, const std::string& source) {
+  const CloudReader in(msg, source);
+  const std::string layout = "the contact layout: x y z normal_x normal_y normal_z area (FLOAT32)";
+  const int fx = in.requirePosition("x", layout), fy = in.requirePosition("y", layout),
+            fz = in.requirePosition("z", layout);
+  const int nx = in.require("normal_x", layout), ny = in.require("normal_y", layout),
+            nz = in.require("normal_z", layout), fa = in.require("area", layout);
+  ContactSamples c;
+  c.origin = source;
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    c.X.emplace_back(in.get(i, fx), in.get(i, fy), in.get(i, fz));
+    Eigen::Vector3d n(in.get(i, nx), in.get(i, ny), in.get(i, nz));
+    c.normal.push_back(n.norm() > 0 ? Eigen::Vector3d(n.normalized()) : n);
+    c.area.push_back(in.get(i, fa));
+  }
+  if (!c.area.empty()) {
+    std::vector<double> v = c.area;
+    auto mid = v.begin() + std::ptrdiff_t(v.size() / 2);
+    std::nth_element(v.begin(), mid, v.end());
+    c.spacing = *mid > 0.0 && std::isfinite(*mid) ? std::sqrt(*mid) : 0.0;
+  }
+  return c;
+}
+
 std::uint32_t interiorRgb(double r) {
   const double w = std::isfinite(r) ? std::clamp(r, 0.0, 1.0) : 0.0;
   std::uint32_t out = 0;

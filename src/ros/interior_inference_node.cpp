@@ -72,6 +72,7 @@ InteriorInferenceNode::InteriorInferenceNode(const ::ros::NodeHandle& nh, const 
   interior_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("interior", 1, true);
   markers_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("interior_markers", 1, true);
   volume_sub_ = nh_.subscribe("volume", 1, &InteriorInferenceNode::onVolume, this);
+  contact_sub_ = nh_.subscribe("contact_samples", 1, &InteriorInferenceNode::onContactSamples, this);
   features_sub_ = nh_.subscribe("motion_features", 1, &InteriorInferenceNode::onFeatures, this);
   infer_srv_ = pnh_.advertiseService("infer", &InteriorInferenceNode::onInfer, this);
   simulate_srv_ = pnh_.advertiseService("simulate", &InteriorInferenceNode::onSimulate, this);
@@ -94,12 +95,35 @@ void InteriorInferenceNode::onVolume(const sensor_msgs::PointCloud2ConstPtr& msg
     auto cloud = std::make_shared<VolumeCloud>(fromPointCloud2(*msg, volume_sub_.getTopic()));
     cloud->validate(volume_sub_.getTopic());
     std::lock_guard<std::mutex> lock(state_mutex_);
+    if (contact_ && contact_stamp_ == msg->header.stamp) cloud->contact = *contact_;
     volume_ = cloud;
     volume_frame_ = msg->header.frame_id;
-    ROS_INFO("interior_inference: volume of %zu particles (spacing %.4g m, %.4g m^3) in frame '%s'", cloud->size(),
-             cloud->spacing, cloud->totalVolume(), msg->header.frame_id.c_str());
+    volume_stamp_ = msg->header.stamp;
+    ROS_INFO(
+        "interior_inference: volume of %zu particles (spacing %.4g m, %.4g m^3) in frame '%s', %zu contact "
+        "samples%s",
+        cloud->size(), cloud->spacing, cloud->totalVolume(), msg->header.frame_id.c_str(), cloud->contact.size(),
+        cloud->contact.empty() ? " (none yet: contact uses the surface particles until they arrive)" : "");
   } catch (const std::exception& e) {
     ROS_ERROR("interior_inference: ignored a volume: %s", asciiText(e.what()).c_str());
+  }
+}
+
+void InteriorInferenceNode::onContactSamples(const sensor_msgs::PointCloud2ConstPtr& msg) {
+  try {
+    auto samples = std::make_shared<ContactSamples>(fromContactCloud(*msg, contact_sub_.getTopic()));
+    std::lock_guard<std::mutex> lock(state_mutex_);
+    contact_ = samples;
+    contact_stamp_ = msg->header.stamp;
+    if (volume_ && volume_stamp_ == msg->header.stamp && volume_->contact.size() != samples->size()) {
+      auto cloud = std::make_shared<VolumeCloud>(*volume_);  // a run in progress keeps its own copy
+      cloud->contact = *samples;
+      cloud->validate(contact_sub_.getTopic());
+      volume_ = cloud;
+      ROS_INFO("interior_inference: %zu contact samples on the true surface attached to the volume", samples->size());
+    }
+  } catch (const std::exception& e) {
+    ROS_ERROR("interior_inference: ignored contact samples: %s", asciiText(e.what()).c_str());
   }
 }
 

@@ -42,6 +42,9 @@ const char* kHelp =
     "  --closing-cells N         seal gaps up to 2N grid cells by closing (default -1: automatic, from the\n"
     "                            point spacing; 0: PhysGaussian's ray-parity fill with a leak check)\n"
     "  --max-open-fraction F     refuse when more of the interior leaks outside (0..1, default 0.05)\n"
+    "  --contact-spacing S       spacing of the contact samples on the true surface in metres (stored in the\n"
+    "                            volume .ply, element contact; the ground contact uses them); default 0 =\n"
+    "                            min(spacing / 2, bounding-box diagonal / 200)\n"
     "\n"
     "Warnings (repairs of a mesh, a fallback to the density method, a suspiciously large object) go to\n"
     "stderr as '[topo fill] warning: ...' lines and into --json's \"warnings\". The output must not be the\n"
@@ -93,7 +96,8 @@ int fillCommand(const std::vector<std::string>& argv) {
                 "exclude-direction",
                 "ray-direction",
                 "closing-cells",
-                "max-open-fraction"});
+                "max-open-fraction",
+                "contact-spacing"});
   if (a.has("help")) {
     std::cout << kHelp;
     return 0;
@@ -122,6 +126,9 @@ int fillCommand(const std::vector<std::string>& argv) {
   o.fill.jitter = a.num("jitter", 0.0);
   o.fill.grid_resolution = int(a.integer("grid-resolution", 0));
   o.fill.max_open_fraction = a.num("max-open-fraction", o.fill.max_open_fraction);
+  o.fill.contact.spacing_m = a.num("contact-spacing", 0.0);
+  if (a.has("contact-spacing") && !(o.fill.contact.spacing_m > 0.0))
+    throw UsageError("--contact-spacing must be a positive number of metres");
   o.fill.density.density_threshold = a.num("density-threshold", o.fill.density.density_threshold);
   o.fill.density.search_threshold = a.num("search-threshold", o.fill.density.search_threshold);
   o.fill.density.search_exclude_direction =
@@ -141,6 +148,9 @@ int fillCommand(const std::vector<std::string>& argv) {
   std::cerr << "[topo fill] " << toString(r.kind) << " (" << r.clean.points_in << " points) -> " << r.cloud.size()
             << " particles, volume " << r.cloud.totalVolume() << " m^3, spacing " << r.cloud.spacing << " m ("
             << r.fill.method << ", " << r.seconds << " s)" << std::endl;
+  std::cerr << "[topo fill] " << r.cloud.contact.size() << " contact samples on the true surface ("
+            << r.cloud.contact.origin << ", spacing " << r.cloud.contact.spacing << " m, area "
+            << r.cloud.contact.totalArea() << " m^2)" << std::endl;
   for (const std::string& w : r.warnings) std::cerr << "[topo fill] warning: " << w << std::endl;
   io::writeVolumePly(r.cloud, output);
   std::cerr << "[topo fill] wrote " << output << std::endl;

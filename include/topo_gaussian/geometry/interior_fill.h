@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "topo_gaussian/geometry/contact_samples.h"
 #include "topo_gaussian/geometry/density_fill.h"
 #include "topo_gaussian/geometry/mesh_fill.h"
 #include "topo_gaussian/geometry/mesh_repair.h"
@@ -40,6 +41,8 @@ struct FillOptions {
   /// samplings of a sphere without it, +1.5..6.4 % with it). Gaussians follow density.split_shell.
   bool split_point_shell = true;
   MeshRepairOptions mesh_repair;  ///< meshes: which holes are closed and which open pieces are left out
+  /// Contact samples on the true surface, stored in VolumeCloud::contact (geometry/contact_samples.h).
+  ContactSampleOptions contact;
 };
 
 struct FillReport {
@@ -48,6 +51,9 @@ struct FillReport {
   std::size_t triangles_in = 0;
   std::size_t particles_out = 0;
   std::size_t surface_particles = 0;
+  std::size_t contact_samples = 0;  ///< points on the true surface (VolumeCloud::contact)
+  double contact_spacing_m = 0.0;
+  double contact_area_m2 = 0.0;  ///< Σ of the samples' areas: the surface area
   double spacing_m = 0.0;
   double total_volume_m3 = 0.0;
   Eigen::Vector3d bbox_min = Eigen::Vector3d::Zero(), bbox_max = Eigen::Vector3d::Zero();  ///< of the input

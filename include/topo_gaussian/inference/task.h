@@ -73,6 +73,9 @@ class Task {
   /// SimulationCancelled within a few ms of work. Set before evaluating; null = never stop.
   void setShouldStop(StopCheck stop) { should_stop_ = std::move(stop); }
   const StopCheck& shouldStop() const { return should_stop_; }
+  /// Warnings for a person found while building the task (e.g. contact on the lattice staircase because
+  /// the volume has no contact samples); runInference adds them to InferenceResult::warnings.
+  const std::vector<std::string>& notes() const { return notes_; }
 
  protected:
   /// require_gravity: refuse a zero gravity vector (rigid tasks; soft tasks may run without, e.g.
@@ -95,6 +98,7 @@ class Task {
   Eigen::Vector3d lo_, hi_;
   TaskGeometry geometry_;
   StopCheck should_stop_;
+  std::vector<std::string> notes_;
 };
 
 /// Fewest particles a task accepts: an interior is inferred from how its particles differ, and the

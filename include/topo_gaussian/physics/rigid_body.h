@@ -60,6 +60,11 @@ struct GroundContact {
   double damping_ratio = 0.1;  ///< normal damping as a fraction of critical (per contact point)
   double friction_mu = 1.0;    ///< Coulomb coefficient; large enough → rolling without slipping
   bool enabled = true;
+  /// Relative weight w_i of each contact point (its share of the surface area over the mean share):
+  /// point i gets stiffness k w_i (normal and tangential) and damping c w_i, so the points integrate a
+  /// pressure over the surface (Σ_i k w_i pen_i ≈ (k / Ā) ∫ pen dA) instead of counting points. Empty =
+  /// all 1; otherwise one positive finite weight per contact point.
+  std::vector<double> point_weights;
 };
 
 struct RigidSimOptions {

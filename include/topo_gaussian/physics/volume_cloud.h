@@ -1,5 +1,8 @@
 // VolumeCloud: the particle discretisation of a solid object (paper §4),
-// {(X_i, V_i)} plus a surface flag and the lattice spacing it was sampled on.
+// {(X_i, V_i)} plus a surface flag and the lattice spacing it was sampled on, and the contact samples:
+// points on the object's true surface {(y_k, n_k, A_k)} (Σ_k A_k ≈ the surface area) that carry the
+// ground contact, so the body touches the ground with its real shape rather than with the lattice's
+// staircase of surface particles (a staircase rocks up to 7 % slower or faster than the smooth body).
 #pragma once
 
 #include <Eigen/Core>
@@ -9,11 +12,26 @@
 
 namespace topo_gaussian {
 
+/// Points on the object's true surface, in the frame of the particles (rigidly attached to the body).
+struct ContactSamples {
+  std::vector<Eigen::Vector3d> X;       ///< positions on the surface [m]
+  std::vector<Eigen::Vector3d> normal;  ///< outward unit normals
+  std::vector<double> area;             ///< surface area each sample stands for [m^2]
+  double spacing = 0.0;                 ///< typical distance between neighbouring samples [m]
+  /// Where they came from, for logs: "mesh triangles", "points", "Gaussian centres", "shape surface".
+  std::string origin;
+
+  std::size_t size() const { return X.size(); }
+  bool empty() const { return X.empty(); }
+  double totalArea() const;
+};
+
 struct VolumeCloud {
   std::vector<Eigen::Vector3d> X;     ///< rest positions [m]
   std::vector<double> V;              ///< particle volumes [m^3]; their sum is the enclosed volume
   std::vector<std::uint8_t> surface;  ///< 1 for particles within one spacing of the boundary
   double spacing = 0.0;               ///< lattice spacing h [m]
+  ContactSamples contact;             ///< may be empty (then contact falls back to surface particles)
 
   std::size_t size() const { return X.size(); }
   bool empty() const { return X.empty(); }
@@ -24,8 +42,18 @@ struct VolumeCloud {
   void bounds(Eigen::Vector3d* lo, Eigen::Vector3d* hi) const;
   std::size_t surfaceCount() const;
   /// Throws TopoError (naming `what`) when sizes disagree, a value is not finite,
-  /// a volume is not positive or the cloud is empty.
+  /// a volume is not positive or the cloud is empty (and likewise for the contact samples: sizes,
+  /// finite positions, unit normals, positive areas and spacing).
   void validate(const std::string& what = "volume cloud") const;
 };
+
+/// The body points that touch the ground: the contact samples when the cloud has them, else the
+/// surface particles (the lattice staircase). `*note` (optional) is set to a warning for a person
+/// when the staircase is used, "" otherwise. `*weights` (optional): each point's area over the mean
+/// area (GroundContact::point_weights), empty for the staircase (all 1).
+std::vector<Eigen::Vector3d> groundContactPoints(const VolumeCloud& cloud, std::string* note = nullptr,
+                                                 std::vector<double>* weights = nullptr);
+/// The spacing of groundContactPoints: the contact samples' spacing, else the lattice spacing.
+double groundContactSpacing(const VolumeCloud& cloud);
 
 }  // namespace topo_gaussian

@@ -1,7 +1,8 @@
 // CloudIngestNode: the ROS face of the first stage (surface -> filled VolumeCloud).
 //   in : ~surface_file (parameter, filled once at start), topic `surface_cloud` (PointCloud2),
 //        service ~fill_interior (FillInterior.srv)
-//   out: topic `volume` (PointCloud2, latched; fields x y z volume surface)
+//   out: topic `volume` (PointCloud2, latched; fields x y z volume surface) and `contact_samples`
+//        (PointCloud2, latched, same stamp; x y z normal_x normal_y normal_z area: the true surface)
 // The node owns the ROS handles and the parameters; geometry::ingestFile/ingestSurface do the work.
 // Threads: clouds on `surface_cloud` and the ~surface_file at start are filled on the node's own
 // callback queue and thread (one at a time, newest cloud wins), so ~fill_interior keeps answering
@@ -76,7 +77,8 @@ class CloudIngestNode {
   void onSurfaceCloud(const sensor_msgs::PointCloud2ConstPtr& msg);
   bool onFillInterior(topo_gaussian::FillInterior::Request& request, topo_gaussian::FillInterior::Response& response);
   void fillStartupFile();
-  void publish(const sensor_msgs::PointCloud2& volume);
+  /// Publishes contact_samples, then volume, both latched, with the same frame and stamp.
+  void publish(const VolumeCloud& cloud, const std::string& frame, const ::ros::Time& stamp);
 
   ::ros::NodeHandle nh_, pnh_;
   ::ros::NodeHandle fill_nh_;  ///< nh_ on fill_queue_: `surface_cloud` and the startup fill
@@ -84,6 +86,7 @@ class CloudIngestNode {
   std::unique_ptr<::ros::AsyncSpinner> fill_spinner_;  ///< the one thread that serves fill_queue_
   const CloudIngestParams params_;                     ///< read-only after construction: no lock needed
   ::ros::Publisher volume_pub_;                        ///< publish() is thread-safe in roscpp
+  ::ros::Publisher contact_pub_;                       ///< the volume's contact samples (same stamp)
   ::ros::Subscriber surface_sub_;
   ::ros::ServiceServer fill_srv_;
   ::ros::WallTimer startup_timer_;  ///< one shot on fill_queue_: fills ~surface_file

@@ -4,6 +4,8 @@
 //  - PointCloud2  -> geometry::SurfaceData (kind Points) for filling: x y z required, FLOAT32 or
 //    FLOAT64; normal_x/y/z used when all three are present. NaN points are kept here, cleaning drops them.
 //  - PointCloud2 (volume layout) -> VolumeCloud, for tests and later nodes.
+//  - ContactSamples <-> PointCloud2 "contact layout": x y z normal_x normal_y normal_z area (FLOAT32;
+//    m, unit, m^2), published by cloud_ingest on `contact_samples` beside `volume` with the same stamp.
 //  - an inferred interior <-> PointCloud2 "interior layout": x y z solid density stiffness rgb, all
 //    FLOAT32 (m, r in [0, 1], kg/m^3, Pa or 0 for rigid tasks, and rgb packed as PCL and rviz read
 //    it: solid red, hollow blue, blended by r).
@@ -41,6 +43,15 @@ geometry::SurfaceData toSurfaceData(const sensor_msgs::PointCloud2& msg, const s
 /// is not carried by the message: it is recovered as the cube root of the median particle volume. Throws TopoError
 /// naming `source` for missing fields or malformed data (not for bad values: call VolumeCloud::validate for that).
 VolumeCloud fromPointCloud2(const sensor_msgs::PointCloud2& msg, const std::string& source);
+
+/// Contact samples on the true surface as a PointCloud2 in the contact layout.
+sensor_msgs::PointCloud2 toContactCloud(const ContactSamples& samples, const std::string& frame_id,
+                                        const ::ros::Time& stamp);
+
+/// Reads the contact layout (x y z normal_x normal_y normal_z area required). The spacing is not carried
+/// by the message: it is recovered as the square root of the median area. Throws TopoError naming
+/// `source` for missing fields or malformed data.
+ContactSamples fromContactCloud(const sensor_msgs::PointCloud2& msg, const std::string& source);
 
 /// Colours of the interior layout (0xRRGGBB).
 constexpr std::uint32_t kSolidRgb = 0xDC2828, kHollowRgb = 0x2864DC;

@@ -1,5 +1,6 @@
 // InteriorInferenceNode: the ROS face of topo_inference (one inference = one action goal).
-//   in : topics `volume` (PointCloud2, volume layout) and `motion_features` (MotionFeatures): the
+//   in : topics `volume` (PointCloud2, volume layout; its `contact_samples` of the same stamp, when
+//        published, give the ground contact the true surface) and `motion_features` (MotionFeatures): the
 //        latest of each is used when a goal carries none
 //   out: action `infer_interior` (InferInterior.action: feedback every iteration, result with the
 //        interior cloud, achieved vs target features and the files written; a cancel or a new goal
@@ -102,6 +103,7 @@ class InteriorInferenceNode {
 
  private:
   void onVolume(const sensor_msgs::PointCloud2ConstPtr& msg);
+  void onContactSamples(const sensor_msgs::PointCloud2ConstPtr& msg);
   void onFeatures(const topo_gaussian::MotionFeaturesConstPtr& msg);
   void execute(const topo_gaussian::InferInteriorGoalConstPtr& goal);
   bool onInfer(topo_gaussian::Infer::Request& req, topo_gaussian::Infer::Response& res);
@@ -123,7 +125,10 @@ class InteriorInferenceNode {
   ::ros::NodeHandle nh_, pnh_;
   InteriorInferenceParams params_;
   ::ros::Publisher interior_pub_, markers_pub_;
-  ::ros::Subscriber volume_sub_, features_sub_;
+  ::ros::Subscriber volume_sub_, features_sub_, contact_sub_;
+  /// The latest contact samples and their stamp; attached to the volume of the same stamp.
+  std::shared_ptr<const ContactSamples> contact_;
+  ::ros::Time contact_stamp_, volume_stamp_;
   ::ros::ServiceServer infer_srv_, simulate_srv_, export_srv_;
   ::ros::WallTimer replay_timer_, republish_timer_;
   tf2_ros::TransformBroadcaster tf_;

@@ -1,0 +1,383 @@
+#include "topo_gaussian/geometry/contact_samples.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <unordered_map>
+
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/physics/neighbor_list.h"
+
+namespace topo_gaussian::geometry {
+namespace {
+
+std::vector<Eigen::Vector3d> boundaryParticles(const VolumeCloud& c) {
+  std::vector<Eigen::Vector3d> out;
+  for (std::size_t i = 0; i < c.size(); ++i)
+    if (c.surface[i]) out.push_back(c.X[i]);
+  if (out.empty()) out = c.X;
+  return out;
+}
+
+/// Mean of the filled particles within `radius` of p (p itself when none is that close).
+Eigen::Vector3d localInside(const SpatialGrid& grid, const Eigen::Vector3d& p, double radius) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  int n = 0;
+  grid.query(p, [&](int, const Eigen::Vector3d& x) {
+    if ((x - p).squaredNorm() < radius * radius) {
+      sum += x;
+      ++n;
+    }
+  });
+  return n ? Eigen::Vector3d(sum / n) : p;
+}
+
+double signedVolume(const SurfaceData& m) {
+  double v = 0.0;
+  for (const auto& t : m.triangles) v += m.points[t[0]].dot(m.points[t[1]].cross(m.points[t[2]]));
+  return v / 6.0;
+}
+
+void checkCount(double count, double s, const ContactSampleOptions& o, const SurfaceData& surface) {
+  if (count <= o.max_samples) return;
+  throw TopoError(surface.source,
+                  "would need " + numberText(count, 3) + " contact samples at spacing " + numberText(s, 3) +
+                      " m (limit " + numberText(o.max_samples, 3) + ")",
+                  "give a coarser contact spacing, at least " + numberText(s * std::sqrt(count / o.max_samples), 3) +
+                      " m (FillOptions::contact.spacing_m, `topo fill --contact-spacing`)");
+}
+
+std::int64_t cellKey(const Eigen::Vector3d& p, double cell) {
+  const Eigen::Array3d q = (p / cell).array().floor();
+  return (std::int64_t(q[0]) & 0x1FFFFF) | (std::int64_t(q[1]) & 0x1FFFFF) << 21 |
+         (std::int64_t(q[2]) & 0x1FFFFF) << 42;
+}
+
+std::uint64_t mix(std::uint64_t x) {  // splitmix64: a fixed pseudo-random visiting order
+  x += 0x9E3779B97F4A7C15ULL;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBULL;
+  return x ^ (x >> 31);
+}
+
+/// Poisson-disk thinning of dense candidates (≈ 9 per s²): visiting them in a fixed pseudo-random order,
+/// keep one when no kept sample is within r = 0.85 s (a maximal set: ≈ 1 / s² samples per area, evenly
+/// spread — an irregular sampling makes the ground contact bumpy, and at 3° a hemisphere then rocks
+/// 10 % slow). Every candidate's area (and normal, area-weighted) goes to the nearest kept sample,
+/// which is within r, so Σ A_k is kept.
+ContactSamples thinToSpacing(const ContactSamples& c, double s) {
+  const double r = 0.85 * s;
+  std::vector<std::pair<std::uint64_t, int>> order(c.size());
+  for (std::size_t i = 0; i < c.size(); ++i) order[i] = {mix(i), int(i)};
+  std::sort(order.begin(), order.end());
+  std::unordered_map<std::int64_t, std::vector<int>> kept_in;
+  std::vector<int> kept;
+  auto near = [&](const Eigen::Vector3d& p, double radius, int* nearest) {
+    const Eigen::Array3d q = (p / r).array().floor();
+    double best = radius * radius;
+    bool found = false;
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) {
+          const Eigen::Vector3d probe = (q + Eigen::Array3d(dx + 0.5, dy + 0.5, dz + 0.5)).matrix() * r;
+          const auto it = kept_in.find(cellKey(probe, r));
+          if (it == kept_in.end()) continue;
+          for (int j : it->second) {
+            const double d2 = (c.X[j] - p).squaredNorm();
+            if (d2 < best) {
+              best = d2;
+              found = true;
+              if (nearest)
+                *nearest = j;
+              else
+                return true;
+            }
+          }
+        }
+    return found;
+  };
+  for (const auto& oi : order) {
+    const int i = oi.second;
+    if (near(c.X[i], r, nullptr)) continue;
+    kept_in[cellKey(c.X[i], r)].push_back(i);
+    kept.push_back(i);
+  }
+  // Lloyd relaxation (4 rounds): every candidate goes to its nearest sample, and each sample moves to
+  // the area-weighted centroid of its candidates, taking their summed area and mean normal. The samples
+  // become nearly centroidal Voronoi sites: evenly spread with areas that tile the surface, so the
+  // ground's pressure centre follows the smooth surface (an irregular set moves it by ~ s / √N).
+  ContactSamples out;
+  out.origin = c.origin;
+  out.spacing = s;
+  for (int i : kept) out.X.push_back(c.X[i]);
+  std::vector<int> owner(c.size(), -1);
+  for (int round = 0; round < 5; ++round) {
+    const SpatialGrid grid(out.X, 2.0 * r);
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      double best = 4.0 * r * r;
+      grid.query(c.X[i], [&](int j, const Eigen::Vector3d& x) {
+        const double d2 = (x - c.X[i]).squaredNorm();
+        if (d2 < best) best = d2, owner[i] = j;
+      });
+    }
+    std::vector<Eigen::Vector3d> sum(out.size(), Eigen::Vector3d::Zero()), nsum(out.size(), Eigen::Vector3d::Zero());
+    std::vector<double> area(out.size(), 0.0);
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      if (owner[i] < 0) continue;
+      sum[owner[i]] += c.area[i] * c.X[i];
+      nsum[owner[i]] += c.area[i] * c.normal[i];
+      area[owner[i]] += c.area[i];
+    }
+    // Samples that lost every candidate are dropped (their area is with their neighbours).
+    ContactSamples next;
+    next.origin = c.origin;
+    next.spacing = s;
+    for (std::size_t k = 0; k < out.size(); ++k) {
+      if (!(area[k] > 0.0)) continue;
+      next.X.push_back(sum[k] / area[k]);
+      next.normal.push_back(nsum[k].norm() > 0 ? Eigen::Vector3d(nsum[k].normalized()) : Eigen::Vector3d::UnitZ());
+      next.area.push_back(area[k]);
+    }
+    out = std::move(next);
+  }
+  return out;
+}
+
+ContactSamples meshSamples(const SurfaceData& m, const VolumeCloud& filled, double s, const ContactSampleOptions& o,
+                           std::vector<std::string>* warnings) {
+  ContactSamples out;
+  out.origin = "mesh triangles";
+  out.spacing = s;
+  // A closed mesh is oriented by the sign of its signed volume; an open one face by face, away from the
+  // filled particles (its signed volume means nothing).
+  bool closed_orientation = true;
+  {
+    std::unordered_map<std::uint64_t, int> edge_use;
+    for (const auto& t : m.triangles)
+      for (int e = 0; e < 3; ++e) {
+        const std::uint64_t a = std::uint32_t(t[e]), b = std::uint32_t(t[(e + 1) % 3]);
+        ++edge_use[std::min(a, b) << 32 | std::max(a, b)];
+      }
+    for (const auto& kv : edge_use) closed_orientation = closed_orientation && kv.second == 2;
+  }
+  double sigma = 1.0;
+  if (closed_orientation) {
+    const double v = signedVolume(m);
+    if (v < 0.0) {
+      sigma = -1.0;
+      warnings->push_back(m.source + ": its faces are oriented inwards (signed volume " + numberText(v, 4) +
+                          " m^3 < 0): the contact normals were flipped outward; re-export it with outward normals");
+    }
+  }
+  // n_t = max(1, round(A_t / s²)) samples per face at the points of the R2 low-discrepancy sequence
+  // folded into the triangle (uniform on it whatever its shape: a k × k subdivision oversamples slivers),
+  // each standing for A_t / n_t.
+  double count = 0.0;
+  std::size_t degenerate = 0;
+  std::vector<long> k(m.triangles.size(), 0);
+  for (std::size_t t = 0; t < m.triangles.size(); ++t) {
+    const Eigen::Vector3d &a = m.points[m.triangles[t][0]], &b = m.points[m.triangles[t][1]],
+                          &c = m.points[m.triangles[t][2]];
+    const double area = 0.5 * (b - a).cross(c - a).norm();
+    if (!(area > 0.0)) {
+      ++degenerate;
+      continue;
+    }
+    k[t] = std::max(1L, std::lround(9.0 * area / (s * s)));
+    count += double(k[t]);
+  }
+  checkCount(count / 9.0, s, o, m);
+  if (degenerate)
+    warnings->push_back(m.source + ": " + std::to_string(degenerate) + " faces of zero area carry no contact samples");
+  out.X.reserve(std::size_t(count));
+  out.normal.reserve(std::size_t(count));
+  out.area.reserve(std::size_t(count));
+  std::unique_ptr<SpatialGrid> inside;
+  if (!closed_orientation) inside = std::make_unique<SpatialGrid>(filled.X, 2.0 * filled.spacing);
+  constexpr double kR2a = 0.7548776662466927, kR2b = 0.5698402909980532;  // 1/g, 1/g² (g³ = g + 1)
+  long sequence = 0;
+  for (std::size_t t = 0; t < m.triangles.size(); ++t) {
+    if (!k[t]) continue;
+    const Eigen::Vector3d& a = m.points[m.triangles[t][0]];
+    const Eigen::Vector3d u = m.points[m.triangles[t][1]] - a, v = m.points[m.triangles[t][2]] - a;
+    Eigen::Vector3d n = sigma * u.cross(v).normalized();
+    if (inside) {
+      const Eigen::Vector3d centre = a + (u + v) / 3.0;
+      if ((centre - localInside(*inside, centre, 2.0 * filled.spacing)).dot(n) < 0.0) n = -n;
+    }
+    const double area = 0.5 * u.cross(v).norm() / double(k[t]);
+    if (k[t] == 1) {
+      out.X.push_back(a + (u + v) / 3.0);
+    } else {
+      // The sequence runs on from face to face, so the faces of a fan do not all leave their apex empty.
+      for (long i = 0; i < k[t]; ++i, ++sequence) {
+        double x = std::fmod(0.5 + kR2a * double(sequence), 1.0), y = std::fmod(0.5 + kR2b * double(sequence), 1.0);
+        if (x + y > 1.0) x = 1.0 - x, y = 1.0 - y;
+        out.X.push_back(a + x * u + y * v);
+        if (i + 1 < k[t]) out.normal.push_back(n), out.area.push_back(area);
+      }
+    }
+    out.normal.push_back(n);
+    out.area.push_back(area);
+  }
+  return thinToSpacing(out, s);
+}
+
+ContactSamples pointSamples(const SurfaceData& surface, const VolumeCloud& filled, double s,
+                            const ContactSampleOptions& o, std::vector<std::string>* warnings) {
+  const bool gaussians = surface.kind == SurfaceKind::Gaussians;
+  ContactSamples out;
+  out.origin = gaussians ? "Gaussian centres" : "points";
+  out.spacing = s;
+  const double h = filled.spacing;
+  // Floaters: points farther than 2 h from every boundary particle.
+  const std::vector<Eigen::Vector3d> boundary = boundaryParticles(filled);
+  const SpatialGrid near_boundary(boundary, 2.0 * h);
+  struct Cell {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero(), normal = Eigen::Vector3d::Zero();
+    int n = 0;
+  };
+  std::unordered_map<std::int64_t, Cell> cells;
+  std::size_t floaters = 0, faint = 0;
+  const bool with_normals = surface.hasNormals();
+  for (std::size_t i = 0; i < surface.size(); ++i) {
+    if (gaussians && i < surface.opacity.size() && surface.opacity[i] < o.min_opacity) {
+      ++faint;
+      continue;
+    }
+    const Eigen::Vector3d& p = surface.points[i];
+    if (!p.allFinite()) continue;
+    bool close = false;
+    near_boundary.query(p, [&](int, const Eigen::Vector3d& x) { close = close || (x - p).squaredNorm() < 4 * h * h; });
+    if (!close) {
+      ++floaters;
+      continue;
+    }
+    Cell& c = cells[cellKey(p, s / 3.0)];
+    c.sum += p;
+    ++c.n;
+    if (with_normals && surface.normals[i].allFinite()) c.normal += surface.normals[i];
+  }
+  if (floaters)
+    warnings->push_back(surface.source + ": " + std::to_string(floaters) +
+                        " points lie farther than 2 spacings from the filled body (floaters): not contact samples");
+  checkCount(double(cells.size()) / 9.0, s, o, surface);
+  std::vector<Eigen::Vector3d> mean, given;
+  mean.reserve(cells.size());
+  for (const auto& kv : cells) {
+    mean.push_back(kv.second.sum / kv.second.n);
+    given.push_back(kv.second.normal);
+  }
+  if (mean.empty()) return out;
+  // One moving-least-squares step: project onto the plane of the neighbours within r.
+  const double r = 2.5 * s;
+  const SpatialGrid grid(mean, r);
+  const SpatialGrid particles(filled.X, 2.0 * h);
+  out.X.resize(mean.size());
+  out.normal.resize(mean.size());
+  out.area.resize(mean.size());
+  const long n = long(mean.size());
+#pragma omp parallel for schedule(static)
+  for (long k = 0; k < n; ++k) {
+    const Eigen::Vector3d& p = mean[k];
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
+    int m = 0;
+    grid.query(p, [&](int, const Eigen::Vector3d& x) {
+      if ((x - p).squaredNorm() < r * r) {
+        c += x;
+        C += x * x.transpose();
+        ++m;
+      }
+    });
+    const Eigen::Vector3d pin = localInside(particles, p, 2.0 * h);
+    Eigen::Vector3d nrm = p - pin;
+    Eigen::Vector3d y = p;
+    if (m >= 4) {
+      c /= m;
+      C = C / m - c * c.transpose();
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(C);
+      nrm = es.eigenvectors().col(0);
+      y = p - (p - c).dot(nrm) * nrm;
+    }
+    const Eigen::Vector3d reference = given[k].squaredNorm() > 0 ? given[k] : Eigen::Vector3d(p - pin);
+    if (nrm.dot(reference) < 0.0) nrm = -nrm;
+    out.X[k] = y;
+    out.normal[k] = nrm.norm() > 0 ? Eigen::Vector3d(nrm.normalized()) : Eigen::Vector3d::UnitZ();
+    out.area[k] = M_PI * r * r / std::max(1, m);
+  }
+  (void)faint;
+  return thinToSpacing(out, s);
+}
+
+/// Boundary particles with no sample within max(2 h, 3 s): the surface has a hole there.
+void patchHoles(const VolumeCloud& filled, const std::string& source, ContactSamples* out,
+                std::vector<std::string>* warnings) {
+  const double h = filled.spacing, reach = std::max(2.0 * h, 3.0 * out->spacing);
+  const SpatialGrid grid(out->X, reach);
+  const SpatialGrid inside(filled.X, 2.0 * h);
+  std::size_t boundary = 0;
+  std::vector<Eigen::Vector3d> uncovered;
+  for (std::size_t i = 0; i < filled.size(); ++i) {
+    if (!filled.surface[i]) continue;
+    ++boundary;
+    bool covered = false;
+    grid.query(filled.X[i],
+               [&](int, const Eigen::Vector3d& x) { covered = covered || (x - filled.X[i]).norm() < reach; });
+    if (!covered) uncovered.push_back(filled.X[i]);
+  }
+  if (uncovered.empty()) return;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const auto& p : uncovered) centre += p;
+  centre /= double(uncovered.size());
+  const double fraction = double(uncovered.size()) / double(std::max<std::size_t>(1, boundary));
+  // Small holes are sampling gaps (a sparse scan); a large one is a missing piece of the surface.
+  if (fraction < 0.002) return;
+  for (const auto& p : uncovered) {
+    out->X.push_back(p);
+    Eigen::Vector3d n = p - localInside(inside, p, 2.0 * h);
+    out->normal.push_back(n.norm() > 0 ? Eigen::Vector3d(n.normalized()) : Eigen::Vector3d::UnitZ());
+    out->area.push_back(h * h);
+  }
+  warnings->push_back(source + ": the surface has a hole: " + numberText(100.0 * fraction, 2) + " % of the boundary (" +
+                      std::to_string(uncovered.size()) + " particles, centred at (" + numberText(centre.x(), 3) + ", " +
+                      numberText(centre.y(), 3) + ", " + numberText(centre.z(), 3) +
+                      ") m) has no surface sample within " + numberText(reach, 3) +
+                      " m; there the body touches the ground with its lattice particles (a staircase). Scan that "
+                      "region again if the object rests or rolls on it");
+}
+
+}  // namespace
+
+double defaultContactSpacing(const VolumeCloud& filled) {
+  Eigen::Vector3d lo, hi;
+  filled.bounds(&lo, &hi);
+  const double d = (hi - lo).norm() + filled.spacing;
+  return std::min(0.5 * filled.spacing, d / 200.0);
+}
+
+ContactSamples sampleContactSurface(const SurfaceData& surface, const VolumeCloud& filled,
+                                    const ContactSampleOptions& o, std::vector<std::string>* warnings) {
+  std::vector<std::string> local;
+  if (!warnings) warnings = &local;
+  if (!o.enabled) return ContactSamples{};
+  if (!(o.spacing_m >= 0.0) || !std::isfinite(o.spacing_m))
+    throw TopoError("contact spacing", "is " + numberText(o.spacing_m, 4) + " m",
+                    "give a positive spacing in m, or 0 for the automatic one");
+  const double s = o.spacing_m > 0.0 ? o.spacing_m : defaultContactSpacing(filled);
+  ContactSamples out = surface.kind == SurfaceKind::Mesh && !surface.triangles.empty()
+                           ? meshSamples(surface, filled, s, o, warnings)
+                           : pointSamples(surface, filled, s, o, warnings);
+  if (out.empty())
+    throw TopoError(surface.source,
+                    "gives no contact samples: none of its " + std::to_string(surface.size()) +
+                        " points lies on the filled body's boundary",
+                    "check that the surface and the volume are the same object in the same frame");
+  patchHoles(filled, surface.source, &out, warnings);
+  return out;
+}
+
+}  // namespace topo_gaussian::geometry
