@@ -141,6 +141,10 @@ int fillCommand(const std::vector<std::string>& argv) {
   std::cerr << "[topo fill] " << toString(r.kind) << " (" << r.clean.points_in << " points) -> " << r.cloud.size()
             << " particles, volume " << r.cloud.totalVolume() << " m^3, spacing " << r.cloud.spacing << " m ("
             << r.fill.method << ", " << r.seconds << " s)" << std::endl;
+  if (r.fill.mesh_volume_m3 > 0.0)
+    std::cerr << "[topo fill] exact mesh volume " << r.fill.mesh_volume_m3 << " m^3, filled " << r.fill.total_volume_m3
+              << " m^3 (" << (r.fill.exact_boundary ? "exact boundary cells" : "whole boundary cells") << ")"
+              << std::endl;
   for (const std::string& w : r.warnings) std::cerr << "[topo fill] warning: " << w << std::endl;
   io::writeVolumePly(r.cloud, output);
   std::cerr << "[topo fill] wrote " << output << std::endl;
