@@ -111,6 +111,7 @@ CellClipResult clipCells(const SurfaceData& mesh, const Lattice& L) {
     for (int j = j0; j <= j1; ++j)
       for (int i = i0; i <= i1; ++i) columns[std::size_t(j) * nx + i].push_back(int(t));
   }
+  result.inside.assign(L.cells(), 0);
   const double h3 = h * h * h;
   double volume = 0.0;
   std::size_t anomalies = 0, full = 0;
@@ -183,7 +184,10 @@ CellClipResult clipCells(const SurfaceData& mesh, const Lattice& L) {
         const double f = s.v / h3;
         volume += s.v;
         if (f < -1e-6 || f > 1.0 + 1e-6) ++anomalies;
-        if (f >= 1.0 - kPartialTolerance) ++full;
+        if (f >= 1.0 - kPartialTolerance) {
+          ++full;
+          result.inside[L.index(i, j, k)] = 1;  // distinct cells: no race
+        }
         if (f <= kPartialTolerance || f >= 1.0 - kPartialTolerance) continue;
         CellPart part;
         part.cell = L.index(i, j, k);

@@ -310,8 +310,8 @@ struct BoundaryCounts {
 
 // One particle per solid cell (at its centre, volume h³). With `parts` (closed meshes, cell_clip.h):
 // a solid cell the surface cuts gets the exact inside part of its cell (volume, centroid); a cut cell
-// whose centre is outside gives its inside part (volume and first moment) to the particle of the
-// solid 26-neighbour nearest to that part's centroid, so no volume is lost and no particle gets a
+// that is not solid (less than half inside) gives its inside part (volume and first moment) to the
+// particle of the solid 26-neighbour nearest to that part's centroid, so no volume is lost and no particle gets a
 // sliver of a cell (the soft-body SPH sums weigh neighbours by V_j); only a part with no solid
 // neighbour (a feature thinner than the spacing) becomes a particle of its own. The surface flag
 // keeps its meaning (a solid cell with a 6-neighbour that is not solid). Jitter moves every particle.
@@ -567,16 +567,23 @@ VolumeCloud fillInterior(const SurfaceData& input, const FillOptions& o, FillRep
     // Exact boundary: the inside part of every cut cell (cell_clip.h).
     const CellClipResult clip = clipCells(s, occ.lattice);
     if (clip.winding_anomalies == 0) {
+      // A cell holds a particle when at least half of it is inside (the exact fraction decides, not
+      // the parity of its centre, whose ray can graze a vertex): no particle has less than half a
+      // cell before the merges add to it.
+      Occupancy exact{occ.lattice, clip.inside};
+      const double h3 = std::pow(occ.lattice.h, 3);
+      for (const CellPart& part : clip.partial)
+        if (part.volume_m3 >= 0.5 * h3) exact.solid[part.cell] = 1;
       BoundaryCounts counts;
-      cloud = toCloud(occ, o, &clip.partial, &counts);
+      cloud = toCloud(exact, o, &clip.partial, &counts);
       r.clipped_cells = counts.clipped;
       r.merged_cells = counts.merged;
       r.own_particle_cells = counts.own;
       r.exact_boundary = true;
       if (counts.own)
         r.warnings.push_back(std::to_string(counts.own) +
-                             " cell(s) hold inside volume but have no cell with an inside centre next to them (parts "
-                             "thinner than the spacing " +
+                             " cell(s) less than half inside have no neighbour holding a particle (parts thinner than "
+                             "half the spacing " +
                              numberText(h, 3) + " m): each became a particle of its own, smaller than a cell");
     } else {
       r.warnings.push_back("the mesh's inside is ambiguous in " + std::to_string(clip.winding_anomalies) +

@@ -17,6 +17,7 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "topo_gaussian/geometry/lattice.h"
@@ -40,6 +41,8 @@ struct CellClipResult {
   /// consistently outward oriented, or it overlaps itself (two shells over one region). 0 when sound.
   std::size_t winding_anomalies = 0;
   std::size_t wholly_inside = 0;  ///< cells whose inside fraction is 1 (within the tolerance)
+  /// Per lattice cell: 1 when wholly inside (fraction ≥ 1 − kPartialTolerance), else 0.
+  std::vector<std::uint8_t> inside;
 };
 
 /// Fractions of h³ closer than this to 0 or 1 count as wholly outside or inside.

@@ -54,9 +54,9 @@ struct FillReport {
   /// Closed meshes: the exact enclosed volume by the divergence theorem (after any flip of inverted
   /// normals); 0 for other inputs.
   double mesh_volume_m3 = 0.0;
-  /// Closed meshes: boundary cells given the exact inside part of their cell (cell_clip.h); cells
-  /// whose centre is outside but which hold inside volume, merged into the nearest particle of an
-  /// inside neighbour, or (no such neighbour) given a particle of their own.
+  /// Closed meshes: cut cells at least half inside, each a particle with the exact inside part of its
+  /// cell (cell_clip.h); cut cells less than half inside, merged into the nearest particle of a
+  /// neighbour, or (no such neighbour) given a particle of their own.
   std::size_t clipped_cells = 0, merged_cells = 0, own_particle_cells = 0;
   bool exact_boundary = false;  ///< closed meshes: volume, centroid and inertia are exact (no staircase)
   Eigen::Vector3d bbox_min = Eigen::Vector3d::Zero(), bbox_max = Eigen::Vector3d::Zero();  ///< of the input
