@@ -14,6 +14,7 @@
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/geometry/cell_clip.h"
 #include "topo_gaussian/geometry/mesh_metrics.h"
 
 namespace topo_gaussian::geometry {
@@ -302,28 +303,97 @@ class Filler {
   double sparse_spacing_ = -1.0;
 };
 
-VolumeCloud toCloud(const Occupancy& occ, const FillOptions& o) {
+// Counts of the boundary treatment, for the FillReport.
+struct BoundaryCounts {
+  std::size_t clipped = 0, merged = 0, own = 0;
+};
+
+// One particle per solid cell (at its centre, volume h³). With `parts` (closed meshes, cell_clip.h):
+// a solid cell the surface cuts gets the exact inside part of its cell (volume, centroid); a cut cell
+// that is not solid (less than half inside) gives its inside part (volume and first moment) to the
+// particle of the solid 26-neighbour nearest to that part's centroid, so no volume is lost and no particle gets a
+// sliver of a cell (the soft-body SPH sums weigh neighbours by V_j); only a part with no solid
+// neighbour (a feature thinner than the spacing) becomes a particle of its own. The surface flag
+// keeps its meaning (a solid cell with a 6-neighbour that is not solid). Jitter moves every particle.
+VolumeCloud toCloud(const Occupancy& occ, const FillOptions& o, const std::vector<CellPart>* parts = nullptr,
+                    BoundaryCounts* counts = nullptr) {
   const Lattice& L = occ.lattice;
   VolumeCloud cloud;
   cloud.spacing = L.h;
-  std::mt19937 rng(o.seed);
-  std::uniform_real_distribution<double> u(-o.jitter, o.jitter);
   const double v = L.h * L.h * L.h;
   auto solidAt = [&](int i, int j, int k) {
     return i >= 0 && j >= 0 && k >= 0 && i < L.n[0] && j < L.n[1] && k < L.n[2] && occ.solid[L.index(i, j, k)];
   };
+  std::vector<std::size_t> cell_of;  // cell index of each particle, ascending
   for (int k = 0; k < L.n[2]; ++k)
     for (int j = 0; j < L.n[1]; ++j)
       for (int i = 0; i < L.n[0]; ++i) {
         if (!occ.solid[L.index(i, j, k)]) continue;
-        Eigen::Vector3d x = L.center(i, j, k);
-        if (o.jitter > 0.0) x += L.h * Eigen::Vector3d(u(rng), u(rng), u(rng));
-        cloud.X.push_back(x);
+        cloud.X.push_back(L.center(i, j, k));
         cloud.V.push_back(v);
         const bool inner = solidAt(i - 1, j, k) && solidAt(i + 1, j, k) && solidAt(i, j - 1, k) &&
                            solidAt(i, j + 1, k) && solidAt(i, j, k - 1) && solidAt(i, j, k + 1);
         cloud.surface.push_back(inner ? 0 : 1);
+        if (parts) cell_of.push_back(L.index(i, j, k));
       }
+  if (parts && !parts->empty()) {
+    auto particleOf = [&](std::size_t cell) -> long {
+      const auto it = std::lower_bound(cell_of.begin(), cell_of.end(), cell);
+      return it != cell_of.end() && *it == cell ? long(it - cell_of.begin()) : -1;
+    };
+    // Volume and first moment per particle; a cut solid cell starts from its own inside part.
+    std::vector<double> vol = cloud.V;
+    std::vector<Eigen::Vector3d> mom(cloud.size());
+    for (std::size_t p = 0; p < cloud.size(); ++p) mom[p] = v * cloud.X[p];
+    for (const CellPart& part : *parts)
+      if (occ.solid[part.cell]) {
+        const long p = particleOf(part.cell);
+        vol[p] = part.volume_m3;
+        mom[p] = part.volume_m3 * part.centroid;
+        if (counts) ++counts->clipped;
+      }
+    std::vector<CellPart> own;
+    const std::size_t plane = std::size_t(L.n[0]) * L.n[1];
+    for (const CellPart& part : *parts) {
+      if (occ.solid[part.cell]) continue;
+      const int k = int(part.cell / plane), j = int((part.cell % plane) / L.n[0]), i = int(part.cell % L.n[0]);
+      long best = -1;
+      double best_d2 = 0.0;
+      for (int dk = -1; dk <= 1; ++dk)
+        for (int dj = -1; dj <= 1; ++dj)
+          for (int di = -1; di <= 1; ++di) {
+            if (!solidAt(i + di, j + dj, k + dk)) continue;
+            const double d2 = (L.center(i + di, j + dj, k + dk) - part.centroid).squaredNorm();
+            if (best < 0 || d2 < best_d2) {
+              best = particleOf(L.index(i + di, j + dj, k + dk));
+              best_d2 = d2;
+            }
+          }
+      if (best < 0) {
+        own.push_back(part);
+        continue;
+      }
+      vol[best] += part.volume_m3;
+      mom[best] += part.volume_m3 * part.centroid;
+      if (counts) ++counts->merged;
+    }
+    for (std::size_t p = 0; p < cloud.size(); ++p)
+      if (vol[p] != v) {
+        cloud.V[p] = vol[p];
+        cloud.X[p] = mom[p] / vol[p];
+      }
+    for (const CellPart& part : own) {
+      cloud.X.push_back(part.centroid);
+      cloud.V.push_back(part.volume_m3);
+      cloud.surface.push_back(1);
+    }
+    if (counts) counts->own = own.size();
+  }
+  if (o.jitter > 0.0) {
+    std::mt19937 rng(o.seed);
+    std::uniform_real_distribution<double> u(-o.jitter, o.jitter);
+    for (auto& x : cloud.X) x += L.h * Eigen::Vector3d(u(rng), u(rng), u(rng));
+  }
   return cloud;
 }
 
@@ -382,6 +452,27 @@ void meshWarnings(FillReport& r, int max_hole_edges) {
                          numberText(100.0 * m.ignored_area_m2 / std::max(m.total_area_m2, 1e-300), 3) +
                          " % of the area) that bound no volume (stray triangles, fins, loose open pieces); the "
                          "closed rest is filled by the exact inside test");
+}
+
+// Closed meshes: the exact volume; inverted normals (negative volume) are flipped with a warning,
+// a mixed orientation is reported (the fill then keeps whole boundary cells).
+void closedMeshOrientation(SurfaceData& mesh, FillReport& r) {
+  if (r.topology.misoriented_edges) {
+    r.warnings.push_back(
+        "the faces are not consistently oriented: " + std::to_string(r.topology.misoriented_edges) +
+        " edges are traversed the same way by both of their faces (part of the surface has flipped normals), so "
+        "the inside fraction of the boundary cells is undefined: they are whole cells by the ray-parity test (the "
+        "staircase: volume, centre of mass and inertia off by about one spacing); re-orient the faces coherently "
+        "(e.g. MeshLab: Re-Orient all faces coherently) for an exact boundary");
+    return;
+  }
+  r.mesh_volume_m3 = meshSignedVolume(mesh);
+  if (r.mesh_volume_m3 < 0.0) {
+    for (auto& t : mesh.triangles) std::swap(t[1], t[2]);
+    r.warnings.push_back("the mesh's normals point inwards (signed volume " + numberText(r.mesh_volume_m3, 4) +
+                         " m^3): flipped every face; export it with outward normals to silence this");
+    r.mesh_volume_m3 = -r.mesh_volume_m3;
+  }
 }
 
 }  // namespace
@@ -450,6 +541,8 @@ VolumeCloud fillInterior(const SurfaceData& input, const FillOptions& o, FillRep
       r.warnings.push_back(r.fallback +
                            ": filled by the density method on samples of its triangles instead of the exact inside "
                            "test; close it (e.g. MeshLab: Close Holes) for an exact fill");
+    } else {
+      closedMeshOrientation(repaired, r);
     }
   }
 
@@ -469,7 +562,38 @@ VolumeCloud fillInterior(const SurfaceData& input, const FillOptions& o, FillRep
       occ = filler.fillAt(h);
     }
   }
-  VolumeCloud cloud = toCloud(occ, o);
+  VolumeCloud cloud;
+  if (r.method == "mesh-parity" && r.topology.misoriented_edges == 0) {
+    // Exact boundary: the inside part of every cut cell (cell_clip.h).
+    const CellClipResult clip = clipCells(s, occ.lattice);
+    if (clip.winding_anomalies == 0) {
+      // A cell holds a particle when at least half of it is inside (the exact fraction decides, not
+      // the parity of its centre, whose ray can graze a vertex): no particle has less than half a
+      // cell before the merges add to it.
+      Occupancy exact{occ.lattice, clip.inside};
+      const double h3 = std::pow(occ.lattice.h, 3);
+      for (const CellPart& part : clip.partial)
+        if (part.volume_m3 >= 0.5 * h3) exact.solid[part.cell] = 1;
+      BoundaryCounts counts;
+      cloud = toCloud(exact, o, &clip.partial, &counts);
+      r.clipped_cells = counts.clipped;
+      r.merged_cells = counts.merged;
+      r.own_particle_cells = counts.own;
+      r.exact_boundary = true;
+      if (counts.own)
+        r.warnings.push_back(std::to_string(counts.own) +
+                             " cell(s) less than half inside have no neighbour holding a particle (parts thinner than "
+                             "half the spacing " +
+                             numberText(h, 3) + " m): each became a particle of its own, smaller than a cell");
+    } else {
+      r.warnings.push_back("the mesh's inside is ambiguous in " + std::to_string(clip.winding_anomalies) +
+                           " cells (its winding number leaves 0..1 there: overlapping shells or self-intersections): "
+                           "boundary cells are whole cells by the ray-parity test (the staircase: volume, centre of "
+                           "mass and inertia off by about one spacing); fix the mesh (e.g. MeshLab: Remove "
+                           "Self-Intersecting Faces, or a boolean union of its shells) for an exact boundary");
+    }
+  }
+  if (!r.exact_boundary) cloud = toCloud(occ, o);
   if (cloud.empty())
     throw TopoError(s.source, "encloses no volume at spacing " + numberText(h, 3) + " m (" + r.method + ")",
                     "check that the surface is closed (a partial scan has no inside), or use a finer spacing");

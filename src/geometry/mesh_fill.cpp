@@ -7,25 +7,32 @@
 namespace topo_gaussian::geometry {
 
 MeshTopology analyseMesh(const SurfaceData& mesh) {
-  std::vector<std::pair<int, int>> e;
+  struct Edge {
+    int u, v;
+    bool forward;  // the triangle runs u → v (u < v)
+    bool operator<(const Edge& o) const { return u != o.u ? u < o.u : v != o.v ? v < o.v : forward < o.forward; }
+  };
+  std::vector<Edge> e;
   e.reserve(mesh.triangles.size() * 3);
   for (const auto& t : mesh.triangles)
     for (int a = 0; a < 3; ++a) {
       const int u = t[a], v = t[(a + 1) % 3];
-      if (u != v) e.emplace_back(std::min(u, v), std::max(u, v));
+      if (u != v) e.push_back(Edge{std::min(u, v), std::max(u, v), u < v});
     }
   std::sort(e.begin(), e.end());
   MeshTopology topo;
   for (std::size_t i = 0; i < e.size();) {
-    std::size_t j = i;
-    while (j < e.size() && e[j] == e[i]) ++j;
+    std::size_t j = i, forward = 0;
+    while (j < e.size() && e[j].u == e[i].u && e[j].v == e[i].v) forward += e[j++].forward;
     ++topo.edges;
     const std::size_t uses = j - i;
     if (uses == 1) {
       ++topo.boundary_edges;
-      topo.boundary_length += (mesh.points[e[i].first] - mesh.points[e[i].second]).norm();
+      topo.boundary_length += (mesh.points[e[i].u] - mesh.points[e[i].v]).norm();
     } else if (uses > 2) {
       ++topo.nonmanifold_edges;
+    } else if (forward != 1) {
+      ++topo.misoriented_edges;
     }
     i = j;
   }

@@ -68,7 +68,8 @@ Task::RigidMass Task::rigidMass(const std::vector<double>& r, bool with_gradient
   RigidMass out;
   std::vector<double> m;
   masses(r, &m, with_gradient ? &out.dm_dr : nullptr);
-  out.moments = computeMassMoments(cloud_.X, m);
+  // Each particle stands for its cell: its own second moment m_i h²/12 makes a filled box exact.
+  out.moments = computeMassMoments(cloud_.X, m, cubeCellVariance(cloud_.spacing));
   out.props = massPropertiesFromMoments(out.moments);
   return out;
 }
@@ -76,7 +77,7 @@ Task::RigidMass Task::rigidMass(const std::vector<double>& r, bool with_gradient
 void Task::chainToIndicator(const RigidMass& mass, const Eigen::Matrix<double, 10, 1>& dL_dprops,
                             std::vector<double>* dL_dr) const {
   std::vector<double> dL_dm;
-  massPropertiesGradientToParticles(cloud_.X, mass.moments, dL_dprops, &dL_dm);
+  massPropertiesGradientToParticles(cloud_.X, mass.moments, dL_dprops, &dL_dm, cubeCellVariance(cloud_.spacing));
   dL_dr->resize(dL_dm.size());
   for (std::size_t i = 0; i < dL_dm.size(); ++i) (*dL_dr)[i] = dL_dm[i] * mass.dm_dr[i];
 }

@@ -56,7 +56,8 @@ void MassProperties::principal(Eigen::Vector3d* moments, Eigen::Matrix3d* axes) 
   if (axes) *axes = es.eigenvectors();
 }
 
-MassMoments computeMassMoments(const std::vector<Eigen::Vector3d>& X, const std::vector<double>& masses) {
+MassMoments computeMassMoments(const std::vector<Eigen::Vector3d>& X, const std::vector<double>& masses,
+                               double cell_variance_m2) {
   if (X.size() != masses.size()) {
     throw TopoError(
         "particle masses",
@@ -78,6 +79,7 @@ MassMoments computeMassMoments(const std::vector<Eigen::Vector3d>& X, const std:
   MassMoments m;
   m.m0 = m0;
   m.m1 = Eigen::Vector3d(s[0], s[1], s[2]);
+  for (int k = 0; k < 3; ++k) j[k] += m0 * cell_variance_m2;  // Σ m_i Σ_cell (diagonal)
   for (int k = 0; k < 6; ++k) {
     m.m2(kSymRow[k], kSymCol[k]) = j[k];
     m.m2(kSymCol[k], kSymRow[k]) = j[k];
@@ -99,8 +101,9 @@ MassProperties massPropertiesFromMoments(const MassMoments& moments) {
   return p;
 }
 
-MassProperties computeMassProperties(const std::vector<Eigen::Vector3d>& X, const std::vector<double>& masses) {
-  return massPropertiesFromMoments(computeMassMoments(X, masses));
+MassProperties computeMassProperties(const std::vector<Eigen::Vector3d>& X, const std::vector<double>& masses,
+                                     double cell_variance_m2) {
+  return massPropertiesFromMoments(computeMassMoments(X, masses, cell_variance_m2));
 }
 
 Eigen::Matrix<double, 10, 10> massPropertiesJacobian(const MassMoments& moments) {
@@ -133,22 +136,24 @@ Eigen::Matrix<double, 10, 10> massPropertiesJacobian(const MassMoments& moments)
   return J;
 }
 
-void momentsGradientToParticles(const std::vector<Eigen::Vector3d>& X, const Vec10& g, std::vector<double>* dL_dm) {
+void momentsGradientToParticles(const std::vector<Eigen::Vector3d>& X, const Vec10& g, std::vector<double>* dL_dm,
+                                double cell_variance_m2) {
   const long n = static_cast<long>(X.size());
+  const double cell = cell_variance_m2 * (g[4] + g[5] + g[6]);  // ∂M2/∂m_i ∋ Σ_cell on the diagonal
   dL_dm->resize(X.size());
 #pragma omp parallel for schedule(static)
   for (long i = 0; i < n; ++i) {
     const Eigen::Vector3d& x = X[i];
-    double d = g[0] + g[1] * x[0] + g[2] * x[1] + g[3] * x[2];
+    double d = g[0] + g[1] * x[0] + g[2] * x[1] + g[3] * x[2] + cell;
     for (int k = 0; k < 6; ++k) d += g[4 + k] * x[kSymRow[k]] * x[kSymCol[k]];
     (*dL_dm)[i] = d;
   }
 }
 
 void massPropertiesGradientToParticles(const std::vector<Eigen::Vector3d>& X, const MassMoments& moments,
-                                       const Vec10& dL_dprops, std::vector<double>* dL_dm) {
+                                       const Vec10& dL_dprops, std::vector<double>* dL_dm, double cell_variance_m2) {
   const Vec10 g = massPropertiesJacobian(moments).transpose() * dL_dprops;
-  momentsGradientToParticles(X, g, dL_dm);
+  momentsGradientToParticles(X, g, dL_dm, cell_variance_m2);
 }
 
 }  // namespace topo_gaussian

@@ -151,6 +151,10 @@ int fillCommand(const std::vector<std::string>& argv) {
   std::cerr << "[topo fill] " << r.cloud.contact.size() << " contact samples on the true surface ("
             << r.cloud.contact.origin << ", spacing " << r.cloud.contact.spacing << " m, area "
             << r.cloud.contact.totalArea() << " m^2)" << std::endl;
+  if (r.fill.mesh_volume_m3 > 0.0)
+    std::cerr << "[topo fill] exact mesh volume " << r.fill.mesh_volume_m3 << " m^3, filled " << r.fill.total_volume_m3
+              << " m^3 (" << (r.fill.exact_boundary ? "exact boundary cells" : "whole boundary cells") << ")"
+              << std::endl;
   for (const std::string& w : r.warnings) std::cerr << "[topo fill] warning: " << w << std::endl;
   io::writeVolumePly(r.cloud, output);
   std::cerr << "[topo fill] wrote " << output << std::endl;

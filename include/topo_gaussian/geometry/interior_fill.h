@@ -1,5 +1,6 @@
 // fillInterior: any surface in, a filled VolumeCloud out (paper §4).
-//  - closed meshes: exact ray-parity inside test at every lattice point;
+//  - closed meshes: exact ray-parity inside test at every lattice point, and each boundary particle
+//    carries the exact inside part of its cell (V_i = f_i h³ at its centroid, cell_clip.h);
 //  - 3D Gaussians: the PhysGaussian density method (density_fill.h);
 //  - point clouds and open meshes: the same density method on isotropic splats of the points
 //    (or of samples on the triangles), with the leak check that refuses open surfaces.
@@ -55,7 +56,15 @@ struct FillReport {
   double contact_spacing_m = 0.0;
   double contact_area_m2 = 0.0;  ///< Σ of the samples' areas: the surface area
   double spacing_m = 0.0;
-  double total_volume_m3 = 0.0;
+  double total_volume_m3 = 0.0;  ///< the filled volume, Σ V_i
+  /// Closed meshes: the exact enclosed volume by the divergence theorem (after any flip of inverted
+  /// normals); 0 for other inputs.
+  double mesh_volume_m3 = 0.0;
+  /// Closed meshes: cut cells at least half inside, each a particle with the exact inside part of its
+  /// cell (cell_clip.h); cut cells less than half inside, merged into the nearest particle of a
+  /// neighbour, or (no such neighbour) given a particle of their own.
+  std::size_t clipped_cells = 0, merged_cells = 0, own_particle_cells = 0;
+  bool exact_boundary = false;  ///< closed meshes: volume, centroid and inertia are exact (no staircase)
   Eigen::Vector3d bbox_min = Eigen::Vector3d::Zero(), bbox_max = Eigen::Vector3d::Zero();  ///< of the input
   double open_fraction = 0.0;  ///< leaked / ray-filled cells (density methods), 0 for closed meshes
   MeshTopology topology;       ///< meshes only

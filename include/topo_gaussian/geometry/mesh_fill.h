@@ -14,7 +14,10 @@ struct MeshTopology {
   std::size_t edges = 0;              ///< distinct undirected edges
   std::size_t boundary_edges = 0;     ///< used by one triangle: the surface is open there
   std::size_t nonmanifold_edges = 0;  ///< used by three or more triangles
-  double boundary_length = 0.0;       ///< summed length of boundary edges [m]
+  /// Used by two triangles that traverse it in the same direction: the faces on its two sides are
+  /// oriented oppositely (part of the surface has flipped normals).
+  std::size_t misoriented_edges = 0;
+  double boundary_length = 0.0;  ///< summed length of boundary edges [m]
   bool closed() const { return boundary_edges == 0; }
   double openFraction() const { return edges ? double(boundary_edges) / double(edges) : 0.0; }
 };

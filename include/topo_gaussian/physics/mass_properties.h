@@ -4,6 +4,11 @@
 // They come from the particle masses m_i through the raw moments (linear in m_i):
 //   M0 = Σ m_i,  M1 = Σ m_i x_i,  M2 = Σ m_i x_i x_iᵀ
 // and  c = M1 / M0,  I = tr(C) 1 − C  with  C = M2 − M1 M1ᵀ / M0  (= Σ m_i (x_i−c)(x_i−c)ᵀ).
+// A particle stands for a cell of the lattice, not a point: its own second moment about its centre
+// is m_i Σ_cell, Σ_cell = (h²/12) 1 for a cube of side h (cubeCellVariance), so
+//   M2 = Σ m_i (x_i x_iᵀ + Σ_cell),
+// which makes a filled box's inertia exact (the point sum alone is (n²−1)/n² of it). For a cell the
+// surface clips the true Σ is smaller; the difference is O(h³) relative and is not modelled.
 // Reverse mode: a loss gradient w.r.t. the ten MassProperties parameters is pulled back to the
 // raw moments (massPropertiesJacobian) and from there to every m_i (momentsToParticleGradient).
 #pragma once
@@ -38,25 +43,32 @@ struct MassProperties {
   void principal(Eigen::Vector3d* moments, Eigen::Matrix3d* axes) const;
 };
 
-/// Σ over particles of (m_i, m_i x_i, m_i x_i x_iᵀ). Sizes must agree. OpenMP.
-MassMoments computeMassMoments(const std::vector<Eigen::Vector3d>& X, const std::vector<double>& masses);
+/// Σ_cell of a cube cell of side spacing_m, per axis: h²/12 [m²] (0 for point masses, spacing 0).
+inline double cubeCellVariance(double spacing_m) { return spacing_m * spacing_m / 12.0; }
+
+/// Σ over particles of (m_i, m_i x_i, m_i (x_i x_iᵀ + cell_variance_m2 · 1)). Sizes must agree. OpenMP.
+MassMoments computeMassMoments(const std::vector<Eigen::Vector3d>& X, const std::vector<double>& masses,
+                               double cell_variance_m2 = 0.0);
 
 /// (m, c, I) from raw moments. Throws TopoError when the mass is not positive and finite.
 MassProperties massPropertiesFromMoments(const MassMoments& moments);
 
-/// Convenience: massPropertiesFromMoments(computeMassMoments(X, masses)).
-MassProperties computeMassProperties(const std::vector<Eigen::Vector3d>& X, const std::vector<double>& masses);
+/// Convenience: massPropertiesFromMoments(computeMassMoments(X, masses, cell_variance_m2)).
+MassProperties computeMassProperties(const std::vector<Eigen::Vector3d>& X, const std::vector<double>& masses,
+                                     double cell_variance_m2 = 0.0);
 
 /// J = d MassProperties::toVector() / d MassMoments::toVector() (10×10), at the given moments.
 Eigen::Matrix<double, 10, 10> massPropertiesJacobian(const MassMoments& moments);
 
 /// Pull a gradient back from the ten mass-property parameters to the particle masses:
 /// dL/dm_i = g_moments · ∂moments/∂m_i, with g_moments = Jᵀ g_props. Overwrites dL_dm (size N).
+/// cell_variance_m2 as given to computeMassMoments.
 void massPropertiesGradientToParticles(const std::vector<Eigen::Vector3d>& X, const MassMoments& moments,
-                                       const Eigen::Matrix<double, 10, 1>& dL_dprops, std::vector<double>* dL_dm);
+                                       const Eigen::Matrix<double, 10, 1>& dL_dprops, std::vector<double>* dL_dm,
+                                       double cell_variance_m2 = 0.0);
 
 /// dL/dm_i from a gradient w.r.t. the packed raw moments. Overwrites dL_dm (size N). OpenMP.
 void momentsGradientToParticles(const std::vector<Eigen::Vector3d>& X, const Eigen::Matrix<double, 10, 1>& dL_dmoments,
-                                std::vector<double>* dL_dm);
+                                std::vector<double>* dL_dm, double cell_variance_m2 = 0.0);
 
 }  // namespace topo_gaussian
