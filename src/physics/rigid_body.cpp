@@ -2,7 +2,10 @@
 // with stick–slip friction, optional ball-joint pivot. Templated on the scalar (double, Dual10).
 //
 // Contact model (per contact point i, plane z = height, d_i = x_i.z − height, pen_i = δ − d_i > 0):
-//   normal      f_n = clamp(k pen_i − c v_n,i , 0, 2 k pen_i)
+//   normal      f_n = clamp(k w_i pen_i − c w_i (pen_i / p_rest) v_n,i , 0, 2 k w_i pen_i)
+//               w_i = GroundContact::point_weights (area shares, mean 1). The damper is of
+//               Hunt–Crossley type (∝ penetration): c at the resting penetration p_rest, zero where a
+//               point enters or leaves contact, so a rolling body is not dragged by it.
 //               The damper is a fraction damping_ratio ζ of critical for the per-point stiffness and
 //               the body mass share m / n_rest (n_rest = points in contact at rest, see ContactSetup):
 //               c = 2 ζ sqrt(k m / n_rest), so the whole resting contact is damped at about ζ of
@@ -414,6 +417,7 @@ class RigidSim {
     mu_ = o.ground.friction_mu;
     if (contact_) {
       k_ = stiffnessOf(cs, m_);
+      pen_rest_ = cs.pen_rest > 0.0 ? cs.pen_rest : 1e-3;
       c_ = S(2.0 * o.ground.damping_ratio) * sqrt(k_ * m_ / S(static_cast<double>(cs.n_rest)));
       const size_t n = pts.size();
       bx_.resize(n);
@@ -487,7 +491,10 @@ class RigidSim {
       const S pen = S(height_ + delta_) - x.z();
       if (!(valueOf(pen) > 0.0)) continue;
       const Vec3<S> vel = v + w.cross(r);
-      const S ki = k_ * w_[i], ci = c_ * w_[i];
+      // Hunt–Crossley: the damper grows with the penetration (c pen / p_rest), so it is c at the resting
+      // penetration but vanishes where points enter and leave contact, which is where a rolling body's
+      // damper caused its drag (a ball rolling down 15° came out 5 % slow with a constant c).
+      const S ki = k_ * w_[i], ci = c_ * w_[i] * (pen / S(pen_rest_));
       const S fs = ki * pen;
       S fn = fs - ci * vel.z();
       if (valueOf(fn) < 0.0) {
@@ -645,6 +652,7 @@ class RigidSim {
   double height_ = 0.0, delta_ = 0.0, mu_ = 0.0;
   S k_, c_;
   std::vector<double> w_;  ///< GroundContact::point_weights, or all 1
+  double pen_rest_ = 1e-3;  ///< resting penetration [m]: where the Hunt–Crossley damper equals c
   std::vector<double> bx_, by_, bz_;
   std::vector<Vec2<S>> anchor_;
   std::vector<char> flag_;   ///< 0 free, 1 anchored, 2 stale (during an update)

@@ -37,7 +37,7 @@ constexpr double kR = 0.1;  // hemisphere radius [m] (the issue's tumbler)
 /// Closed, outward-oriented solid hemisphere z ≤ 0 of radius R (flat face up, sphere centre at the
 /// origin): a UV cap with `segments` around and `rings` from the bottom pole to the equator, closed by
 /// a fan on the flat face.
-geometry::SurfaceData hemisphereMesh(double R, int segments = 256, int rings = 64) {
+geometry::SurfaceData hemisphereMesh(double R, int segments = 640, int rings = 160) {
   geometry::SurfaceData s;
   s.kind = geometry::SurfaceKind::Mesh;
   s.source = "hemisphere mesh";
