@@ -171,6 +171,7 @@ DensityFillResult fillFromDensity(const Lattice& L, const std::vector<float>& D,
     res.solid[c] = interior[c];
     interior_count += interior[c];
   }
+  res.dense = dense;
   if (!o.split_shell || interior_count == 0) {
     for (std::size_t c = 0; c < N; ++c) res.solid[c] |= dense[c] && (!outside[c] || interior_count == 0);
     return res;

@@ -16,6 +16,7 @@
 #include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/geometry/cell_clip.h"
 #include "topo_gaussian/geometry/mesh_metrics.h"
+#include "topo_gaussian/geometry/surface_field.h"
 
 namespace topo_gaussian::geometry {
 
@@ -88,6 +89,7 @@ std::vector<Eigen::Vector3d> sampleTriangles(const SurfaceData& mesh, double ste
 struct Occupancy {
   Lattice lattice;
   std::vector<std::uint8_t> solid;
+  std::vector<float> fraction;  ///< inside fraction per cell (V_i = f_i h³); empty = whole cells
 };
 
 // Resamples a solid grid onto the output lattice (nearest grid cell of each lattice centre).
@@ -186,10 +188,12 @@ class Filler {
     const double g = o_.grid_resolution > 0 ? longest / o_.grid_resolution : h;
     DensityFillResult res;
     Lattice grid;
+    double skin_m = 0.0;  // how far the shell reaches beyond the outermost points
     if (s_.kind == SurfaceKind::Gaussians) {
       r_.method = "gaussian-density";
       DensityFillOptions d = o_.density;
-      if (sparse_spacing_ < 0.0) sparse_spacing_ = typicalPointSpacing(neighbourDistances(s_.points), 0.9);
+      measureSpacings();
+      if (o_.boundary_fraction) d.split_shell = true;
       if (d.min_sigma_m < 0.0) d.min_sigma_m = sparse_spacing_;
       if (d.closing_m < 0.0) d.closing_m = 3.0 * sparse_spacing_;
       const double sigma_max = robustSigmaMax();
@@ -201,6 +205,7 @@ class Filler {
                         "re-export the 3DGS model (scale_0..2 hold log standard deviations in metres)");
       grid = densityGrid(g, 3.0 * std::max(sigma_max, d.min_sigma_m));
       res = densityFill(s_.points, s_.covariances, s_.opacity, grid, d);
+      skin_m = 2.0 * std::max(d.min_sigma_cells * g, d.min_sigma_m) + 1.5 * g;
       r_.closing_cells = d.closing_cells < 0 ? std::max(1, int(std::ceil(d.closing_m / g))) : d.closing_cells;
     } else {
       const bool mesh = s_.kind == SurfaceKind::Mesh;
@@ -215,16 +220,13 @@ class Filler {
       } else {
         // The nearest-neighbour distance matches the spacing of even samplings only; random ones
         // (and scans) leave gaps twice as wide, so take the spacing from the area per point too.
-        if (point_spacing_ < 0.0 || sparse_spacing_ < 0.0) {  // one k-d tree for both
-          const NeighbourDistances n = neighbourDistances(s_.points);
-          if (point_spacing_ < 0.0) point_spacing_ = std::max(typicalPointSpacing(n, 0.5), arealPointSpacing(n));
-          if (sparse_spacing_ < 0.0) sparse_spacing_ = typicalPointSpacing(n, 0.9);
-        }
+        measureSpacings();
         if (d.closing_m < 0.0) d.closing_m = 3.0 * sparse_spacing_;
-        if (o_.split_point_shell) d.split_shell = true;
+        if (o_.split_point_shell || o_.boundary_fraction) d.split_shell = true;
         const double sigma = std::max(sigma_floor, point_spacing_);
         grid = densityGrid(g, 3.0 * sigma);
         res = densityFillPoints(s_.points, std::max(point_spacing_, 1e-12), sigma, grid, d);
+        skin_m = 2.0 * sigma + 1.5 * g;
       }
       r_.closing_cells = d.closing_cells < 0 ? std::max(1, int(std::ceil(d.closing_m / g))) : d.closing_cells;
     }
@@ -233,10 +235,57 @@ class Filler {
     r_.leaked_cells = res.leaked_cells;
     r_.open_fraction = res.open_fraction();
     if (r_.open_fraction > o_.max_open_fraction) throwOpen(g);
-    return resample(grid, res.solid, out);
+    Occupancy occ = resample(grid, res.solid, out);
+    if (o_.boundary_fraction && s_.kind != SurfaceKind::Mesh) boundaryFromPoints(grid, res, skin_m, &occ);
+    return occ;
   }
 
  private:
+  // Point spacings of the input (one k-d tree): typical (median nearest neighbour, or the areal
+  // spacing when larger, as random samplings leave gaps) and sparse (90th percentile).
+  void measureSpacings() {
+    if (point_spacing_ >= 0.0 && sparse_spacing_ >= 0.0) return;
+    const NeighbourDistances n = neighbourDistances(s_.points);
+    point_spacing_ = std::max(typicalPointSpacing(n, 0.5), arealPointSpacing(n));
+    sparse_spacing_ = typicalPointSpacing(n, 0.9);
+  }
+
+  // Points and Gaussians: the boundary is the zero level of the points' signed distance (IMLS on
+  // their normals, given or PCA-estimated, oriented by the density fill `solid` on `grid`), and
+  // every cell of occ's lattice gets its inside fraction (surface_field.h). Cells the field does not
+  // reach keep the density fill's answer.
+  void boundaryFromPoints(const Lattice& grid, const DensityFillResult& res, double skin_m, Occupancy* occ) {
+    OrientedPoints p;
+    p.points = s_.points;
+    if (s_.hasNormals()) {
+      p.normals = s_.normals;
+      for (auto& n : p.normals) n = n.allFinite() && n.norm() > 0.0 ? n.normalized() : Eigen::Vector3d::Zero();
+    } else {
+      if (pca_normals_.empty()) pca_normals_ = pcaNormals(s_.points);
+      p.normals = pca_normals_;
+    }
+    p.weights = s_.kind == SurfaceKind::Gaussians ? s_.opacity : std::vector<double>(s_.size(), 1.0);
+    // Depth below the shell's outside: from the empty cells that are not filled (the outside, also
+    // under an object left open at the excluded direction, and no floater's shell).
+    const std::vector<std::uint8_t> all(grid.cells(), 1);
+    std::vector<std::uint8_t> empty(grid.cells());
+    for (std::size_t c = 0; c < empty.size(); ++c) empty[c] = !res.dense[c] && !res.solid[c];
+    const std::size_t unoriented =
+        orientNormals(p, grid, distanceTransform6(grid, empty, all), distanceTransform6(grid, res.solid, all), skin_m);
+    if (unoriented > s_.size() / 4)
+      r_.warnings.push_back(numberText(100.0 * double(unoriented) / double(s_.size()), 3) +
+                            " % of the surface points lie where the density fill sees no boundary (floaters, or "
+                            "a surface thinner than the grid): they are left out of the boundary's position");
+    const Lattice& L = occ->lattice;
+    // Kernel radius: the sampling spacing (the field is exact for a plane whatever the sampling, so a
+    // small radius only costs smoothing of noise; on a curved surface it offsets f by ≈ r²/2R).
+    const double radius = std::max(point_spacing_, 0.25 * L.h);
+    std::size_t inner = 0;
+    const auto field = outerSurfaceDistance(p, L, radius, 2.5 * L.h, radius, 4, &inner);
+    occ->fraction = cellInsideFractions(L, field, occ->solid);
+    for (std::size_t c = 0; c < occ->solid.size(); ++c) occ->solid[c] = occ->fraction[c] > 0.f;
+  }
+
   Lattice densityGrid(double g, double reach) {
     const int pad = 2 + int(std::ceil(reach / g));
     checkGrid(Lattice::cellCount(lo_, hi_, g, pad), kDensityBytesPerCell, g, o_, s_, "density grid cells");
@@ -301,6 +350,7 @@ class Filler {
   Eigen::Vector3d lo_, hi_;
   double point_spacing_ = -1.0;
   double sparse_spacing_ = -1.0;
+  std::vector<Eigen::Vector3d> pca_normals_;
 };
 
 // Counts of the boundary treatment, for the FillReport.
@@ -330,7 +380,7 @@ VolumeCloud toCloud(const Occupancy& occ, const FillOptions& o, const std::vecto
       for (int i = 0; i < L.n[0]; ++i) {
         if (!occ.solid[L.index(i, j, k)]) continue;
         cloud.X.push_back(L.center(i, j, k));
-        cloud.V.push_back(v);
+        cloud.V.push_back(occ.fraction.empty() ? v : v * double(occ.fraction[L.index(i, j, k)]));
         const bool inner = solidAt(i - 1, j, k) && solidAt(i + 1, j, k) && solidAt(i, j - 1, k) &&
                            solidAt(i, j + 1, k) && solidAt(i, j, k - 1) && solidAt(i, j, k + 1);
         cloud.surface.push_back(inner ? 0 : 1);
@@ -344,7 +394,7 @@ VolumeCloud toCloud(const Occupancy& occ, const FillOptions& o, const std::vecto
     // Volume and first moment per particle; a cut solid cell starts from its own inside part.
     std::vector<double> vol = cloud.V;
     std::vector<Eigen::Vector3d> mom(cloud.size());
-    for (std::size_t p = 0; p < cloud.size(); ++p) mom[p] = v * cloud.X[p];
+    for (std::size_t p = 0; p < cloud.size(); ++p) mom[p] = cloud.V[p] * cloud.X[p];
     for (const CellPart& part : *parts)
       if (occ.solid[part.cell]) {
         const long p = particleOf(part.cell);

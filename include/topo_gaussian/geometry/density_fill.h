@@ -49,7 +49,8 @@ struct DensityFillResult {
   /// Candidate interior cells: filled by the search + parity test (closing_cells = 0), or walled in
   /// by shell in all six directions (closing_cells > 0).
   std::size_t ray_filled_cells = 0;
-  std::size_t leaked_cells = 0;  ///< candidates connected to the outside through gaps (not filled)
+  std::size_t leaked_cells = 0;     ///< candidates connected to the outside through gaps (not filled)
+  std::vector<std::uint8_t> dense;  ///< per grid cell: shell (density > density_threshold)
   double open_fraction() const { return ray_filled_cells ? double(leaked_cells) / double(ray_filled_cells) : 0.0; }
 };
 

@@ -1,0 +1,77 @@
+// The boundary of a solid given by surface points (scans, point clouds, 3D Gaussian centres) and the
+// inside fraction of the lattice cells it cuts (paper §4 / appendix: particles carry a volume V_i;
+// issue 15 §1: boundary particles get the inside fraction of their cell, V_i = f_i h³).
+//
+//   f(x) = Σ_i w_i(x) n_iᵀ(x − p_i) / Σ_i w_i(x),   w_i(x) = a_i exp(−|x − p_i|² / r²)
+//
+// is the implicit moving-least-squares signed distance of an oriented point set (Kolluri 2008,
+// "Provably good moving least squares"): negative inside, zero on the sampled surface, exact for a
+// plane whatever the sampling, and offset by only ≈ r²/(2R) on a surface of curvature radius R.
+// Normals n_i are given, or the PCA normals of the k nearest points, oriented outward by a coarse
+// solid (the density fill), which also drops points it cannot orient (floaters inside or outside).
+// A cell's inside fraction is that of the plane through its centre that the trilinear field of its
+// eight corners defines: f_c + gᵀ(x − ½) ≤ 0 on the unit cube, in closed form
+//
+//   V(α) = Σ_{c∈{0,1}³} (−1)^{|c|} max(0, α − mᵀc)³ / (6 m₁ m₂ m₃),   m = |g|, α = ½ Σ m − f_c
+//
+// (inclusion–exclusion of the corner simplices), so the volume changes smoothly with the spacing
+// and the lattice's alignment instead of by whole cells.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "topo_gaussian/geometry/lattice.h"
+
+namespace topo_gaussian::geometry {
+
+struct OrientedPoints {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<Eigen::Vector3d> normals;  ///< unit, outward once oriented
+  std::vector<double> weights;           ///< a_i ≥ 0 (Gaussians: opacity; points: 1; 0 = unused)
+};
+
+/// Unit normals of the points' least-variance direction over their k nearest neighbours (sign
+/// arbitrary; zero for a point with fewer than 3 distinct neighbours).
+std::vector<Eigen::Vector3d> pcaNormals(const std::vector<Eigen::Vector3d>& points, int k = 16);
+
+/// Orients each normal outward and keeps only the outermost points. `depth` is, per cell of `grid`,
+/// the 6-neighbour distance (cells) to the outside of the density shell, `near_solid` the distance
+/// (cells) to the density fill's solid. A normal is flipped to point where `depth` decreases (looking
+/// 1.5, 2.5 and 4 cells along ±n); a point gets weight 0 when no offset tells the sides apart, when
+/// it lies deeper than skin_m below the shell's outside (points inside a 3D Gaussian model), or
+/// farther than skin_m + 4 cells from the solid (floaters). Returns the number of such points.
+std::size_t orientNormals(OrientedPoints& points, const Lattice& grid, const std::vector<std::int32_t>& depth,
+                          const std::vector<std::int32_t>& near_solid, double skin_m);
+
+/// f(x) at the nodes (cell corners, (n+1)³, x fastest) of `lattice`, kernel radius radius_m, from
+/// the points within reach_m of the node (at least 3·radius_m is used); NaN where there are none.
+std::vector<double> nodeSignedDistance(const OrientedPoints& points, const Lattice& lattice, double radius_m,
+                                       double reach_m);
+
+/// Trilinear interpolation of node values (nodeSignedDistance) at x; NaN outside the lattice or
+/// where a corner is undefined.
+double interpolateNodes(const Lattice& lattice, const std::vector<double>& node_field, const Eigen::Vector3d& x);
+
+/// The field of the outermost layer of the points: a 3D Gaussian model (and a thick scan) has
+/// points inside the object too, which would pull f's zero level inwards. Computes f, drops
+/// (weight 0) the points lying deeper than `depth_m` inside it (f(p_i) < −depth_m), and repeats
+/// until none is dropped (at most `rounds` times). Returns the final node field; *dropped counts.
+std::vector<double> outerSurfaceDistance(OrientedPoints& points, const Lattice& lattice, double radius_m,
+                                         double reach_m, double depth_m, int rounds = 4,
+                                         std::size_t* dropped = nullptr);
+
+/// Fraction of the unit cube where f_c + gᵀ(x − ½) ≤ 0 (f_c the value at the centre, g the gradient
+/// in units of the cube's edge), in [0, 1].
+double cubeFractionBelowPlane(double f_centre, const Eigen::Vector3d& gradient);
+
+/// Inside fraction of every cell of `lattice` from its corners' field values (nodeSignedDistance);
+/// an undefined corner (beyond reach) takes the mean of the defined ones, and a cell with none
+/// takes `fallback_solid` (0 or 1). Then cells whose fraction is
+/// below min_fraction give their volume to the 6-neighbour with the largest fraction (so no particle
+/// is tiny and no volume is lost); a cell with none keeps it.
+std::vector<float> cellInsideFractions(const Lattice& lattice, const std::vector<double>& node_field,
+                                       const std::vector<std::uint8_t>& fallback_solid, double min_fraction = 0.1);
+
+}  // namespace topo_gaussian::geometry
