@@ -4,6 +4,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <utility>
 
@@ -289,6 +290,21 @@ double SoftBodySimulator::forceScale() const {
   return s;
 }
 
+double SoftBodySimulator::roundoffForce(double inertia) const {
+  // Positions of size |x|∞ carry an absolute rounding error ε|x|∞; the stiffest row (Jacobi diagonal:
+  // (λ+2μ)V/h² + inertia·m, the force per unit displacement of one particle) turns it into a force.
+  // The gradient sums ~N(i) such terms (with cancellation), so the floor is a multiple of that: the
+  // residuals at which Newton stalled measured 3–30× ε|x|∞ max D_ii (cantilevers 0.2 m / E 1e7 /
+  // 2.5 mm and 0.5 m / E 1e8 / 4 mm), hence the factor 64.
+  double xmax = 0.0;
+  for (const auto& p : x_) xmax = std::max(xmax, p.cwiseAbs().maxCoeff());
+  const Eigen::VectorXd d = systemDiagonal(inertia);
+  double dmax = 0.0;
+  for (std::size_t i = 0; i < size(); ++i)
+    if (!clamped_[i]) dmax = std::max(dmax, d.segment<3>(3 * i).maxCoeff());
+  return 64.0 * std::numeric_limits<double>::epsilon() * xmax * dmax;
+}
+
 double SoftBodySimulator::firstNaturalFrequency(double tolerance, int max_iterations) const {
   requireConservative("SoftBodySimulator::firstNaturalFrequency");
   const std::size_t n = size();
@@ -413,7 +429,7 @@ SolveReport SoftBodySimulator::newtonSolve(const std::string& where, double dt, 
   double scale = forceScale();
   SolveReport rep;
   rep.pressure_pa = pressureNow();
-  rep.newton = minimizeNewton(obj, scale, newton, &z);
+  rep.newton = minimizeNewton(obj, scale, newton, &z, roundoffForce(inertia));
   obj.value(z);
   return rep;
 }
@@ -512,8 +528,8 @@ SolveReport SoftBodySimulator::solveStatic(const NewtonOptions& newton, int load
         << " % of the load after " << increments << " increments and " << bisections
         << " halvings); last failure: " << last_failure;
       throw TopoError("SoftBodySimulator::solveStatic", o.str(),
-                      "lower the pressure or the load, stiffen the material, or check that the body is clamped or "
-                      "supported");
+                      "see the last failure for what to change; otherwise lower the pressure or the load, stiffen "
+                      "the material, or check that the body is clamped or supported");
     }
   }
   restoreLoads();

@@ -242,3 +242,71 @@ TEST(SoftBody, BadInput) {
       EXPECT_EQ(sim.velocities()[i], Eigen::Vector3d::Zero());
     }
 }
+
+// Static solves converge on linear-regime problems whatever their size and stiffness (issue 15): a
+// stiff beam (E 1e9) far from the origin (x + 20 m) has a gradient round-off floor (ε|x| times the
+// stiffness) far above the default tolerance 1e-8 of the per-particle load; Newton converges there
+// in a few iterations, and the deflection is the one of the same beam at the origin.
+TEST(SoftBody, StaticSolveConvergesAtTheGradientRoundoffFloor) {
+  const double E = 1e9;
+  double tip[2];
+  for (int far = 0; far < 2; ++far) {
+    Beam B = makeBeam(kL, kB, kT, kDx, kClampLayers);
+    for (auto& p : B.X) p.x() += far ? 20.0 : 0.0;
+    SoftBodySimulator sim(CorotatedSph(B.X, B.V, lameFromYoung(E, kNu), beamOptions(kDx)));
+    sim.setClamped(B.clamp);
+    const double floor_rel = sim.roundoffForce(0.0) / sim.forceScale();
+    const SolveReport rep = sim.solveStatic(NewtonOptions());
+    EXPECT_TRUE(rep.newton.converged) << rep.newton.message;
+    EXPECT_LE(rep.newton.iterations, 10);
+    EXPECT_NEAR(rep.newton.roundoff_floor, floor_rel, 1e-12 * floor_rel);
+    if (far) {
+      EXPECT_GT(floor_rel, 1e-6) << "the far beam should have a floor well above the tolerance";
+      EXPECT_TRUE(rep.newton.at_roundoff);
+      EXPECT_NE(rep.newton.message.find("round-off floor"), std::string::npos) << rep.newton.message;
+    }
+    tip[far] = layerZ(sim, B, static_cast<int>(std::lround(kL / kDx)) - 1);
+  }
+  EXPECT_NEAR(tip[1], tip[0], 1e-5 * std::abs(tip[0]));
+}
+
+// A Newton solve that cannot converge says why and what to change: a gradient with noise above the
+// tolerance stalls (and converges once the caller names that noise as the round-off floor); inner
+// solves cut short on an ill-conditioned Hessian are named as such.
+TEST(SoftBody, NewtonFailureSaysWhyAndWhatToChange) {
+  // Ψ = ½ Σ k_i x_i², gradient k_i x_i (+ noise of up to 1e-7, varying per evaluation).
+  const Eigen::Vector3d k(1.0, 1e3, 1e6);
+  int calls = 0;
+  double noise = 0.0;
+  NewtonObjective f;
+  f.value = [&](const Eigen::VectorXd& x) { return 0.5 * (k.array() * x.array() * x.array()).sum(); };
+  f.gradient = [&](const Eigen::VectorXd& x, Eigen::VectorXd* g) {
+    *g = k.cwiseProduct(x);
+    (*g)(0) += noise * std::cos(2.3 * ++calls);  // never cancels to below ~noise/10
+  };
+  f.hessian = [&](const Eigen::VectorXd&, const Eigen::VectorXd& p, Eigen::VectorXd* Hp) { *Hp = k.cwiseProduct(p); };
+  f.preconditioner = [&](const Eigen::VectorXd&) { return jacobiPreconditioner(Eigen::Vector3d::Ones()); };
+  NewtonOptions o;
+  o.tolerance = 1e-10;
+  // 1. Noise 1e-7 above the tolerance: stalls, says so.
+  noise = 1e-7;
+  Eigen::VectorXd x = Eigen::Vector3d(1.0, 1.0, 1.0);
+  NewtonResult r = minimizeNewton(f, 1.0, o, &x);
+  EXPECT_FALSE(r.converged);
+  EXPECT_NE(r.message.find("stalled"), std::string::npos) << r.message;
+  // 2. The same noise named as the round-off floor: converged there.
+  x = Eigen::Vector3d(1.0, 1.0, 1.0);
+  r = minimizeNewton(f, 1.0, o, &x, 1e-6);
+  EXPECT_TRUE(r.converged) << r.message;
+  EXPECT_TRUE(r.at_roundoff);
+  EXPECT_LT(x.cwiseAbs().maxCoeff(), 2e-6);
+  // 3. Ill-conditioned (κ = 1e6, identity preconditioner) with 2 CG iterations per solve: named.
+  noise = 0.0;
+  o.cg_max_iterations = 2;
+  o.max_iterations = 3;
+  x = Eigen::Vector3d(1.0, 1.0, 1.0);
+  r = minimizeNewton(f, 1.0, o, &x);
+  EXPECT_FALSE(r.converged);
+  EXPECT_NE(r.message.find("ill-conditioned"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("cg_max_iterations"), std::string::npos) << r.message;
+}

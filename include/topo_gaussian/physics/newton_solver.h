@@ -32,22 +32,30 @@ CgResult conjugateGradient(const LinearOperator& apply, const LinearOperator& pr
                            double tol, int max_iter, Eigen::VectorXd* x);
 
 struct NewtonOptions {
-  /// Converged when |∇Ψ|∞ ≤ tolerance × force_scale (force_scale given by the caller, e.g. the
-  /// largest external/inertial load per particle [N]).
+  /// Converged when |∇Ψ|∞ ≤ tolerance × force_scale (force_scale given by the caller: the largest
+  /// external/inertial load on one particle [N], so the tolerance is relative to the load), or when
+  /// |∇Ψ|∞ is at the gradient's round-off floor (see minimizeNewton), whichever is larger.
   double tolerance = 1e-8;
   int max_iterations = 50;
   /// Largest relative residual of an inner solve; each solve uses min(cg_tolerance, outer residual).
   double cg_tolerance = 0.1;
   int cg_max_iterations = 5000;
   int max_line_search = 30;  ///< halvings
+  /// Stop (not converged, with the reason) when the residual has not halved in this many
+  /// consecutive iterations: Newton on a smooth problem never stalls that long unless the inner
+  /// solves are too inexact (ill-conditioning) or the gradient is noisy.
+  int stall_iterations = 6;
 };
 
 struct NewtonResult {
   bool converged = false;
   int iterations = 0;
-  int cg_iterations = 0;  ///< total
-  double residual = 0.0;  ///< final |∇Ψ|∞ / force_scale
-  std::string message;    ///< why it stopped
+  int cg_iterations = 0;          ///< total
+  double residual = 0.0;          ///< final |∇Ψ|∞ / force_scale
+  double roundoff_floor = 0.0;    ///< the gradient's round-off floor / force_scale (0 = not given)
+  bool at_roundoff = false;       ///< converged at the round-off floor (above options.tolerance)
+  double last_cg_residual = 0.0;  ///< relative residual of the last inner solve
+  std::string message;            ///< why it stopped; when not converged, also what to change
 };
 
 /// The objective Ψ: value(x) may throw TopoError (e.g. an inverted particle), which the line search
@@ -62,8 +70,17 @@ struct NewtonObjective {
 };
 
 /// Minimises Ψ from x (overwritten with the result). Never throws for non-convergence: the result
-/// says so (the caller decides; the soft-body simulator turns it into a TopoError with the step).
+/// says so and why (the caller decides; the soft-body simulator turns it into a TopoError with the
+/// step).
+///
+/// roundoff_force [N] ≥ 0: the size of |∇Ψ|∞ that rounding alone produces at the solution (the
+/// caller's estimate, e.g. machine ε × |x|∞ × the largest stiffness diagonal × a safety factor).
+/// A gradient evaluated in floating point cannot get below it: positions of size |x| carry an
+/// absolute error ε|x|, which the stiffness turns into a force. Convergence is declared at
+/// max(tolerance × force_scale, roundoff_force): a fixed relative tolerance is below the floor for
+/// stiff, finely resolved or large bodies (E 1e8, 0.5 m, 12 000 particles: floor ≈ 3e-6 of the
+/// per-particle load), where Newton would otherwise spin in line searches until max_iterations.
 NewtonResult minimizeNewton(const NewtonObjective& f, double force_scale, const NewtonOptions& options,
-                            Eigen::VectorXd* x);
+                            Eigen::VectorXd* x, double roundoff_force = 0.0);
 
 }  // namespace topo_gaussian

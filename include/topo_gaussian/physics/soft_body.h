@@ -168,6 +168,11 @@ class SoftBodySimulator {
 
   /// Largest load per particle [N] (gravity, pressure, elastic scale): the Newton force scale.
   double forceScale() const;
+  /// The round-off floor of the Newton gradient [N] at the current positions for a system with this
+  /// inertia (0 static, 1/dt² + c/dt implicit): 64 ε |x|∞ max_i D_ii over free particles, D the
+  /// Jacobi diagonal (systemDiagonal). Newton declares convergence at max(tolerance × forceScale(),
+  /// this) (newton_solver.h).
+  double roundoffForce(double inertia) const;
 
   /// Advances by `duration` seconds in ceil(duration / (safety·stableTimeStep())) equal steps;
   /// refuses (TopoError, before the first step) more than the step budget of run_limits.h.
