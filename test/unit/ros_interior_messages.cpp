@@ -138,3 +138,37 @@ TEST(BodyMotion, TumblerMotionPlacesTheComAtTheSimulatedState) {
     EXPECT_NEAR(std::abs(tilt), std::abs(ev.task.signal[k]), 1e-6) << k;
   }
 }
+
+// contact_samples (the volume's true surface, published by cloud_ingest): the layout round trip, the
+// spacing recovered from the areas, and a cloud without the normals named.
+TEST(ContactCloud, LayoutRoundTripAndMissingFields) {
+  ContactSamples c;
+  c.spacing = 0.002;
+  for (int k = 0; k < 50; ++k) {
+    const double a = 0.1 * k;
+    c.X.emplace_back(0.05 * std::cos(a), 0.05 * std::sin(a), 0.001 * k);
+    c.normal.emplace_back(std::cos(a), std::sin(a), 0.0);
+    c.area.push_back(4e-6 * (1.0 + 0.01 * (k % 3)));
+  }
+  const sensor_msgs::PointCloud2 msg = topo_ros::toContactCloud(c, "object", ::ros::Time(3.0));
+  EXPECT_EQ(msg.header.frame_id, "object");
+  EXPECT_EQ(msg.width, 50u);
+  const ContactSamples back = topo_ros::fromContactCloud(msg, "/contact_samples");
+  ASSERT_EQ(back.size(), c.size());
+  for (std::size_t k = 0; k < c.size(); ++k) {
+    EXPECT_LT((back.X[k] - c.X[k]).norm(), 1e-7);
+    EXPECT_LT((back.normal[k] - c.normal[k]).norm(), 1e-6);
+    EXPECT_NEAR(back.area[k], c.area[k], 1e-12);
+  }
+  EXPECT_NEAR(back.spacing, std::sqrt(4.04e-6), 1e-5);
+  VolumeCloud v = topo_test::tumblerCloud(0.05, 0.4, 0.01);
+  v.contact = back;
+  EXPECT_NO_THROW(v.validate("volume with contact samples"));
+  sensor_msgs::PointCloud2 bare = topo_ros::toPointCloud2(v, "object", ::ros::Time(3.0));
+  try {
+    topo_ros::fromContactCloud(bare, "/contact_samples");
+    FAIL() << "expected TopoError";
+  } catch (const TopoError& e) {
+    EXPECT_NE(std::string(e.what()).find("normal_x"), std::string::npos) << e.what();
+  }
+}

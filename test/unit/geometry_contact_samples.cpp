@@ -1,0 +1,241 @@
+// Contact samples on the true surface (geometry/contact_samples.h): they lie on the input surface,
+// their normals point out, their areas sum to the surface's area, they are evenly spread, they travel
+// in volume.ply, and bad surfaces (inverted, floaters, holes, nothing on the body) are named.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <random>
+
+#include "test_util.h"
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/geometry/contact_samples.h"
+#include "topo_gaussian/geometry/interior_fill.h"
+#include "topo_gaussian/geometry/shape_generator.h"
+#include "topo_gaussian/io/text_file.h"
+#include "topo_gaussian/io/volume_ply.h"
+#include "topo_gaussian/physics/default_shapes.h"
+#include "topo_gaussian/physics/neighbor_list.h"
+
+using namespace topo_gaussian;
+using namespace topo_gaussian::geometry;
+
+namespace {
+
+double meshArea(const SurfaceData& m) {
+  double a = 0.0;
+  for (const auto& t : m.triangles)
+    a += 0.5 * (m.points[t[1]] - m.points[t[0]]).cross(m.points[t[2]] - m.points[t[0]]).norm();
+  return a;
+}
+
+bool hasWarning(const std::vector<std::string>& w, const std::string& part) {
+  for (const auto& s : w)
+    if (s.find(part) != std::string::npos) return true;
+  return false;
+}
+
+/// Median and 10th/90th percentiles of the nearest-neighbour distances.
+void nearestNeighbourSpread(const std::vector<Eigen::Vector3d>& X, double cell, double* p10, double* p50,
+                            double* p90) {
+  const SpatialGrid grid(X, cell);
+  std::vector<double> d;
+  for (std::size_t i = 0; i < X.size(); ++i) {
+    double best = 1e300;
+    grid.query(X[i], [&](int j, const Eigen::Vector3d& x) {
+      if (std::size_t(j) != i) best = std::min(best, (x - X[i]).norm());
+    });
+    if (best < 1e299) d.push_back(best);
+  }
+  std::sort(d.begin(), d.end());
+  *p10 = d[d.size() / 10];
+  *p50 = d[d.size() / 2];
+  *p90 = d[d.size() * 9 / 10];
+}
+
+}  // namespace
+
+// A closed sphere mesh: samples on its faces (within the faces' sagitta of the sphere), normals along
+// the radius, areas summing to the mesh area, ~1 sample per s² with nearest neighbours 0.7–1.3 s apart.
+TEST(ContactSamples, MeshSamplesLieOnTheSurfaceEvenlyWithTheirAreas) {
+  const double R = 0.05;
+  const SurfaceData mesh = makeSphere(R, 128, 64);
+  FillOptions o;
+  FillReport rep;
+  const VolumeCloud cloud = fillInterior(mesh, o, &rep);
+  const ContactSamples& c = cloud.contact;
+  ASSERT_FALSE(c.empty());
+  EXPECT_EQ(c.origin, "mesh triangles");
+  EXPECT_NEAR(c.spacing, defaultContactSpacing(cloud), 1e-15);
+  const double sagitta = std::pow(2 * M_PI * R / 128, 2) / (8 * R);  // largest gap face ↔ sphere
+  double worst_r = 0.0, worst_n = 1.0;
+  for (std::size_t k = 0; k < c.size(); ++k) {
+    worst_r = std::max(worst_r, std::abs(c.X[k].norm() - R));
+    worst_n = std::min(worst_n, c.normal[k].dot(c.X[k].normalized()));
+  }
+  // Lloyd moves a sample to its candidates' centroid, inside the curved faces by ≲ s²/(8R).
+  EXPECT_LT(worst_r, sagitta + c.spacing * c.spacing / (4 * R));
+  EXPECT_GT(worst_n, 0.99);
+  EXPECT_NEAR(c.totalArea() / meshArea(mesh), 1.0, 1e-9);
+  EXPECT_NEAR(rep.contact_area_m2 / meshArea(mesh), 1.0, 1e-9);
+  const double per_area = double(c.size()) * c.spacing * c.spacing / c.totalArea();
+  EXPECT_GT(per_area, 0.8);
+  EXPECT_LT(per_area, 1.5);
+  double p10, p50, p90;
+  nearestNeighbourSpread(c.X, 2.0 * c.spacing, &p10, &p50, &p90);
+  std::printf("sphere R %.3f m: %zu samples at s = %.3g m; nearest neighbour p10 %.3f s, median %.3f s, p90 %.3f s\n",
+              R, c.size(), c.spacing, p10 / c.spacing, p50 / c.spacing, p90 / c.spacing);
+  EXPECT_GT(p10, 0.6 * c.spacing);
+  EXPECT_LT(p90, 1.3 * c.spacing);
+  double amin = 1e300, amax = 0.0;
+  for (double a : c.area) amin = std::min(amin, a), amax = std::max(amax, a);
+  EXPECT_LT(amax / amin, 4.0) << "areas " << amin << " .. " << amax;
+}
+
+// An explicit --contact-spacing is used; a finer one gives more samples with the same area.
+TEST(ContactSamples, SpacingOptionIsHonoured) {
+  const SurfaceData mesh = makeBox(Eigen::Vector3d(0.1, 0.06, 0.04));
+  FillOptions o;
+  o.contact.spacing_m = 0.004;
+  const VolumeCloud coarse = fillInterior(mesh, o);
+  o.contact.spacing_m = 0.002;
+  const VolumeCloud fine = fillInterior(mesh, o);
+  const double area = 2 * (0.1 * 0.06 + 0.1 * 0.04 + 0.06 * 0.04);
+  EXPECT_NEAR(coarse.contact.totalArea() / area, 1.0, 1e-9);
+  EXPECT_NEAR(fine.contact.totalArea() / area, 1.0, 1e-9);
+  EXPECT_NEAR(double(fine.contact.size()) / double(coarse.contact.size()), 4.0, 0.6);
+  o.contact.enabled = false;
+  EXPECT_TRUE(fillInterior(mesh, o).contact.empty());
+  o.contact.enabled = true;
+  o.contact.spacing_m = std::nan("");
+  EXPECT_THROW(fillInterior(mesh, o), TopoError);
+}
+
+// A mesh whose faces all point inwards: the samples' normals still point out, and the fill says so.
+TEST(ContactSamples, InvertedMeshIsNamedAndItsNormalsTurnedOut) {
+  SurfaceData mesh = makeSphere(0.05, 64, 32);
+  for (auto& t : mesh.triangles) std::swap(t[1], t[2]);
+  mesh.source = "inverted.obj";
+  FillReport rep;
+  const VolumeCloud cloud = fillInterior(mesh, FillOptions{}, &rep);
+  EXPECT_TRUE(hasWarning(rep.warnings, "oriented inwards")) << ::testing::PrintToString(rep.warnings);
+  for (std::size_t k = 0; k < cloud.contact.size(); ++k)
+    ASSERT_GT(cloud.contact.normal[k].dot(cloud.contact.X[k].normalized()), 0.9) << "sample " << k;
+}
+
+// A noisy point cloud of a sphere with floaters: the floaters are not samples (and are counted in a
+// warning), the samples are smoothed onto the sphere (scatter well below the noise).
+TEST(ContactSamples, PointCloudSamplesAreSmoothedAndFloatersLeftOut) {
+  const double R = 0.05, noise = 0.0003;
+  SurfaceData s;
+  s.kind = SurfaceKind::Points;
+  s.source = "noisy sphere";
+  std::mt19937 rng(7);
+  std::normal_distribution<double> g(0.0, 1.0);
+  for (int i = 0; i < 40000; ++i) {
+    Eigen::Vector3d d(g(rng), g(rng), g(rng));
+    d.normalize();
+    s.points.push_back((R + noise * g(rng)) * d);
+  }
+  for (int i = 0; i < 20; ++i) s.points.push_back(Eigen::Vector3d(0.2 + 0.001 * i, 0.2, 0.2));  // floaters
+  FillReport rep;
+  const VolumeCloud cloud = fillInterior(s, FillOptions{}, &rep);
+  const ContactSamples& c = cloud.contact;
+  ASSERT_FALSE(c.empty());
+  EXPECT_EQ(c.origin, "points");
+  double sum2 = 0.0, worst_n = 1.0;
+  for (std::size_t k = 0; k < c.size(); ++k) {
+    ASSERT_LT(c.X[k].norm(), 0.1) << "a floater became a contact sample";
+    sum2 += std::pow(c.X[k].norm() - R, 2);
+    worst_n = std::min(worst_n, c.normal[k].dot(c.X[k].normalized()));
+  }
+  const double rms = std::sqrt(sum2 / double(c.size()));
+  std::printf("noisy sphere (noise %.2g m): %zu samples, radial RMS %.3g m, area %.4g m^2 (exact %.4g)\n", noise,
+              c.size(), rms, c.totalArea(), 4 * M_PI * R * R);
+  EXPECT_LT(rms, 0.5 * noise);
+  EXPECT_GT(worst_n, 0.9);
+  EXPECT_NEAR(c.totalArea() / (4 * M_PI * R * R), 1.0, 0.1);
+}
+
+// A scan with a missing cap: the hole is named (where, how much) and the body keeps ground contact
+// there through its lattice particles — never silently.
+TEST(ContactSamples, HoleInTheSurfaceIsNamed) {
+  const SurfaceData mesh = makeSphere(0.05, 96, 48);
+  const VolumeCloud filled = fillInterior(mesh, FillOptions{});
+  SurfaceData scan;
+  scan.kind = SurfaceKind::Points;
+  scan.source = "holed scan";
+  for (const auto& x : fillInterior(mesh, FillOptions{}).contact.X)
+    if (x.z() > -0.04) scan.points.push_back(x);  // the bottom cap (z < −0.04 m) was not scanned
+  std::vector<std::string> warnings;
+  const ContactSamples c = sampleContactSurface(scan, filled, ContactSampleOptions{}, &warnings);
+  ASSERT_TRUE(hasWarning(warnings, "has a hole")) << ::testing::PrintToString(warnings);
+  double lowest = 0.0;
+  for (const auto& x : c.X) lowest = std::min(lowest, x.z());
+  EXPECT_LT(lowest, -0.045) << "the hole's lattice particles carry the contact";
+}
+
+// A surface that does not touch the filled body gives no samples: an error naming it.
+TEST(ContactSamples, SurfaceAwayFromTheBodyIsRefused) {
+  const VolumeCloud filled = fillInterior(makeSphere(0.05, 64, 32), FillOptions{});
+  SurfaceData far;
+  far.kind = SurfaceKind::Points;
+  far.source = "other_object.ply";
+  for (int i = 0; i < 100; ++i) far.points.push_back(Eigen::Vector3d(1.0 + 0.001 * i, 1.0, 1.0));
+  try {
+    sampleContactSurface(far, filled, ContactSampleOptions{}, nullptr);
+    FAIL() << "expected TopoError";
+  } catch (const TopoError& e) {
+    EXPECT_NE(std::string(e.what()).find("other_object.ply"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("no contact samples"), std::string::npos) << e.what();
+  }
+}
+
+// volume.ply carries the samples (element contact); a file without them still reads (empty); a
+// truncated contact element is named.
+TEST(ContactSamples, VolumePlyRoundTripAndOldFiles) {
+  const VolumeCloud cloud = fillInterior(makeSphere(0.05, 64, 32), FillOptions{});
+  const std::string path = ::testing::TempDir() + "contact_roundtrip.ply";
+  io::writeVolumePly(cloud, path);
+  const VolumeCloud back = io::readVolumePly(path);
+  ASSERT_EQ(back.contact.size(), cloud.contact.size());
+  EXPECT_NEAR(back.contact.spacing, cloud.contact.spacing, 1e-15);
+  EXPECT_EQ(back.contact.origin, cloud.contact.origin);
+  for (std::size_t k = 0; k < cloud.contact.size(); ++k) {
+    ASSERT_LT((back.contact.X[k] - cloud.contact.X[k]).norm(), 1e-7);
+    ASSERT_LT((back.contact.normal[k] - cloud.contact.normal[k]).norm(), 1e-6);
+    ASSERT_NEAR(back.contact.area[k] / cloud.contact.area[k], 1.0, 1e-6);
+  }
+  VolumeCloud plain = cloud;
+  plain.contact = ContactSamples{};
+  io::writeVolumePly(plain, path);
+  EXPECT_TRUE(io::readVolumePly(path).contact.empty());
+  io::writeVolumePly(cloud, path);
+  std::string bytes = io::readTextFile(path);
+  bytes.resize(bytes.size() - 10 * 28);
+  io::writeTextFile(path, bytes);
+  try {
+    io::readVolumePly(path);
+    FAIL() << "expected TopoError";
+  } catch (const TopoError& e) {
+    EXPECT_NE(std::string(e.what()).find("contact records present"), std::string::npos) << e.what();
+  }
+}
+
+// The default shapes sample their exact surface: the tumbler body's samples lie on its sphere or its
+// cut, with areas summing to its exact area.
+TEST(ContactSamples, DefaultShapeSamplesLieOnTheExactSurface) {
+  namespace d = default_shape_dims;
+  const VolumeCloud cloud = defaultShapeCloud("tumbler", 0.004);
+  const ContactSamples& c = cloud.contact;
+  ASSERT_FALSE(c.empty());
+  const double R = d::kTumblerRadius, cut = d::kTumblerCutZ;
+  for (std::size_t k = 0; k < c.size(); ++k) {
+    const double on_sphere = std::abs(c.X[k].norm() - R), on_cut = std::abs(c.X[k].z() - cut);
+    ASSERT_LT(std::min(on_sphere, on_cut), 1e-9) << "sample " << k;
+  }
+  const double cap_h = R - cut;  // the cut removes a cap of height R − c
+  const double area = 4 * M_PI * R * R - 2 * M_PI * R * cap_h + M_PI * (R * R - cut * cut);
+  EXPECT_NEAR(c.totalArea() / area, 1.0, 0.03);
+}
