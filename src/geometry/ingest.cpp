@@ -103,6 +103,7 @@ std::string toJson(const IngestResult& r) {
     << ",\"triangles_in\":" << f.triangles_in << ",\"particles_out\":" << f.particles_out
     << ",\"surface_particles\":" << f.surface_particles << ",\"contact_samples\":" << f.contact_samples
     << ",\"contact_spacing_m\":" << f.contact_spacing_m << ",\"contact_area_m2\":" << f.contact_area_m2
+    << ",\"mesh_volume_m3\":" << f.mesh_volume_m3 << ",\"exact_boundary\":" << (f.exact_boundary ? "true" : "false")
     << ",\"spacing_m\":" << f.spacing_m << ",\"total_volume_m3\":" << f.total_volume_m3
     << ",\"bbox_min\":" << vec(f.bbox_min) << ",\"bbox_max\":" << vec(f.bbox_max) << ",\"open_fraction\":" << open
     << ",\"boundary_edges\":" << f.topology.boundary_edges << ",\"seconds\":" << r.seconds

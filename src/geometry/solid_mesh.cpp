@@ -3,6 +3,8 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
+#include <climits>
+#include <map>
 #include <cmath>
 #include <cstdint>
 #include <sstream>
@@ -238,13 +240,46 @@ SurfaceData solidRegionMesh(const VolumeCloud& cloud, const std::vector<double>&
                     "has no solid particle (every r < " + numberText(o.iso, 6) + "), so there is nothing to print",
                     "check that the interior belongs to this volume, or lower the iso-value");
 
-  // Lattice nodes: particle i sits on node round((X_i - lo) / h), one padding layer on each side.
+  // Lattice nodes: particle i sits on node round((X_i − φ) / h), one padding layer on each side. The
+  // lattice's phase φ is the most common position modulo h (the interior particles sit exactly on
+  // their cell centres; a boundary particle of topo fill sits at the centroid of its cell's inside
+  // part, within its cell, so it is not the bounding box's corner that fixes the lattice).
   const double h = cloud.spacing;
-  Eigen::Vector3d lo, hi;
-  cloud.bounds(&lo, &hi);
+  Eigen::Vector3d phase;
+  for (int a = 0; a < 3; ++a) {
+    std::map<long, std::size_t> votes;
+    for (const auto& x : cloud.X) {
+      const double f = x[a] / h - std::floor(x[a] / h);
+      ++votes[std::lround(f * 1e4) % 10000];
+    }
+    long best = 0;
+    std::size_t most = 0;
+    for (const auto& v : votes)
+      if (v.second > most) most = v.second, best = v.first;
+    phase[a] = h * double(best) * 1e-4;
+  }
+  std::vector<Eigen::Vector3i> node(cloud.size());
+  Eigen::Vector3i nlo = Eigen::Vector3i::Constant(INT_MAX), nhi = Eigen::Vector3i::Constant(INT_MIN);
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3d a = (cloud.X[i] - phase) / h;
+    const Eigen::Vector3d idx = a.array().round();
+    const bool boundary = i < cloud.surface.size() && cloud.surface[i];
+    if ((a - idx).cwiseAbs().maxCoeff() > (boundary ? 0.75 : o.lattice_tolerance) + 1e-6)
+      throw TopoError("volume cloud",
+                      "particle " + std::to_string(i) + " at " + point(cloud.X[i]) + " is " +
+                          numberText((a - idx).cwiseAbs().maxCoeff(), 6) + " spacings off the lattice of spacing " +
+                          numberText(h, 6) + " m",
+                      "export needs a lattice volume as topo fill writes it (its spacing is in the file)");
+    if ((idx.cwiseAbs().array() > 1e9).any())
+      throw TopoError("volume cloud", "spacing " + numberText(h, 6) + " m is far smaller than its coordinates",
+                      "write the volume with topo fill (its spacing is in the file)");
+    node[i] = idx.cast<int>();
+    nlo = nlo.cwiseMin(node[i]);
+    nhi = nhi.cwiseMax(node[i]);
+  }
   std::array<int, 3> n{};
   for (int a = 0; a < 3; ++a) {
-    const double cells = std::floor((hi[a] - lo[a]) / h + 0.5) + 3.0;
+    const double cells = double(nhi[a]) - double(nlo[a]) + 4.0;
     if (cells > 2e9)
       throw TopoError("volume cloud", "spacing " + numberText(h, 6) + " m is far smaller than its extent",
                       "write the volume with topo fill (its spacing is in the file)");
@@ -256,29 +291,42 @@ SurfaceData solidRegionMesh(const VolumeCloud& cloud, const std::vector<double>&
                     "its lattice of spacing " + numberText(h, 6) + " m would need " + numberText(nodes, 6) +
                         " nodes (more than " + numberText(o.max_nodes, 6) + ")",
                     "check the spacing of the volume (topo fill writes it), or use a coarser volume");
-  const Eigen::Vector3d origin = lo - Eigen::Vector3d::Constant(h);
+  const Eigen::Vector3d origin = phase + h * (nlo.cast<double>() - Eigen::Vector3d::Ones());
   const std::size_t N = std::size_t(nodes);
   const bool use_logit = o.interpolate_logit && o.iso > kRClamp && o.iso < 1.0 - kRClamp;
   const auto value = [&](double r) { return use_logit ? logit(r) : r; };
   const double iso = value(o.iso);
   std::vector<double> field(N, value(0.0));
   std::vector<std::int32_t> owner(N, -1);
+  auto idOf = [&](const Eigen::Vector3i& q) {
+    const Eigen::Vector3i c = q - nlo + Eigen::Vector3i::Ones();
+    return (std::size_t(c.z()) * n[1] + std::size_t(c.y())) * n[0] + std::size_t(c.x());
+  };
   for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const Eigen::Vector3d a = (cloud.X[i] - lo) / h;
-    const Eigen::Vector3d idx = a.array().round();
-    if ((a - idx).cwiseAbs().maxCoeff() > o.lattice_tolerance + 1e-6)
-      throw TopoError("volume cloud",
-                      "particle " + std::to_string(i) + " at " + point(cloud.X[i]) + " is " +
-                          numberText((a - idx).cwiseAbs().maxCoeff(), 6) + " spacings off the lattice of spacing " +
-                          numberText(h, 6) + " m",
-                      "export needs a lattice volume as topo fill writes it (its spacing is in the file)");
-    const std::size_t id =
-        (std::size_t(idx.z() + 1) * n[1] + std::size_t(idx.y() + 1)) * n[0] + std::size_t(idx.x() + 1);
-    if (owner[id] >= 0)
-      throw TopoError("volume cloud",
-                      "particles " + std::to_string(owner[id]) + " and " + std::to_string(i) +
-                          " fall on the same lattice node at spacing " + numberText(h, 6) + " m",
-                      "export needs a lattice volume with one particle per cell, as topo fill writes it");
+    std::size_t id = idOf(node[i]);
+    if (owner[id] >= 0) {
+      // Two boundary particles in one node (a merged cell's centroid crossed into its neighbour): the
+      // second takes the nearest free node around it (interior particles never collide).
+      const bool boundary = i < cloud.surface.size() && cloud.surface[i];
+      double best = 1e300;
+      std::size_t free_id = N;
+      for (int dz = -1; dz <= 1 && boundary; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const Eigen::Vector3i q = node[i] + Eigen::Vector3i(dx, dy, dz);
+            if (((q - nlo).array() < -1).any() || ((q - nlo).array() > Eigen::Array3i(n[0], n[1], n[2]) - 3).any())
+              continue;
+            const std::size_t qid = idOf(q);
+            const double d = (phase + h * q.cast<double>() - cloud.X[i]).squaredNorm();
+            if (owner[qid] < 0 && d < best) best = d, free_id = qid;
+          }
+      if (free_id == N)
+        throw TopoError("volume cloud",
+                        "particles " + std::to_string(owner[id]) + " and " + std::to_string(i) +
+                            " fall on the same lattice node at spacing " + numberText(h, 6) + " m",
+                        "export needs a lattice volume with one particle per cell, as topo fill writes it");
+      id = free_id;
+    }
     owner[id] = std::int32_t(i);
     field[id] = value(r[i]);
   }
