@@ -45,25 +45,106 @@ std::vector<Eigen::Vector3d> pcaNormals(const std::vector<Eigen::Vector3d>& pts,
   return normals;
 }
 
-std::size_t orientNormals(OrientedPoints& p, const Lattice& grid, const std::vector<std::int32_t>& depth,
-                          const std::vector<std::int32_t>& near_solid, double skin_m) {
-  constexpr std::int32_t kFar = std::numeric_limits<std::int32_t>::max();
-  auto at = [&](const std::vector<std::int32_t>& field, const Eigen::Vector3d& x) {
-    std::array<int, 3> c;
-    return grid.cellOf(x, &c) ? field[grid.index(c[0], c[1], c[2])] : 0;  // beyond the grid: outside
-  };
-  // 0.7: measured on donut_3dgs.ply (3 vs 6 mm within 2.7 %; 1.0 lets inner Gaussians in: 7 %).
-  const double skin_cells = 0.7 * skin_m / grid.h + 1.0;
+namespace {
+
+// 1D squared distance transform of f (∞ = no seed) on n unit-spaced samples: d[q] = min_p (q − p)² + f[p],
+// by the lower envelope of the parabolas rooted at the finite samples (Felzenszwalb & Huttenlocher).
+void distanceTransform1d(const double* f, int n, double* d, int* v, double* z) {
+  const double inf = std::numeric_limits<double>::infinity();
+  int k = -1;
+  for (int q = 0; q < n; ++q) {
+    if (!std::isfinite(f[q])) continue;
+    if (k < 0) {
+      k = 0;
+      v[0] = q;
+      z[0] = -inf;
+      z[1] = inf;
+      continue;
+    }
+    double s;
+    for (;;) {
+      s = ((f[q] + double(q) * q) - (f[v[k]] + double(v[k]) * v[k])) / (2.0 * (q - v[k]));
+      if (s > z[k]) break;
+      --k;  // z[0] = −∞ stops this at k = 0
+    }
+    ++k;
+    v[k] = q;
+    z[k] = s;
+    z[k + 1] = inf;
+  }
+  if (k < 0) {
+    std::fill(d, d + n, inf);
+    return;
+  }
+  k = 0;
+  for (int q = 0; q < n; ++q) {
+    while (z[k + 1] < q) ++k;
+    d[q] = (q - v[k]) * double(q - v[k]) + f[v[k]];
+  }
+}
+
+}  // namespace
+
+std::vector<float> euclideanDistance(const Lattice& L, const std::vector<std::uint8_t>& seeds) {
+  const double inf = std::numeric_limits<double>::infinity();
+  std::vector<double> d2(L.cells());
+  for (std::size_t c = 0; c < d2.size(); ++c) d2[c] = seeds[c] ? 0.0 : inf;
+  const std::size_t stride[3] = {1, std::size_t(L.n[0]), std::size_t(L.n[0]) * L.n[1]};
+  for (int axis = 0; axis < 3; ++axis) {
+    const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3, n = L.n[axis];
+#pragma omp parallel
+    {
+      std::vector<double> f(n), d(n), z(n + 1);
+      std::vector<int> v(n);
+#pragma omp for collapse(2) schedule(static)
+      for (int w = 0; w < L.n[a2]; ++w)
+        for (int u = 0; u < L.n[a1]; ++u) {
+          const std::size_t base = u * stride[a1] + w * stride[a2];
+          for (int m = 0; m < n; ++m) f[m] = d2[base + m * stride[axis]];
+          distanceTransform1d(f.data(), n, d.data(), v.data(), z.data());
+          for (int m = 0; m < n; ++m) d2[base + m * stride[axis]] = d[m];
+        }
+    }
+  }
+  std::vector<float> out(d2.size());
+  for (std::size_t c = 0; c < d2.size(); ++c) out[c] = float(L.h * std::sqrt(d2[c]));
+  return out;
+}
+
+double interpolateCells(const Lattice& L, const std::vector<float>& field, const Eigen::Vector3d& x, double beyond) {
+  const Eigen::Vector3d g = (x - L.origin) / L.h;
+  if (!(g.minCoeff() >= 0.0 && g.x() <= L.n[0] && g.y() <= L.n[1] && g.z() <= L.n[2])) return beyond;
+  int lo[3];
+  double t[3];
+  for (int a = 0; a < 3; ++a) {
+    const double c = std::clamp(g[a] - 0.5, 0.0, double(L.n[a] - 1));
+    lo[a] = std::min(int(std::floor(c)), std::max(0, L.n[a] - 2));
+    t[a] = L.n[a] > 1 ? c - lo[a] : 0.0;
+  }
+  double sum = 0.0;
+  for (int q = 0; q < 8; ++q) {
+    const int i = std::min(lo[0] + (q & 1), L.n[0] - 1), j = std::min(lo[1] + ((q >> 1) & 1), L.n[1] - 1),
+              k = std::min(lo[2] + ((q >> 2) & 1), L.n[2] - 1);
+    const double w = ((q & 1) ? t[0] : 1 - t[0]) * ((q & 2) ? t[1] : 1 - t[1]) * ((q & 4) ? t[2] : 1 - t[2]);
+    if (w > 0.0) sum += w * double(field[L.index(i, j, k)]);
+  }
+  return sum;
+}
+
+std::size_t orientNormals(OrientedPoints& p, const Lattice& grid, const std::vector<float>& outside_m,
+                          const std::vector<float>& solid_m, double skin_m, double floater_margin_m) {
+  const double inf = std::numeric_limits<double>::infinity();
+  // Depth below the shell's outside; beyond the grid: outside.
+  auto depth = [&](const Eigen::Vector3d& x) { return interpolateCells(grid, outside_m, x, 0.0) - 0.5 * grid.h; };
   std::size_t unoriented = 0;
   for (std::size_t i = 0; i < p.points.size(); ++i) {
     Eigen::Vector3d& n = p.normals[i];
     int sign = 0;
-    const std::int32_t d = at(depth, p.points[i]), s = at(near_solid, p.points[i]);
-    if (n.squaredNorm() > 0.0 && d != kFar && double(d) <= skin_cells && s != kFar && double(s) <= skin_cells + 4.0)
+    const double d = depth(p.points[i]), s = interpolateCells(grid, solid_m, p.points[i], inf);
+    if (n.squaredNorm() > 0.0 && d <= skin_m && s <= skin_m + floater_margin_m)
       for (double a : {1.5, 2.5, 4.0}) {
-        const std::int32_t plus = at(depth, p.points[i] + a * grid.h * n),
-                           minus = at(depth, p.points[i] - a * grid.h * n);
-        if (plus != minus) {
+        const double plus = depth(p.points[i] + a * grid.h * n), minus = depth(p.points[i] - a * grid.h * n);
+        if (std::abs(plus - minus) > 0.25 * grid.h) {
           sign = minus > plus ? 1 : -1;
           break;
         }
@@ -183,52 +264,91 @@ std::vector<double> outerSurfaceDistance(OrientedPoints& p, const Lattice& L, do
 }
 
 double cubeFractionBelowPlane(double fc, const Eigen::Vector3d& g) {
-  Eigen::Vector3d m = g.cwiseAbs();
+  const Eigen::Vector3d m = g.cwiseAbs();
   const double sum = m.sum();
   if (!(sum > 0.0)) return fc <= 0.0 ? 1.0 : 0.0;
   const double alpha = 0.5 * sum - fc;
   if (alpha <= 0.0) return 0.0;
   if (alpha >= sum) return 1.0;
-  // Components that vanish make the formula 0/0; a tilt of 1e-4 changes the fraction by < 1e-4.
-  m = m.cwiseMax(1e-4 * sum);
-  double v = 0.0;
-  for (int c = 0; c < 8; ++c) {
-    const double t = alpha - ((c & 1) ? m.x() : 0.0) - ((c & 2) ? m.y() : 0.0) - ((c & 4) ? m.z() : 0.0);
-    if (t > 0.0) v += ((__builtin_popcount(c) & 1) ? -1.0 : 1.0) * t * t * t;
+  // The fraction is P(Σ m_a U_a ≤ α) for independent uniform U_a: over the d components that do not
+  // vanish, Σ_{c∈{0,1}^d} (−1)^{|c|} max(0, α − mᵀc)^d / (d! Π m_a). A component below 1e-7 of the
+  // sum is dropped (it moves the fraction by < 1e-7; kept, the d = 3 formula would cancel badly).
+  double w[3], centre = alpha;  // a dropped component sits at its mean, ½ m_a
+  int d = 0;
+  for (int a = 0; a < 3; ++a)
+    if (m[a] > 1e-7 * sum)
+      w[d++] = m[a];
+    else
+      centre -= 0.5 * m[a];
+  double v = 0.0, prod = 1.0, factorial = 1.0;
+  for (int a = 0; a < d; ++a) prod *= w[a], factorial *= double(a + 1);
+  for (int c = 0; c < (1 << d); ++c) {
+    double t = centre;
+    for (int a = 0; a < d; ++a)
+      if (c & (1 << a)) t -= w[a];
+    if (t > 0.0) v += ((__builtin_popcount(c) & 1) ? -1.0 : 1.0) * std::pow(t, d);
   }
-  return std::clamp(v / (6.0 * m.x() * m.y() * m.z()), 0.0, 1.0);
+  return std::clamp(v / (factorial * prod), 0.0, 1.0);
 }
 
 std::vector<float> cellInsideFractions(const Lattice& L, const std::vector<double>& f,
                                        const std::vector<std::uint8_t>& fallback, double min_fraction) {
   const int nx = L.n[0] + 1, ny = L.n[1] + 1;
   std::vector<float> frac(L.cells(), 0.f);
+  std::vector<std::uint8_t> undefined(L.cells(), 0);
 #pragma omp parallel for schedule(static)
   for (int k = 0; k < L.n[2]; ++k)
     for (int j = 0; j < L.n[1]; ++j)
       for (int i = 0; i < L.n[0]; ++i) {
-        double c[8], sum = 0.0;
+        double c[8];
         int defined = 0;
         for (int q = 0; q < 8; ++q) {
           c[q] = f[(std::size_t(k + (q >> 2)) * ny + j + ((q >> 1) & 1)) * nx + i + (q & 1)];
-          if (std::isfinite(c[q])) sum += c[q], ++defined;
+          if (std::isfinite(c[q])) ++defined;
         }
         const std::size_t cell = L.index(i, j, k);
         if (defined == 0) {
-          frac[cell] = fallback[cell] ? 1.f : 0.f;
+          undefined[cell] = 1;
           continue;
         }
-        // A corner beyond reach is far from the surface: on the side of the defined corners' mean.
+        // A corner beyond reach is far from every point. Where the density fill says outside, it is
+        // (its outside is flooded from the grid's border): +2.5 h, the reach (the mean of the defined
+        // corners let one corner, whose nearest point had a tangential normal, fill a whole cell in a
+        // donut's hole). Its inside is less sure (PhysGaussian's open −z side fills under overhangs,
+        // e.g. below a torus's inner rim): there the defined corners' mean decides.
+        double sum = 0.0;
+        for (double v : c)
+          if (std::isfinite(v)) sum += v;
         for (double& v : c)
-          if (!std::isfinite(v)) v = sum / defined;
+          if (!std::isfinite(v)) v = fallback[cell] ? sum / defined : 2.5 * L.h;
         const double fc = (c[0] + c[1] + c[2] + c[3] + c[4] + c[5] + c[6] + c[7]) / 8.0;
         const Eigen::Vector3d g((c[1] - c[0] + c[3] - c[2] + c[5] - c[4] + c[7] - c[6]) / 4.0,
                                 (c[2] - c[0] + c[3] - c[1] + c[6] - c[4] + c[7] - c[5]) / 4.0,
                                 (c[4] - c[0] + c[5] - c[1] + c[6] - c[2] + c[7] - c[3]) / 4.0);
         frac[cell] = float(cubeFractionBelowPlane(fc, g));
       }
-  // Small pieces go to the neighbour that holds the most of the solid.
-  const int d[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  // Cells beyond the field's reach: solid where the fallback is, and only where that solid is the
+  // continuation of the field's inside (connected to a cell at least half inside); a fallback solid
+  // cut off from it (the density fill's blob around points the field left out, e.g. floaters in a
+  // hole) is not the object.
+  {
+    std::vector<std::uint8_t> seeds(L.cells()), passable(L.cells());
+    for (std::size_t c = 0; c < frac.size(); ++c) {
+      seeds[c] = !undefined[c] && frac[c] >= 0.5f;
+      passable[c] = undefined[c] && fallback[c];
+    }
+    const auto reach = distanceTransform6(L, seeds, passable);
+    for (std::size_t c = 0; c < frac.size(); ++c)
+      if (undefined[c]) frac[c] = fallback[c] && reach[c] != std::numeric_limits<std::int32_t>::max() ? 1.f : 0.f;
+  }
+  // Small pieces go to the neighbour (of 26) that holds the most of the solid, or when none holds
+  // min_fraction, to the cell within two that does (slivers where the zero level grazes a cell).
+  std::vector<std::array<int, 3>> d;
+  for (int ring = 1; ring <= 2; ++ring)
+    for (int a = -ring; a <= ring; ++a)
+      for (int b = -ring; b <= ring; ++b)
+        for (int e = -ring; e <= ring; ++e)
+          if (std::max({std::abs(a), std::abs(b), std::abs(e)}) == ring) d.push_back({a, b, e});
   std::vector<float> out = frac;
   for (int k = 0; k < L.n[2]; ++k)
     for (int j = 0; j < L.n[1]; ++j)
@@ -237,7 +357,8 @@ std::vector<float> cellInsideFractions(const Lattice& L, const std::vector<doubl
         if (!(frac[cell] > 0.f) || frac[cell] >= min_fraction) continue;
         std::size_t best = cell;
         float best_f = 0.f;
-        for (const auto& o : d) {
+        for (std::size_t m = 0; m < d.size() && !(m == 26 && best != cell); ++m) {
+          const auto& o = d[m];
           const int a = i + o[0], b = j + o[1], e = k + o[2];
           if (a < 0 || b < 0 || e < 0 || a >= L.n[0] || b >= L.n[1] || e >= L.n[2]) continue;
           const std::size_t q = L.index(a, b, e);

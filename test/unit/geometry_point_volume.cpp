@@ -3,7 +3,8 @@
 // generated 3DGS-like splats (flat discs tangent to the surface, spread sizes and opacities) filled
 // at default options, against their closed-form volumes; the digital twin's scan against the twin's
 // exact volume; a real 3DGS model (donut_3dgs.ply) at two spacings; the boundary particles' volume
-// V_i = f_i h³ (the inside fraction of their cell), so the volume does not jump with the spacing.
+// V_i = f_i h³ (the inside fraction of their cell), so the volume does not jump with the spacing;
+// the closed-form cell fraction and the Euclidean distance transform the boundary is built from.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -15,6 +16,7 @@
 #include "shared_data.h"
 #include "topo_gaussian/geometry/ingest.h"
 #include "topo_gaussian/geometry/interior_fill.h"
+#include "topo_gaussian/geometry/surface_field.h"
 #include "topo_gaussian/geometry/surface_reader.h"
 #include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/workflow/rig_twin.h"
@@ -190,4 +192,74 @@ TEST(PointVolume, DonutConsistentBetweenSpacings) {
     std::printf("[donut] spacing %.4f m: %zu particles, volume %.5g m^3\n", h, r.cloud.size(), r.cloud.totalVolume());
   }
   EXPECT_NEAR(v[1] / v[0], 1.0, 0.05);
+}
+
+// The closed-form inside fraction of a cube cut by a plane (surface_field.h) against its exact
+// values: a plane parallel to a face at height t keeps t; a corner cut x + y + z ≤ α (α ≤ 1) keeps
+// the simplex α³/6; a plane through the centre keeps ½ whatever its tilt (the cube's symmetry); an
+// edge cut x + y ≤ β (β ≤ 1) keeps β²/2.
+TEST(SurfaceField, CubeFractionBelowPlaneClosedForms) {
+  for (double t : {0.0, 1e-9, 0.05, 0.3, 0.5, 0.77, 1.0}) {
+    // f_c + (z − ½) ≤ 0  ⇔  z ≤ ½ − f_c = t, along each axis and with the gradient's sign flipped
+    // (then the inside is z ≥ 1 − t: the same fraction).
+    for (int axis = 0; axis < 3; ++axis) {
+      Eigen::Vector3d g = Eigen::Vector3d::Zero();
+      g[axis] = 1.0;
+      EXPECT_NEAR(cubeFractionBelowPlane(0.5 - t, g), t, 1e-12) << "axis " << axis << " t " << t;
+      EXPECT_NEAR(cubeFractionBelowPlane(0.5 - t, -g), t, 1e-12) << "axis " << axis << " t " << t;
+      EXPECT_NEAR(cubeFractionBelowPlane(3.0 * (0.5 - t), 3.0 * g), t, 1e-12) << "scaled, t " << t;
+    }
+  }
+  for (double a : {1e-3, 0.1, 0.5, 0.9, 1.0}) {
+    // f_c + (x + y + z − 3/2) ≤ 0  ⇔  x + y + z ≤ 3/2 − f_c = α.
+    EXPECT_NEAR(cubeFractionBelowPlane(1.5 - a, Eigen::Vector3d(1, 1, 1)), a * a * a / 6.0, 1e-12) << a;
+    // x + y ≤ β: a prism of area β²/2.
+    EXPECT_NEAR(cubeFractionBelowPlane(1.0 - a, Eigen::Vector3d(1, 1, 0)), a * a / 2.0, 1e-12) << a;
+  }
+  for (const Eigen::Vector3d& g :
+       {Eigen::Vector3d(1, 2, 3), Eigen::Vector3d(-0.3, 0.1, 5), Eigen::Vector3d(1, 1e-9, 0.4)})
+    EXPECT_NEAR(cubeFractionBelowPlane(0.0, g), 0.5, 1e-12) << g.transpose();
+  EXPECT_EQ(cubeFractionBelowPlane(-1.0, Eigen::Vector3d::Zero()), 1.0);
+  EXPECT_EQ(cubeFractionBelowPlane(1.0, Eigen::Vector3d::Zero()), 0.0);
+}
+
+// The Euclidean distance transform (depth below a density shell in metres) against brute force on
+// a random set of seed cells, and on a lattice with no seed.
+TEST(SurfaceField, EuclideanDistanceMatchesBruteForce) {
+  Lattice L;
+  L.origin = Eigen::Vector3d(-0.1, 0.2, 0.05);
+  L.h = 0.003;
+  L.n = {17, 11, 9};
+  std::mt19937 g(3);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  std::vector<std::uint8_t> seeds(L.cells(), 0);
+  std::vector<Eigen::Vector3d> centres;
+  for (int k = 0; k < L.n[2]; ++k)
+    for (int j = 0; j < L.n[1]; ++j)
+      for (int i = 0; i < L.n[0]; ++i)
+        if (U(g) < 0.01) {
+          seeds[L.index(i, j, k)] = 1;
+          centres.push_back(L.center(i, j, k));
+        }
+  ASSERT_GT(centres.size(), 5u);
+  const std::vector<float> d = euclideanDistance(L, seeds);
+  double worst = 0.0;
+  for (int k = 0; k < L.n[2]; ++k)
+    for (int j = 0; j < L.n[1]; ++j)
+      for (int i = 0; i < L.n[0]; ++i) {
+        double best = 1e300;
+        for (const auto& c : centres) best = std::min(best, (c - L.center(i, j, k)).norm());
+        worst = std::max(worst, std::abs(double(d[L.index(i, j, k)]) - best));
+      }
+  EXPECT_LT(worst, 1e-7);  // float storage of distances up to ~0.06 m
+  const std::vector<float> none = euclideanDistance(L, std::vector<std::uint8_t>(L.cells(), 0));
+  EXPECT_TRUE(std::isinf(none[0]) && std::isinf(none.back()));
+  // Trilinear interpolation between cell centres is exact for a linear field.
+  std::vector<float> lin(L.cells());
+  for (int k = 0; k < L.n[2]; ++k)
+    for (int j = 0; j < L.n[1]; ++j)
+      for (int i = 0; i < L.n[0]; ++i) lin[L.index(i, j, k)] = float(L.center(i, j, k).dot(Eigen::Vector3d(1, -2, 3)));
+  const Eigen::Vector3d x = L.origin + L.h * Eigen::Vector3d(5.3, 4.71, 2.2);
+  EXPECT_NEAR(interpolateCells(L, lin, x, 0.0), x.dot(Eigen::Vector3d(1, -2, 3)), 1e-6);
+  EXPECT_EQ(interpolateCells(L, lin, L.origin - Eigen::Vector3d::Constant(1.0), -7.0), -7.0);
 }

@@ -36,14 +36,28 @@ struct OrientedPoints {
 /// arbitrary; zero for a point with fewer than 3 distinct neighbours).
 std::vector<Eigen::Vector3d> pcaNormals(const std::vector<Eigen::Vector3d>& points, int k = 16);
 
-/// Orients each normal outward and keeps only the outermost points. `depth` is, per cell of `grid`,
-/// the 6-neighbour distance (cells) to the outside of the density shell, `near_solid` the distance
-/// (cells) to the density fill's solid. A normal is flipped to point where `depth` decreases (looking
-/// 1.5, 2.5 and 4 cells along ±n); a point gets weight 0 when no offset tells the sides apart, when
-/// it lies deeper than skin_m below the shell's outside (points inside a 3D Gaussian model), or
-/// farther than skin_m + 4 cells from the solid (floaters). Returns the number of such points.
-std::size_t orientNormals(OrientedPoints& points, const Lattice& grid, const std::vector<std::int32_t>& depth,
-                          const std::vector<std::int32_t>& near_solid, double skin_m);
+/// Exact Euclidean distance [m] from every cell centre of `grid` to the nearest centre of a `seeds`
+/// cell (Felzenszwalb & Huttenlocher 2012: three separable passes of the 1D lower envelope of
+/// parabolas); +inf everywhere when there is no seed. Unlike a 6-neighbour distance in cells it does
+/// not depend on the grid's resolution or its alignment with the surface (beyond ±h/2).
+std::vector<float> euclideanDistance(const Lattice& grid, const std::vector<std::uint8_t>& seeds);
+
+/// Trilinear interpolation of a cell-centred field (euclideanDistance) at x, clamped to the
+/// outermost cell centres; `beyond` outside the lattice.
+double interpolateCells(const Lattice& grid, const std::vector<float>& cell_field, const Eigen::Vector3d& x,
+                        double beyond);
+
+/// Orients each normal outward and keeps only the outermost points. `outside_m` is, per cell of
+/// `grid`, the distance [m] to the nearest cell outside the density shell (euclideanDistance),
+/// `solid_m` the distance [m] to the density fill's solid. The depth of a point below the shell's
+/// outside is d(p) = outside_m(p) − h/2 (the boundary lies half a cell from the outside cells'
+/// centres). A normal is flipped to point where d decreases (looking 1.5, 2.5 and 4 cells along
+/// ±n); a point gets weight 0 when no offset tells the sides apart, when it lies deeper than skin_m
+/// (points inside a 3D Gaussian model), or farther than skin_m + floater_margin_m from the solid
+/// (floaters). All lengths in metres, so which points are kept does not change with the grid.
+/// Returns the number of points given weight 0.
+std::size_t orientNormals(OrientedPoints& points, const Lattice& grid, const std::vector<float>& outside_m,
+                          const std::vector<float>& solid_m, double skin_m, double floater_margin_m);
 
 /// f(x) at the nodes (cell corners, (n+1)³, x fastest) of `lattice`, kernel radius radius_m, from
 /// the points within reach_m of the node (at least 3·radius_m is used); NaN where there are none.
@@ -63,14 +77,19 @@ std::vector<double> outerSurfaceDistance(OrientedPoints& points, const Lattice& 
                                          std::size_t* dropped = nullptr);
 
 /// Fraction of the unit cube where f_c + gᵀ(x − ½) ≤ 0 (f_c the value at the centre, g the gradient
-/// in units of the cube's edge), in [0, 1].
+/// in units of the cube's edge), in [0, 1]; exact also when components of g vanish (a plane
+/// parallel to faces: the 2D or 1D form of V(α)).
 double cubeFractionBelowPlane(double f_centre, const Eigen::Vector3d& gradient);
 
 /// Inside fraction of every cell of `lattice` from its corners' field values (nodeSignedDistance);
-/// an undefined corner (beyond reach) takes the mean of the defined ones, and a cell with none
-/// takes `fallback_solid` (0 or 1). Then cells whose fraction is
-/// below min_fraction give their volume to the 6-neighbour with the largest fraction (so no particle
-/// is tiny and no volume is lost); a cell with none keeps it.
+/// an undefined corner (beyond reach, at least 2.5 h from every point) takes +2.5 h where
+/// `fallback_solid` says its cell is outside, else the mean of the defined ones. A cell with no
+/// defined corner is beyond
+/// the field's reach: solid (1) where `fallback_solid` is and the fallback solid is connected
+/// (6-neighbours, through such cells) to a cell at least half inside by the field, else 0 (a blob of
+/// the density fill around points the field left out is not the object). Then cells whose fraction
+/// is below min_fraction give their volume to the 26-neighbour with the largest fraction (so no
+/// particle is tiny and no volume is lost); a cell with none keeps it.
 std::vector<float> cellInsideFractions(const Lattice& lattice, const std::vector<double>& node_field,
                                        const std::vector<std::uint8_t>& fallback_solid, double min_fraction = 0.1);
 
