@@ -46,45 +46,78 @@ inline bool available(std::string* why) {
   return false;
 }
 
-/// A structured grid of cells [lo + (i, j, k) * cell, lo + (i+1, j+1, k+1) * cell]; solid(i, j, k)
-/// says which cells are material (the others are void).
+/// A rectilinear grid of cells [x[0][i], x[0][i+1]] × [x[1][j], x[1][j+1]] × [x[2][k], x[2][k+1]]
+/// (node coordinates per axis, increasing; uniform for box()); solid says which cells are material:
+/// 1 = the first material, 2 = a second material (e.g. the finger's soft-solid chamber), 0 = void.
 struct VoxelGeometry {
-  Vec3 lo{0, 0, 0};
-  Vec3 cell{1, 1, 1};  ///< cell edge lengths [m]
+  std::vector<double> x[3];  ///< node coordinates per axis [m], n[a] + 1 of them
   int n[3] = {1, 1, 1};
   std::vector<char> solid;  ///< n[0] * n[1] * n[2], x fastest
-  bool at(int i, int j, int k) const {
-    if (i < 0 || j < 0 || k < 0 || i >= n[0] || j >= n[1] || k >= n[2]) return false;
-    return solid[(static_cast<std::size_t>(k) * n[1] + j) * n[0] + i] != 0;
+  bool at(int i, int j, int k) const { return material(i, j, k) != 0; }
+  /// Material of cell (i, j, k): 0 (void or outside the grid), 1 or 2.
+  int material(int i, int j, int k) const {
+    if (i < 0 || j < 0 || k < 0 || i >= n[0] || j >= n[1] || k >= n[2]) return 0;
+    return solid[(static_cast<std::size_t>(k) * n[1] + j) * n[0] + i];
   }
-  /// The box [lo, hi] divided into (nx, ny, nz) cells, all solid.
-  static VoxelGeometry box(const Vec3& lo, const Vec3& hi, int nx, int ny, int nz) {
+  /// Cells with the given node coordinates per axis, all of material 1.
+  static VoxelGeometry rectilinear(const std::vector<double>& xs, const std::vector<double>& ys,
+                                   const std::vector<double>& zs) {
     VoxelGeometry g;
-    g.lo = lo;
-    g.n[0] = nx;
-    g.n[1] = ny;
-    g.n[2] = nz;
-    for (int a = 0; a < 3; ++a) g.cell[a] = (hi[a] - lo[a]) / g.n[a];
-    g.solid.assign(static_cast<std::size_t>(nx) * ny * nz, 1);
+    g.x[0] = xs;
+    g.x[1] = ys;
+    g.x[2] = zs;
+    for (int a = 0; a < 3; ++a) {
+      if (g.x[a].size() < 2) throw std::invalid_argument("calculix_peer: a grid axis needs at least 2 nodes");
+      for (std::size_t i = 1; i < g.x[a].size(); ++i)
+        if (!(g.x[a][i] > g.x[a][i - 1])) throw std::invalid_argument("calculix_peer: grid nodes must increase");
+      g.n[a] = static_cast<int>(g.x[a].size()) - 1;
+    }
+    g.solid.assign(static_cast<std::size_t>(g.n[0]) * g.n[1] * g.n[2], 1);
     return g;
   }
-  /// Leaves the cells whose centres lie inside [lo, hi] out (a void).
-  void carve(const Vec3& vlo, const Vec3& vhi) {
+  /// The box [lo, hi] divided into (nx, ny, nz) equal cells, all solid.
+  static VoxelGeometry box(const Vec3& lo, const Vec3& hi, int nx, int ny, int nz) {
+    const int n[3] = {nx, ny, nz};
+    std::vector<double> xs[3];
+    for (int a = 0; a < 3; ++a)
+      for (int i = 0; i <= n[a]; ++i) xs[a].push_back(lo[a] + (hi[a] - lo[a]) * i / n[a]);
+    return rectilinear(xs[0], xs[1], xs[2]);
+  }
+  /// Nodes covering [lo, hi] with cells of at most `cell` that put a node on every one of `breaks`
+  /// inside (lo, hi) (e.g. a chamber's walls, a clamp's edge).
+  static std::vector<double> axis(double lo, double hi, double cell, std::vector<double> breaks) {
+    breaks.push_back(lo);
+    breaks.push_back(hi);
+    std::sort(breaks.begin(), breaks.end());
+    std::vector<double> out{lo};
+    for (std::size_t b = 1; b < breaks.size(); ++b) {
+      const double a0 = breaks[b - 1], a1 = breaks[b];
+      if (a0 < lo - 1e-12 || a1 > hi + 1e-12 || a1 - a0 < 1e-12) continue;
+      const int k = std::max(1, static_cast<int>(std::ceil((a1 - a0) / cell - 1e-9)));
+      for (int i = 1; i <= k; ++i) out.push_back(a0 + (a1 - a0) * i / k);
+    }
+    return out;
+  }
+  /// Cells whose centres lie inside [lo, hi] become void, or material `value` (2: a second material).
+  void carve(const Vec3& vlo, const Vec3& vhi, char value = 0) {
     for (int k = 0; k < n[2]; ++k)
       for (int j = 0; j < n[1]; ++j)
         for (int i = 0; i < n[0]; ++i) {
-          const Vec3 c{lo[0] + (i + 0.5) * cell[0], lo[1] + (j + 0.5) * cell[1], lo[2] + (k + 0.5) * cell[2]};
+          const Vec3 c{0.5 * (x[0][i] + x[0][i + 1]), 0.5 * (x[1][j] + x[1][j + 1]), 0.5 * (x[2][k] + x[2][k + 1])};
           bool in = true;
           for (int a = 0; a < 3; ++a) in = in && c[a] > vlo[a] && c[a] < vhi[a];
-          if (in) solid[(static_cast<std::size_t>(k) * n[1] + j) * n[0] + i] = 0;
+          if (in) solid[(static_cast<std::size_t>(k) * n[1] + j) * n[0] + i] = value;
         }
   }
 };
 
 struct TetMesh {
-  std::vector<Vec3> nodes;                     ///< node id = index + 1
-  std::vector<std::array<int, 10>> tets;       ///< 0-based node indices, C3D10 order
-  std::vector<std::array<int, 2>> void_faces;  ///< (tet index, face 1..4) facing a void cell
+  std::vector<Vec3> nodes;                ///< node id = index + 1
+  std::vector<std::array<int, 10>> tets;  ///< 0-based node indices, C3D10 order
+  std::vector<int> material;              ///< per tet: its cell's material (1 or 2)
+  /// (tet index, face 1..4): faces of material-1 tets that face a void or material-2 cell inside
+  /// the grid's bounds (the chamber walls: a pressure on them pushes into the material-1 tet).
+  std::vector<std::array<int, 2>> void_faces;
 };
 
 /// C3D10 mesh of the solid cells (see the header comment).
@@ -92,11 +125,14 @@ inline TetMesh meshVoxels(const VoxelGeometry& g) {
   TetMesh m;
   const int nx = g.n[0] + 1, ny = g.n[1] + 1, nz = g.n[2] + 1;
   std::vector<int> corner(static_cast<std::size_t>(nx) * ny * nz, -1);
+  std::vector<std::array<int, 3>> grid_index;  // per node id: its grid indices (corner nodes only)
   auto cid = [&](int i, int j, int k) {
     int& id = corner[(static_cast<std::size_t>(k) * ny + j) * nx + i];
     if (id < 0) {
       id = static_cast<int>(m.nodes.size());
-      m.nodes.push_back({g.lo[0] + i * g.cell[0], g.lo[1] + j * g.cell[1], g.lo[2] + k * g.cell[2]});
+      m.nodes.push_back({g.x[0][i], g.x[1][j], g.x[2][k]});
+      grid_index.resize(m.nodes.size(), {-1, -1, -1});
+      grid_index[id] = {i, j, k};
     }
     return id;
   };
@@ -111,6 +147,7 @@ inline TetMesh meshVoxels(const VoxelGeometry& g) {
     mid[key] = id;
     return id;
   };
+  std::vector<std::array<int, 3>> cell_of;  // per tet
   // Kuhn subdivision: the 6 monotone paths from corner (0,0,0) to (1,1,1).
   static const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
   for (int k = 0; k < g.n[2]; ++k)
@@ -143,32 +180,26 @@ inline TetMesh meshVoxels(const VoxelGeometry& g) {
           t[8] = mid_id(v[1], v[3]);
           t[9] = mid_id(v[2], v[3]);
           m.tets.push_back(t);
+          m.material.push_back(g.material(i, j, k));
+          cell_of.push_back({i, j, k});
         }
       }
-  // Faces on the boundary of a void cell (inside the grid's bounds, not solid): a face whose three
-  // corners lie in one grid plane between a solid and a void cell.
+  // Chamber walls: faces of material-1 tets whose three corners lie in one grid plane (so on their
+  // cell's boundary) with a void or material-2 cell inside the grid's bounds across it.
   static const int faces[4][3] = {{0, 1, 2}, {0, 3, 1}, {1, 3, 2}, {2, 3, 0}};
   for (std::size_t t = 0; t < m.tets.size(); ++t) {
     for (int f = 0; f < 4; ++f) {
-      Vec3 c{0, 0, 0};
-      for (int a = 0; a < 3; ++a)
-        for (int d = 0; d < 3; ++d) c[d] += m.nodes[m.tets[t][faces[f][a]]][d] / 3.0;
-      // The face's plane: the axis along which all three corners agree.
+      // The face's plane: the axis along which all three corners share a grid index.
       for (int d = 0; d < 3; ++d) {
-        const double q0 = (m.nodes[m.tets[t][faces[f][0]]][d] - g.lo[d]) / g.cell[d];
-        bool plane = true;
-        for (int a = 1; a < 3; ++a)
-          plane = plane && std::abs((m.nodes[m.tets[t][faces[f][a]]][d] - g.lo[d]) / g.cell[d] - q0) < 1e-9;
-        if (!plane) continue;
-        const int q = static_cast<int>(std::lround(q0));
-        int idx[3];
-        for (int e = 0; e < 3; ++e) idx[e] = static_cast<int>(std::floor((c[e] - g.lo[e]) / g.cell[e]));
-        int lo_c[3] = {idx[0], idx[1], idx[2]}, hi_c[3] = {idx[0], idx[1], idx[2]};
-        lo_c[d] = q - 1;
-        hi_c[d] = q;
-        const bool in_lo = lo_c[d] >= 0, in_hi = hi_c[d] < g.n[d];
-        const bool s_lo = g.at(lo_c[0], lo_c[1], lo_c[2]), s_hi = g.at(hi_c[0], hi_c[1], hi_c[2]);
-        if ((s_lo && !s_hi && in_hi) || (s_hi && !s_lo && in_lo)) m.void_faces.push_back({static_cast<int>(t), f + 1});
+        const int q = grid_index[m.tets[t][faces[f][0]]][d];
+        if (grid_index[m.tets[t][faces[f][1]]][d] != q || grid_index[m.tets[t][faces[f][2]]][d] != q) continue;
+        // The face lies on the plane q of axis d: the neighbour cell is the tet's own cell moved
+        // across that plane.
+        int nb[3] = {cell_of[t][0], cell_of[t][1], cell_of[t][2]};
+        nb[d] = q == cell_of[t][d] ? q - 1 : q;
+        const bool in_grid = nb[d] >= 0 && nb[d] < g.n[d];
+        if (m.material[t] == 1 && in_grid && g.material(nb[0], nb[1], nb[2]) != 1)
+          m.void_faces.push_back({static_cast<int>(t), f + 1});
       }
     }
   }
@@ -186,6 +217,7 @@ struct Load {
   double void_pressure_pa = 0.0;  ///< on the faces of the void cells (pushing the walls outward)
   bool nlgeom = false;            ///< geometric nonlinearity (large rotations)
   int increments = 1;             ///< NLGEOM: initial increment = 1 / increments
+  double symmetry_y_m = NAN;      ///< when finite: nodes on the plane y = symmetry_y_m held in y (half model)
 };
 
 /// ccx's output of one run.
@@ -296,14 +328,45 @@ inline std::string materialDeck(const Material& mat) {
   return o.str();
 }
 
-/// Static solve; displacement per node. clamp_x: nodes with x ≤ clamp_x fixed.
-inline Result staticSolve(const TetMesh& m, const Material& mat, double clamp_x, const Load& load) {
+/// Two materials: the material-1 tets (ELSET E1) get mat, the material-2 tets (E2) mat2.
+inline std::string materialDeck(const TetMesh& m, const Material& mat, const Material& mat2) {
+  std::ostringstream o;
+  o.precision(17);
+  for (int k = 1; k <= 2; ++k) {
+    std::vector<int> ids;
+    for (std::size_t t = 0; t < m.tets.size(); ++t)
+      if (m.material[t] == k) ids.push_back(static_cast<int>(t));
+    if (ids.empty()) continue;
+    const Material& mk = k == 1 ? mat : mat2;
+    o << "*ELSET, ELSET=E" << k << "\n";
+    for (std::size_t i = 0; i < ids.size(); ++i)
+      o << ids[i] + 1 << ((i % 10 == 9 || i + 1 == ids.size()) ? "\n" : ", ");
+    o << "*MATERIAL, NAME=M" << k << "\n*ELASTIC\n"
+      << mk.youngs_modulus_pa << ", " << mk.poisson_ratio << "\n*DENSITY\n"
+      << mk.density_kg_m3 << "\n*SOLID SECTION, ELSET=E" << k << ", MATERIAL=M" << k << "\n";
+  }
+  return o.str();
+}
+
+/// Static solve; displacement per node. clamp_x: nodes with x ≤ clamp_x fixed. mat2: the material
+/// of the material-2 cells (required when the mesh has any).
+inline Result staticSolve(const TetMesh& m, const Material& mat, double clamp_x, const Load& load,
+                          const Material* mat2 = nullptr) {
   std::ostringstream o;
   o.precision(17);
   detail::writeMesh(o, m);
   detail::writeNset(o, "CLAMP", nodesBelowX(m, clamp_x));
-  o << materialDeck(mat);
+  const bool two = std::count(m.material.begin(), m.material.end(), 2) > 0;
+  if (two && !mat2) throw std::invalid_argument("calculix_peer: the mesh has material-2 cells but no second material");
+  o << (two ? materialDeck(m, mat, *mat2) : materialDeck(mat));
   o << "*BOUNDARY\nCLAMP, 1, 3\n";
+  if (std::isfinite(load.symmetry_y_m)) {
+    std::vector<int> ids;
+    for (std::size_t i = 0; i < m.nodes.size(); ++i)
+      if (std::abs(m.nodes[i][1] - load.symmetry_y_m) < 1e-9) ids.push_back(static_cast<int>(i));
+    detail::writeNset(o, "SYM", ids);
+    o << "*BOUNDARY\nSYM, 2, 2\n";
+  }
   if (load.nlgeom)
     o << "*STEP, NLGEOM, INC=1000\n*STATIC\n"
       << 1.0 / load.increments << ", 1.0, 1e-6, " << 1.0 / load.increments << "\n";
@@ -349,6 +412,34 @@ inline double meanDisplacement(const TetMesh& m, const Result& r, double x_min, 
       ++n;
     }
   return n ? s / n : NAN;
+}
+
+/// Deformed centroid of the material of the tets whose rest centroids have x in (x_lo, x_hi),
+/// volume-weighted: a straight-edged C3D10's volume average of its displacement is
+/// Σ_corners (−1/20) u_a + Σ_mid-edges (1/5) u_m (∫N_a dV / V of the quadratic shape functions).
+inline Vec3 deformedCentroid(const TetMesh& m, const Result& r, double x_lo, double x_hi) {
+  Vec3 c{0, 0, 0};
+  double vsum = 0;
+  for (const auto& t : m.tets) {
+    const Vec3 &a = m.nodes[t[0]], &b = m.nodes[t[1]], &cc = m.nodes[t[2]], &d = m.nodes[t[3]];
+    const double xc = 0.25 * (a[0] + b[0] + cc[0] + d[0]);
+    if (!(xc > x_lo && xc < x_hi)) continue;
+    const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    const double w[3] = {cc[0] - a[0], cc[1] - a[1], cc[2] - a[2]};
+    const double z[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
+    const double v = std::abs((u[1] * w[2] - u[2] * w[1]) * z[0] + (u[2] * w[0] - u[0] * w[2]) * z[1] +
+                              (u[0] * w[1] - u[1] * w[0]) * z[2]) /
+                     6.0;
+    for (int e = 0; e < 3; ++e) {
+      double xe = 0.25 * (a[e] + b[e] + cc[e] + d[e]);
+      for (int q = 0; q < 4; ++q) xe += -0.05 * r.displacement[t[q]][e];
+      for (int q = 4; q < 10; ++q) xe += 0.2 * r.displacement[t[q]][e];
+      c[e] += v * xe;
+    }
+    vsum += v;
+  }
+  for (int e = 0; e < 3; ++e) c[e] /= vsum;
+  return c;
 }
 
 }  // namespace calculix_peer
