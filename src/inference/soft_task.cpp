@@ -61,19 +61,25 @@ double cloudSpacing(const VolumeCloud& cloud) {
   return std::cbrt(v / static_cast<double>(cloud.size()));
 }
 
-/// The spacing of a cloud whose particles lie on a lattice (every offset from the first particle a
-/// whole number of spacings, within 5 %): SPH needs lattice neighbourhoods. Throws naming the first
-/// particle off the lattice.
+/// The spacing of a cloud whose interior particles lie on a lattice (every offset from the first
+/// interior particle a whole number of spacings, within 5 %): SPH needs lattice neighbourhoods. A
+/// boundary particle (surface flag) of `topo fill` sits at the centroid of its cell's inside part, up
+/// to half a spacing (and a little more where a sliver of a neighbouring cell was merged into it) from
+/// its cell centre; it may be up to 0.75 spacings off. Throws naming the first particle off the lattice.
 double latticeSpacing(const VolumeCloud& cloud, const std::string& task) {
   const double h = cloudSpacing(cloud);
-  for (std::size_t i = 1; i < cloud.size(); ++i) {
-    const Eigen::Vector3d q = (cloud.X[i] - cloud.X[0]) / h;
+  auto boundary = [&](std::size_t i) { return i < cloud.surface.size() && cloud.surface[i]; };
+  std::size_t ref = 0;
+  while (ref < cloud.size() && boundary(ref)) ++ref;
+  if (ref == cloud.size()) ref = 0;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3d q = (cloud.X[i] - cloud.X[ref]) / h;
     const Eigen::Vector3d off = (q - q.array().round().matrix()).cwiseAbs();
-    if (off.maxCoeff() > 0.05)
+    if (off.maxCoeff() > (boundary(i) ? 0.75 : 0.05))
       throw TopoError("volume cloud for task '" + task + "'",
                       "particle " + std::to_string(i) + " is " + numberText(off.maxCoeff() * h, 3) +
-                          " m off the lattice of spacing " + numberText(h, 4) + " m through particle 0 (soft tasks " +
-                          "need lattice particles for their SPH neighbourhoods)",
+                          " m off the lattice of spacing " + numberText(h, 4) + " m through particle " +
+                          std::to_string(ref) + " (soft tasks need lattice particles for their SPH neighbourhoods)",
                       "fill the surface with topo fill (a lattice), or give the cloud's spacing");
   }
   return h;

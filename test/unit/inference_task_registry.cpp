@@ -126,7 +126,7 @@ TEST(TaskRegistry, TaskSpecificDefaultsOfCommonParameters) {
   EXPECT_EQ(TaskConfig::defaults("pear").number("density_hollow"), 1000.0);
   EXPECT_FALSE(TaskConfig::defaults("cantilever").boolean("pin_shell"));
   EXPECT_TRUE(TaskConfig::defaults("finger").boolean("pin_shell"));
-  EXPECT_EQ(TaskConfig::defaults("ball").number("contact_damping_ratio"), 0.3);
+  EXPECT_EQ(TaskConfig::defaults("ball").number("contact_damping_ratio"), 0.05);
   EXPECT_EQ(TaskConfig::defaults("tumbler").number("contact_damping_ratio"), 0.1);
   EXPECT_EQ(TaskConfig::defaults("cantilever").integer("gradient_order"), 2);
   EXPECT_EQ(TaskConfig::defaults("hanging").spec("density_solid")->paper_value, "1e3 synthetic, 5e3 real");
