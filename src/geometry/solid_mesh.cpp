@@ -4,9 +4,9 @@
 #include <algorithm>
 #include <array>
 #include <climits>
-#include <map>
 #include <cmath>
 #include <cstdint>
+#include <map>
 #include <sstream>
 #include <unordered_map>
 
