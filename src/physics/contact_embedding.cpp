@@ -122,6 +122,21 @@ ContactEmbedding::ContactEmbedding(const std::vector<Eigen::Vector3d>& X, const 
     phi_.insert(phi_.end(), rows_phi[k].begin(), rows_phi[k].end());
     off_.push_back(static_cast<int>(idx_.size()));
   }
+  // Anchors (nearest particle in the support) and the band of nearSamples.
+  anchor_.resize(K);
+  double e_max = 0.0;
+  for (std::size_t k = 0; k < K; ++k) {
+    double best = 1e300;
+    for (int q = off_[k]; q < off_[k + 1]; ++q) {
+      const double d = (X[idx_[q]] - Y[k]).squaredNorm();
+      if (d < best) {
+        best = d;
+        anchor_[k] = idx_[q];
+      }
+    }
+    e_max = std::max(e_max, std::sqrt(best));
+  }
+  band_ = 3.0 * std::max(e_max, h);
   // Transpose over the particles that carry a sample.
   std::vector<int> count(X.size(), 0);
   for (int i : idx_) ++count[i];

@@ -87,98 +87,118 @@ std::vector<Eigen::Vector3d> SoftContact::contactPositions(const std::vector<Eig
 }
 
 double SoftContact::energy(const std::vector<Eigen::Vector3d>& x) const {
-  std::vector<Eigen::Vector3d> y;
-  if (emb_) emb_->gather(x, &y);
-  const std::vector<Eigen::Vector3d>& p = emb_ ? y : x;
   double e = 0.0;
+  if (emb_) {
+    forEachSampleContact(x, [&](std::size_t, const Eigen::Vector3d&, double fn, double k) {
+      if (k > 0.0) e += 0.5 * fn * fn / k;
+    });
+    return e;
+  }
   Eigen::Vector3d n;
-  for (std::size_t i = 0; i < p.size(); ++i) {
+  for (std::size_t i = 0; i < x.size(); ++i) {
     if (!candidate(i)) continue;
-    const double k = stiffnessOf(i);
     for (const auto& o : obstacles_) {
-      const double g = o.distance(p[i], &n) - opt_.margin;
-      if (g < 0.0) e += 0.5 * k * g * g;
+      const double g = o.distance(x[i], &n) - opt_.margin;
+      if (g < 0.0) e += 0.5 * opt_.stiffness * g * g;
     }
   }
   return e;
 }
 
-// Calls f(i, n, fn, k_i) for every active contact of a contact point (fn = k_i · penetration > 0).
+// Calls f(i, n, fn) for every active contact of a candidate particle (fn = k · penetration > 0).
 template <class F>
-void SoftContact::forEachContact(const std::vector<Eigen::Vector3d>& p, F&& f) const {
+void SoftContact::forEachContact(const std::vector<Eigen::Vector3d>& x, F&& f) const {
 #pragma omp parallel for schedule(static)
-  for (long long ii = 0; ii < static_cast<long long>(p.size()); ++ii) {
+  for (long long ii = 0; ii < static_cast<long long>(x.size()); ++ii) {
     const std::size_t i = static_cast<std::size_t>(ii);
     if (!candidate(i)) continue;
-    const double k = stiffnessOf(i);
     Eigen::Vector3d n;
     for (const auto& o : obstacles_) {
-      const double g = o.distance(p[i], &n) - opt_.margin;
-      if (g < 0.0) f(i, n, -k * g, k);
+      const double g = o.distance(x[i], &n) - opt_.margin;
+      if (g < 0.0) f(i, n, -opt_.stiffness * g);
+    }
+  }
+}
+
+// Calls f(k, n, fn, k_k) for every active contact of an embedded sample (fn = k ω_k · penetration),
+// in sample order, gathering only the samples whose anchor particle is within nearBand() of an
+// obstacle (contact_embedding.h).
+template <class F>
+void SoftContact::forEachSampleContact(const std::vector<Eigen::Vector3d>& x, F&& f) const {
+  const ContactEmbedding& E = *emb_;
+  if (x.size() != E.particleCount())
+    throw TopoError(
+        "soft contact",
+        std::to_string(x.size()) + " particles for contact samples embedded in " + std::to_string(E.particleCount()),
+        "pass the state of the body the samples were embedded in");
+  const double band = E.nearBand();
+  Eigen::Vector3d n;
+  for (std::size_t k = 0; k < E.size(); ++k) {
+    const Eigen::Vector3d& xa = x[E.anchor(k)];
+    bool near = false;
+    for (const auto& o : obstacles_)
+      if (o.distance(xa, &n) - opt_.margin < band) {
+        near = true;
+        break;
+      }
+    if (!near) continue;
+    const Eigen::Vector3d y = E.at(k, x);
+    const double kk = opt_.stiffness * E.weights()[k];
+    for (const auto& o : obstacles_) {
+      const double g = o.distance(y, &n) - opt_.margin;
+      if (g < 0.0) f(k, n, -kk * g, kk);
     }
   }
 }
 
 void SoftContact::addNormalForces(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Vector3d>* f) const {
-  if (!emb_) {
-    forEachContact(x, [&](std::size_t i, const Eigen::Vector3d& n, double fn, double) { (*f)[i] += fn * n; });
+  if (emb_) {
+    forEachSampleContact(
+        x, [&](std::size_t k, const Eigen::Vector3d& n, double fn, double) { emb_->addAt(k, fn * n, f); });
     return;
   }
-  std::vector<Eigen::Vector3d> y;
-  emb_->gather(x, &y);
-  std::vector<Eigen::Vector3d> fk(y.size(), Eigen::Vector3d::Zero());
-  forEachContact(y, [&](std::size_t k, const Eigen::Vector3d& n, double fn, double) { fk[k] += fn * n; });
-  emb_->scatter(fk, f);
+  forEachContact(x, [&](std::size_t i, const Eigen::Vector3d& n, double fn) { (*f)[i] += fn * n; });
 }
 
 void SoftContact::addFrictionForces(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& v,
                                     std::vector<Eigen::Vector3d>* f) const {
   const double mu = opt_.friction, eps2 = opt_.slip_velocity * opt_.slip_velocity;
   if (mu <= 0.0) return;
-  auto friction = [&](const Eigen::Vector3d& n, double fn, const Eigen::Vector3d& vi) {
-    const Eigen::Vector3d vt = vi - n * n.dot(vi);
-    return Eigen::Vector3d(-(mu * fn / std::sqrt(vt.squaredNorm() + eps2)) * vt);
-  };
-  if (!emb_) {
-    forEachContact(
-        x, [&](std::size_t i, const Eigen::Vector3d& n, double fn, double) { (*f)[i] += friction(n, fn, v[i]); });
+  if (emb_) {
+    forEachSampleContact(x, [&](std::size_t k, const Eigen::Vector3d& n, double fn, double) {
+      const Eigen::Vector3d vk = emb_->at(k, v);
+      const Eigen::Vector3d vt = vk - n * n.dot(vk);
+      emb_->addAt(k, -(mu * fn / std::sqrt(vt.squaredNorm() + eps2)) * vt, f);
+    });
     return;
   }
-  std::vector<Eigen::Vector3d> y, vk;
-  emb_->gather(x, &y);
-  emb_->gather(v, &vk);
-  std::vector<Eigen::Vector3d> fk(y.size(), Eigen::Vector3d::Zero());
-  forEachContact(y,
-                 [&](std::size_t k, const Eigen::Vector3d& n, double fn, double) { fk[k] += friction(n, fn, vk[k]); });
-  emb_->scatter(fk, f);
+  forEachContact(x, [&](std::size_t i, const Eigen::Vector3d& n, double fn) {
+    const Eigen::Vector3d vt = v[i] - n * n.dot(v[i]);
+    (*f)[i] -= (mu * fn / std::sqrt(vt.squaredNorm() + eps2)) * vt;
+  });
 }
 
 void SoftContact::addHessianProduct(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& dx,
                                     std::vector<Eigen::Vector3d>* out) const {
-  if (!emb_) {
-    forEachContact(
-        x, [&](std::size_t i, const Eigen::Vector3d& n, double, double k) { (*out)[i] += k * n * n.dot(dx[i]); });
+  if (emb_) {
+    forEachSampleContact(x, [&](std::size_t k, const Eigen::Vector3d& n, double, double kk) {
+      emb_->addAt(k, kk * n * n.dot(emb_->at(k, dx)), out);
+    });
     return;
   }
-  std::vector<Eigen::Vector3d> y, dy;
-  emb_->gather(x, &y);
-  emb_->gather(dx, &dy);
-  std::vector<Eigen::Vector3d> hk(y.size(), Eigen::Vector3d::Zero());
-  forEachContact(y, [&](std::size_t q, const Eigen::Vector3d& n, double, double k) { hk[q] += k * n * n.dot(dy[q]); });
-  emb_->scatter(hk, out);
+  forEachContact(
+      x, [&](std::size_t i, const Eigen::Vector3d& n, double) { (*out)[i] += opt_.stiffness * n * n.dot(dx[i]); });
 }
 
 void SoftContact::addHessianDiagonal(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Vector3d>* diag) const {
-  if (!emb_) {
-    forEachContact(
-        x, [&](std::size_t i, const Eigen::Vector3d& n, double, double k) { (*diag)[i] += k * n.cwiseProduct(n); });
+  if (emb_) {
+    forEachSampleContact(x, [&](std::size_t k, const Eigen::Vector3d& n, double, double kk) {
+      emb_->addSquaredAt(k, kk * n.cwiseProduct(n), diag);
+    });
     return;
   }
-  std::vector<Eigen::Vector3d> y;
-  emb_->gather(x, &y);
-  std::vector<Eigen::Vector3d> dk(y.size(), Eigen::Vector3d::Zero());
-  forEachContact(y, [&](std::size_t q, const Eigen::Vector3d& n, double, double k) { dk[q] += k * n.cwiseProduct(n); });
-  emb_->scatterSquared(dk, diag);
+  forEachContact(
+      x, [&](std::size_t i, const Eigen::Vector3d& n, double) { (*diag)[i] += opt_.stiffness * n.cwiseProduct(n); });
 }
 
 void SoftContact::frictionAdjoint(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& v,
@@ -187,7 +207,7 @@ void SoftContact::frictionAdjoint(const std::vector<Eigen::Vector3d>& x, const s
   const double mu = opt_.friction, eps2 = opt_.slip_velocity * opt_.slip_velocity;
   if (mu <= 0.0) return;
   const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
-  // One contact: f = −μ fn t(v_t); ∂f/∂v = −μ fn (I/s − vt vtᵀ/s³) T; ∂f/∂x = −μ t (∂fn/∂x)ᵀ = −μ t (−k n)ᵀ.
+  // One contact point: f = −μ fn t(v_t); ∂f/∂v = −μ fn (I/s − vt vtᵀ/s³) T; ∂f/∂x = −μ t (∂fn/∂x)ᵀ = −μ t (−k n)ᵀ.
   auto adjoint = [&](const Eigen::Vector3d& n, double fn, double k, const Eigen::Vector3d& vi,
                      const Eigen::Vector3d& ai, Eigen::Vector3d* xb, Eigen::Vector3d* vb) {
     const Eigen::Matrix3d T = I - n * n.transpose();
@@ -198,35 +218,36 @@ void SoftContact::frictionAdjoint(const std::vector<Eigen::Vector3d>& x, const s
     *vb += dfdv.transpose() * ai;
     *xb += (mu * k * t.dot(ai)) * n;
   };
-  if (!emb_) {
-    forEachContact(x, [&](std::size_t i, const Eigen::Vector3d& n, double fn, double k) {
-      adjoint(n, fn, k, v[i], a[i], &(*x_bar)[i], &(*v_bar)[i]);
+  if (emb_) {
+    // Through the embedding: a_k = Σ_i φ_ki a_i, v_k likewise; x̄_i += φ_ki ȳ_k, v̄_i += φ_ki v̄_k.
+    forEachSampleContact(x, [&](std::size_t k, const Eigen::Vector3d& n, double fn, double kk) {
+      Eigen::Vector3d yb = Eigen::Vector3d::Zero(), vkb = Eigen::Vector3d::Zero();
+      adjoint(n, fn, kk, emb_->at(k, v), emb_->at(k, a), &yb, &vkb);
+      emb_->addAt(k, yb, x_bar);
+      emb_->addAt(k, vkb, v_bar);
     });
     return;
   }
-  // Through the embedding: a_k = Σ_i φ_ki a_i; ȳ_k, v̄_k as above; x̄_i += Σ_k φ_ki ȳ_k (same for v̄).
-  std::vector<Eigen::Vector3d> y, vk, ak;
-  emb_->gather(x, &y);
-  emb_->gather(v, &vk);
-  emb_->gather(a, &ak);
-  std::vector<Eigen::Vector3d> yb(y.size(), Eigen::Vector3d::Zero()), vkb(y.size(), Eigen::Vector3d::Zero());
-  forEachContact(y, [&](std::size_t q, const Eigen::Vector3d& n, double fn, double k) {
-    adjoint(n, fn, k, vk[q], ak[q], &yb[q], &vkb[q]);
+  forEachContact(x, [&](std::size_t i, const Eigen::Vector3d& n, double fn) {
+    adjoint(n, fn, opt_.stiffness, v[i], a[i], &(*x_bar)[i], &(*v_bar)[i]);
   });
-  emb_->scatter(yb, x_bar);
-  emb_->scatter(vkb, v_bar);
 }
 
 std::size_t SoftContact::activeCount(const std::vector<Eigen::Vector3d>& x) const {
-  std::vector<Eigen::Vector3d> y;
-  if (emb_) emb_->gather(x, &y);
-  const std::vector<Eigen::Vector3d>& p = emb_ ? y : x;
   std::size_t c = 0;
+  if (emb_) {
+    long last = -1;
+    forEachSampleContact(x, [&](std::size_t k, const Eigen::Vector3d&, double, double) {
+      if (static_cast<long>(k) != last) ++c;
+      last = static_cast<long>(k);
+    });
+    return c;
+  }
   Eigen::Vector3d n;
-  for (std::size_t i = 0; i < p.size(); ++i) {
+  for (std::size_t i = 0; i < x.size(); ++i) {
     if (!candidate(i)) continue;
     for (const auto& o : obstacles_)
-      if (o.distance(p[i], &n) - opt_.margin < 0.0) {
+      if (o.distance(x[i], &n) - opt_.margin < 0.0) {
         ++c;
         break;
       }

@@ -10,6 +10,7 @@
 //  - Without contact samples the task says so (a note naming the staircase and `topo fill`).
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 
@@ -93,7 +94,9 @@ TEST(SoftContactTask, PearDropBouncesOnItsTrueSurface) {
   double rebound[2] = {0, 0};
   for (int model = 0; model < 2; ++model) {
     const auto task = makeTask(c, model == 0 ? embedded : stairs);
+    const auto t0 = std::chrono::steady_clock::now();
     const TaskEvaluation ev = task->evaluate(r, nullptr);
+    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const auto& rows = ev.trajectory_rows;
     ASSERT_GT(rows.size(), 100u);
     // The impact: the lowest centre height; the rebound: the highest after it.
@@ -112,9 +115,9 @@ TEST(SoftContactTask, PearDropBouncesOnItsTrueSurface) {
     rebound[model] = (top - touch) / drop;
     std::printf(
         "[pear drop %s] dropped %.0f mm: impact at t = %.4f s, centre %.2f mm below touch-down; rebound %.1f mm "
-        "(%.2f of the drop)\n",
+        "(%.2f of the drop); %.0f steps in %.2f s\n",
         model == 0 ? "true surface (embedded samples)" : "staircase (surface particles)", drop * 1e3, rows[lo][0],
-        (touch - rows[lo][3]) * 1e3, (top - touch) * 1e3, rebound[model]);
+        (touch - rows[lo][3]) * 1e3, (top - touch) * 1e3, rebound[model], feature(ev, "steps"), secs);
   }
   EXPECT_GT(rebound[0], 0.1);   // it bounces
   EXPECT_LT(rebound[0], 1.02);  // and gains no energy (conservative penalty, symplectic steps)

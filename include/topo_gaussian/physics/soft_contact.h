@@ -92,14 +92,15 @@ class SoftContact {
   std::size_t activeCount(const std::vector<Eigen::Vector3d>& x) const;
 
  private:
-  bool candidate(std::size_t i) const { return emb_ || mask_.empty() || mask_[i]; }
-  /// Stiffness of contact point i: k, or k ω_i for an embedded sample.
-  double stiffnessOf(std::size_t i) const { return emb_ ? opt_.stiffness * emb_->weights()[i] : opt_.stiffness; }
+  bool candidate(std::size_t i) const { return mask_.empty() || mask_[i]; }
   void validate() const;
-  /// Calls f(i, n, fn, k_i) for every active contact of contact point i at positions p (particles, or
-  /// samples with an embedding); fn = k_i · penetration > 0.
+  /// Without an embedding: calls f(i, n, fn) for every active contact of a candidate particle
+  /// (fn = k · penetration > 0), in parallel.
   template <class F>
-  void forEachContact(const std::vector<Eigen::Vector3d>& p, F&& f) const;
+  void forEachContact(const std::vector<Eigen::Vector3d>& x, F&& f) const;
+  /// With an embedding: calls f(k, n, fn, k ω_k) for every active contact of sample k at y_k(x).
+  template <class F>
+  void forEachSampleContact(const std::vector<Eigen::Vector3d>& x, F&& f) const;
   std::vector<ContactObstacle> obstacles_;
   SoftContactOptions opt_;
   std::vector<std::uint8_t> mask_;
