@@ -269,3 +269,85 @@ TEST(ContactEmbedding, BadInputIsRefused) {
     EXPECT_NE(std::string(e.what()).find("embedded in"), std::string::npos) << e.what();
   }
 }
+
+// A stiff block released just above the ground settles (damped leapfrog) on the penalty foundation:
+// every bottom sample of its true face sinks by d = m g / (k Σ_bottom ω) = m g h² / (k A) (force
+// balance of a rigid flat face; the elastic shortening ρ g H / E is 3e-9 of H here). The face stays
+// flat to a few p h / E (p = m g / A, the soft SPH boundary layer under the contact load): 2 % of d. With the contact
+// on the particles (the old staircase) the bottom particles sink by the same d, and the true bottom
+// face — half a spacing below them — ends h/2 + d below the ground.
+TEST(ContactEmbedding, StiffBlockRestsOnItsTrueBottomFace) {
+  const double h = 0.01, k = 500.0;
+  const int nx = 4, ny = 4, nz = 3;
+  std::vector<Eigen::Vector3d> X, Y;
+  std::vector<double> V, w;
+  for (int i = 0; i < nx; ++i)
+    for (int j = 0; j < ny; ++j)
+      for (int l = 0; l < nz; ++l) {
+        X.emplace_back(h * (i + 0.5), h * (j + 0.5), h * (l + 0.5));
+        V.push_back(h * h * h);
+      }
+  // Samples on a (h/2)-grid of the six faces, weight (h/2)²/h².
+  const Eigen::Vector3d L(nx * h, ny * h, nz * h);
+  std::vector<char> bottom;
+  for (int a = 0; a < 3; ++a) {
+    const int u = (a + 1) % 3, v = (a + 2) % 3;
+    for (double side : {0.0, L(a)})
+      for (int i = 0; i < std::lround(L(u) / (0.5 * h)); ++i)
+        for (int j = 0; j < std::lround(L(v) / (0.5 * h)); ++j) {
+          Eigen::Vector3d p;
+          p(a) = side;
+          p(u) = (i + 0.5) * 0.5 * h;
+          p(v) = (j + 0.5) * 0.5 * h;
+          Y.push_back(p);
+          w.push_back(0.25);
+          bottom.push_back(a == 2 && side == 0.0);
+        }
+  }
+  const double E = 1e7, nu = 0.3, rho = 1000.0;
+  const double mass = rho * L.prod(), A = L.x() * L.y();
+  const double d = mass * 9.81 * h * h / (k * A);
+  SoftContactOptions co;
+  co.stiffness = k;
+  co.friction = 0.0;
+  double z_true[2] = {0, 0}, spread = 0.0;
+  for (int model = 0; model < 2; ++model) {
+    CorotatedSphOptions o;
+    o.spacing = h;
+    const LameParameters lame = lameFromYoung(E, nu);
+    SoftBodyOptions so;
+    so.damping = 150.0;
+    SoftBodySimulator sim(
+        CorotatedSph(X, V, std::vector<double>(X.size(), lame.mu), std::vector<double>(X.size(), lame.lambda), o), so);
+    auto emb = std::make_shared<ContactEmbedding>(X, Y, w, h);
+    if (model == 0)
+      sim.setContact(SoftContact({ContactObstacle::ground()}, co, emb));
+    else
+      sim.setContact(SoftContact({ContactObstacle::ground()}, co));  // every particle may touch
+    std::vector<Eigen::Vector3d> x0 = X;
+    const double lift = model == 0 ? 1e-4 : 1e-4 - 0.5 * h;  // the true bottom (resp. bottom particles) 0.1 mm up
+    for (auto& p : x0) p.z() += lift;
+    sim.setPositions(x0);
+    sim.advance(0.12);
+    std::vector<Eigen::Vector3d> y;
+    emb->gather(sim.positions(), &y);  // the true surface, measured the same way for both models
+    double sum = 0.0, lo = 1e300, hi = -1e300;
+    int count = 0;
+    for (std::size_t q = 0; q < y.size(); ++q)
+      if (bottom[q]) {
+        sum += y[q].z();
+        lo = std::min(lo, y[q].z());
+        hi = std::max(hi, y[q].z());
+        ++count;
+      }
+    z_true[model] = sum / count;
+    if (model == 0) spread = std::max(std::abs(lo + d), std::abs(hi + d));
+  }
+  std::printf(
+      "[block rest] d = m g h^2/(k A) = %.4f mm; true bottom face: embedded samples %+.4f mm (worst sample "
+      "%.2g mm off), particle contact %+.4f mm\n",
+      d * 1e3, z_true[0] * 1e3, spread * 1e3, z_true[1] * 1e3);
+  EXPECT_NEAR(z_true[0], -d, 1e-3 * d);
+  EXPECT_LT(spread, 0.05 * d);
+  EXPECT_NEAR(z_true[1], -d - 0.5 * h, 1e-2 * d);
+}
