@@ -137,26 +137,6 @@ ContactEmbedding::ContactEmbedding(const std::vector<Eigen::Vector3d>& X, const 
     e_max = std::max(e_max, std::sqrt(best));
   }
   band_ = 3.0 * std::max(e_max, h);
-  // Transpose over the particles that carry a sample.
-  std::vector<int> count(X.size(), 0);
-  for (int i : idx_) ++count[i];
-  std::vector<int> slot(X.size(), -1);
-  for (std::size_t i = 0; i < X.size(); ++i)
-    if (count[i] > 0) {
-      slot[i] = static_cast<int>(t_particle_.size());
-      t_particle_.push_back(static_cast<int>(i));
-      t_off_.push_back(t_off_.back() + count[i]);
-    }
-  t_sample_.resize(idx_.size());
-  t_phi_.resize(idx_.size());
-  std::vector<int> fill(t_particle_.size(), 0);
-  for (std::size_t k = 0; k < K; ++k)
-    for (int q = off_[k]; q < off_[k + 1]; ++q) {
-      const int s = slot[idx_[q]];
-      const int at = t_off_[s] + fill[s]++;
-      t_sample_[at] = static_cast<int>(k);
-      t_phi_[at] = phi_[q];
-    }
 }
 
 void ContactEmbedding::gather(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Vector3d>* y) const {
@@ -170,24 +150,6 @@ void ContactEmbedding::gather(const std::vector<Eigen::Vector3d>& x, std::vector
     Eigen::Vector3d s = Eigen::Vector3d::Zero();
     for (int q = off_[kk]; q < off_[kk + 1]; ++q) s += phi_[q] * x[idx_[q]];
     (*y)[kk] = s;
-  }
-}
-
-void ContactEmbedding::scatter(const std::vector<Eigen::Vector3d>& g, std::vector<Eigen::Vector3d>* out) const {
-#pragma omp parallel for schedule(static) if (t_particle_.size() > 4096)
-  for (long long s = 0; s < static_cast<long long>(t_particle_.size()); ++s) {
-    Eigen::Vector3d acc = Eigen::Vector3d::Zero();
-    for (int q = t_off_[s]; q < t_off_[s + 1]; ++q) acc += t_phi_[q] * g[t_sample_[q]];
-    (*out)[t_particle_[s]] += acc;
-  }
-}
-
-void ContactEmbedding::scatterSquared(const std::vector<Eigen::Vector3d>& d, std::vector<Eigen::Vector3d>* diag) const {
-#pragma omp parallel for schedule(static) if (t_particle_.size() > 4096)
-  for (long long s = 0; s < static_cast<long long>(t_particle_.size()); ++s) {
-    Eigen::Vector3d acc = Eigen::Vector3d::Zero();
-    for (int q = t_off_[s]; q < t_off_[s + 1]; ++q) acc += (t_phi_[q] * t_phi_[q]) * d[t_sample_[q]];
-    (*diag)[t_particle_[s]] += acc;
   }
 }
 

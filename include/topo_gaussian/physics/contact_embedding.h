@@ -15,14 +15,14 @@
 // Each sample carries a weight ω_k (its area a_k over the area one particle stands for, h²), so the
 // penalty stiffness per unit area does not depend on how finely the surface was sampled. Every
 // force-like quantity g_k at the samples reaches the particles through the transpose:
-// f_i = Σ_k φ_ki g_k (scatter), and velocities and displacements reach the samples by the same
-// weights (gather), which makes the embedded contact's forces, Hessian and adjoints exact.
+// f_i = Σ_k φ_ki g_k (addAt), and velocities and displacements reach the samples by the same
+// weights (at, gather), which makes the embedded contact's forces, Hessian and adjoints exact.
 //
 // Cost: contact needs only the samples near an obstacle. Each sample has an anchor, its nearest
 // particle (at rest at most e_max ≈ one spacing away); a sample whose anchor is farther than
 // nearBand() = 3 max(e_max, h) from every obstacle is not gathered. Skipping one that touches would
 // need its neighbourhood stretched about 3× (far beyond what the SPH model is valid for), so the
-// contact is unchanged; the pear's drop gathers ~1/5 of its samples.
+// contact is unchanged; the pear at rest gathers 36 / 23 / 15 % of its samples at h = 12 / 8 / 5 mm.
 #pragma once
 
 #include <Eigen/Core>
@@ -81,10 +81,6 @@ class ContactEmbedding {
 
   /// y_k = Σ_i φ_ki x_i for every sample (x has particleCount() entries).
   void gather(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Vector3d>* y) const;
-  /// out_i += Σ_k φ_ki g_k (the transpose of gather; g has size() entries).
-  void scatter(const std::vector<Eigen::Vector3d>& g, std::vector<Eigen::Vector3d>* out) const;
-  /// diag_i += Σ_k φ_ki² d_k (componentwise: the diagonal of Φᵀ diag(d) Φ).
-  void scatterSquared(const std::vector<Eigen::Vector3d>& d, std::vector<Eigen::Vector3d>* diag) const;
 
  private:
   std::vector<Eigen::Vector3d> Y_;
@@ -94,9 +90,6 @@ class ContactEmbedding {
   std::vector<double> phi_;
   std::vector<int> anchor_;
   double band_ = 0.0;
-  // Transpose (particle → samples), over the particles that carry any sample, for race-free scatter.
-  std::vector<int> t_particle_, t_off_{0}, t_sample_;
-  std::vector<double> t_phi_;
 };
 
 }  // namespace topo_gaussian

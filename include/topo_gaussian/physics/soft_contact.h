@@ -18,7 +18,8 @@
 //   ∂²E_c/∂x_i∂x_j = Σ_k φ_ki φ_kj k ω_k n_k n_kᵀ,  friction f_k(y_k, v_k) with v_k = Σ_i φ_ki v_i
 //
 // and every derivative (Hessian products, its diagonal, the friction adjoint) goes through the same
-// weights and their transposes. Without an embedding the particles (optionally masked) are the
+// weights and their transposes (serially, over the samples near an obstacle: ContactEmbedding::
+// nearBand()). Without an embedding the particles (optionally masked) are the
 // contact points with ω = 1, exactly as before.
 #pragma once
 
