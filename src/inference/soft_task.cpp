@@ -116,10 +116,15 @@ std::shared_ptr<const ContactEmbedding> SoftTask::embedContactSamples(const Volu
     return nullptr;
   }
   const double h = cloudSpacing(cloud);
+  std::vector<Eigen::Vector3d> Y = cloud.contact.X, normal = cloud.contact.normal;
+  std::vector<double> area = cloud.contact.area;
+  // About 2 samples per spacing are enough for the contact; finer ones only cost (the embedding is
+  // linear in their number): merge them into cells of h/2 (contact_embedding.h).
+  if (cloud.contact.spacing > 0.0 && cloud.contact.spacing < 0.4 * h) mergeContactSamples(0.5 * h, &Y, &normal, &area);
   std::vector<double> w;
-  w.reserve(cloud.contact.size());
-  for (double a : cloud.contact.area) w.push_back(a / (h * h));
-  return std::make_shared<const ContactEmbedding>(cloud.X, cloud.contact.X, w, h);
+  w.reserve(area.size());
+  for (double a : area) w.push_back(a / (h * h));
+  return std::make_shared<const ContactEmbedding>(cloud.X, Y, w, h);
 }
 
 SoftTask::Materials SoftTask::materials(const std::vector<double>& r, bool with_chamber) const {

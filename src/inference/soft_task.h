@@ -29,7 +29,8 @@ class SoftTask : public Task {
   /// Ground contact on the object's true surface (issue 15 §1): the cloud's contact samples embedded
   /// in the particles (contact_embedding.h), each weighted by its area over the lattice cell's face
   /// h² so that the penalty stiffness per unit area is the surface particles' (the task's stiffness
-  /// stays "per particle"). Null when the cloud has no contact samples; then a note for a person is
+  /// stays "per particle"); samples finer than 0.4 h are merged into cells of h/2 first
+  /// (mergeContactSamples). Null when the cloud has no contact samples; then a note for a person is
   /// added to notes_ (the surface particles, the lattice staircase, carry the contact).
   std::shared_ptr<const ContactEmbedding> embedContactSamples(const VolumeCloud& cloud);
 

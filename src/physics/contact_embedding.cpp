@@ -4,8 +4,10 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <memory>
 #include <sstream>
+#include <tuple>
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/physics/neighbor_list.h"
@@ -151,6 +153,53 @@ void ContactEmbedding::gather(const std::vector<Eigen::Vector3d>& x, std::vector
     for (int q = off_[kk]; q < off_[kk + 1]; ++q) s += phi_[q] * x[idx_[q]];
     (*y)[kk] = s;
   }
+}
+
+void mergeContactSamples(double cell, std::vector<Eigen::Vector3d>* X, std::vector<Eigen::Vector3d>* normal,
+                         std::vector<double>* area) {
+  if (!(cell > 0.0) || !std::isfinite(cell))
+    throw TopoError("contact sample merge", "the cell " + std::to_string(cell) + " is not a positive length",
+                    "pass a positive cell edge [m], e.g. half the particle spacing");
+  if (normal->size() != X->size() || area->size() != X->size())
+    throw TopoError("contact sample merge", "positions, normals and areas differ in number",
+                    "give one normal and one area per sample");
+  struct Acc {
+    Eigen::Vector3d m = Eigen::Vector3d::Zero(), n = Eigen::Vector3d::Zero();
+    double a = 0.0;
+    std::vector<std::size_t> members;
+  };
+  std::map<std::tuple<long, long, long, int>, Acc> cells;
+  for (std::size_t k = 0; k < X->size(); ++k) {
+    const Eigen::Vector3d& p = (*X)[k];
+    const Eigen::Vector3d& n = (*normal)[k];
+    Eigen::Index axis;
+    n.cwiseAbs().maxCoeff(&axis);
+    const int dir = 2 * static_cast<int>(axis) + (n(axis) < 0.0 ? 1 : 0);
+    const auto key = std::make_tuple(std::lround(std::floor(p.x() / cell)), std::lround(std::floor(p.y() / cell)),
+                                     std::lround(std::floor(p.z() / cell)), dir);
+    Acc& c = cells[key];
+    const double a = (*area)[k];
+    c.m += a * p;
+    c.n += a * n;
+    c.a += a;
+    c.members.push_back(k);
+  }
+  std::vector<Eigen::Vector3d> Xo, No;
+  std::vector<double> Ao;
+  for (const auto& [key, c] : cells) {
+    if (!(c.a > 0.0)) continue;
+    // The member nearest to the area-weighted mean: on the surface (the mean of a curved patch is not).
+    const Eigen::Vector3d mean = c.m / c.a;
+    std::size_t best = c.members[0];
+    for (std::size_t k : c.members)
+      if (((*X)[k] - mean).squaredNorm() < ((*X)[best] - mean).squaredNorm()) best = k;
+    Xo.push_back((*X)[best]);
+    No.push_back(c.n.norm() > 0.0 ? Eigen::Vector3d(c.n.normalized()) : (*normal)[best]);
+    Ao.push_back(c.a);
+  }
+  *X = std::move(Xo);
+  *normal = std::move(No);
+  *area = std::move(Ao);
 }
 
 }  // namespace topo_gaussian

@@ -351,3 +351,41 @@ TEST(ContactEmbedding, StiffBlockRestsOnItsTrueBottomFace) {
   EXPECT_LT(spread, 0.05 * d);
   EXPECT_NEAR(z_true[1], -d - 0.5 * h, 1e-2 * d);
 }
+
+// Merging `topo fill`-fine samples (0.8 mm) into cells of h/2 (soft tasks do this): the area is kept,
+// the merged samples are points of the surface (the fine samples' bisection accuracy), and the ground
+// force on the pear pushed 1 mm into the ground is the fine samples' within 2 %.
+TEST(ContactEmbedding, MergedSamplesKeepAreaSurfaceAndForce) {
+  const double h = 0.008;
+  const VolumeCloud cloud = defaultShapeCloud("pear", h);
+  const ContactSamples fine = shapeContactSamples(defaultShape("pear"), 0.0008);
+  std::vector<Eigen::Vector3d> Y = fine.X, n = fine.normal;
+  std::vector<double> a = fine.area;
+  mergeContactSamples(0.5 * h, &Y, &n, &a);
+  double area = 0.0, off = 0.0;
+  for (std::size_t k = 0; k < Y.size(); ++k) {
+    area += a[k];
+    off = std::max(off, std::abs(pearField(Y[k])));
+  }
+  std::printf("[merge] %zu samples -> %zu, area %.6g -> %.6g m^2, farthest from the surface %.3f mm\n", fine.size(),
+              Y.size(), fine.totalArea(), area, off * 1e3);
+  EXPECT_LT(Y.size(), fine.size() / 10);
+  EXPECT_NEAR(area, fine.totalArea(), 1e-12 * area);
+  EXPECT_LT(off, 1e-9);
+  auto force = [&](const std::vector<Eigen::Vector3d>& S, const std::vector<double>& A) {
+    std::vector<double> w;
+    for (double x : A) w.push_back(x / (h * h));
+    SoftContactOptions o;
+    o.stiffness = 1e4;
+    const SoftContact c({ContactObstacle::ground(0.001)}, o, std::make_shared<ContactEmbedding>(cloud.X, S, w, h));
+    Vec3s f(cloud.size(), Eigen::Vector3d::Zero());
+    c.addNormalForces(cloud.X, &f);
+    double fz = 0.0;
+    for (const auto& p : f) fz += p.z();
+    return fz;
+  };
+  const double f_fine = force(fine.X, fine.area), f_merged = force(Y, a);
+  std::printf("[merge] ground force 1 mm deep: fine %.4f N, merged %.4f N\n", f_fine, f_merged);
+  EXPECT_NEAR(f_merged, f_fine, 0.02 * f_fine);
+  EXPECT_THROW(mergeContactSamples(0.0, &Y, &n, &a), TopoError);
+}
