@@ -7,6 +7,7 @@
 //    distance above the true bottom (here half a spacing) is how far the true surface sinks in.
 //  - A drop bounces: the rebound height of the centre (its rise after the impact over the drop
 //    height) is printed for both contact models; the embedded pear rebounds, and no higher than it fell.
+//  - The same with samples as fine as `topo fill` makes them (0.8 mm), which the task merges to h/2.
 //  - Without contact samples the task says so (a note naming the staircase and `topo fill`).
 #include <gtest/gtest.h>
 
@@ -36,6 +37,12 @@ VolumeCloud staircase(VolumeCloud c) {
   return c;
 }
 
+/// The same cloud with samples as fine as `topo fill` makes them (0.8 mm; the task merges them to h/2).
+VolumeCloud fineSamples(VolumeCloud c) {
+  c.contact = shapeContactSamples(defaultShape("pear"), 0.0008);
+  return c;
+}
+
 double lowestParticleZ(const VolumeCloud& c) {
   double z = 1e300;
   for (const auto& p : c.X) z = std::min(z, p.z());
@@ -56,10 +63,12 @@ TEST(SoftContactTask, PearRestsOnItsTrueBottom) {
   const std::vector<double> r(embedded.size(), 1.0);  // uniform E = youngs_modulus_solid
   const TaskEvaluation ev = makeTask(c, embedded)->evaluate(r, nullptr);
   const TaskEvaluation es = makeTask(c, stairs)->evaluate(r, nullptr);
+  const TaskEvaluation ef = makeTask(c, fineSamples(embedded))->evaluate(r, nullptr);
   // The true bottom (z = 0 at rest) of the staircase pear: its lowest particle sits this far above it.
   const double offset = lowestParticleZ(embedded);
   const double bottom_embedded = feature(ev, "final_lowest_contact_z_m");
   const double bottom_stairs = feature(es, "final_lowest_contact_z_m") - offset;
+  const double bottom_fine = feature(ef, "final_lowest_contact_z_m");
   // Winkler foundation under a rigid sphere of radius R (the bulb's pole): stiffness k per h² of
   // surface, force k/h² ∫ (d − ρ²/2R) 2πρ dρ = π R k d²/h² = m g → d = √(m g h²/(π R k)); the
   // elastic flattening of the soft bottom spreads the load, so the penetration is at most this.
@@ -72,9 +81,13 @@ TEST(SoftContactTask, PearRestsOnItsTrueBottom) {
       "staircase (%.0f surface particles, lowest %.1f mm above the true bottom): true bottom at %+.3f mm\n",
       kSpacing * 1e3, feature(ev, "contact_points"), bottom_embedded * 1e3, d_winkler * 1e3,
       feature(es, "contact_points"), offset * 1e3, bottom_stairs * 1e3);
+  std::printf("[pear rest] 0.8 mm samples merged to %.0f: true bottom at %+.3f mm\n", feature(ef, "contact_points"),
+              bottom_fine * 1e3);
   EXPECT_GT(feature(ev, "contact_points"), 1000.0);
   EXPECT_LT(bottom_embedded, 0.0);  // it carries the weight, so it penetrates
   EXPECT_GT(bottom_embedded, -d_winkler);
+  EXPECT_LT(bottom_fine, 0.0);
+  EXPECT_GT(bottom_fine, -d_winkler);
   // The staircase sinks the true surface by about its offset (reported; > 5 Winkler penetrations).
   EXPECT_LT(bottom_stairs, -5.0 * d_winkler);
 }
@@ -91,9 +104,12 @@ TEST(SoftContactTask, PearDropBouncesOnItsTrueSurface) {
   const Eigen::Vector3d centre = embedded.centroid();
   c.setList("pivot_points", {centre.x(), centre.y(), centre.z()});
   const std::vector<double> r(embedded.size(), 1.0);
-  double rebound[2] = {0, 0};
-  for (int model = 0; model < 2; ++model) {
-    const auto task = makeTask(c, model == 0 ? embedded : stairs);
+  const VolumeCloud fine = fineSamples(embedded);
+  double rebound[3] = {0, 0, 0};
+  const char* names[3] = {"true surface (embedded samples)", "staircase (surface particles)",
+                          "true surface (0.8 mm samples, merged)"};
+  for (int model = 0; model < 3; ++model) {
+    const auto task = makeTask(c, model == 0 ? embedded : model == 1 ? stairs : fine);
     const auto t0 = std::chrono::steady_clock::now();
     const TaskEvaluation ev = task->evaluate(r, nullptr);
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -116,11 +132,13 @@ TEST(SoftContactTask, PearDropBouncesOnItsTrueSurface) {
     std::printf(
         "[pear drop %s] dropped %.0f mm: impact at t = %.4f s, centre %.2f mm below touch-down; rebound %.1f mm "
         "(%.2f of the drop); %.0f steps in %.2f s\n",
-        model == 0 ? "true surface (embedded samples)" : "staircase (surface particles)", drop * 1e3, rows[lo][0],
-        (touch - rows[lo][3]) * 1e3, (top - touch) * 1e3, rebound[model], feature(ev, "steps"), secs);
+        names[model], drop * 1e3, rows[lo][0], (touch - rows[lo][3]) * 1e3, (top - touch) * 1e3, rebound[model],
+        feature(ev, "steps"), secs);
   }
-  EXPECT_GT(rebound[0], 0.1);   // it bounces
-  EXPECT_LT(rebound[0], 1.02);  // and gains no energy (conservative penalty, symplectic steps)
+  for (int model : {0, 2}) {
+    EXPECT_GT(rebound[model], 0.1);   // it bounces
+    EXPECT_LT(rebound[model], 1.02);  // and gains no energy (conservative penalty, symplectic steps)
+  }
 }
 
 TEST(SoftContactTask, WithoutContactSamplesTheTaskSaysSo) {
