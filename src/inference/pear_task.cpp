@@ -3,7 +3,9 @@
 // so that the simulated trajectories of those pivot points match the observed ones:
 //   L = Σ_j Σ_p |x_p(t_j) − x*_p(t_j)|² / (J P s²),  s = object size,
 // at the observed times t_j (each at the nearest simulation step). Explicit symplectic Euler with
-// ground contact (penalty + friction) on the surface particles; reverse mode through time with
+// ground contact (penalty + friction) on the volume's contact samples, points of the true surface
+// embedded in the particles (SoftTask::embedContactSamples; the surface particles, with a note, when
+// the volume has none); reverse mode through time with
 // checkpointing (SoftRollout). The target format is the ball task's: CSV rows t, x y z per point.
 #include <Eigen/Geometry>
 #include <cmath>
@@ -24,12 +26,16 @@ class PearTask : public SoftTask {
     const double tilt = c.number("initial_tilt_deg") * M_PI / 180.0;
     const Eigen::Matrix3d R = Eigen::AngleAxisd(tilt, Eigen::Vector3d::UnitX()).toRotationMatrix();
     const Eigen::Vector3d centre = cloud.centroid();
+    contact_embedding_ = embedContactSamples(cloud);
     x0_.resize(cloud.size());
     double zmin = 1e300;
     for (std::size_t i = 0; i < cloud.size(); ++i) {
       x0_[i] = R * (cloud.X[i] - centre) + centre;
-      zmin = std::min(zmin, x0_[i].z());
+      if (!contact_embedding_) zmin = std::min(zmin, x0_[i].z());
     }
+    // The lowest point: of the true surface (the samples move with the particles' rotation exactly).
+    if (contact_embedding_)
+      for (const auto& y : cloud.contact.X) zmin = std::min(zmin, (R * (y - centre) + centre).z());
     const Eigen::Vector3d shift(0, 0, c.number("initial_height_m") - zmin);
     for (auto& p : x0_) p += shift;
     v0_ = c.vector3("initial_velocity");
@@ -69,7 +75,10 @@ class PearTask : public SoftTask {
   TaskEvaluation evaluate(const std::vector<double>& r, std::vector<double>* dL_dr) const override {
     const Materials mat = materials(r, false);
     auto sim = simulator(mat);
-    sim->setContact(SoftContact({ContactObstacle::ground(0.0)}, contact_opt_, contact_mask_));
+    if (contact_embedding_)
+      sim->setContact(SoftContact({ContactObstacle::ground(0.0)}, contact_opt_, contact_embedding_));
+    else
+      sim->setContact(SoftContact({ContactObstacle::ground(0.0)}, contact_opt_, contact_mask_));
     sim->setPositions(x0_);
     sim->setVelocities(std::vector<Eigen::Vector3d>(x0_.size(), v0_));
     const double dt_max = dt_user_ > 0 ? dt_user_ : 0.9 * sim->stableTimeStep();
@@ -124,10 +133,18 @@ class PearTask : public SoftTask {
     double lowest = 1e300;
     for (const auto& row : ev.trajectory_rows)
       for (std::size_t q = 0; q < pivots_.size(); ++q) lowest = std::min(lowest, row[3 + 3 * q]);
+    // The lowest contact point (true surface sample, or surface particle) at the end of the run.
+    double lowest_contact = 1e300;
+    for (const auto& p : sim->contact().contactPositions(sim->positions()))
+      lowest_contact = std::min(lowest_contact, p.z());
     ev.features = {
         Feature{"trajectory_rms_m", rms, "m"},
         Feature{"trajectory_rms_relative", extent > 0 ? rms / extent : 0.0, "", !obs_.empty(), 0.0, 1.0, 0.02},
-        Feature{"steps", double(N), ""}, Feature{"dt_s", dt, "s"}, Feature{"lowest_pivot_z_m", lowest, "m"}};
+        Feature{"steps", double(N), ""},
+        Feature{"dt_s", dt, "s"},
+        Feature{"lowest_pivot_z_m", lowest, "m"},
+        Feature{"final_lowest_contact_z_m", lowest_contact, "m"},
+        Feature{"contact_points", double(sim->contact().contactPositions(x0_).size()), ""}};
     std::vector<double> m;
     masses(r, &m, nullptr);
     ev.mass = massPropertiesFromMoments(computeMassMoments(cloud_.X, m));
@@ -141,6 +158,7 @@ class PearTask : public SoftTask {
   Eigen::Vector3d v0_ = Eigen::Vector3d::Zero();
   SoftContactOptions contact_opt_;
   std::vector<std::uint8_t> contact_mask_;
+  std::shared_ptr<const ContactEmbedding> contact_embedding_;  ///< null: contact on the surface particles
   std::vector<std::size_t> pivots_;
   std::vector<double> obs_t_;
   std::vector<std::vector<Eigen::Vector3d>> obs_;

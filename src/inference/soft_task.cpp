@@ -111,6 +111,28 @@ SoftTask::SoftTask(const TaskConfig& c, const VolumeCloud& cloud)
   sim_options_.damping = c.number("damping_per_s");
 }
 
+std::shared_ptr<const ContactEmbedding> SoftTask::embedContactSamples(const VolumeCloud& cloud) {
+  if (cloud.contact.empty()) {
+    std::size_t n = 0;
+    for (auto s : cloud.surface) n += s ? 1 : 0;
+    notes_.push_back("the volume has no contact samples on the true surface: the " + name_ +
+                     " task's ground contact uses its " + std::to_string(n) +
+                     " surface particles (the lattice staircase: the body rests and bounces up to half a spacing off "
+                     "its true surface); fill it again with `topo fill` to get them");
+    return nullptr;
+  }
+  const double h = cloudSpacing(cloud);
+  std::vector<Eigen::Vector3d> Y = cloud.contact.X, normal = cloud.contact.normal;
+  std::vector<double> area = cloud.contact.area;
+  // About 2 samples per spacing are enough for the contact; finer ones only cost (the embedding is
+  // linear in their number): merge them into cells of h/2 (contact_embedding.h).
+  if (cloud.contact.spacing > 0.0 && cloud.contact.spacing < 0.4 * h) mergeContactSamples(0.5 * h, &Y, &normal, &area);
+  std::vector<double> w;
+  w.reserve(area.size());
+  for (double a : area) w.push_back(a / (h * h));
+  return std::make_shared<const ContactEmbedding>(cloud.X, Y, w, h);
+}
+
 SoftTask::Materials SoftTask::materials(const std::vector<double>& r, bool with_chamber) const {
   Materials m;
   masses(r, &m.mass, &m.dmass_dr);

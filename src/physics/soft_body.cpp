@@ -96,6 +96,11 @@ void SoftBodySimulator::setContact(const SoftContact& c) {
                     "the contact mask has " + std::to_string(c.mask().size()) + " entries for " +
                         std::to_string(size()) + " particles",
                     "pass one entry per particle or an empty mask");
+  if (c.embedded() && c.embedding()->particleCount() != size())
+    throw TopoError("SoftBodySimulator::setContact",
+                    "the contact samples are embedded in " + std::to_string(c.embedding()->particleCount()) +
+                        " particles but the body has " + std::to_string(size()),
+                    "embed the samples in this body's rest positions (restPositions())");
   contact_ = c;
   if (!(contact_.options().stiffness > 0.0)) {
     double kmax = 0.0;

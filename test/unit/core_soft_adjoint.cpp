@@ -3,12 +3,16 @@
 // modulus (hence μ_i, λ_i) and chamber weight, and w.r.t. the initial state. Every case includes
 // gravity, damping, ground contact with friction (particles start in and above contact, sliding)
 // and a ramped pneumatic chamber. Cases: one explicit step, one implicit step, a 50-step explicit
-// rollout and a 50-step implicit rollout, both with checkpointing (K = 7, not a divisor of 50).
+// rollout and a 50-step implicit rollout, both with checkpointing (K = 7, not a divisor of 50), and
+// a 50-step explicit and a 20-step implicit rollout again with the ground contact on contact samples on the block's
+// true faces embedded in the particles (contact_embedding.h) instead of on the particles.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
 #include <random>
+
+#include <memory>
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/physics/soft_rollout.h"
@@ -50,7 +54,32 @@ struct Scenario {
   double dt = 0.0;
   int steps = 1;
   bool clamp_base = false;
+  /// Contact on samples of the block's true faces (spacing kDx/2, weight (kDx/2)²/kDx²) embedded
+  /// in the particles, with the ground at ground_z; else on the particles.
+  std::shared_ptr<const ContactEmbedding> embedding;
+  double ground_z = 0.0053;
 };
+
+/// Samples at the centres of a (kDx/2)-grid on the 6 faces of the block [0, nx kDx] × … .
+std::shared_ptr<const ContactEmbedding> faceSamples(const Body& b, int nx, int ny, int nz) {
+  const Eigen::Vector3d L(nx * kDx, ny * kDx, nz * kDx);
+  const double s = 0.5 * kDx;
+  std::vector<Eigen::Vector3d> Y;
+  for (int a = 0; a < 3; ++a) {
+    const int u = (a + 1) % 3, w = (a + 2) % 3;
+    const int nu = static_cast<int>(std::lround(L(u) / s)), nw = static_cast<int>(std::lround(L(w) / s));
+    for (double side : {0.0, L(a)})
+      for (int i = 0; i < nu; ++i)
+        for (int j = 0; j < nw; ++j) {
+          Eigen::Vector3d p;
+          p(a) = side;
+          p(u) = (i + 0.5) * s;
+          p(w) = (j + 0.5) * s;
+          Y.push_back(p);
+        }
+  }
+  return std::make_shared<ContactEmbedding>(b.X, Y, std::vector<double>(Y.size(), s * s / (kDx * kDx)), kDx);
+}
 
 // Builds the simulator for design r, runs the rollout and returns L and dL/dr, dL/dx0, dL/dv0.
 struct Outcome {
@@ -96,7 +125,10 @@ Outcome runCase(const Scenario& S, const std::vector<double>& r, const std::vect
   co.stiffness = 2e3;
   co.friction = 0.4;
   co.slip_velocity = 0.05;
-  sim.setContact(SoftContact({ContactObstacle::ground(0.0053)}, co));
+  if (S.embedding)
+    sim.setContact(SoftContact({ContactObstacle::ground(S.ground_z)}, co, S.embedding));
+  else
+    sim.setContact(SoftContact({ContactObstacle::ground(S.ground_z)}, co));
   sim.setTime(0.002);
   sim.setPositions(x0);
   sim.setVelocities(v0);
@@ -231,6 +263,24 @@ TEST(SoftAdjoint, FiftyStepExplicitRolloutWithCheckpoints) {
 
 TEST(SoftAdjoint, FiftyStepImplicitRolloutWithCheckpoints) {
   const Check c = checkGradients(makeSetup(SoftIntegrator::ImplicitEuler, 50), "implicit 50");
+  EXPECT_LT(c.max_rel_r, 1e-4);
+  EXPECT_LT(c.max_rel_x, 1e-4);
+}
+
+TEST(SoftAdjoint, FiftyStepExplicitRolloutWithEmbeddedContactSamples) {
+  Scenario S = makeSetup(SoftIntegrator::SymplecticEuler, 50);
+  S.embedding = faceSamples(S.body, 5, 4, 4);
+  S.ground_z = 3e-4;  // the true bottom face is at z = 0 (the particles' centres at kDx/2)
+  const Check c = checkGradients(S, "explicit 50 embedded");
+  EXPECT_LT(c.max_rel_r, 1e-4);
+  EXPECT_LT(c.max_rel_x, 1e-4);
+}
+
+TEST(SoftAdjoint, TwentyStepImplicitRolloutWithEmbeddedContactSamples) {
+  Scenario S = makeSetup(SoftIntegrator::ImplicitEuler, 20);
+  S.embedding = faceSamples(S.body, 5, 4, 4);
+  S.ground_z = 3e-4;
+  const Check c = checkGradients(S, "implicit 20 embedded");
   EXPECT_LT(c.max_rel_r, 1e-4);
   EXPECT_LT(c.max_rel_x, 1e-4);
 }

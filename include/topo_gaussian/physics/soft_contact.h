@@ -9,11 +9,26 @@
 // at the current state, implicit steps lag it (evaluated at the start of the step). Its derivatives
 // are local to the particle (exact, used by the adjoints). The box's normal is piecewise constant
 // (the face of least penetration), so its Hessian is exact away from edges.
+//
+// Embedded contact samples (issue 15 §1, contact_embedding.h): with an embedding, the contact points
+// are not particles but samples k on the object's true surface, y_k = Σ_i φ_ki x_i, each with a
+// weight ω_k (area over h²):
+//
+//   E_c = ½ k Σ_k ω_k min(φ(y_k) − δ, 0)²,          f_i = Σ_k φ_ki f_k   (f_k = −∂E_c/∂y_k)
+//   ∂²E_c/∂x_i∂x_j = Σ_k φ_ki φ_kj k ω_k n_k n_kᵀ,  friction f_k(y_k, v_k) with v_k = Σ_i φ_ki v_i
+//
+// and every derivative (Hessian products, its diagonal, the friction adjoint) goes through the same
+// weights and their transposes (serially, over the samples near an obstacle: ContactEmbedding::
+// nearBand()). Without an embedding the particles (optionally masked) are the
+// contact points with ω = 1, exactly as before.
 #pragma once
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <memory>
 #include <vector>
+
+#include "topo_gaussian/physics/contact_embedding.h"
 
 namespace topo_gaussian {
 
@@ -41,7 +56,18 @@ class SoftContact {
   SoftContact() = default;
   SoftContact(std::vector<ContactObstacle> obstacles, const SoftContactOptions& options,
               std::vector<std::uint8_t> mask = {});
+  /// Contact on embedded samples (see above) instead of the particles. Throws TopoError for a null
+  /// or empty embedding.
+  SoftContact(std::vector<ContactObstacle> obstacles, const SoftContactOptions& options,
+              std::shared_ptr<const ContactEmbedding> embedding);
   bool empty() const { return obstacles_.empty(); }
+  /// True when the contact points are embedded samples.
+  bool embedded() const { return static_cast<bool>(emb_); }
+  /// The embedding (null without one).
+  const std::shared_ptr<const ContactEmbedding>& embedding() const { return emb_; }
+  /// Positions of the contact points for particle positions x: the embedded samples y_k, or the
+  /// candidate particles (mask) without an embedding.
+  std::vector<Eigen::Vector3d> contactPositions(const std::vector<Eigen::Vector3d>& x) const;
   const SoftContactOptions& options() const { return opt_; }
   void setStiffness(double k) { opt_.stiffness = k; }
   const std::vector<ContactObstacle>& obstacles() const { return obstacles_; }
@@ -63,16 +89,23 @@ class SoftContact {
   void frictionAdjoint(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& v,
                        const std::vector<Eigen::Vector3d>& a, std::vector<Eigen::Vector3d>* x_bar,
                        std::vector<Eigen::Vector3d>* v_bar) const;
-  /// Particles in contact at x.
+  /// Contact points (particles, or embedded samples) in contact at x.
   std::size_t activeCount(const std::vector<Eigen::Vector3d>& x) const;
 
  private:
   bool candidate(std::size_t i) const { return mask_.empty() || mask_[i]; }
+  void validate() const;
+  /// Without an embedding: calls f(i, n, fn) for every active contact of a candidate particle
+  /// (fn = k · penetration > 0), in parallel.
   template <class F>
   void forEachContact(const std::vector<Eigen::Vector3d>& x, F&& f) const;
+  /// With an embedding: calls f(k, n, fn, k ω_k) for every active contact of sample k at y_k(x).
+  template <class F>
+  void forEachSampleContact(const std::vector<Eigen::Vector3d>& x, F&& f) const;
   std::vector<ContactObstacle> obstacles_;
   SoftContactOptions opt_;
   std::vector<std::uint8_t> mask_;
+  std::shared_ptr<const ContactEmbedding> emb_;
 };
 
 }  // namespace topo_gaussian
