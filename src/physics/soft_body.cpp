@@ -52,6 +52,11 @@ void SoftBodySimulator::updateStability() {
     c_max_ = std::max(c_max_, c);
   }
   dx_ = std::cbrt(vmin);
+  // The typical spacing (median volume): a fill's partial boundary cells (down to half a cell) must not
+  // soften the automatic contact stiffness k = k_max · spacing.
+  std::vector<double> v(sph_.volumes().begin(), sph_.volumes().end());
+  std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(v.size() / 2), v.end());
+  dx_typical_ = std::cbrt(v[v.size() / 2]);
   if (!(c_max_ > 0.0) || !std::isfinite(c_max_))
     throw TopoError("SoftBodySimulator", "the wave speed sqrt((lambda + 2 mu)/rho) is not positive and finite",
                     "check the material parameters and the density");
@@ -105,7 +110,7 @@ void SoftBodySimulator::setContact(const SoftContact& c) {
   if (!(contact_.options().stiffness > 0.0)) {
     double kmax = 0.0;
     for (std::size_t i = 0; i < size(); ++i) kmax = std::max(kmax, sph_.lameLambdas()[i] + 2.0 * sph_.shearModuli()[i]);
-    contact_.setStiffness(kmax * dx_);
+    contact_.setStiffness(kmax * dx_typical_);
   }
   refreshForces("setContact");
 }

@@ -225,6 +225,7 @@ class SoftBodySimulator {
   PneumaticActuation act_;
   SoftContact contact_;
   double dx_ = 0.0, c_max_ = 0.0, dt_stable_ = 0.0, time_ = 0.0;
+  double dx_typical_ = 0.0;  ///< cube root of the median particle volume [m]: the automatic contact stiffness scale
   long steps_ = 0;
   /// Cholesky factor for rest_factor_inertia_ (< 0: none yet; null with inertia ≥ 0: K0 + inertia·M
   /// is singular, Jacobi is used). Reset when masses, materials or clamps change.
