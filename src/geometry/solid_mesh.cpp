@@ -307,7 +307,10 @@ SurfaceData solidRegionMesh(const VolumeCloud& cloud, const std::vector<double>&
     if (owner[id] >= 0) {
       // Two boundary particles in one node (a merged cell's centroid crossed into its neighbour): the
       // second takes the nearest free node around it (interior particles never collide).
-      const bool boundary = i < cloud.surface.size() && cloud.surface[i];
+      // Only a particle near its cell's border moved there (an exact duplicate is an error).
+      const Eigen::Vector3d a = (cloud.X[i] - phase) / h;
+      const bool boundary =
+          i < cloud.surface.size() && cloud.surface[i] && (a - node[i].cast<double>()).cwiseAbs().maxCoeff() > 0.4;
       double best = 1e300;
       std::size_t free_id = N;
       for (int dz = -1; dz <= 1 && boundary; ++dz)

@@ -61,7 +61,10 @@ InterfaceQuality measureInterface(const VolumeCloud& cloud, const std::vector<do
   q.check = geometry::checkManifold(mesh);
   q.mesh_volume_m3 = geometry::meshIntegrals(mesh).volume;
   q.solid_volume_m3 = geometry::solidParticleVolume(cloud, r, iso);
-  q.volume_difference = (q.mesh_volume_m3 - q.solid_volume_m3) / q.solid_volume_m3;
+  // The mesh is drawn through the particles' lattice cells, so it is held to their cells' volume (the
+  // particles' own volumes are exact at the object's boundary: a box between lattice planes differs).
+  const double cells = double(q.solid_particles) * std::pow(cloud.spacing, 3);
+  q.volume_difference = (q.mesh_volume_m3 - cells) / cells;
   q.smoothness = geometry::normalSmoothness(mesh);
   q.interface_smoothness = geometry::normalSmoothness(mesh, &interface_vertex);
   q.mesh_s = secondsSince(t0);
