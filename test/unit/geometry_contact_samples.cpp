@@ -37,8 +37,7 @@ bool hasWarning(const std::vector<std::string>& w, const std::string& part) {
 }
 
 /// Median and 10th/90th percentiles of the nearest-neighbour distances.
-void nearestNeighbourSpread(const std::vector<Eigen::Vector3d>& X, double cell, double* p10, double* p50,
-                            double* p90) {
+void nearestNeighbourSpread(const std::vector<Eigen::Vector3d>& X, double cell, double* p10, double* p50, double* p90) {
   const SpatialGrid grid(X, cell);
   std::vector<double> d;
   for (std::size_t i = 0; i < X.size(); ++i) {

@@ -33,18 +33,13 @@
 #include "topo_gaussian/geometry/shape_generator.h"
 #include "topo_gaussian/inference/task.h"
 #include "topo_gaussian/inference/task_config.h"
+#include "user_path_helpers.h"
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::inference;
+using topo_test::feature;
 
 namespace {
-
-double feature(const TaskEvaluation& ev, const std::string& name) {
-  for (const auto& f : ev.features)
-    if (f.name == name) return f.value;
-  ADD_FAILURE() << "no feature " << name;
-  return NAN;
-}
 
 struct Finger {
   double length = 0.1, width = 0.02, height = 0.02;  // x ∈ [0, L], y, z centred

@@ -25,6 +25,7 @@
 #include "topo_gaussian/geometry/surface_data.h"
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/inference/task_config.h"
+#include "user_path_helpers.h"
 
 using namespace topo_gaussian;
 using topo_test::kRollPi;
@@ -33,34 +34,10 @@ namespace {
 
 constexpr double kG = 9.81;
 constexpr double kR = 0.1;  // hemisphere radius [m] (the issue's tumbler)
-
-/// Closed, outward-oriented solid hemisphere z ≤ 0 of radius R (flat face up, sphere centre at the
-/// origin): a UV cap with `segments` around and `rings` from the bottom pole to the equator, closed by
-/// a fan on the flat face.
-geometry::SurfaceData hemisphereMesh(double R, int segments = 640, int rings = 160) {
-  geometry::SurfaceData s;
-  s.kind = geometry::SurfaceKind::Mesh;
-  s.source = "hemisphere mesh";
-  s.points.emplace_back(0, 0, -R);
-  for (int i = 1; i <= rings; ++i) {
-    const double th = 0.5 * kRollPi * i / rings;  // polar angle from the bottom pole
-    for (int j = 0; j < segments; ++j) {
-      const double p = 2.0 * kRollPi * j / segments;
-      s.points.emplace_back(R * std::sin(th) * std::cos(p), R * std::sin(th) * std::sin(p), -R * std::cos(th));
-    }
-  }
-  s.points.emplace_back(0, 0, 0);
-  const int top = int(s.points.size()) - 1;
-  auto idx = [&](int i, int j) { return 1 + (i - 1) * segments + (j % segments); };
-  for (int j = 0; j < segments; ++j) s.triangles.emplace_back(0, idx(1, j + 1), idx(1, j));
-  for (int i = 1; i < rings; ++i)
-    for (int j = 0; j < segments; ++j) {
-      s.triangles.emplace_back(idx(i, j), idx(i, j + 1), idx(i + 1, j + 1));
-      s.triangles.emplace_back(idx(i, j), idx(i + 1, j + 1), idx(i + 1, j));
-    }
-  for (int j = 0; j < segments; ++j) s.triangles.emplace_back(top, idx(rings, j), idx(rings, j + 1));
-  return s;
-}
+// 640 × 160: the pole cone is one ring (0.56°, 1 mm) wide, well inside the 3° swing's contact travel
+// (256 × 64 made the 3° period −1.6 %).
+constexpr int kSegments = 640, kRings = 160;
+using topo_test::hemisphereMesh;
 
 /// Points on the hemisphere's surface (curved part and flat face) with outward normals, about
 /// `spacing` apart: a Fibonacci lattice on the lower half sphere and a sunflower on the disc.
@@ -209,7 +186,7 @@ TEST(ClosedForm, HemisphereRockingPeriodsMatchTheIssue) {
 // The issue's case: a solid hemisphere mesh filled as `topo fill --spacing S` does, released at rest
 // at 3°, 10° and 20° with the tumbler task's defaults: the period within 1 % of the exact one.
 TEST(RigidUserPath, HemisphereTumblerPeriodsWithinOnePercent) {
-  const geometry::SurfaceData mesh = hemisphereMesh(kR);
+  const geometry::SurfaceData mesh = hemisphereMesh(kR, kSegments, kRings);
   const topo_test::RoundBottom exact = topo_test::solidHemisphere(kR);
   for (double spacing : {0.002, 0.0035, 0.006}) {
     const VolumeCloud cloud = fillLikeTopoFill(mesh, spacing);
@@ -230,7 +207,7 @@ TEST(RigidUserPath, HemisphereTumblerPeriodsWithinOnePercent) {
 // exact period at that cycle's amplitude (the contact damping may shrink the swing; the period must
 // follow the closed form as it does, not drift away from it).
 TEST(RigidUserPath, HemisphereTwentyCyclesDoNotDrift) {
-  const VolumeCloud cloud = fillLikeTopoFill(hemisphereMesh(kR), 0.0);
+  const VolumeCloud cloud = fillLikeTopoFill(hemisphereMesh(kR, kSegments, kRings), 0.0);
   const topo_test::RoundBottom exact = topo_test::solidHemisphere(kR);
   const int kCycles = 20;
   const double duration = kCycles * topo_test::rockingPeriod(exact, 10.0 * kRollPi / 180.0) + 0.6;
@@ -265,7 +242,7 @@ TEST(RigidUserPath, HemisphereTwentyCyclesDoNotDrift) {
 // of mass is 47 mm below the sphere centre (not 3R/8); closed form from the mass moments.
 TEST(RigidUserPath, WeightedTumblerWithOffsetCentreOfMass) {
   const double rb = 0.035, zb = -0.06, rho_light = 300.0, rho_dense = 3000.0;
-  const VolumeCloud cloud = fillLikeTopoFill(hemisphereMesh(kR), 0.002);
+  const VolumeCloud cloud = fillLikeTopoFill(hemisphereMesh(kR, kSegments, kRings), 0.002);
   std::vector<double> r(cloud.size(), 0.0);
   for (std::size_t i = 0; i < cloud.size(); ++i)
     if ((cloud.X[i] - Eigen::Vector3d(0, 0, zb)).norm() < rb) r[i] = 1.0;

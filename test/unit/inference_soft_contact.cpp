@@ -17,18 +17,13 @@
 
 #include "topo_gaussian/inference/task.h"
 #include "topo_gaussian/physics/default_shapes.h"
+#include "user_path_helpers.h"
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::inference;
+using topo_test::feature;
 
 namespace {
-
-double feature(const TaskEvaluation& ev, const std::string& name) {
-  for (const auto& f : ev.features)
-    if (f.name == name) return f.value;
-  ADD_FAILURE() << "no feature " << name;
-  return NAN;
-}
 
 constexpr double kSpacing = 0.008;
 

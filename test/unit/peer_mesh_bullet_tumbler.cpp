@@ -26,6 +26,7 @@
 #include "topo_gaussian/geometry/surface_data.h"
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/inference/task_config.h"
+#include "user_path_helpers.h"
 
 using namespace topo_gaussian;
 using topo_test::kRollPi;
@@ -38,32 +39,6 @@ constexpr double kRho = 1000.0;  // the tumbler task's default density_solid
 constexpr double kTiltDeg = 10.0;
 constexpr double kDuration = 2.0;   // the tumbler task's default duration_s
 constexpr double kSampleDt = 5e-3;  // the tumbler task's default dt_s
-
-/// Closed, outward-oriented solid hemisphere z ≤ 0 (flat face up, sphere centre at the origin).
-geometry::SurfaceData hemisphereMesh(double R, int segments = 256, int rings = 64) {
-  geometry::SurfaceData s;
-  s.kind = geometry::SurfaceKind::Mesh;
-  s.source = "hemisphere mesh";
-  s.points.emplace_back(0, 0, -R);
-  for (int i = 1; i <= rings; ++i) {
-    const double th = 0.5 * kRollPi * i / rings;
-    for (int j = 0; j < segments; ++j) {
-      const double p = 2.0 * kRollPi * j / segments;
-      s.points.emplace_back(R * std::sin(th) * std::cos(p), R * std::sin(th) * std::sin(p), -R * std::cos(th));
-    }
-  }
-  s.points.emplace_back(0, 0, 0);
-  const int top = int(s.points.size()) - 1;
-  auto idx = [&](int i, int j) { return 1 + (i - 1) * segments + (j % segments); };
-  for (int j = 0; j < segments; ++j) s.triangles.emplace_back(0, idx(1, j + 1), idx(1, j));
-  for (int i = 1; i < rings; ++i)
-    for (int j = 0; j < segments; ++j) {
-      s.triangles.emplace_back(idx(i, j), idx(i, j + 1), idx(i + 1, j + 1));
-      s.triangles.emplace_back(idx(i, j), idx(i + 1, j + 1), idx(i + 1, j));
-    }
-  for (int j = 0; j < segments; ++j) s.triangles.emplace_back(top, idx(rings, j), idx(rings, j + 1));
-  return s;
-}
 
 /// Period from linearly interpolated zero crossings over whole periods: T = 2 (t_j − t_0) / j, j even.
 double periodFromCrossings(const std::vector<double>& t, const std::vector<double>& y, int* count) {
@@ -175,7 +150,7 @@ TEST(PeerBulletMesh, HemisphereMeshRockingPeriodAndTrajectory) {
   // with the faceting (10°, this file's settings: 64 segments −5.5 %, 128 +5.1 %, 256 −0.63 %, 384 −0.23 %,
   // 512 −0.04 %, 768 +0.11 %, 1024 +0.21 %; the step 1/2000 → 1/8000 s, 10 → 50 solver iterations
   // and margins 0–1 mm change it by < 0.1 %).
-  const geometry::SurfaceData mesh = hemisphereMesh(kR, 512, 128);
+  const geometry::SurfaceData mesh = topo_test::hemisphereMesh(kR, 512, 128);
   const double Tref = topo_test::rockingPeriod(topo_test::solidHemisphere(kR), kTiltDeg * kRollPi / 180.0);
 
   // Bullet against the closed form first.
