@@ -6,8 +6,23 @@
 
 namespace topo_gaussian::inference {
 
+namespace {
+/// A TopoError from experiment e, prefixed with its name when there are several.
+TopoError inExperiment(const std::vector<Experiment>& experiments, std::size_t e, const TopoError& error) {
+  if (experiments.size() < 2) return error;
+  return TopoError("experiment '" + experiments[e].name + "' (" + experiments[e].config.task() + "): " + error.what());
+}
+}  // namespace
+
 InteriorProblem::InteriorProblem(const TaskConfig& config, const VolumeCloud& cloud) : config_(config), cloud_(cloud) {
-  task_ = makeTask(config_, cloud_);
+  experiments_ = config_.experimentList();
+  for (std::size_t e = 0; e < experiments_.size(); ++e) {
+    try {
+      tasks_.push_back(makeTask(experiments_[e].config, cloud_));
+    } catch (const TopoError& error) {
+      throw inExperiment(experiments_, e, error);
+    }
+  }
   RepresentationOptions ro;
   ro.kind = config_.text("representation");
   ro.initial_field = config_.number("initial_field");
@@ -26,7 +41,7 @@ InteriorProblem::InteriorProblem(const TaskConfig& config, const VolumeCloud& cl
   total_volume_ = cloud_.totalVolume();
   if (w_smooth_ > 0) {
     double radius = config_.number("smoothness_radius_m");
-    if (radius <= 0) radius = 1.5 * (cloud_.spacing > 0 ? cloud_.spacing : 0.01 * task_->size());
+    if (radius <= 0) radius = 1.5 * (cloud_.spacing > 0 ? cloud_.spacing : 0.01 * task().size());
     neighbors_ = buildNeighborList(cloud_.X, radius);
   }
 }
@@ -37,8 +52,37 @@ void InteriorProblem::indicator(const Eigen::VectorXd& theta, std::vector<double
 
 ProblemEvaluation InteriorProblem::evaluateIndicator(const std::vector<double>& r, std::vector<double>* dL_dr) const {
   ProblemEvaluation ev;
-  ev.task = task_->evaluate(r, dL_dr);
-  ev.task_loss = ev.task.loss;
+  std::vector<double> dLe;
+  for (std::size_t e = 0; e < tasks_.size(); ++e) {
+    ExperimentEvaluation xe{experiments_[e].name, experiments_[e].weight, {}};
+    try {
+      xe.eval = tasks_[e]->evaluate(r, dL_dr ? (e == 0 ? dL_dr : &dLe) : nullptr);
+    } catch (const TopoError& error) {
+      throw inExperiment(experiments_, e, error);
+    }
+    if (dL_dr) {
+      if (e == 0) {
+        if (xe.weight != 1.0)
+          for (double& d : *dL_dr) d *= xe.weight;
+      } else {
+        for (std::size_t i = 0; i < r.size(); ++i) (*dL_dr)[i] += xe.weight * dLe[i];
+      }
+    }
+    ev.task_loss += xe.weight * xe.eval.loss;
+    ev.experiments.push_back(std::move(xe));
+  }
+  if (ev.experiments.size() == 1) {
+    ev.task = ev.experiments.front().eval;
+  } else {
+    ev.task = ev.experiments.front().eval;
+    ev.task.features.clear();
+    for (const auto& xe : ev.experiments)
+      for (Feature f : xe.eval.features) {
+        f.name = xe.name + kExperimentKeySeparator + f.name;
+        ev.task.features.push_back(std::move(f));
+      }
+  }
+  ev.task.loss = ev.task_loss;
   double solid = 0;
   for (std::size_t i = 0; i < r.size(); ++i) solid += cloud_.V[i] * r[i];
   ev.solid_fraction = solid / total_volume_;
@@ -79,6 +123,24 @@ ProblemEvaluation InteriorProblem::evaluateIndicator(const std::vector<double>& 
   return ev;
 }
 
+void InteriorProblem::requireTargets() const {
+  for (std::size_t e = 0; e < tasks_.size(); ++e) {
+    try {
+      tasks_[e]->requireTargets();
+    } catch (const TopoError& error) {
+      throw inExperiment(experiments_, e, error);
+    }
+  }
+}
+
+std::vector<std::string> InteriorProblem::notes() const {
+  std::vector<std::string> out;
+  for (std::size_t e = 0; e < tasks_.size(); ++e)
+    for (const auto& n : tasks_[e]->notes())
+      out.push_back(tasks_.size() > 1 ? "experiment " + experiments_[e].name + ": " + n : n);
+  return out;
+}
+
 Eigen::VectorXd InteriorProblem::initialParameters() const {
   const std::vector<double>& given = config_.list("initial_parameters");
   if (given.empty()) return representation_->initialParameters();
@@ -100,7 +162,7 @@ double InteriorProblem::evaluate(const Eigen::VectorXd& theta, Eigen::VectorXd* 
   std::vector<double> dL_dr;
   ProblemEvaluation ev = evaluateIndicator(r, grad ? &dL_dr : nullptr);
   if (!std::isfinite(ev.loss))
-    throw TopoError("loss of task '" + task_->name() + "'", "is not finite", "check the task parameters and targets");
+    throw TopoError("loss of task '" + task().name() + "'", "is not finite", "check the task parameters and targets");
   if (grad) indicatorBackward(*representation_, theta, indicator_, dL_dr, grad);
   if (details) *details = std::move(ev);
   return ev.loss;

@@ -42,7 +42,7 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
                              const EvaluationCallback& on_evaluation, const StopCheck& should_stop) {
   const auto t0 = Clock::now();
   InteriorProblem problem(config, cloud);
-  problem.task().requireTargets();
+  problem.requireTargets();
   problem.setShouldStop(should_stop);
   InferenceResult res;
   res.task = config.task();
@@ -50,7 +50,7 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   res.geometry = problem.task().geometry();
   const std::string outside = pointOutsideObjectNote(res.geometry, cloud);
   if (!outside.empty()) res.warnings.push_back(outside);
-  for (const auto& note : problem.task().notes()) res.warnings.push_back(note);
+  for (const auto& note : problem.notes()) res.warnings.push_back(note);
   const Eigen::VectorXd theta0 = problem.initialParameters();
   Eigen::VectorXd lo, hi, g;
   problem.bounds(&lo, &hi);
@@ -140,6 +140,12 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
          << "point, or allow more material contrast).";
   } else {
     head << msg.str() << "Not converged: raise max_iterations or try another optimizer/representation.";
+  }
+  if (res.final.experiments.size() > 1) {
+    head << " Per experiment (weight, loss):";
+    for (const auto& xe : res.final.experiments)
+      head << " " << xe.name << " (" << xe.weight << ", " << xe.eval.loss << ")";
+    head << ".";
   }
   if (!res.targets_reached && !outside.empty())
     head << " The target may be unreachable because the " << res.geometry.point_name << " lies outside the object ("

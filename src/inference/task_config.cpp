@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -199,7 +200,106 @@ void TaskConfig::check(const ParamSpec& s, const ParamValue& v, const std::strin
   }
 }
 
+namespace {
+const TaskConfig& sharedParameters() {
+  static const TaskConfig shared = TaskConfig::common();
+  return shared;
+}
+}  // namespace
+
+bool TaskConfig::isShared(const std::string& key) { return sharedParameters().spec(key) != nullptr; }
+
+std::vector<Experiment> TaskConfig::experimentList() const {
+  if (!experiments_.empty()) return experiments_;
+  return {Experiment{task_, 1.0, *this}};
+}
+
+void TaskConfig::addExperiment(const std::string& name, double weight, const TaskConfig& experiment) {
+  const std::string who = "experiment '" + name + "'";
+  if (name.empty()) throw TopoError("experiment", "has no name", "give every experiment a name (e.g. `name: rock_x`)");
+  if (name.find(kExperimentKeySeparator) != std::string::npos || name.find('/') != std::string::npos)
+    throw TopoError(who, "contains '.' or '/'", "use letters, digits and '_' (e.g. rock_x)");
+  for (const auto& e : experiments_)
+    if (e.name == name) throw TopoError(who, "is named twice", "give each experiment its own name");
+  if (!(weight > 0) || !std::isfinite(weight))
+    throw TopoError(who + " weight", "must be a positive number", "give a weight > 0 (default 1)");
+  if (experiment.hasExperiments())
+    throw TopoError(who, "holds experiments itself", "list every experiment in one `experiments:` list");
+  if (experiment.task().empty()) throw TopoError(who, "has no task", "give it `task: NAME`");
+  // One object, one material and one representation: the shared parameters agree.
+  for (const auto& key : experiment.explicit_) {
+    if (!isShared(key)) continue;
+    const std::string mine = valueText(key), theirs = experiment.valueText(key);
+    if (explicit_.count(key)) {
+      if (mine != theirs)
+        throw TopoError(who + " " + key,
+                        "is " + theirs + " but the object's shared value is " + mine +
+                            " (one object has one material, representation and optimiser)",
+                        "set " + key + " once, at the top of the experiments file, or give it the same value");
+      continue;
+    }
+    values_[key] = experiment.values_.at(key);  // the first experiment to say it sets it for all
+    explicit_.insert(key);
+    for (auto& e : experiments_) e.config.values_[key] = values_[key];
+  }
+  if (experiments_.empty()) {
+    // The object's config takes the first experiment's task and defaults, keeping its shared values.
+    TaskConfig top = experiment;
+    for (const auto& key : explicit_) top.values_[key] = values_.at(key);
+    top.explicit_.insert(explicit_.begin(), explicit_.end());
+    top.source_ = source_;
+    *this = std::move(top);
+  }
+  Experiment e{name, weight, experiment};
+  for (const auto& spec : sharedParameters().specs()) e.config.values_[spec.name] = values_.at(spec.name);
+  experiments_.push_back(std::move(e));
+}
+
 void TaskConfig::set(const std::string& key_in, const std::string& value_in, const std::string& origin) {
+  if (experiments_.empty()) {
+    setOwn(key_in, value_in, origin);
+    return;
+  }
+  const std::string key = trim(key_in);
+  std::vector<std::string> names;
+  for (const auto& e : experiments_) names.push_back(e.name);
+  const auto dot = key.find(kExperimentKeySeparator);
+  if (dot != std::string::npos) {
+    const std::string name = key.substr(0, dot), k = key.substr(dot + 1);
+    auto it =
+        std::find_if(experiments_.begin(), experiments_.end(), [&](const Experiment& e) { return e.name == name; });
+    if (it == experiments_.end())
+      throw TopoError(origin + " " + key, "names no experiment '" + name + "'",
+                      "the experiments are " + joinNames(names));
+    if (isShared(k))
+      throw TopoError(origin + " " + key, k + " is shared by all experiments of the object",
+                      "set it without the experiment name: " + k + "=VALUE");
+    it->config.set(k, value_in, origin);
+    if (it == experiments_.begin()) setOwn(k, value_in, origin);
+    return;
+  }
+  if (isShared(key)) {
+    setOwn(key, value_in, origin);
+    for (auto& e : experiments_) e.config.setOwn(key, value_in, origin);
+    return;
+  }
+  std::vector<Experiment*> having;
+  for (auto& e : experiments_)
+    if (e.config.spec(key) || e.config.shorthands_.count(key)) having.push_back(&e);
+  if (having.empty())
+    throw TopoError(origin + " " + key, "is a parameter of none of the experiments (" + joinNames(names) + ")",
+                    "`topo infer --task TASK --list-params` lists a task's parameters");
+  const ParamSpec* s = having.front()->config.spec(key);
+  if (s && s->is_target && having.size() > 1)
+    throw TopoError(origin + " " + key, "is a target of " + std::to_string(having.size()) + " experiments",
+                    "name the experiment: e.g. " + having.back()->name + kExperimentKeySeparator + key + "=VALUE");
+  for (auto* e : having) {
+    e->config.setOwn(key, value_in, origin);
+    if (e == &experiments_.front()) setOwn(key, value_in, origin);
+  }
+}
+
+void TaskConfig::setOwn(const std::string& key_in, const std::string& value_in, const std::string& origin) {
   const std::string key = trim(key_in), value = trim(value_in);
   // A task's shorthand (e.g. one value for both materials): each listed parameter in turn, the key
   // itself last when it is one of them.
@@ -210,7 +310,7 @@ void TaskConfig::set(const std::string& key_in, const std::string& value_in, con
       if (p == key)
         itself = true;
       else
-        set(p, value, origin + " " + key + " ->");
+        setOwn(p, value, origin + " " + key + " ->");
     }
     if (!itself) return;
   }
@@ -265,6 +365,7 @@ void TaskConfig::set(const std::string& key_in, const std::string& value_in, con
   v.set = !(s->type == ParamType::Text && v.text.empty());
   check(*s, v, origin);
   values_[key] = v;
+  explicit_.insert(key);
 }
 
 void TaskConfig::setAssignment(const std::string& a, const std::string& origin) {
@@ -386,15 +487,16 @@ std::string nodeText(const YAML::Node& n, const std::string& where) {
 
 }  // namespace
 
-TaskConfig TaskConfig::fromYamlFile(const std::string& path) {
+namespace {
+
+YAML::Node loadYaml(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
     throw TopoError(
         path, "is a directory, not a task file",
         "give a task YAML file (e.g. " + path + "/tumbler.yaml) or a task name: " + joinNames(TaskConfig::taskNames()));
-  YAML::Node root;
   try {
-    root = YAML::LoadFile(path);
+    return YAML::LoadFile(path);
   } catch (const YAML::BadFile&) {
     throw TopoError(path, "cannot open the task file",
                     "check the path (or give a task name: " + joinNames(TaskConfig::taskNames()) + ")");
@@ -403,41 +505,118 @@ TaskConfig TaskConfig::fromYamlFile(const std::string& path) {
   } catch (const std::exception& e) {  // e.g. an unreadable file: iostream errors carry no path
     throw TopoError(path, std::string("cannot be read as a task file: ") + e.what(), "check that it is a text file");
   }
-  if (!root.IsMap() || !root["task"])
-    throw TopoError(path, "has no `task:` key",
-                    "start the file with `task: NAME` (" + joinNames(TaskConfig::taskNames()) + ")");
-  std::string key = "task";
+}
+
+/// Sets every `key: value` of a map (and its `targets:` map) on c, skipping the keys in `skip`.
+void applyYamlMap(TaskConfig& c, const YAML::Node& map, const std::string& where, const std::string& origin,
+                  const std::vector<std::string>& skip) {
+  std::string key;
   try {
-    const std::string task = nodeText(root["task"], path + " task");
-    TaskConfig c;
-    try {
-      c = defaults(task);
-    } catch (const TopoError& e) {
-      throw TopoError(path + " task: " + e.what());
-    }
-    c.source_ = path;
-    for (const auto& kv : root) {
+    for (const auto& kv : map) {
       if (!kv.first.IsScalar())
-        throw TopoError(path, "has a key that is not a name (a list or map as a key)", "write `name: value` lines");
+        throw TopoError(where, "has a key that is not a name (a list or map as a key)", "write `name: value` lines");
       key = kv.first.Scalar();
-      if (key == "task" || key == "description") continue;
+      if (std::find(skip.begin(), skip.end(), key) != skip.end()) continue;
       if (key == "targets") {
         if (!kv.second.IsMap())
-          throw TopoError(path + " targets", "is not a map", "write `targets:` followed by `name: value` lines");
+          throw TopoError(where + " targets", "is not a map", "write `targets:` followed by `name: value` lines");
         for (const auto& t : kv.second) {
           if (!t.first.IsScalar())
-            throw TopoError(path + " targets", "has a key that is not a name", "write `name: value` lines");
+            throw TopoError(where + " targets", "has a key that is not a name", "write `name: value` lines");
           key = "targets " + t.first.Scalar();
-          c.set(t.first.Scalar(), nodeText(t.second, path + " " + key), path);
+          c.set(t.first.Scalar(), nodeText(t.second, where + " " + key), origin);
         }
         continue;
       }
-      c.set(key, nodeText(kv.second, path + " " + key), path);
+      c.set(key, nodeText(kv.second, where + " " + key), origin);
     }
-    return c;
   } catch (const YAML::Exception& e) {
-    throw TopoError(path + " " + key, std::string("cannot be read: ") + e.what(), "write `name: value` lines");
+    throw TopoError(where + " " + key, std::string("cannot be read: ") + e.what(), "write `name: value` lines");
   }
+}
+
+/// A task config from a map with `task: NAME` (a file's root, or an item of `experiments:`).
+TaskConfig taskFromYamlMap(const YAML::Node& map, const std::string& where, const std::string& origin,
+                           const std::vector<std::string>& skip) {
+  if (!map.IsMap() || !map["task"])
+    throw TopoError(where, "has no `task:` key",
+                    "start it with `task: NAME` (" + joinNames(TaskConfig::taskNames()) + ")");
+  const std::string task = nodeText(map["task"], where + " task");
+  TaskConfig c;
+  try {
+    c = TaskConfig::defaults(task);
+  } catch (const TopoError& e) {
+    throw TopoError(where + " task: " + e.what());
+  }
+  std::vector<std::string> all = skip;
+  all.push_back("task");
+  all.push_back("description");
+  applyYamlMap(c, map, where, origin, all);
+  return c;
+}
+
+}  // namespace
+
+TaskConfig TaskConfig::fromYamlFile(const std::string& path) {
+  const YAML::Node root = loadYaml(path);
+  if (root.IsMap() && root["experiments"]) {
+    // Several experiments of one object: shared parameters at the top, one map per experiment.
+    if (root["task"])
+      throw TopoError(path, "has both `task:` and `experiments:`",
+                      "give each experiment its own `task:` inside the `experiments:` list");
+    if (root["targets"]) throw TopoError(path, "has `targets:` at the top", "give each experiment its own `targets:`");
+    TaskConfig top = common();
+    top.source_ = path;
+    for (const auto& kv : root) {
+      const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : std::string();
+      if (key == "experiments" || key == "description") continue;
+      if (!isShared(key))
+        throw TopoError(path + " " + key,
+                        "is not a parameter shared by the experiments (only the representation, materials, "
+                        "regularisers, optimiser and gravity are)",
+                        "move " + key + " into the experiment(s) it belongs to");
+      top.set(key, nodeText(kv.second, path + " " + key), path);
+    }
+    const YAML::Node list = root["experiments"];
+    if (!list.IsSequence() || list.size() == 0)
+      throw TopoError(path + " experiments", "is not a non-empty list",
+                      "write `experiments:` followed by `- name: ...` items, each with a task or a file");
+    const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const YAML::Node item = list[i];
+      std::string where = path + " experiments[" + std::to_string(i) + "]";
+      if (!item.IsMap())
+        throw TopoError(where, "is not a map", "write `- name: NAME` then `task: TASK` (or `file: FILE.yaml`)");
+      const std::string name =
+          item["name"] ? nodeText(item["name"], where + " name") : "experiment" + std::to_string(i + 1);
+      where += " (" + name + ")";
+      double weight = 1.0;
+      if (item["weight"]) {
+        const std::string w = nodeText(item["weight"], where + " weight");
+        char* end = nullptr;
+        weight = std::strtod(w.c_str(), &end);
+        if (end == w.c_str() || *end != '\0')
+          throw TopoError(where + " weight", "'" + w + "' is not a number", "give a weight > 0 (default 1)");
+      }
+      TaskConfig exp;
+      if (item["file"]) {
+        if (item["task"]) throw TopoError(where, "has both `file:` and `task:`", "give one: the file holds the task");
+        std::filesystem::path f = nodeText(item["file"], where + " file");
+        if (f.is_relative()) f = dir / f;
+        exp = fromYamlFile(f.string());
+        if (exp.hasExperiments())
+          throw TopoError(f.string(), "holds experiments itself", "list every experiment in one `experiments:` list");
+        applyYamlMap(exp, item, where, path, {"name", "weight", "file", "description"});
+      } else {
+        exp = taskFromYamlMap(item, where, path, {"name", "weight"});
+      }
+      top.addExperiment(name, weight, exp);
+    }
+    return top;
+  }
+  TaskConfig c = taskFromYamlMap(root, path, path, {});
+  c.source_ = path;
+  return c;
 }
 
 TaskConfig TaskConfig::load(const std::string& name_or_path, const std::string& task_dir) {

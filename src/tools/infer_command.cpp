@@ -34,12 +34,17 @@ const char* kInferHelp =
     "prints one progress line per iteration on stderr.\n"
     "\n"
     "  --task TASK            hanging | balance | stand | tumbler | qiqi | ball, or a task YAML file\n"
-    "                         (names resolve to config/tasks/TASK.yaml when it exists; $TOPO_TASK_DIR)\n"
+    "                         (names resolve to config/tasks/TASK.yaml when it exists; $TOPO_TASK_DIR), or\n"
+    "                         a file of several experiments of one object (`experiments:` list, see README)\n"
+    "  --experiment [NAME=]FILE  one more experiment of the same object (repeatable): a task YAML file\n"
+    "                         or name; NAME defaults to the file's stem. One interior fits all of them\n"
+    "                         (joint loss); a target of one experiment is --target NAME.TARGET=VALUE\n"
     "  --surface FILE         a surface (3DGS .ply, points, mesh) filled with `topo fill` defaults first\n"
     "  --count N              particles when filling --surface (default 20000)\n"
     "  --volume FILE          a volume .ply written by `topo fill`\n"
     "  --representation R     point | quadric | neural (same as --set representation=R)\n"
-    "  --features FILE.json   motion features as `topo track --json` writes them: the task takes its\n"
+    "  --features [NAME=]FILE.json  motion features as `topo track --json` writes them (repeatable;\n"
+    "                         NAME: the experiment they belong to): the task takes its\n"
     "                         targets from them (tumbler: period, max tilt; hanging/balance/stand: the\n"
     "                         equilibrium angle; finger: the bend) and signal.png compares the signals\n"
     "  --target NAME=VALUE    an observed feature, e.g. period_s=0.25 (repeatable; wins over --features)\n"
@@ -68,10 +73,50 @@ const char* kSimulateHelp =
     "  --trajectory FILE.csv  ball: write the tracked points (t, x y z per point), usable as a target\n"
     "  --json                 print the features as one JSON object\n";
 
+/// "NAME=VALUE" → {NAME, VALUE}; a value without '=' (or whose '=' comes after a '/') → {"", VALUE}.
+std::pair<std::string, std::string> namedValue(const std::string& s) {
+  const auto eq = s.find('=');
+  if (eq == std::string::npos || s.find('/') < eq) return {"", s};
+  return {s.substr(0, eq), s.substr(eq + 1)};
+}
+
+/// "tumbler.yaml", "dir/rock_x.yaml" → "rock_x"; a task name stays.
+std::string experimentStem(const std::string& path) {
+  std::string stem = path.substr(path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/') + 1);
+  if (stem.size() > 5 && stem.substr(stem.size() - 5) == ".yaml") stem.resize(stem.size() - 5);
+  return stem;
+}
+
+/// --task, then every --experiment [NAME=]FILE as one more experiment of the same object.
+inference::TaskConfig loadTaskAndExperiments(const Args& a) {
+  const std::vector<std::string> more = a.has("experiment") ? a.all("experiment") : std::vector<std::string>{};
+  if (!a.has("task") && more.empty()) throw UsageError("--task (or --experiment) is required");
+  inference::TaskConfig c;
+  std::size_t first = 0;
+  if (a.has("task")) {
+    c = inference::TaskConfig::load(a.str("task"), io::defaultTaskDir());
+  } else {
+    c = inference::TaskConfig::load(namedValue(more[0]).second, io::defaultTaskDir());
+  }
+  if (more.empty()) return c;
+  if (!c.hasExperiments()) {  // the --task (or first --experiment) becomes the first experiment
+    const auto [name, file] = a.has("task") ? std::make_pair(std::string(), a.str("task")) : namedValue(more[0]);
+    inference::TaskConfig top = inference::TaskConfig::common();
+    top.addExperiment(name.empty() ? experimentStem(file) : name, 1.0, c);
+    c = top;
+    if (!a.has("task")) first = 1;
+  }
+  for (std::size_t i = first; i < more.size(); ++i) {
+    const auto [name, file] = namedValue(more[i]);
+    c.addExperiment(name.empty() ? experimentStem(file) : name, 1.0,
+                    inference::TaskConfig::load(file, io::defaultTaskDir()));
+  }
+  return c;
+}
+
 /// The task with --representation and --set applied (targets are the run's: see inferCommand).
 inference::TaskConfig loadConfig(const Args& a) {
-  if (!a.has("task")) throw UsageError("--task is required");
-  inference::TaskConfig c = inference::TaskConfig::load(a.str("task"), io::defaultTaskDir());
+  inference::TaskConfig c = loadTaskAndExperiments(a);
   if (a.has("representation")) c.set("representation", a.str("representation"), "--representation");
   for (const auto& s : a.all("set")) c.setAssignment(s, "--set");
   return c;
@@ -107,7 +152,8 @@ VolumeCloud volumeOrDefaultShape(const Args& a, const inference::TaskConfig& con
 
 int inferCommand(const std::vector<std::string>& argv) {
   const Args a(argv, {"help", "json", "quiet", "list-params", "no-export"},
-               {"task", "surface", "volume", "representation", "output", "count", "features"}, {"target", "set"});
+               {"task", "surface", "volume", "representation", "output", "count"},
+               {"target", "set", "experiment", "features"});
   if (a.has("help")) {
     std::cout << kInferHelp;
     return 0;
@@ -123,8 +169,15 @@ int inferCommand(const std::vector<std::string>& argv) {
   rq.volume = loadVolume(a);
   if (!rq.volume && inference::defaultShapeForTask(config.task()).empty())
     throw UsageError("give --volume or --surface (tasks with a default shape: finger, pear, cantilever)");
-  if (a.has("features"))
-    rq.observed = std::make_shared<motion::MotionFeatures>(io::readMotionFeaturesJson(a.str("features")));
+  for (const auto& f : a.has("features") ? a.all("features") : std::vector<std::string>{}) {
+    const auto [experiment, file] = namedValue(f);
+    auto window = std::make_shared<motion::MotionFeatures>(io::readMotionFeaturesJson(file));
+    if (!experiment.empty()) window->experiment = experiment;
+    if (!rq.observed && window->experiment.empty())
+      rq.observed = window;
+    else
+      rq.observed_experiments.push_back(window);
+  }
   rq.targets = a.all("target");
   rq.targets_origin = "--target";
   rq.output_dir = a.str("output");
@@ -136,6 +189,9 @@ int inferCommand(const std::vector<std::string>& argv) {
                    it.loss, it.gradient_norm, it.best_loss, it.elapsed_s);
     return true;
   };
+  for (const auto& e : config.experiments())
+    std::cerr << "[topo infer] experiment " << e.name << ": task " << e.config.task() << " (" << e.config.source()
+              << "), weight " << e.weight << "\n";
   std::cerr << "[topo infer] task " << config.task() << " (" << config.source() << "), representation "
             << config.text("representation") << ", optimizer " << config.text("optimizer") << ", at most "
             << config.integer("max_iterations") << " evaluations (max_iterations)\n";

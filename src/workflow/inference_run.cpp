@@ -108,18 +108,42 @@ namespace {
 
 namespace {
 
+/// The targets one observed window gives its experiment (the first one when it is untagged).
+void applyObservedTargets(const motion::MotionFeatures& window, inference::TaskConfig* config,
+                          std::vector<std::string>* notes) {
+  const std::vector<inference::Experiment> experiments = config->experimentList();
+  const inference::Experiment* experiment = &experiments.front();
+  if (!window.experiment.empty()) {
+    experiment = nullptr;
+    std::string names;
+    for (const auto& e : experiments) {
+      if (e.name == window.experiment) experiment = &e;
+      names += (names.empty() ? "" : ", ") + e.name;
+    }
+    if (!experiment && config->hasExperiments())
+      throw TopoError(inference::motionFeaturesOrigin(window),
+                      "belong to experiment '" + window.experiment + "', which the task does not have",
+                      "tag the window with one of: " + names);
+    if (!experiment) experiment = &experiments.front();  // a single task: the tag is only a label
+  }
+  const inference::MotionTargets mt = inference::targetsFromMotion(experiment->config, window);
+  const std::string prefix =
+      config->hasExperiments() ? experiment->name + inference::kExperimentKeySeparator : std::string();
+  for (const auto& [name, value] : mt.targets) {
+    config->setNumber(prefix + name, value);
+    notes->push_back(prefix + name + " = " + numberText(value, 6) + " from the motion features");
+  }
+  if (!mt.note.empty()) notes->push_back(prefix + mt.note);
+}
+
 InferenceRunOutcome runUnguarded(const InferenceRunRequest& rq) {
   InferenceRunOutcome out;
   out.volume = volumeFor(rq, &out.notes);
   inference::TaskConfig config = rq.config;
-  if (rq.observed) {  // the task's own rule (inference/motion_targets.h), then the explicit targets over it
-    const inference::MotionTargets mt = inference::targetsFromMotion(config, *rq.observed);
-    for (const auto& [name, value] : mt.targets) {
-      config.setNumber(name, value);
-      out.notes.push_back(name + " = " + numberText(value, 6) + " from the motion features");
-    }
-    if (!mt.note.empty()) out.notes.push_back(mt.note);
-  }
+  // The task's own rule (inference/motion_targets.h) per observed window, then the explicit targets over it.
+  std::vector<std::shared_ptr<const motion::MotionFeatures>> observed = rq.observed_experiments;
+  if (rq.observed) observed.insert(observed.begin(), rq.observed);
+  for (const auto& window : observed) applyObservedTargets(*window, &config, &out.notes);
   for (const auto& t : rq.targets) {
     const auto eq = t.find('=');
     const auto* spec = config.spec(t.substr(0, eq));
@@ -130,7 +154,15 @@ InferenceRunOutcome runUnguarded(const InferenceRunRequest& rq) {
     out.notes.push_back(t + " from the " + rq.targets_origin);
   }
   try {
-    inference::makeTask(config, *out.volume)->requireTargets();
+    for (const auto& e : config.experimentList()) {
+      try {
+        inference::makeTask(e.config, *out.volume)->requireTargets();
+      } catch (const TopoError& error) {
+        if (!config.hasExperiments()) throw;
+        throw TopoError("experiment '" + e.name + "' (" + e.config.task() + "): " + error.what() +
+                        " (name the experiment: " + e.name + ".TARGET=VALUE)");
+      }
+    }
   } catch (const TopoError& e) {
     throw TopoError(std::string(e.what()) + rq.missing_targets_hint);
   }

@@ -29,6 +29,9 @@ struct MotionFeatures {
   std::string method;   ///< marker | silhouette | klt
   std::string source;   ///< video file or image topic
   std::string message;  ///< what limited the measurement
+  /// The experiment of a multi-experiment inference this window belongs to ("rock_y"); empty: the
+  /// only (or the first) experiment.
+  std::string experiment;
 
   bool oscillation_found = false;
   double period_s = 0.0;

@@ -15,13 +15,23 @@
 
 namespace topo_gaussian::inference {
 
+/// One experiment's part of an evaluation.
+struct ExperimentEvaluation {
+  std::string name;
+  double weight = 1.0;
+  TaskEvaluation eval;  ///< its loss (unweighted), features, signal
+};
+
 struct ProblemEvaluation {
-  double loss = 0.0;  ///< task loss + regularisers
-  double task_loss = 0.0;
+  double loss = 0.0;       ///< task loss + regularisers
+  double task_loss = 0.0;  ///< Σ_e w_e L_e over the experiments
   double volume_term = 0.0;
   double smoothness_term = 0.0;
   double solid_fraction = 0.0;  ///< Σ V_i r_i / Σ V_i
+  /// The task's evaluation. With several experiments: every experiment's features, named
+  /// "EXPERIMENT.feature", the weighted loss Σ_e w_e L_e, and the first experiment's signal and motion.
   TaskEvaluation task;
+  std::vector<ExperimentEvaluation> experiments;  ///< one per experiment (one for a single task)
 };
 
 class InteriorProblem {
@@ -40,9 +50,19 @@ class InteriorProblem {
   ProblemEvaluation evaluateIndicator(const std::vector<double>& r, std::vector<double>* dL_dr) const;
   void indicator(const Eigen::VectorXd& theta, std::vector<double>* r) const;
 
-  const Task& task() const { return *task_; }
+  /// The first experiment's task (the only one for a single-experiment config).
+  const Task& task() const { return *tasks_.front(); }
+  std::size_t numExperiments() const { return tasks_.size(); }
+  const Task& task(std::size_t e) const { return *tasks_.at(e); }
+  const Experiment& experiment(std::size_t e) const { return experiments_.at(e); }
+  /// Throws TopoError (naming the experiment) when a target a loss needs is missing.
+  void requireTargets() const;
+  /// Every task's notes, prefixed with its experiment's name when there are several.
+  std::vector<std::string> notes() const;
   /// Polled by the task's simulations (Task::setShouldStop): true throws SimulationCancelled.
-  void setShouldStop(StopCheck stop) { task_->setShouldStop(std::move(stop)); }
+  void setShouldStop(const StopCheck& stop) {
+    for (auto& t : tasks_) t->setShouldStop(stop);
+  }
   const Representation& representation() const { return *representation_; }
   const IndicatorOptions& indicatorOptions() const { return indicator_; }
   const VolumeCloud& cloud() const { return cloud_; }
@@ -51,7 +71,8 @@ class InteriorProblem {
  private:
   TaskConfig config_;
   const VolumeCloud& cloud_;
-  std::unique_ptr<Task> task_;
+  std::vector<Experiment> experiments_;
+  std::vector<std::unique_ptr<Task>> tasks_;
   std::unique_ptr<Representation> representation_;
   IndicatorOptions indicator_;
   NeighborList neighbors_;

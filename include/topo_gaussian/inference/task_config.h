@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,11 @@ struct ParamValue {
   bool set = false;  ///< false: no value (optional parameters, unset targets)
 };
 
+struct Experiment;
+
+/// Separator of an experiment's name and a key in a multi-experiment config ("rock_y.period_s").
+constexpr char kExperimentKeySeparator = '.';
+
 class TaskConfig {
  public:
   /// The defaults of a registered task (TaskConfig::taskNames(), inference/task_registry.h): the
@@ -44,7 +50,10 @@ class TaskConfig {
   /// The parameters every task has (representation, materials, regularisers, optimiser, gravity)
   /// with their common defaults; task() is empty. A task may change some of these defaults.
   static TaskConfig common();
-  /// Reads a YAML file: `task: NAME` plus parameters (and an optional `targets:` map).
+  /// Reads a YAML file: `task: NAME` plus parameters (and an optional `targets:` map), or several
+  /// experiments of one object: shared parameters (representation, materials, regularisers, optimiser)
+  /// at the top and an `experiments:` list whose items are `{name, weight, task, ..., targets}` maps or
+  /// `{name, weight, file: other.yaml}` (relative to this file).
   static TaskConfig fromYamlFile(const std::string& path);
   /// A task name ("tumbler") or a YAML path; names resolve to config/tasks/NAME.yaml under
   /// `task_dir` when that file exists, otherwise to the built-in defaults.
@@ -52,11 +61,32 @@ class TaskConfig {
   /// The registered tasks, in registry order.
   static std::vector<std::string> taskNames();
 
+  /// The task; for several experiments, the first experiment's task.
   const std::string& task() const { return task_; }
   const std::string& source() const { return source_; }
 
+  /// Several experiments of one object (paper §7 ablation "multiple videos"): one interior, one joint
+  /// loss Σ_e w_e L_e. A single-experiment config has none (experimentList() is then itself).
+  bool hasExperiments() const { return !experiments_.empty(); }
+  const std::vector<Experiment>& experiments() const { return experiments_; }
+  /// The experiments to simulate: experiments(), or {task(), 1, *this} for a single-experiment config.
+  std::vector<Experiment> experimentList() const;
+  /// Adds an experiment. The first one also gives this config its task (and the task's defaults,
+  /// keeping the shared parameters already set here). The shared parameters (TaskConfig::common():
+  /// representation, materials, regularisers, optimiser, gravity) of one object are this config's: an
+  /// experiment that set one of them to another value is refused (naming it and the key). Throws
+  /// TopoError for an empty or duplicate name, a weight ≤ 0, or an experiment that has experiments.
+  void addExperiment(const std::string& name, double weight, const TaskConfig& experiment);
+  /// True for the parameters of TaskConfig::common() (one value per object).
+  static bool isShared(const std::string& key);
+  /// Keys given a value explicitly (a file, --set, --target), not by the defaults.
+  const std::set<std::string>& explicitKeys() const { return explicit_; }
+
   /// Sets one parameter from text ("1200", "true", "0,0,0.1", "[0.1, 0.2]"). Throws TopoError for
   /// unknown keys (with the nearest known key) and invalid values (with the allowed range).
+  /// With experiments: "NAME.KEY" sets KEY of experiment NAME; a shared KEY is set for all; another
+  /// KEY is set in every experiment whose task has it, except a target, which must name its
+  /// experiment when more than one has it.
   void set(const std::string& key, const std::string& value, const std::string& origin = "--set");
   void setNumber(const std::string& key, double value);
   void setVector(const std::string& key, const Eigen::Vector3d& value);
@@ -87,9 +117,21 @@ class TaskConfig {
   /// Shorthand keys (a task's declaration): setting the key sets each listed parameter to the same
   /// value; the key itself may be one of them.
   std::map<std::string, std::vector<std::string>> shorthands_;
+  std::vector<Experiment> experiments_;
+  std::set<std::string> explicit_;
   void declare(const ParamSpec& spec, const ParamValue& value);
+  /// set() of this config's own value (no experiments involved).
+  void setOwn(const std::string& key, const std::string& value, const std::string& origin);
   void check(const ParamSpec& spec, const ParamValue& value, const std::string& origin) const;
   friend class TaskParameters;
+};
+
+/// One experiment of an object: a task with its own parameters and targets, and the weight of its
+/// loss in the joint loss.
+struct Experiment {
+  std::string name;
+  double weight = 1.0;
+  TaskConfig config;
 };
 
 }  // namespace topo_gaussian::inference

@@ -27,11 +27,14 @@ struct InferenceRunRequest {
   inference::TaskConfig config;                            ///< task, representation and overrides already applied
   std::shared_ptr<const VolumeCloud> volume;               ///< null: the task's default shape, else an error
   std::shared_ptr<const motion::MotionFeatures> observed;  ///< optional: targets and the observed signal
-  std::vector<std::string> targets;                        ///< "NAME=VALUE", applied after (over) the observed ones
-  std::string targets_origin = "targets";                  ///< names them in messages ("--target", "goal targets")
-  std::string parameters_origin = "--set";                 ///< where parameters go instead ("--set", "goal overrides")
-  std::string missing_targets_hint;                        ///< appended to the error when a needed target is missing
-  std::string output_dir;                                  ///< this folder (created when missing), or else
+  /// More observed windows for a multi-experiment config, each tagged with its experiment
+  /// (MotionFeatures::experiment); `observed` (untagged) belongs to the first experiment.
+  std::vector<std::shared_ptr<const motion::MotionFeatures>> observed_experiments;
+  std::vector<std::string> targets;             ///< "NAME=VALUE", applied after (over) the observed ones
+  std::string targets_origin = "targets";       ///< names them in messages ("--target", "goal targets")
+  std::string parameters_origin = "--set";      ///< where parameters go instead ("--set", "goal overrides")
+  std::string missing_targets_hint;             ///< appended to the error when a needed target is missing
+  std::string output_dir;                       ///< this folder (created when missing), or else
   std::string output_parent;                    ///< a new folder <output_parent>/<task>_<YYYYmmdd_HHMMSS>[_N]
   bool export_files = true;                     ///< also the STL and the pictures
   inference::ProgressCallback progress;         ///< per iteration; false cancels (best design so far)
