@@ -134,6 +134,11 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
        << res.final.loss << " in " << res.optimizer.iterations << " evaluations; " << res.optimizer.message << ". ";
   if (res.targets_reached) {
     head << "All targets reached.";
+  } else if (res.optimizer.converged && res.final.experiments.size() > 1) {
+    head << msg.str() << "The optimiser converged, so no single interior of this representation fits all "
+         << res.final.experiments.size() << " experiments together: they may contradict each other (another object, "
+         << "material, hanging point or release), or need more material contrast; the per-experiment losses below "
+         << "show which one disagrees (lower its weight or check its targets).";
   } else if (res.optimizer.converged) {
     head << msg.str() << "The optimiser converged, so no interior of this representation within the material bounds "
          << "reaches the target: the value above is the nearest reachable one (check the target, the hanging/support "

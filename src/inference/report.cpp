@@ -33,12 +33,12 @@ std::string geometryJson(const ProblemEvaluation& ev, const TaskGeometry& g) {
   return s;
 }
 
-std::string targetsJson(const TaskConfig& c) {
+std::string targetsJson(const TaskConfig& c, const std::string& prefix = "") {
   std::string s = "{";
   bool first = true;
   for (const auto& sp : c.specs())
     if (sp.is_target && c.has(sp.name)) {
-      s += (first ? "" : ", ") + quote(sp.name) + ": ";
+      s += (first ? "" : ", ") + quote(prefix + sp.name) + ": ";
       if (sp.type == ParamType::Text)
         s += quote(c.text(sp.name));
       else if (sp.type == ParamType::List) {
@@ -51,6 +51,31 @@ std::string targetsJson(const TaskConfig& c) {
       first = false;
     }
   return s + "}";
+}
+
+/// The targets of every experiment, named "EXPERIMENT.target" when there are several.
+std::string allTargetsJson(const TaskConfig& c) {
+  if (!c.hasExperiments()) return targetsJson(c);
+  std::string s;
+  for (const auto& e : c.experiments()) {
+    const std::string t = targetsJson(e.config, e.name + kExperimentKeySeparator);
+    if (t.size() > 2) s += (s.empty() ? "" : ", ") + t.substr(1, t.size() - 2);
+  }
+  return "{" + s + "}";
+}
+
+/// One entry per experiment: its task, weight, loss, targets and features.
+std::string experimentsJson(const ProblemEvaluation& ev, const TaskConfig& c) {
+  const std::vector<Experiment> list = c.experimentList();
+  std::string s = "[";
+  for (std::size_t e = 0; e < ev.experiments.size() && e < list.size(); ++e) {
+    const ExperimentEvaluation& xe = ev.experiments[e];
+    s += std::string(e ? ", " : "") + "{\"name\": " + quote(xe.name) + ", \"task\": " + quote(list[e].config.task()) +
+         ", \"source\": " + quote(list[e].config.source()) + ", \"weight\": " + num(xe.weight) +
+         ", \"loss\": " + num(xe.eval.loss) + ", \"targets\": " + targetsJson(list[e].config) +
+         ", \"features\": " + featuresJson(xe.eval.features) + "}";
+  }
+  return s + "]";
 }
 
 }  // namespace
@@ -72,7 +97,7 @@ std::string reportJson(const InferenceResult& r, const TaskConfig& config) {
     s << (first ? "" : ", ") << quote(sp.name) << ": " << quote(config.valueText(sp.name));
     first = false;
   }
-  s << "},\n  \"targets\": " << targetsJson(config)
+  s << "},\n  \"targets\": " << allTargetsJson(config) << ",\n  \"experiments\": " << experimentsJson(r.final, config)
     << ",\n  \"initial_features\": " << featuresJson(r.initial.task.features)
     << ",\n  \"achieved_features\": " << featuresJson(r.final.task.features)
     << ",\n  \"initial_loss\": " << num(r.initial.loss) << ",\n  \"final_loss\": " << num(r.final.loss)
@@ -80,6 +105,9 @@ std::string reportJson(const InferenceResult& r, const TaskConfig& config) {
     << ",\n  \"optimizer_converged\": " << (r.optimizer.converged ? "true" : "false")
     << ",\n  \"targets_reached\": " << (r.targets_reached ? "true" : "false")
     << ",\n  \"cancelled\": " << (r.optimizer.cancelled ? "true" : "false") << ",\n  \"message\": " << quote(r.message)
+    << ",\n  \"warnings\": [";
+  for (std::size_t i = 0; i < r.warnings.size(); ++i) s << (i ? ", " : "") << quote(r.warnings[i]);
+  s << "]"
     << ",\n  " << geometryJson(r.final, r.geometry)
     << ",\n  \"initial_center_of_mass\": " << vec3(r.initial.task.mass.com) << ",\n  \"particles\": " << r.r.size()
     << ",\n  \"parameters_count\": " << r.theta.size() << ",\n  \"timings_s\": {\"setup\": " << num(r.setup_s)

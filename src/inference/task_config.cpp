@@ -255,6 +255,24 @@ void TaskConfig::addExperiment(const std::string& name, double weight, const Tas
   experiments_.push_back(std::move(e));
 }
 
+void TaskConfig::removeExperiment(const std::string& name) {
+  auto it = std::find_if(experiments_.begin(), experiments_.end(), [&](const Experiment& e) { return e.name == name; });
+  if (it == experiments_.end()) throw TopoError("experiment '" + name + "'", "does not exist", "name one of the list");
+  if (experiments_.size() == 1)
+    throw TopoError("experiment '" + name + "'", "is the only one left", "an inference needs one experiment at least");
+  const bool first = it == experiments_.begin();
+  experiments_.erase(it);
+  if (!first) return;
+  // The object's config is the new first experiment's, with the shared values and the list kept.
+  std::vector<Experiment> list = std::move(experiments_);
+  TaskConfig top = list.front().config;
+  top.source_ = source_;
+  top.explicit_ = explicit_;
+  for (const auto& spec : sharedParameters().specs()) top.values_[spec.name] = values_.at(spec.name);
+  top.experiments_ = std::move(list);
+  *this = std::move(top);
+}
+
 void TaskConfig::set(const std::string& key_in, const std::string& value_in, const std::string& origin) {
   if (experiments_.empty()) {
     setOwn(key_in, value_in, origin);

@@ -153,16 +153,25 @@ InferenceRunOutcome runUnguarded(const InferenceRunRequest& rq) {
     config.setAssignment(t, rq.targets_origin);
     out.notes.push_back(t + " from the " + rq.targets_origin);
   }
+  std::vector<std::string> left_out;
   try {
+    // An experiment without its observations is left out (with a warning) while another one remains:
+    // the best design of the rest is still worth returning, and its uncertainty says what is missing.
+    std::vector<std::string> skipped;
     for (const auto& e : config.experimentList()) {
       try {
         inference::makeTask(e.config, *out.volume)->requireTargets();
       } catch (const TopoError& error) {
         if (!config.hasExperiments()) throw;
-        throw TopoError("experiment '" + e.name + "' (" + e.config.task() + "): " + error.what() +
-                        " (name the experiment: " + e.name + ".TARGET=VALUE)");
+        const std::string why = "experiment '" + e.name + "' (" + e.config.task() + "): " + error.what() +
+                                " (name the experiment: " + e.name + ".TARGET=VALUE)";
+        if (skipped.size() + 1 >= config.experiments().size())
+          throw TopoError(why + "; no experiment has all its targets");
+        skipped.push_back(e.name);
+        left_out.push_back(why + ": left out, the interior fits the other experiments only");
       }
     }
+    for (const auto& name : skipped) config.removeExperiment(name);
   } catch (const TopoError& e) {
     throw TopoError(std::string(e.what()) + rq.missing_targets_hint);
   }
@@ -178,6 +187,7 @@ InferenceRunOutcome runUnguarded(const InferenceRunRequest& rq) {
 
   out.result = inference::runInference(config, *out.volume, rq.progress, rq.on_evaluation, rq.should_stop);
   out.cancelled = out.result.cancelled || out.result.optimizer.cancelled;
+  out.result.warnings.insert(out.result.warnings.begin(), left_out.begin(), left_out.end());
   for (const auto& w : out.result.warnings) out.notes.push_back("warning: " + w);
   const auto& res = out.result;
   const std::string dir = out.output_dir + "/";

@@ -77,6 +77,9 @@ class TaskConfig {
   /// experiment that set one of them to another value is refused (naming it and the key). Throws
   /// TopoError for an empty or duplicate name, a weight ≤ 0, or an experiment that has experiments.
   void addExperiment(const std::string& name, double weight, const TaskConfig& experiment);
+  /// Removes experiment `name` (e.g. one whose observations are missing); the object's config then
+  /// takes the new first experiment's task. Throws TopoError for an unknown name or the last one.
+  void removeExperiment(const std::string& name);
   /// True for the parameters of TaskConfig::common() (one value per object).
   static bool isShared(const std::string& key);
   /// Keys given a value explicitly (a file, --set, --target), not by the defaults.
