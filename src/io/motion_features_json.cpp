@@ -142,6 +142,7 @@ std::string motionFeaturesJson(const motion::MotionFeatures& f, bool with_series
   doc["method"] = f.method;
   doc["source"] = f.source;
   doc["message"] = f.message;
+  if (!f.experiment.empty()) doc["experiment"] = f.experiment;
   doc["features"] = {
       {"oscillation_found", f.oscillation_found},     {"period_s", number(f.period_s)},
       {"amplitude_deg", number(f.amplitude_deg)},     {"max_tilt_deg", number(f.max_tilt_deg)},
@@ -206,6 +207,7 @@ motion::MotionFeatures parseMotionFeaturesJson(const std::string& text, const st
   f.method = root.text("method");
   f.source = root.text("source");
   f.message = root.text("message");
+  f.experiment = root.text("experiment");
 
   const Reader feat = root.object("features");
   const Reader conf = root.object("confidence");

@@ -132,22 +132,29 @@ void InteriorInferenceNode::onFeatures(const topo_gaussian::MotionFeaturesConstP
   const bool first = !features_;
   features_ = std::make_shared<topo_gaussian::MotionFeatures>(*msg);
   features_received_ = ::ros::Time::now();
+  const bool first_of_experiment = !features_by_experiment_.count(msg->experiment);
+  features_by_experiment_[msg->experiment] = {features_, features_received_};
+  if (first_of_experiment && !msg->experiment.empty())
+    ROS_INFO("interior_inference: motion features of experiment '%s' from %s (kind %s)", msg->experiment.c_str(),
+             msg->source.c_str(), msg->kind.c_str());
   if (first)
     ROS_INFO("interior_inference: motion features from %s (kind %s): period %.4g s, max tilt %.4g deg, bend %.4g deg",
              msg->source.c_str(), msg->kind.c_str(), msg->period_s, msg->max_tilt_deg, msg->bending_angle_deg);
 }
 
-inference::TaskConfig InteriorInferenceNode::configFor(const std::string& task, const std::string& representation,
+inference::TaskConfig InteriorInferenceNode::configFor(const std::string& task,
+                                                       const std::vector<std::string>& experiments,
+                                                       const std::string& representation,
                                                        const std::vector<std::string>& overrides,
                                                        const std::string& origin) const {
-  if (task.empty())
+  if (task.empty() && experiments.empty())
     throw TopoError(
         origin + " task", "is empty", "name a task (" + [] {
           std::string s;
           for (const auto& n : inference::TaskConfig::taskNames()) s += (s.empty() ? "" : ", ") + n;
           return s;
         }() + ") or a task YAML file");
-  inference::TaskConfig config = inference::TaskConfig::load(task, params_.task_dir);
+  inference::TaskConfig config = inference::TaskConfig::loadWithExperiments(task, experiments, params_.task_dir);
   if (!representation.empty()) config.set("representation", representation, origin + " representation");
   for (const auto& o : overrides) config.setAssignment(o, origin + " overrides");
   return config;
@@ -155,7 +162,7 @@ inference::TaskConfig InteriorInferenceNode::configFor(const std::string& task, 
 
 InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Feedback& feedback) {
   workflow::InferenceRunRequest run;
-  run.config = configFor(rq.task, rq.representation, rq.overrides, "goal");
+  run.config = configFor(rq.task, rq.experiments, rq.representation, rq.overrides, "goal");
   if (rq.max_iterations < 0)
     throw TopoError("goal max_iterations", "is negative", "use 0 for the task's default or a positive count");
   if (rq.max_iterations > 0) run.config.setNumber("max_iterations", rq.max_iterations);
@@ -189,13 +196,28 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
       run.observed = std::make_shared<motion::MotionFeatures>(fromMotionFeaturesMsg(rq.features));
     } else {
       std::lock_guard<std::mutex> lock(state_mutex_);
-      if (features_) {
-        const double age = (::ros::Time::now() - features_received_).toSec();
+      const auto fresh = [&](const ::ros::Time& received) {
+        const double age = (::ros::Time::now() - received).toSec();
         if (params_.max_features_age_s > 0 && age > params_.max_features_age_s)
           throw TopoError("motion features on " + features_sub_.getTopic(),
                           "are " + std::to_string(age) + " s old, more than ~max_features_age_s = " +
                               std::to_string(params_.max_features_age_s) + " s (is the camera still publishing?)",
                           "check the camera and motion_tracker, or give the targets in the goal");
+      };
+      if (run.config.hasExperiments()) {
+        // Each experiment's latest tagged window; an untagged one counts for the first experiment.
+        for (const auto& e : run.config.experiments()) {
+          auto it = features_by_experiment_.find(e.name);
+          if (it == features_by_experiment_.end() && &e == &run.config.experiments().front())
+            it = features_by_experiment_.find("");
+          if (it == features_by_experiment_.end()) continue;
+          fresh(it->second.second);
+          auto window = std::make_shared<motion::MotionFeatures>(fromMotionFeaturesMsg(*it->second.first));
+          window->experiment = e.name;
+          run.observed_experiments.push_back(window);
+        }
+      } else if (features_) {
+        fresh(features_received_);
         run.observed = std::make_shared<motion::MotionFeatures>(fromMotionFeaturesMsg(*features_));
       }
     }
@@ -203,7 +225,7 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
   run.targets = rq.targets;
   run.targets_origin = "goal targets";
   run.parameters_origin = "goal overrides";
-  if (!run.observed)
+  if (!run.observed && run.observed_experiments.empty())
     run.missing_targets_hint = " (and no motion features were received on " + features_sub_.getTopic() +
                                "): give the targets in the goal, or run motion_tracker so that motion_features arrive";
   if (rq.output_dir.empty())
@@ -225,6 +247,10 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
     {
       std::lock_guard<std::mutex> lock(eval_mutex);
       fillFeatures(last.task.features, &fb.feature_names, &fb.feature_values, nullptr, nullptr);
+      for (const auto& xe : last.experiments) {
+        fb.experiment_names.push_back(xe.name);
+        fb.experiment_losses.push_back(xe.eval.loss);
+      }
     }
     const bool go = feedback ? feedback(fb) : true;
     if (!go) stopped = true;
@@ -414,6 +440,7 @@ void InteriorInferenceNode::execute(const topo_gaussian::InferInteriorGoalConstP
   }
   InferenceRequest rq;
   rq.task = goal->task;
+  rq.experiments = goal->experiments;
   rq.representation = goal->representation;
   rq.overrides = goal->overrides;
   rq.targets = goal->targets;
@@ -437,6 +464,11 @@ void InteriorInferenceNode::execute(const topo_gaussian::InferInteriorGoalConstP
     result.final_loss = res.final.loss;
     result.iterations = res.optimizer.iterations;
     result.solid_fraction = res.final.solid_fraction;
+    for (const auto& xe : res.final.experiments) {
+      result.experiment_names.push_back(xe.name);
+      result.experiment_losses.push_back(xe.eval.loss);
+      result.experiment_weights.push_back(xe.weight);
+    }
     result.output_dir = out.output_dir;
     result.files = out.files;
     ROS_INFO("interior_inference: %s", asciiText(out.message).c_str());
@@ -460,6 +492,7 @@ bool InteriorInferenceNode::onInfer(topo_gaussian::Infer::Request& req, topo_gau
   }
   InferenceRequest rq;
   rq.task = req.task;
+  rq.experiments = req.experiments;
   rq.representation = req.representation;
   rq.overrides = req.overrides;
   rq.targets = req.targets;
@@ -479,6 +512,10 @@ bool InteriorInferenceNode::onInfer(topo_gaussian::Infer::Request& req, topo_gau
     res.final_loss = out.result.final.loss;
     res.iterations = out.result.optimizer.iterations;
     res.solid_fraction = out.result.final.solid_fraction;
+    for (const auto& xe : out.result.final.experiments) {
+      res.experiment_names.push_back(xe.name);
+      res.experiment_losses.push_back(xe.eval.loss);
+    }
     res.output_dir = out.output_dir;
     res.files = out.files;
     ROS_INFO("interior_inference: ~infer: %s", asciiText(out.message).c_str());
@@ -523,7 +560,7 @@ bool InteriorInferenceNode::onSimulate(topo_gaussian::SimulateInterior::Request&
                           "give the particles in the volume's order (as the `interior` topic publishes them)");
       r = pts.r;
     }
-    inference::TaskConfig config = configFor(task, "", req.overrides, "~simulate");
+    inference::TaskConfig config = configFor(task, {}, "", req.overrides, "~simulate");
     for (const auto& t : req.targets) config.setAssignment(t, "~simulate targets");
     const inference::ProblemEvaluation ev = simulateAndShow(*cloud, config, r, req.replay);
     fillFeatures(ev.task.features, &res.feature_names, &res.values, nullptr, &res.units);

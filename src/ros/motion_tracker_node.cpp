@@ -58,6 +58,7 @@ MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh) {
   const ParamReader r(pnh, "motion_tracker");
   MotionTrackerParams p;
   p.video_file = r.text("video_file", "");
+  p.experiment = r.text("experiment", "");
   p.options.tracker.method = r.text("method", "marker");
   p.options.kind = r.text("kind", "pendulum");
   p.options.tracker.foreground = r.text("foreground", p.options.tracker.foreground);
@@ -134,6 +135,8 @@ MotionTrackerNode::MotionTrackerNode(const ::ros::NodeHandle& nh, const ::ros::N
   debug_pub_ = pnh_.advertise<sensor_msgs::Image>("debug_image", 2);
   image_sub_ = nh_.subscribe("image", 5, &MotionTrackerNode::onImage, this);
   info_sub_ = nh_.subscribe("camera_info", 1, &MotionTrackerNode::onCameraInfo, this);
+  experiment_ = live_experiment_ = params_.experiment;
+  experiment_sub_ = nh_.subscribe("experiment", 1, &MotionTrackerNode::onExperiment, this);
   service_ = pnh_.advertiseService("extract_motion", &MotionTrackerNode::onExtractMotion, this);
   timer_ = nh_.createTimer(::ros::Duration(params_.publish_period_s), &MotionTrackerNode::onTimer, this);
   ROS_INFO("motion_tracker: method %s, kind %s; listening on %s, service %s", params_.options.tracker.method.c_str(),
@@ -157,6 +160,7 @@ void MotionTrackerNode::publish(const vision::TrackResult& result_in, const std:
     }
   }
   topo_gaussian::MotionFeatures m = toMotionFeaturesMsg(vision::toMotionFeatures(result));
+  m.experiment = live_experiment_;
   m.header.stamp = ::ros::Time::now();
   m.header.frame_id = frame_id;
   features_pub_.publish(m);
@@ -174,6 +178,17 @@ void MotionTrackerNode::trackStartupFile() {
   } catch (const std::exception& e) {
     ROS_ERROR("motion_tracker: ~video_file: %s", asciiText(e.what()).c_str());
   }
+}
+
+void MotionTrackerNode::onExperiment(const std_msgs::StringConstPtr& msg) {
+  if (msg->data == experiment_) return;
+  // The window so far belongs to the previous experiment: publish it with its tag, then start anew.
+  finishLive();
+  ROS_INFO("motion_tracker: experiment '%s' -> '%s': a new window starts", experiment_.c_str(), msg->data.c_str());
+  experiment_ = live_experiment_ = msg->data;
+  live_.reset();
+  window_.reset();
+  live_dirty_ = false;
 }
 
 void MotionTrackerNode::onCameraInfo(const sensor_msgs::CameraInfoConstPtr& msg) { camera_info_ = *msg; }

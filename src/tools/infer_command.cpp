@@ -80,43 +80,12 @@ std::pair<std::string, std::string> namedValue(const std::string& s) {
   return {s.substr(0, eq), s.substr(eq + 1)};
 }
 
-/// "tumbler.yaml", "dir/rock_x.yaml" → "rock_x"; a task name stays.
-std::string experimentStem(const std::string& path) {
-  std::string stem = path.substr(path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/') + 1);
-  if (stem.size() > 5 && stem.substr(stem.size() - 5) == ".yaml") stem.resize(stem.size() - 5);
-  return stem;
-}
-
-/// --task, then every --experiment [NAME=]FILE as one more experiment of the same object.
-inference::TaskConfig loadTaskAndExperiments(const Args& a) {
-  const std::vector<std::string> more = a.has("experiment") ? a.all("experiment") : std::vector<std::string>{};
-  if (!a.has("task") && more.empty()) throw UsageError("--task (or --experiment) is required");
-  inference::TaskConfig c;
-  std::size_t first = 0;
-  if (a.has("task")) {
-    c = inference::TaskConfig::load(a.str("task"), io::defaultTaskDir());
-  } else {
-    c = inference::TaskConfig::load(namedValue(more[0]).second, io::defaultTaskDir());
-  }
-  if (more.empty()) return c;
-  if (!c.hasExperiments()) {  // the --task (or first --experiment) becomes the first experiment
-    const auto [name, file] = a.has("task") ? std::make_pair(std::string(), a.str("task")) : namedValue(more[0]);
-    inference::TaskConfig top = inference::TaskConfig::common();
-    top.addExperiment(name.empty() ? experimentStem(file) : name, 1.0, c);
-    c = top;
-    if (!a.has("task")) first = 1;
-  }
-  for (std::size_t i = first; i < more.size(); ++i) {
-    const auto [name, file] = namedValue(more[i]);
-    c.addExperiment(name.empty() ? experimentStem(file) : name, 1.0,
-                    inference::TaskConfig::load(file, io::defaultTaskDir()));
-  }
-  return c;
-}
-
 /// The task with --representation and --set applied (targets are the run's: see inferCommand).
 inference::TaskConfig loadConfig(const Args& a) {
-  inference::TaskConfig c = loadTaskAndExperiments(a);
+  const std::vector<std::string> experiments = a.has("experiment") ? a.all("experiment") : std::vector<std::string>{};
+  if (!a.has("task") && experiments.empty()) throw UsageError("--task (or --experiment) is required");
+  inference::TaskConfig c =
+      inference::TaskConfig::loadWithExperiments(a.str("task"), experiments, io::defaultTaskDir());
   if (a.has("representation")) c.set("representation", a.str("representation"), "--representation");
   for (const auto& s : a.all("set")) c.setAssignment(s, "--set");
   return c;

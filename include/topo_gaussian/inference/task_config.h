@@ -58,6 +58,11 @@ class TaskConfig {
   /// A task name ("tumbler") or a YAML path; names resolve to config/tasks/NAME.yaml under
   /// `task_dir` when that file exists, otherwise to the built-in defaults.
   static TaskConfig load(const std::string& name_or_path, const std::string& task_dir = "");
+  /// `task` (a name or YAML path, may be empty), then every "[NAME=]FILE" of `experiments` as one more
+  /// experiment of the same object (NAME defaults to the file's stem, or the task name): what
+  /// `topo infer --task T --experiment F ...` and the InferInterior goal's `experiments` load.
+  static TaskConfig loadWithExperiments(const std::string& task, const std::vector<std::string>& experiments,
+                                        const std::string& task_dir = "");
   /// The registered tasks, in registry order.
   static std::vector<std::string> taskNames();
 

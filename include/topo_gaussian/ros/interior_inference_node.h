@@ -24,6 +24,7 @@
 #include <tf2_ros/transform_broadcaster.h>
 
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -69,6 +70,7 @@ std::vector<std::string> unfinishedRunFolders(const std::string& parent, const s
 /// What one inference needs (the common part of an action goal and an ~infer request).
 struct InferenceRequest {
   std::string task, representation;
+  std::vector<std::string> experiments;  ///< "[NAME=]FILE": more experiments of the same object
   std::vector<std::string> overrides, targets;
   sensor_msgs::PointCloud2 volume;         ///< no points = the latest `volume`
   topo_gaussian::MotionFeatures features;  ///< empty kind = the latest `motion_features`
@@ -119,8 +121,9 @@ class InteriorInferenceNode {
   /// Simulates a design and shows it (one InteriorProblem for the features, density and geometry).
   inference::ProblemEvaluation simulateAndShow(const VolumeCloud& cloud, const inference::TaskConfig& config,
                                                const std::vector<double>& r, bool show_it);
-  inference::TaskConfig configFor(const std::string& task, const std::string& representation,
-                                  const std::vector<std::string>& overrides, const std::string& origin) const;
+  inference::TaskConfig configFor(const std::string& task, const std::vector<std::string>& experiments,
+                                  const std::string& representation, const std::vector<std::string>& overrides,
+                                  const std::string& origin) const;
 
   ::ros::NodeHandle nh_, pnh_;
   InteriorInferenceParams params_;
@@ -140,6 +143,8 @@ class InteriorInferenceNode {
   std::string volume_frame_;
   std::shared_ptr<topo_gaussian::MotionFeatures> features_;
   ::ros::Time features_received_;
+  /// The latest window of each experiment (MotionFeatures.experiment, "" = untagged) and when it came.
+  std::map<std::string, std::pair<std::shared_ptr<topo_gaussian::MotionFeatures>, ::ros::Time>> features_by_experiment_;
   // the latest result (for ~export and ~simulate)
   bool has_result_ = false;
   std::shared_ptr<const VolumeCloud> result_cloud_;

@@ -10,6 +10,7 @@
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
+#include <std_msgs/String.h>
 
 #include <memory>
 #include <string>
@@ -22,6 +23,9 @@ namespace topo_gaussian::topo_ros {
 
 struct MotionTrackerParams {
   std::string video_file;  ///< ~video_file: tracked once at start when set
+  /// ~experiment: the experiment the windows belong to (MotionFeatures.experiment), until a message on
+  /// `experiment` (std_msgs/String) names another; "" = untagged.
+  std::string experiment;
   vision::TrackOptions
       options;             ///< ~method, ~kind, ~foreground, ~roi [x,y,w,h], ~start_s, ~end_s, ~stride, ~pivot [x,y]
   double window_s = 20.0;  ///< ~window_s: live stream analysed over windows this long [s]
@@ -99,6 +103,10 @@ class MotionTrackerNode {
   bool stale_reported_ = false;
   void finishLive();
   std::string live_frame_id_;
+  std::string experiment_;       ///< the current experiment (~experiment, then the `experiment` topic)
+  std::string live_experiment_;  ///< the experiment of the live window
+  ::ros::Subscriber experiment_sub_;
+  void onExperiment(const std_msgs::StringConstPtr& msg);
   bool live_dirty_ = false;
   sensor_msgs::CameraInfo camera_info_;
 };
