@@ -22,7 +22,9 @@ cleanup() { kill -INT "$LAUNCH" 2>/dev/null; wait "$LAUNCH" 2>/dev/null; }
 trap cleanup EXIT
 echo "[make demo] demo.launch started (log: $LOG); waiting for the tracker to measure the twin ..."
 "$BUILD/devel/lib/topo_gaussian/infer_client" _ground_truth_topic:=/rig_simulator/ground_truth \
-    _overrides:="contact_damping_ratio=0;measured_cycles=1" _wait_for_features_s:=120 _timeout_s:=900
+    _experiments:="rock10=tumbler;rock25=tumbler" \
+    _overrides:="contact_damping_ratio=0;measured_cycles=1;rock25.initial_tilt_deg=25" \
+    _wait_for_features_s:=120 _timeout_s:=900
 rc=$?
 if [ $rc -ne 0 ]; then
   echo "[make demo] infer_client exited $rc; last lines of $LOG:"

@@ -8,8 +8,8 @@ namespace topo_gaussian::inference {
 
 namespace {
 /// A TopoError from experiment e, prefixed with its name when there are several.
-TopoError inExperiment(const std::vector<Experiment>& experiments, std::size_t e, const TopoError& error) {
-  if (experiments.size() < 2) return error;
+TopoError inExperiment(const std::vector<Experiment>& experiments, std::size_t e, const TopoError& error, bool named) {
+  if (!named) return error;
   return TopoError("experiment '" + experiments[e].name + "' (" + experiments[e].config.task() + "): " + error.what());
 }
 }  // namespace
@@ -20,7 +20,7 @@ InteriorProblem::InteriorProblem(const TaskConfig& config, const VolumeCloud& cl
     try {
       tasks_.push_back(makeTask(experiments_[e].config, cloud_));
     } catch (const TopoError& error) {
-      throw inExperiment(experiments_, e, error);
+      throw inExperiment(experiments_, e, error, config_.hasExperiments());
     }
   }
   RepresentationOptions ro;
@@ -58,7 +58,7 @@ ProblemEvaluation InteriorProblem::evaluateIndicator(const std::vector<double>& 
     try {
       xe.eval = tasks_[e]->evaluate(r, dL_dr ? (e == 0 ? dL_dr : &dLe) : nullptr);
     } catch (const TopoError& error) {
-      throw inExperiment(experiments_, e, error);
+      throw inExperiment(experiments_, e, error, config_.hasExperiments());
     }
     if (dL_dr) {
       if (e == 0) {
@@ -71,7 +71,7 @@ ProblemEvaluation InteriorProblem::evaluateIndicator(const std::vector<double>& 
     ev.task_loss += xe.weight * xe.eval.loss;
     ev.experiments.push_back(std::move(xe));
   }
-  if (ev.experiments.size() == 1) {
+  if (!config_.hasExperiments()) {
     ev.task = ev.experiments.front().eval;
   } else {
     ev.task = ev.experiments.front().eval;
@@ -128,7 +128,7 @@ void InteriorProblem::requireTargets() const {
     try {
       tasks_[e]->requireTargets();
     } catch (const TopoError& error) {
-      throw inExperiment(experiments_, e, error);
+      throw inExperiment(experiments_, e, error, config_.hasExperiments());
     }
   }
 }
@@ -137,7 +137,7 @@ std::vector<std::string> InteriorProblem::notes() const {
   std::vector<std::string> out;
   for (std::size_t e = 0; e < tasks_.size(); ++e)
     for (const auto& n : tasks_[e]->notes())
-      out.push_back(tasks_.size() > 1 ? "experiment " + experiments_[e].name + ": " + n : n);
+      out.push_back(config_.hasExperiments() ? "experiment " + experiments_[e].name + ": " + n : n);
   return out;
 }
 

@@ -21,6 +21,9 @@ struct Tracker {
   OptimizerResult result;
   bool have_best = false;
   bool stop = false;
+  bool stalled = false;
+  double stall_reference = std::numeric_limits<double>::infinity();  ///< best loss at the last real progress
+  int stall_since = 0;                                               ///< evaluations then
   std::string error;
 
   int failures = 0, total_failures = 0;
@@ -76,6 +79,13 @@ struct Tracker {
       result.loss = loss;
       result.theta = x;
       have_best = true;
+    }
+    if (result.loss < stall_reference * (1.0 - options.stall_relative) || !std::isfinite(stall_reference)) {
+      stall_reference = result.loss;
+      stall_since = result.evaluations;
+    } else if (options.method == "lbfgs" && options.stall_evaluations > 0 &&
+               result.evaluations - stall_since >= options.stall_evaluations) {
+      stalled = stop = true;
     }
     IterationInfo info;
     info.iteration = result.iterations;
@@ -262,7 +272,11 @@ OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, cons
     r.message = "cancelled: returning the best design so far";
   else if (!t.error.empty())
     r.message = "stopped early: " + t.error + " (returning the best design so far)";
-  else if (r.loss <= options.loss_tolerance) {
+  else if (t.stalled && r.loss > options.loss_tolerance) {
+    r.converged = true;
+    r.message = "stalled: the best loss fell by less than " + std::to_string(100 * options.stall_relative) +
+                " % in the last " + std::to_string(options.stall_evaluations) + " evaluations (stall_evaluations)";
+  } else if (r.loss <= options.loss_tolerance) {
     r.converged = true;
     r.message = "loss below loss_tolerance";
   } else if (r.message.empty() && !r.history.empty() && r.history.back().gradient_norm <= options.gradient_tolerance &&

@@ -81,6 +81,7 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   oo.loss_tolerance = config.number("loss_tolerance");
   oo.relative_tolerance = config.number("relative_tolerance");
   oo.gradient_tolerance = config.number("gradient_tolerance");
+  oo.stall_evaluations = config.integer("stall_evaluations");
   const auto to = Clock::now();
   // The best evaluation's details are kept, so a cancelled run need not simulate the best design again.
   ProblemEvaluation best = res.initial;
@@ -146,7 +147,7 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   } else {
     head << msg.str() << "Not converged: raise max_iterations or try another optimizer/representation.";
   }
-  if (res.final.experiments.size() > 1) {
+  if (config.hasExperiments()) {
     head << " Per experiment (weight, loss):";
     for (const auto& xe : res.final.experiments)
       head << " " << xe.name << " (" << xe.weight << ", " << xe.eval.loss << ")";

@@ -134,6 +134,9 @@ void declareCommonParameters(TaskParameters& p) {
   p.number("relative_tolerance", 1e-10, "unitless",
            "stop when the relative loss change is below this (L-BFGS), unitless", 0);
   p.number("gradient_tolerance", 1e-14, "unitless", "stop when the gradient norm is below this, unitless", 0);
+  p.integer("stall_evaluations", 30, "unitless",
+            "stop when the best loss fell by less than 0.01 % over this many evaluations, unitless (0 = never)", 0,
+            1e7);
   p.vector3("gravity", &g, "m/s^2", "gravity in the world frame [m/s^2]");
 }
 

@@ -1,8 +1,12 @@
 // infer_client: sends one infer_interior goal and prints its feedback and result; with
 // ~ground_truth_topic (a rig_simulator's ~ground_truth) it also prints the recovered features next to
-// the twin's truth and exits 0 only when every truth feature is reproduced within ~tolerance.
+// the twin's truth, the recovered mass, centre of mass, inertia and solid fraction next to the true ones and
+// the IoU of the recovered and true cavity, and exits 0 only when every truth feature is reproduced within
+// ~tolerance (the interior is reported, not judged: several interiors may reproduce the features).
 // What `make demo` runs against demo.launch. Parameters (private):
-//   ~task (tumbler), ~representation (""), ~overrides [], ~targets [] (lists, or "A=1;B=2"), ~max_iterations (0),
+//   ~task (tumbler; "" when ~experiments are given), ~experiments [] ("NAME=TASK": several experiments of the
+//   object, as the goal's; the client waits for a measured window of each), ~representation (""),
+//   ~overrides [], ~targets [] (lists, or "A=1;B=2"), ~max_iterations (0),
 //   ~output_dir (""), ~wait_for_features_s (120: wait for motion_features with a measured motion
 //   before sending; 0 = send at once), ~ground_truth_topic (""), ~tolerance (0.02), ~timeout_s (900)
 // Exit codes: 0 done (and within tolerance of the truth), 1 aborted / timed out / bad parameters,
@@ -10,8 +14,14 @@
 #include <actionlib/client/simple_action_client.h>
 #include <ros/ros.h>
 
+#include <sensor_msgs/point_cloud2_iterator.h>
+
+#include <Eigen/Core>
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <mutex>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -37,6 +47,41 @@ bool measured(const topo_gaussian::MotionFeatures& f) {
   return f.oscillation_found || f.bending_confidence > 0 || f.equilibrium_confidence > 0;
 }
 
+/// x y z and solid (≥ 0.5) of an interior cloud.
+void readInterior(const sensor_msgs::PointCloud2& c, std::vector<Eigen::Vector3d>* x, std::vector<bool>* solid) {
+  sensor_msgs::PointCloud2ConstIterator<float> px(c, "x"), ps(c, "solid");
+  for (; px != px.end(); ++px, ++ps) {
+    x->emplace_back(px[0], px[1], px[2]);
+    solid->push_back(*ps >= 0.5f);
+  }
+}
+
+/// IoU of the recovered and the true hollow (cavity) and solid regions, on the recovered particles: each
+/// takes the true label of its nearest true particle.
+void interiorIou(const sensor_msgs::PointCloud2& recovered, const sensor_msgs::PointCloud2& truth, double* iou_cavity,
+                 double* iou_solid) {
+  std::vector<Eigen::Vector3d> xr, xt;
+  std::vector<bool> sr, st;
+  readInterior(recovered, &xr, &sr);
+  readInterior(truth, &xt, &st);
+  double hi = 0, hu = 0, si = 0, su = 0;
+  for (std::size_t i = 0; i < xr.size(); ++i) {
+    std::size_t best = 0;
+    double d = 1e300;
+    for (std::size_t j = 0; j < xt.size(); ++j) {
+      const double e = (xt[j] - xr[i]).squaredNorm();
+      if (e < d) d = e, best = j;
+    }
+    const bool t = !xt.empty() && st[best], r = sr[i];
+    hi += (!t && !r);
+    hu += (!t || !r);
+    si += (t && r);
+    su += (t || r);
+  }
+  *iou_cavity = hu > 0 ? hi / hu : NAN;
+  *iou_solid = su > 0 ? si / su : NAN;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -48,7 +93,8 @@ int main(int argc, char** argv) {
   try {
     const topo_gaussian::topo_ros::ParamReader r(pnh, "infer_client");
     using topo_gaussian::topo_ros::Range;
-    goal.task = r.text("task", "tumbler");
+    goal.experiments = r.texts("experiments", {}, "\"rock10=tumbler;rock25=tumbler\"");
+    goal.task = r.text("task", goal.experiments.empty() ? "tumbler" : "");
     goal.representation = r.text("representation", "");
     // Lists, or one string with ';' between entries (what `_overrides:="a=1;b=2"` on a command line gives).
     goal.overrides = r.texts("overrides", {}, "\"initial_tilt_deg=8;density_solid=4000\"");
@@ -74,7 +120,42 @@ int main(int argc, char** argv) {
       return 1;
     }
   }
-  if (wait_s > 0) {
+  if (wait_s > 0 && !goal.experiments.empty()) {
+    // A measured window of every experiment (motion_tracker tags them with the `experiment` topic).
+    std::set<std::string> names;
+    for (const auto& e : goal.experiments) names.insert(e.substr(0, e.find('=')));
+    std::printf("[demo] waiting up to %.0f s for measured motion of %zu experiments on motion_features ...\n", wait_s,
+                names.size());
+    std::fflush(stdout);
+    std::mutex mutex;
+    std::map<std::string, topo_gaussian::MotionFeatures> seen;
+    ros::NodeHandle nh;
+    ros::Subscriber sub = nh.subscribe<topo_gaussian::MotionFeatures>(
+        "motion_features", 10, [&](const topo_gaussian::MotionFeatures::ConstPtr& f) {
+          // A motion the task analyses as an oscillation needs one; a static pose its equilibrium.
+          const bool oscillates = f->kind == "tilt" || f->kind == "pendulum";
+          if (!(oscillates ? f->oscillation_found : measured(*f)) || !names.count(f->experiment)) return;
+          std::lock_guard<std::mutex> lock(mutex);
+          if (!seen.count(f->experiment))
+            std::printf("[demo] tracker, experiment %s (%s): period %.4f s, max tilt %.3f deg, equilibrium %.3f deg\n",
+                        f->experiment.c_str(), f->kind.c_str(), f->period_s, f->max_tilt_deg, f->equilibrium_deg);
+          std::fflush(stdout);
+          seen[f->experiment] = *f;
+        });
+    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(wait_s);
+    for (;;) {
+      {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (seen.size() == names.size()) break;
+      }
+      if (!ros::ok() || ros::WallTime::now() > end) {
+        ROS_FATAL("infer_client: not every experiment was measured on motion_features within %.0f s (%zu of %zu)",
+                  wait_s, seen.size(), names.size());
+        return 1;
+      }
+      ros::WallDuration(0.2).sleep();
+    }
+  } else if (wait_s > 0) {
     std::printf("[demo] waiting up to %.0f s for measured motion features on motion_features ...\n", wait_s);
     std::fflush(stdout);
     const auto f = waitFor<topo_gaussian::MotionFeatures>("motion_features", wait_s, &measured);
@@ -92,7 +173,9 @@ int main(int argc, char** argv) {
     ROS_FATAL("infer_client: no infer_interior action server within 60 s (is interior_inference running?)");
     return 1;
   }
-  std::printf("[demo] goal: task %s\n", goal.task.c_str());
+  std::string list;
+  for (const auto& e : goal.experiments) list += (list.empty() ? "" : ", ") + e;
+  std::printf("[demo] goal: task %s%s%s\n", goal.task.c_str(), list.empty() ? "" : ", experiments ", list.c_str());
   std::fflush(stdout);
   client.sendGoal(goal, {}, {}, [](const topo_gaussian::InferInteriorFeedbackConstPtr& fb) {
     std::printf("[demo] iteration %3d  loss %.4e  best %.4e  |grad| %.3e  %.1f s", fb->iteration, fb->loss,
@@ -131,5 +214,34 @@ int main(int argc, char** argv) {
   }
   std::printf("[demo] solid fraction %.3f (twin %.3f), %d evaluations\n", res->solid_fraction,
               truth ? truth->solid_fraction : NAN, res->iterations);
+  for (std::size_t k = 0; k < res->experiment_names.size(); ++k)
+    std::printf("[demo] experiment %-12s loss %.3e (weight %g)\n", res->experiment_names[k].c_str(),
+                res->experiment_losses[k], k < res->experiment_weights.size() ? res->experiment_weights[k] : 1.0);
+  if (truth && truth->center_of_mass.size() == 3 && res->center_of_mass.size() == 3 && truth->inertia.size() == 9 &&
+      res->inertia.size() == 9) {
+    // The interior itself against the twin's: several interiors may give the same motion.
+    std::printf("[demo] %-22s %12s %12s %9s\n", "interior", "recovered", "twin truth", "error");
+    auto row = [](const char* name, double got, double want, double scale) {
+      std::printf("[demo] %-22s %12.5g %12.5g %+8.2f %%\n", name, got, want, 100 * (got - want) / scale);
+    };
+    row("solid fraction", res->solid_fraction, truth->solid_fraction, truth->solid_fraction);
+    row("mass [kg]", res->mass_kg, truth->mass_kg, truth->mass_kg);
+    const char* c[3] = {"centre of mass x [m]", "centre of mass y [m]", "centre of mass z [m]"};
+    // The centre of mass relative to the object's size (its extent in the true interior cloud).
+    std::vector<Eigen::Vector3d> xt;
+    std::vector<bool> st;
+    readInterior(truth->interior, &xt, &st);
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
+    for (const auto& x : xt) lo = lo.cwiseMin(x), hi = hi.cwiseMax(x);
+    const double size = xt.empty() ? 1.0 : (hi - lo).norm();
+    for (int a = 0; a < 3; ++a) row(c[a], res->center_of_mass[a], truth->center_of_mass[a], size);
+    const char* I[3] = {"inertia xx [kg m^2]", "inertia yy [kg m^2]", "inertia zz [kg m^2]"};
+    for (int a = 0; a < 3; ++a) row(I[a], res->inertia[4 * a], truth->inertia[4 * a], truth->inertia[4 * a]);
+    double iou_cavity = NAN, iou_solid = NAN;
+    interiorIou(res->interior, truth->interior, &iou_cavity, &iou_solid);
+    std::printf("[demo] IoU of the cavity %.3f, of the solid %.3f (recovered particles against the twin's interior)\n",
+                iou_cavity, iou_solid);
+    std::printf("[demo] (centre of mass errors relative to the object's size %.4g m)\n", size);
+  }
   return status;
 }

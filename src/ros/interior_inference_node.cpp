@@ -464,6 +464,11 @@ void InteriorInferenceNode::execute(const topo_gaussian::InferInteriorGoalConstP
     result.final_loss = res.final.loss;
     result.iterations = res.optimizer.iterations;
     result.solid_fraction = res.final.solid_fraction;
+    const MassProperties& mass = res.final.task.mass;
+    result.mass_kg = mass.mass;
+    result.center_of_mass = {mass.com.x(), mass.com.y(), mass.com.z()};
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) result.inertia.push_back(mass.inertia(a, b));
     for (const auto& xe : res.final.experiments) {
       result.experiment_names.push_back(xe.name);
       result.experiment_losses.push_back(xe.eval.loss);

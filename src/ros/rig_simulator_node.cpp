@@ -4,6 +4,7 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -60,13 +61,45 @@ RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
   // a list of "KEY=VALUE" strings, or one string (`_set:=...` on a command line) of assignments
   // separated by spaces or semicolons
   t.overrides = r.texts("set", t.overrides, "['initial_tilt_deg=8', 'density_solid=4000']", "; \t");
+  const std::vector<std::string> experiments =
+      r.texts("experiments", {}, "['rock10=tumbler', 'rock25=tumbler']", "; \t");
+  p.experiment_s = r.number("experiment_s", p.experiment_s, "s");
+  requireRange("experiment_s", p.experiment_s, 1.0, 3600.0, "seconds each experiment plays, e.g. 20");
+  const std::string default_task = t.task.empty() ? workflow::RigTwin::defaultTaskFor(t.shape) : t.task;
   // The task and its overrides, checked here so the message names the parameter.
-  try {
-    inference::TaskConfig c =
-        inference::TaskConfig::load(t.task.empty() ? workflow::RigTwin::defaultTaskFor(t.shape) : t.task, t.task_dir);
-    for (const auto& a : t.overrides) c.setAssignment(a, "~set");
-  } catch (const TopoError& e) {
-    throw TopoError(std::string("~task/~set: ") + e.what());
+  if (experiments.empty()) {
+    try {
+      inference::TaskConfig c = inference::TaskConfig::load(default_task, t.task_dir);
+      for (const auto& a : t.overrides) c.setAssignment(a, "~set");
+    } catch (const TopoError& e) {
+      throw TopoError(std::string("~task/~set: ") + e.what());
+    }
+  }
+  for (const auto& e : experiments) {
+    const auto eq = e.find('=');
+    const std::string name = e.substr(0, eq), task = eq == std::string::npos ? default_task : e.substr(eq + 1);
+    if (name.empty() || name.find('.') != std::string::npos ||
+        std::find(p.experiment_names.begin(), p.experiment_names.end(), name) != p.experiment_names.end())
+      throw TopoError("~experiments entry '" + e + "'", "needs a new name without '.' before '='",
+                      "e.g. ['rock10=tumbler', 'rock25=tumbler']");
+    workflow::RigTwinOptions x = t;
+    x.task = task;
+    x.overrides.clear();
+    try {
+      inference::TaskConfig c = inference::TaskConfig::load(task, t.task_dir);
+      for (const auto& a : t.overrides) {
+        const auto dot = a.find('.'), is = a.find('=');
+        const bool named = dot != std::string::npos && dot < is;
+        const std::string key = named ? a.substr(dot + 1) : a;
+        if (named ? a.substr(0, dot) != name : !c.spec(key.substr(0, key.find('=')))) continue;
+        c.setAssignment(key, "~set");
+        x.overrides.push_back(key);
+      }
+    } catch (const TopoError& error) {
+      throw TopoError("~experiments " + name + " (~set): " + error.what());
+    }
+    p.experiment_names.push_back(name);
+    p.experiment_twins.push_back(x);
   }
   const std::vector<double> theta = r.numbers("interior_quadric", {}, 10, "", "[1, 1, 1, 0, 0, 0, 0, 0, -0.8, -0.09]");
   if (!theta.empty()) t.interior_quadric = Eigen::Map<const Eigen::VectorXd>(theta.data(), 10);
@@ -180,19 +213,32 @@ sensor_msgs::PointCloud2 toSurfaceCloud(const std::vector<Eigen::Vector3d>& poin
   return msg;
 }
 
-topo_gaussian::RigGroundTruth toGroundTruthMsg(const workflow::RigTwin& twin, const std::string& object_frame,
+topo_gaussian::RigGroundTruth toGroundTruthMsg(const std::vector<const workflow::RigTwin*>& twins,
+                                               const std::vector<std::string>& names, const std::string& object_frame,
                                                const ::ros::Time& stamp) {
+  if (twins.empty() || (twins.size() > 1 && names.size() != twins.size()))
+    throw TopoError("ground truth", "needs one twin per experiment name", "give the names of the twins");
+  const workflow::RigTwin& twin = *twins.front();
   topo_gaussian::RigGroundTruth m;
   m.header.frame_id = object_frame;
   m.header.stamp = stamp;
   m.object = twin.shape().name;
   m.task = twin.config().task();
-  for (const auto& f : twin.truth().task.features) {
-    m.feature_names.push_back(f.name);
-    m.feature_values.push_back(f.value);
-    m.units.push_back(f.unit);
+  for (std::size_t k = 0; k < twins.size(); ++k) {
+    const std::string prefix = twins.size() > 1 ? names[k] + "." : std::string();
+    if (twins.size() > 1) m.experiments.push_back(names[k]);
+    for (const auto& f : twins[k]->truth().task.features) {
+      m.feature_names.push_back(prefix + f.name);
+      m.feature_values.push_back(f.value);
+      m.units.push_back(f.unit);
+    }
   }
   m.solid_fraction = twin.solidFraction();
+  const MassProperties& mass = twin.truth().task.mass;
+  m.mass_kg = mass.mass;
+  m.center_of_mass = {mass.com.x(), mass.com.y(), mass.com.z()};
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) m.inertia.push_back(mass.inertia(a, b));
   m.loop_s = twin.loopSeconds();
   m.interior = toInteriorCloud(twin.cloud(), twin.indicator(), twin.density(),
                                inference::particleStiffness(twin.config(), twin.indicator()), object_frame, stamp);
@@ -205,8 +251,24 @@ RigSimulatorNode::RigSimulatorNode(const ::ros::NodeHandle& nh, const ::ros::Nod
   ROS_INFO("rig_simulator: simulating the %s twin (spacing %s m, task '%s') ...", o.shape.c_str(),
            numberText(o.spacing_m).c_str(),
            o.task.empty() ? workflow::RigTwin::defaultTaskFor(o.shape).c_str() : o.task.c_str());
-  twin_ = std::make_unique<workflow::RigTwin>(o);  // TopoError: the simulation failed (main reports it)
-  const workflow::RigTwin& tw = *twin_;
+  // TopoError: the simulation failed (main reports it). Several experiments: one twin each, all with
+  // the first one's interior.
+  if (params_.experiment_twins.empty()) {
+    twins_.push_back(std::make_unique<workflow::RigTwin>(o));
+    names_.push_back("");
+  }
+  for (std::size_t k = 0; k < params_.experiment_twins.size(); ++k) {
+    workflow::RigTwinOptions x = params_.experiment_twins[k];
+    if (k > 0) x.interior_quadric = twins_.front()->options().interior_quadric;
+    twins_.push_back(std::make_unique<workflow::RigTwin>(x));
+    names_.push_back(params_.experiment_names[k]);
+    std::string fs;
+    for (const auto& f : twins_.back()->truth().task.features)
+      fs += (fs.empty() ? "" : ", ") + f.name + " " + numberText(f.value, 6) + " " + f.unit;
+    ROS_INFO("rig_simulator: experiment %s (task %s): %s; loops every %.4f s", names_.back().c_str(), x.task.c_str(),
+             asciiText(fs).c_str(), twins_.back()->loopSeconds());
+  }
+  const workflow::RigTwin& tw = *twins_.front();
   std::string features;
   for (const auto& f : tw.truth().task.features)
     features += (features.empty() ? "" : ", ") + f.name + " " + numberText(f.value, 6) + " " + f.unit;
@@ -248,7 +310,10 @@ RigSimulatorNode::RigSimulatorNode(const ::ros::NodeHandle& nh, const ::ros::Nod
   truth_pub_ = pnh_.advertise<topo_gaussian::RigGroundTruth>("ground_truth", 1, true);
   const ::ros::Time now = ::ros::Time::now();
   surface_pub_.publish(toSurfaceCloud(tw.scanPoints(), tw.scanNormals(), params_.object_frame, now));
-  truth_pub_.publish(toGroundTruthMsg(tw, params_.object_frame, now));
+  std::vector<const workflow::RigTwin*> twins;
+  for (const auto& t : twins_) twins.push_back(t.get());
+  truth_pub_.publish(toGroundTruthMsg(twins, names_, params_.object_frame, now));
+  experiment_pub_ = nh_.advertise<std_msgs::String>("experiment", 1, true);
   start_ = now;
   timer_ = nh_.createTimer(::ros::Duration(1.0 / params_.fps), &RigSimulatorNode::onTimer, this);
 }
@@ -297,7 +362,21 @@ void RigSimulatorNode::onTimer(const ::ros::TimerEvent&) {
                       params_.camera_frame.c_str(), params_.camera_pose_timeout_s);
     return;
   }
-  const inference::BodyPose pose = twin_->poseAt((now - start_).toSec());
+  // The experiment on camera: each plays ~experiment_s in turn (a person releasing the doll again).
+  const double t = (now - start_).toSec();
+  const int n = static_cast<int>(twins_.size());
+  const long slot = n > 1 ? static_cast<long>(std::floor(t / params_.experiment_s)) : 0;
+  const int k = static_cast<int>(slot % n);
+  if (k != playing_) {
+    playing_ = k;
+    if (n > 1) {
+      std_msgs::String name;
+      name.data = names_[k];
+      experiment_pub_.publish(name);
+      ROS_INFO("rig_simulator: experiment %s on camera for %.1f s", names_[k].c_str(), params_.experiment_s);
+    }
+  }
+  const inference::BodyPose pose = twins_[k]->poseAt(t - slot * params_.experiment_s);
   tf_broadcaster_.sendTransform(toTransformStamped(pose, params_.world_frame, params_.object_frame, now));
 
   const auto t0 = std::chrono::steady_clock::now();

@@ -1,9 +1,10 @@
 // rostest node for the whole lab loop (test/ros/demo_tumbler.test = demo.launch, the tumbler twin):
 //  - an unknown task aborts with a reason that names it;
-//  - end to end: motion_tracker measures the twin's images, the infer_interior goal (volume and
-//    targets from the topics) sends feedback every iteration, and the result reproduces the twin's
-//    ground-truth period and maximum tilt within 2 %; ~simulate replays it; ~export writes a
-//    watertight STL whose volume matches the solid particles' within 3 %;
+//  - end to end, two experiments (released at 10° and 25°, played in turn by the twin): motion_tracker
+//    measures the twin's images and tags each window with its experiment, the infer_interior goal
+//    (volume and targets from the topics) sends feedback every iteration with each experiment's loss,
+//    and the result reproduces both experiments' ground-truth period and maximum tilt within 2 %; ~simulate replays it;
+//    ~export writes a watertight STL whose volume matches the solid particles' within 3 %;
 //  - a goal cancelled after its first feedback is PREEMPTED with the best design so far and its files,
 //    and so is a running goal when a new one arrives (which then succeeds);
 //  - the README's `rosservice call /interior_inference/infer ...` works from a shell.
@@ -16,6 +17,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <string>
 
@@ -47,11 +49,22 @@ double valueOf(const std::vector<std::string>& names, const std::vector<double>&
 
 /// The overrides the twin runs with (config/rigs/tumbler_twin.yaml: undamped contact, one cycle).
 const std::vector<std::string> kTwinOverrides{"contact_damping_ratio=0", "measured_cycles=1"};
+/// The twin's two experiments (demo.launch): released at 10° and at 25°.
+const std::vector<std::string> kExperiments{"rock10=tumbler", "rock25=tumbler"};
 
-topo_gaussian::InferInteriorGoal tumblerGoal() {
+/// One experiment, the task alone (for the tests of cancel and preempt, which give their own targets).
+topo_gaussian::InferInteriorGoal singleGoal() {
   topo_gaussian::InferInteriorGoal g;
   g.task = "tumbler";
   g.overrides = kTwinOverrides;
+  return g;
+}
+
+topo_gaussian::InferInteriorGoal tumblerGoal() {
+  topo_gaussian::InferInteriorGoal g;
+  g.experiments = kExperiments;
+  g.overrides = kTwinOverrides;
+  g.overrides.push_back("rock25.initial_tilt_deg=25");
   return g;
 }
 
@@ -73,40 +86,58 @@ TEST(DemoTumbler, EndToEndReproducesTheTwinsGroundTruth) {
   const auto truth =
       ros::topic::waitForMessage<topo_gaussian::RigGroundTruth>("/rig_simulator/ground_truth", ros::Duration(60.0));
   ASSERT_TRUE(truth) << "no ground truth from rig_simulator";
-  const double T = valueOf(truth->feature_names, truth->feature_values, "period_s");
-  const double tilt = valueOf(truth->feature_names, truth->feature_values, "max_tilt_deg");
-  ASSERT_TRUE(T > 0 && tilt > 0);
-  // the tracker has measured the twin (one analysis window of images)
-  topo_gaussian::MotionFeatures::ConstPtr f;
-  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(90.0);
-  while (ros::ok() && ros::WallTime::now() < until) {
-    f = ros::topic::waitForMessage<topo_gaussian::MotionFeatures>("/motion_features", ros::Duration(2.0));
-    if (f && f->oscillation_found && f->end_time_s - f->start_time_s > 3.0) break;
-    f.reset();
+  ASSERT_EQ(truth->experiments, (std::vector<std::string>{"rock10", "rock25"})) << "the twin plays both experiments";
+  const double T = valueOf(truth->feature_names, truth->feature_values, "rock10.period_s");
+  const double tilt = valueOf(truth->feature_names, truth->feature_values, "rock10.max_tilt_deg");
+  const double T25 = valueOf(truth->feature_names, truth->feature_values, "rock25.period_s");
+  const double tilt25 = valueOf(truth->feature_names, truth->feature_values, "rock25.max_tilt_deg");
+  ASSERT_TRUE(T > 0 && tilt > 0 && T25 > 0 && tilt25 > 0);
+  EXPECT_NEAR(tilt25, 25.0, 0.5) << "rock25 is released at 25 deg";
+  // the tracker has measured both experiments (a window of images each, tagged with its experiment)
+  std::map<std::string, topo_gaussian::MotionFeatures::ConstPtr> seen;
+  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(120.0);
+  while (ros::ok() && ros::WallTime::now() < until && seen.size() < 2) {
+    const auto f = ros::topic::waitForMessage<topo_gaussian::MotionFeatures>("/motion_features", ros::Duration(2.0));
+    if (f && f->oscillation_found && f->end_time_s - f->start_time_s > 3.0 &&
+        (f->experiment == "rock10" || f->experiment == "rock25"))
+      seen[f->experiment] = f;
   }
-  ASSERT_TRUE(f) << "motion_tracker published no oscillation of the twin";
-  std::printf("[demo] twin truth: period %.4f s, max tilt %.3f deg; tracker: %.4f s, %.3f deg\n", T, tilt, f->period_s,
-              f->max_tilt_deg);
+  ASSERT_EQ(seen.size(), 2u) << "motion_tracker published no oscillation of both experiments";
+  std::printf("[demo] twin truth: period %.4f / %.4f s, max tilt %.3f / %.3f deg; tracker: %.4f / %.4f s\n", T, T25,
+              tilt, tilt25, seen["rock10"]->period_s, seen["rock25"]->period_s);
 
   auto c = client();
   std::atomic<int> feedbacks{0};
-  std::atomic<bool> with_features{false};
+  std::atomic<bool> with_features{false}, with_experiments{false};
   c->sendGoal(tumblerGoal(), {}, {}, [&](const topo_gaussian::InferInteriorFeedbackConstPtr& fb) {
     ++feedbacks;
     if (!fb->feature_names.empty() && fb->feature_names.size() == fb->feature_values.size()) with_features = true;
+    if (fb->experiment_names.size() == 2 && fb->experiment_losses.size() == 2) with_experiments = true;
   });
   ASSERT_TRUE(c->waitForResult(ros::Duration(400.0))) << "no result in 400 s";
   ASSERT_EQ(c->getState(), actionlib::SimpleClientGoalState::SUCCEEDED) << c->getResult()->message;
   const auto res = c->getResult();
-  const double T1 = valueOf(res->feature_names, res->achieved, "period_s");
-  const double tilt1 = valueOf(res->feature_names, res->achieved, "max_tilt_deg");
+  const double T1 = valueOf(res->feature_names, res->achieved, "rock10.period_s");
+  const double tilt1 = valueOf(res->feature_names, res->achieved, "rock10.max_tilt_deg");
+  const double T2 = valueOf(res->feature_names, res->achieved, "rock25.period_s");
+  const double tilt2 = valueOf(res->feature_names, res->achieved, "rock25.max_tilt_deg");
   std::printf(
-      "[demo] recovered: period %.4f s (%+.2f %%), max tilt %.3f deg (%+.2f %%), %d evaluations, %d feedbacks\n", T1,
-      100 * (T1 / T - 1), tilt1, 100 * (tilt1 / tilt - 1), res->iterations, feedbacks.load());
+      "[demo] recovered: period %.4f s (%+.2f %%) / %.4f s (%+.2f %%), max tilt %.3f deg (%+.2f %%) / %.3f deg (%+.2f "
+      "%%), %d evaluations, %d feedbacks\n",
+      T1, 100 * (T1 / T - 1), T2, 100 * (T2 / T25 - 1), tilt1, 100 * (tilt1 / tilt - 1), tilt2,
+      100 * (tilt2 / tilt25 - 1), res->iterations, feedbacks.load());
+  std::printf("[demo] interior: solid fraction %.3f (twin %.3f), mass %.4f kg (twin %.4f)\n", res->solid_fraction,
+              truth->solid_fraction, res->mass_kg, truth->mass_kg);
   EXPECT_GE(feedbacks.load(), 1);
   EXPECT_TRUE(with_features.load()) << "feedback carries the current features";
+  EXPECT_TRUE(with_experiments.load()) << "feedback carries each experiment's loss";
+  EXPECT_EQ(res->experiment_names, (std::vector<std::string>{"rock10", "rock25"})) << res->message;
   EXPECT_NEAR(T1, T, 0.02 * T) << res->message;
   EXPECT_NEAR(tilt1, tilt, 0.02 * tilt) << res->message;
+  EXPECT_NEAR(T2, T25, 0.02 * T25) << res->message;
+  EXPECT_NEAR(tilt2, tilt25, 0.02 * tilt25) << res->message;
+  ASSERT_EQ(res->center_of_mass.size(), 3u);
+  ASSERT_EQ(res->inertia.size(), 9u);
   EXPECT_GT(res->interior.width, 1000u);
   for (const auto& file : res->files) EXPECT_TRUE(std::filesystem::exists(file)) << file;
   EXPECT_GE(res->files.size(), 4u);
@@ -145,7 +176,7 @@ TEST(DemoTumbler, EndToEndReproducesTheTwinsGroundTruth) {
 
 TEST(DemoTumbler, CancelReturnsTheBestDesignSoFar) {
   auto c = client();
-  topo_gaussian::InferInteriorGoal g = tumblerGoal();
+  topo_gaussian::InferInteriorGoal g = singleGoal();
   g.targets = {"period_s=0.2", "max_tilt_deg=11"};  // keeps the optimiser busy
   g.ignore_motion_features = true;
   g.max_iterations = 200;
@@ -172,7 +203,7 @@ TEST(DemoTumbler, ANewGoalPreemptsTheRunningOne) {
   // best design so far, then the new one runs to the end.
   auto first = client();
   auto second = client();
-  topo_gaussian::InferInteriorGoal busy = tumblerGoal();
+  topo_gaussian::InferInteriorGoal busy = singleGoal();
   busy.targets = {"period_s=0.2", "max_tilt_deg=11"};
   busy.ignore_motion_features = true;
   busy.max_iterations = 200;
@@ -181,7 +212,7 @@ TEST(DemoTumbler, ANewGoalPreemptsTheRunningOne) {
   const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(120.0);
   while (feedbacks.load() < 1 && ros::WallTime::now() < until) ros::WallDuration(0.05).sleep();
   ASSERT_GE(feedbacks.load(), 1);
-  topo_gaussian::InferInteriorGoal quick = tumblerGoal();
+  topo_gaussian::InferInteriorGoal quick = singleGoal();
   quick.targets = {"period_s=0.8"};
   quick.ignore_motion_features = true;
   quick.max_iterations = 3;

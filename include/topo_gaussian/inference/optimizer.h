@@ -27,7 +27,12 @@ struct OptimizerOptions {
   double loss_tolerance = 1e-12;      ///< stop when loss ≤ this
   double relative_tolerance = 1e-10;  ///< stop when the relative loss change ≤ this (L-BFGS)
   double gradient_tolerance = 1e-14;  ///< stop when ‖g‖ ≤ this
-  StopCheck should_stop;              ///< polled before every evaluation; true cancels
+  /// L-BFGS: stop (converged: "stalled") when the best loss has fallen by less than stall_relative over the
+  /// last stall_evaluations evaluations (0 = never): a line search circling a flat valley otherwise
+  /// spends the whole budget on digits that no observation resolves.
+  int stall_evaluations = 30;
+  double stall_relative = 1e-4;
+  StopCheck should_stop;  ///< polled before every evaluation; true cancels
 };
 
 struct IterationInfo {

@@ -14,6 +14,7 @@
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/PointCloud2.h>
+#include <std_msgs/String.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
@@ -36,6 +37,12 @@ struct RigSimulatorParams {
   /// cloud_ingest fills it, so the twin simulates the cloud the inference will see),
   /// ~scan_spacing_m (0.001: point spacing of `surface_cloud`)
   workflow::RigTwinOptions twin;
+  /// ~experiments ["NAME=TASK", ...]: several experiments of the one object, played in turn for
+  /// ~experiment_s each (the same interior); `~set` entries "NAME.KEY=VALUE" go to one experiment, the
+  /// others to every experiment whose task has the key. Empty: one experiment, `twin`.
+  std::vector<std::string> experiment_names;
+  std::vector<workflow::RigTwinOptions> experiment_twins;
+  double experiment_s = 20.0;                   ///< ~experiment_s [s]: how long each experiment plays before the next
   int width = 640, height = 480;                ///< ~width, ~height [px]
   double fps = 30.0;                            ///< ~fps [frames/s]
   double horizontal_fov_deg = 8.0;              ///< ~horizontal_fov_deg: gives fx = fy when ~fx/~fy are 0
@@ -69,8 +76,11 @@ sensor_msgs::CameraInfo cameraInfoFor(const vision::SplatCamera& camera, const s
 sensor_msgs::PointCloud2 toSurfaceCloud(const std::vector<Eigen::Vector3d>& points,
                                         const std::vector<Eigen::Vector3d>& normals, const std::string& frame_id,
                                         const ::ros::Time& stamp);
-/// The twin's ground truth (features, solid fraction, loop length, interior in object_frame).
-topo_gaussian::RigGroundTruth toGroundTruthMsg(const workflow::RigTwin& twin, const std::string& object_frame,
+/// The twin's ground truth (features, solid fraction, mass properties, loop length, interior in
+/// object_frame). With several experiments (names, one twin each, the same interior) the features are
+/// named "EXPERIMENT.feature" and the interior and loop are the first twin's.
+topo_gaussian::RigGroundTruth toGroundTruthMsg(const std::vector<const workflow::RigTwin*>& twins,
+                                               const std::vector<std::string>& names, const std::string& object_frame,
                                                const ::ros::Time& stamp);
 
 class RigSimulatorNode {
@@ -79,7 +89,7 @@ class RigSimulatorNode {
   /// simulation), publishes the latched topics and starts the camera timer.
   RigSimulatorNode(const ::ros::NodeHandle& nh, const ::ros::NodeHandle& pnh);
 
-  const workflow::RigTwin& twin() const { return *twin_; }
+  const workflow::RigTwin& twin() const { return *twins_.front(); }
   std::size_t framesPublished() const { return frames_; }
 
  private:
@@ -89,7 +99,10 @@ class RigSimulatorNode {
 
   ::ros::NodeHandle nh_, pnh_;
   RigSimulatorParams params_;
-  std::unique_ptr<workflow::RigTwin> twin_;
+  std::vector<std::unique_ptr<workflow::RigTwin>> twins_;  ///< one per experiment
+  std::vector<std::string> names_;                         ///< the experiments' names ("" for one)
+  int playing_ = -1;                                       ///< the experiment on camera
+  ::ros::Publisher experiment_pub_;
   vision::SplatCamera camera_;
   vision::SplatShading shading_;
   vision::Splats body_;  ///< the surface in the body frame (posed per frame)
