@@ -156,6 +156,11 @@ RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
   if (!(Eigen::Vector3d(p.light_direction[0], p.light_direction[1], p.light_direction[2]).norm() > 0))
     throw TopoError("~light_direction", "is zero",
                     "give the direction towards the light in the world, e.g. [-1, 0, 1]");
+  p.truth_view_frame = r.text("truth_view_frame", p.truth_view_frame);
+  p.truth_view_offset_m = r.numbers("truth_view_offset_m", p.truth_view_offset_m, 3, "m", "[0, 0.15, 0.05]");
+  if (p.truth_view_frame.empty() || p.truth_view_frame == p.world_frame || p.truth_view_frame == p.object_frame)
+    throw TopoError("~truth_view_frame '" + p.truth_view_frame + "'", "must be a new, non-empty frame name",
+                    "e.g. object_true_view");
   p.splat_radius_m = r.number("splat_radius_m", p.splat_radius_m, "m");
   requireRange("splat_radius_m", p.splat_radius_m, 0, 0.1, "use 0 for 0.8 particle spacings");
   return p;
@@ -314,6 +319,21 @@ RigSimulatorNode::RigSimulatorNode(const ::ros::NodeHandle& nh, const ::ros::Nod
   for (const auto& t : twins_) twins.push_back(t.get());
   truth_pub_.publish(toGroundTruthMsg(twins, names_, params_.object_frame, now));
   experiment_pub_ = nh_.advertise<std_msgs::String>("experiment", 1, true);
+  // The true interior beside the object, for rviz (the recovered one is drawn at the object).
+  geometry_msgs::TransformStamped view;
+  view.header.stamp = now;
+  view.header.frame_id = params_.world_frame;
+  view.child_frame_id = params_.truth_view_frame;
+  view.transform.translation.x = params_.truth_view_offset_m[0];
+  view.transform.translation.y = params_.truth_view_offset_m[1];
+  view.transform.translation.z = params_.truth_view_offset_m[2];
+  view.transform.rotation.w = 1.0;
+  static_broadcaster_.sendTransform(view);
+  true_interior_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("true_interior", 1, true);
+  sensor_msgs::PointCloud2 truth_cloud = toInteriorCloud(
+      tw.cloud(), tw.indicator(), tw.density(), inference::particleStiffness(tw.config(), tw.indicator()),
+      params_.truth_view_frame, ::ros::Time(0));
+  true_interior_pub_.publish(truth_cloud);
   start_ = now;
   timer_ = nh_.createTimer(::ros::Duration(1.0 / params_.fps), &RigSimulatorNode::onTimer, this);
 }

@@ -7,7 +7,10 @@
 //        as a camera driver publishes them; tf world_frame → object_frame (the true pose) per frame;
 //        `surface_cloud` (PointCloud2 latched: x y z normal_x normal_y normal_z, a scan of the object's
 //        surface at ~scan_spacing_m in object_frame; cloud_ingest fills it);
-//        ~ground_truth (RigGroundTruth latched: the true interior and its features, for tests only).
+//        ~ground_truth (RigGroundTruth latched: the true interior and its features, for tests only);
+//        ~true_interior (PointCloud2 latched, the true interior in ~truth_view_frame, a static frame
+//        beside the object, so rviz shows the true and the recovered interior side by side);
+//        `experiment` (std_msgs/String latched: the experiment on camera, with ~experiments).
 // The node owns handles and parameters; the library renders and simulates.
 #pragma once
 
@@ -16,6 +19,7 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <std_msgs/String.h>
 #include <tf2_ros/buffer.h>
+#include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
@@ -60,6 +64,10 @@ struct RigSimulatorParams {
   std::vector<double> background_bgr = {235, 235, 235};  ///< ~background_bgr: a light backdrop
   std::vector<double> light_direction = {-1, 0, 1};      ///< ~light_direction (world, towards the light)
   double splat_radius_m = 0.0;                           ///< ~splat_radius_m: 0 = 0.8 × spacing
+  /// ~truth_view_frame, ~truth_view_offset_m [x y z]: where rviz shows the true interior beside the
+  /// recovered one (a static frame in world_frame; `~true_interior` is published in it).
+  std::string truth_view_frame = "object_true_view";
+  std::vector<double> truth_view_offset_m = {0.0, 0.15, 0.05};
 };
 
 /// Reads and validates the private parameters (the ~set entries against the task, ~object against
@@ -102,7 +110,8 @@ class RigSimulatorNode {
   std::vector<std::unique_ptr<workflow::RigTwin>> twins_;  ///< one per experiment
   std::vector<std::string> names_;                         ///< the experiments' names ("" for one)
   int playing_ = -1;                                       ///< the experiment on camera
-  ::ros::Publisher experiment_pub_;
+  ::ros::Publisher experiment_pub_, true_interior_pub_;
+  tf2_ros::StaticTransformBroadcaster static_broadcaster_;
   vision::SplatCamera camera_;
   vision::SplatShading shading_;
   vision::Splats body_;  ///< the surface in the body frame (posed per frame)
