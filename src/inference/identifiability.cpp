@@ -125,6 +125,7 @@ IdentifiabilityAnalysis analyseMomentJacobian(const MomentJacobian& J_si, const 
                     "check the experiments' simulations (a diverged simulation gives no derivatives)");
   IdentifiabilityAnalysis a;
   a.available = true;
+  a.threshold = threshold;
   a.natural_units = u;
   a.observations = static_cast<int>(J_si.rows());
   a.J = J_si * u.asDiagonal();

@@ -64,6 +64,7 @@ struct IdentifiabilityAnalysis {
   bool available = false;          ///< false: no experiment reports observations (notes say why)
   std::vector<std::string> notes;  ///< for a person (experiments without observations, skipped candidates)
   int observations = 0;            ///< rows of J
+  double threshold = 0.02;         ///< determined: std below threshold · natural unit
   MomentVector natural_units = MomentVector::Ones();
   MomentJacobian J;                              ///< whitened, in natural units (see the header comment)
   MomentVector singular_values;                  ///< of J, descending [1 / natural unit]
