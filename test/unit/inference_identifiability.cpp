@@ -74,7 +74,9 @@ void checkObservationDerivatives(const TaskConfig& config, const VolumeCloud& cl
     if (!checked(o)) continue;
     const double fd = (plus.observations[k].value - minus.observations[k].value) / (2 * step);
     const double an = o.d_dp.dot(dp);
-    EXPECT_NEAR(an, fd, tol * std::max(std::abs(fd), 1e-3 * scale)) << config.task() << " " << o.name;
+    // Relative to the size of the terms Σ_j |dy/dp_j δp_j|: along a random δr they nearly cancel.
+    const double terms = o.d_dp.cwiseProduct(dp).cwiseAbs().sum();
+    EXPECT_NEAR(an, fd, tol * std::max({std::abs(fd), terms, 1e-3 * scale})) << config.task() << " " << o.name;
   }
 }
 
@@ -128,10 +130,7 @@ TEST(ObservationDerivatives, TumblerPeriodAndTilt) {
   c.set("initial_angular_velocity_rad_s", "0.5");  // so the max tilt is past the release and moves
   c.set("period_s", "0.5");
   c.set("max_tilt_deg", "9");
-  // Measured: period 2.6e-3, max tilt 5.4e-4 relative, the same at steps 1e-5..1e-7. The rigid simulation
-  // sets its contact stiffness, damping and step from the mass's value (rigid_body.cpp makeContactSetup),
-  // so forward mode misses how they move with m; the loss gradient has the same gap.
-  checkObservationDerivatives(c, cloud, 1e-6, 5e-3);
+  checkObservationDerivatives(c, cloud, 1e-6, 1e-4);
 }
 
 TEST(ObservationDerivatives, BallTrajectoryComponents) {
@@ -143,9 +142,10 @@ TEST(ObservationDerivatives, BallTrajectoryComponents) {
   c.set("initial_height_m", "0.1");
   c.set("initial_velocity", "0.3,0,0");
   c.set("initial_angular_velocity", "0,2,5");
-  // Before the first contact (free fall of 0.1 m: 0.143 s) forward mode and differences agree; after
-  // the bounce they differ by up to tens of percent (the contact's value-only parameters, as for the
-  // tumbler), which this test does not hide: it checks the flight only.
+  // Before the first contact (free fall of 0.1 m: 0.143 s) forward mode and differences agree. After the
+  // bounce they do not, in d/dc only (a per-moment probe: d/dm and d/dI agree to 1e-5, d/dcx.. differ by up
+  // to 30 %, with friction or without): a gap in the rigid simulator's forward mode through contact that
+  // the ball's loss gradient shares. This test checks the flight; the bounce is a known, reported gap.
   checkObservationDerivatives(c, cloud, 1e-4, 1e-5, 0.13);
 }
 
