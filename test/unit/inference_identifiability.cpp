@@ -8,11 +8,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <nlohmann/json.hpp>
 #include <random>
 
 #include "test_clouds.h"
 #include "topo_gaussian/inference/identifiability.h"
 #include "topo_gaussian/inference/interior_problem.h"
+#include "topo_gaussian/inference/pipeline.h"
+#include "topo_gaussian/inference/report.h"
 #include "topo_gaussian/inference/task.h"
 
 using namespace topo_gaussian;
@@ -253,4 +256,25 @@ TEST(Identifiability, AfterOneHangFromTheTopItSuggestsAHangOffThatVertical) {
   EXPECT_EQ(a.theta_parameters, 10);
   EXPECT_EQ(a.theta_rank, 2);  // quadric moves c freely; the observations pin two combinations
   EXPECT_LT(a.seconds, 5.0);
+}
+
+TEST(Identifiability, RunInferenceReportsItInTheResultAndReportJson) {
+  const HangSetup s;
+  TaskConfig t = TaskConfig::defaults("hanging");
+  t.setNumber("density_solid", 1000.0);
+  t.setVector("hanging_point", Eigen::Vector3d(0.02, 0.01, 0.04));  // off c: the design must move c
+  const InferenceResult res = runInference(t, s.cloud);
+  const IdentifiabilityAnalysis& a = res.identifiability;
+  ASSERT_TRUE(a.available) << a.summary;
+  EXPECT_TRUE(a.moments[1].determined && a.moments[2].determined);
+  EXPECT_FALSE(a.moments[3].determined);
+  EXPECT_TRUE(a.has_suggestion);
+  const nlohmann::json j = nlohmann::json::parse(reportJson(res, t));
+  const auto& id = j.at("identifiability");
+  EXPECT_TRUE(id.at("available").get<bool>());
+  EXPECT_TRUE(id.at("moments").at("m").at("std").is_null());  // free: infinite, written as null
+  EXPECT_NEAR(id.at("moments").at("cx").at("std").get<double>(), a.moments[1].std, 1e-9 * a.moments[1].std);
+  EXPECT_EQ(id.at("suggestion").at("kind").get<std::string>(), "hang");
+  EXPECT_EQ(id.at("singular_values").size(), 10u);
+  EXPECT_EQ(id.at("theta_rank").get<int>(), 2);
 }
