@@ -352,6 +352,62 @@ void suggestNextExperiment(const InteriorProblem& problem, const std::vector<dou
   }
 }
 
+namespace {
+
+int rankOf(const Eigen::MatrixXd& M) {
+  if (M.size() == 0) return 0;
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(M.rows() <= M.cols() ? Eigen::MatrixXd(M.transpose()) : M);
+  const auto& s = svd.singularValues();
+  int k = 0;
+  for (int i = 0; i < s.size(); ++i) k += s(i) > 1e-9 * s(0) && s(0) > 0;
+  return k;
+}
+
+// rank J_θ = rank(S_k V_kᵀ diag(1/u) dp/dθ) over the rank(J) directions k: one backward pass through the
+// representation per direction (not one per moment), then dp/dθ's own rank (ten passes) when the time
+// budget allows. A neural representation's backward pass can take a minute: the first pass is timed and
+// the rest skipped (with a note) when they would exceed options.max_theta_seconds.
+void thetaRanks(const InteriorProblem& problem, const Eigen::VectorXd& theta, const std::vector<double>& r,
+                const IdentifiabilityOptions& options, IdentifiabilityAnalysis* a) {
+  const Eigen::MatrixXd P = a->natural_units.cwiseInverse().asDiagonal() *
+                            massPropertiesIndicatorJacobian(problem.task(), problem.cloud(), r);
+  a->theta_parameters = problem.numParameters();
+  auto backward = [&](const Eigen::VectorXd& dL_dr) {
+    const std::vector<double> d(dL_dr.data(), dL_dr.data() + dL_dr.size());
+    Eigen::VectorXd g;
+    indicatorBackward(problem.representation(), theta, problem.indicatorOptions(), d, &g);
+    return g;
+  };
+  const auto t0 = Clock::now();
+  Eigen::MatrixXd G(a->rank, a->theta_parameters);
+  for (int k = 0; k < a->rank; ++k) {
+    G.row(k) = a->singular_values(k) * backward(P.transpose() * a->V.col(k)).transpose();
+    if (k == 0 && secondsSince(t0) * a->rank > options.max_theta_seconds) {
+      a->notes.push_back("the rank in the design parameters is not computed: one backward pass through the " +
+                         problem.representation().name() + " representation takes " + numberText(secondsSince(t0)) +
+                         " s (budget " + numberText(options.max_theta_seconds) + " s)");
+      return;
+    }
+  }
+  a->theta_rank = rankOf(G);
+  const double per_pass = a->rank > 0 ? secondsSince(t0) / a->rank : 0.0;
+  if (per_pass * 10 > options.max_theta_seconds) {
+    a->notes.push_back("the rank of dp/dtheta is not computed (10 backward passes over the time budget)");
+  } else {
+    Eigen::MatrixXd D(10, a->theta_parameters);
+    for (int j = 0; j < 10; ++j) D.row(j) = backward(P.row(j).transpose()).transpose();
+    a->dp_dtheta_rank = rankOf(D);
+  }
+  std::ostringstream s;
+  s << " Of the representation's " << a->theta_parameters << " parameters, the observations constrain " << a->theta_rank
+    << " combination" << (a->theta_rank == 1 ? "" : "s");
+  if (a->dp_dtheta_rank >= 0) s << " (the representation moves " << a->dp_dtheta_rank << " of the ten moments)";
+  s << ".";
+  a->summary += s.str();
+}
+
+}  // namespace
+
 IdentifiabilityAnalysis analyseIdentifiability(const InteriorProblem& problem, const Eigen::VectorXd& theta,
                                                const ProblemEvaluation& at, const IdentifiabilityOptions& options) {
   const auto t0 = Clock::now();
@@ -387,25 +443,7 @@ IdentifiabilityAnalysis analyseIdentifiability(const InteriorProblem& problem, c
   }
   IdentifiabilityAnalysis a = analyseMomentJacobian(J, u, options.determined_threshold);
   a.notes = notes;
-  const Eigen::MatrixXd dp_dtheta = massPropertiesParameterJacobian(problem, theta);
-  a.theta_parameters = static_cast<int>(dp_dtheta.cols());
-  auto rankOf = [](const Eigen::MatrixXd& M) {
-    if (M.size() == 0) return 0;
-    Eigen::JacobiSVD<Eigen::MatrixXd> svd(M.rows() <= M.cols() ? Eigen::MatrixXd(M.transpose()) : M);
-    const auto& s = svd.singularValues();
-    int k = 0;
-    for (int i = 0; i < s.size(); ++i) k += s(i) > 1e-9 * s(0) && s(0) > 0;
-    return k;
-  };
-  // Rows of dp/dθ in natural units, so the relative rank tolerance treats every moment alike.
-  const Eigen::MatrixXd dpt = u.cwiseInverse().asDiagonal() * dp_dtheta;
-  a.dp_dtheta_rank = rankOf(dpt);
-  a.theta_rank = rankOf(Eigen::MatrixXd(a.J * dpt));
-  std::ostringstream s;
-  s << " Of the representation's " << a.theta_parameters << " parameters, the observations constrain " << a.theta_rank
-    << " combination" << (a.theta_rank == 1 ? "" : "s") << " (the representation moves " << a.dp_dtheta_rank
-    << " of the ten moments).";
-  a.summary += s.str();
+  thetaRanks(problem, theta, r, options, &a);
   if (options.suggest) suggestNextExperiment(problem, r, J, options, &a);
   if (a.has_suggestion) a.summary += " Next: " + a.suggestion.sentence + ".";
   a.seconds = secondsSince(t0);

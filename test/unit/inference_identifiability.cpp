@@ -278,3 +278,26 @@ TEST(Identifiability, RunInferenceReportsItInTheResultAndReportJson) {
   EXPECT_EQ(id.at("singular_values").size(), 10u);
   EXPECT_EQ(id.at("theta_rank").get<int>(), 2);
 }
+
+TEST(ObservationDerivatives, MassPropertiesWithRespectToTheDesignParameters) {
+  const VolumeCloud cloud = topo_test::tumblerCloud(0.05, 0.5, 0.005);
+  const InteriorProblem problem(TaskConfig::defaults("hanging"), cloud);
+  const Eigen::VectorXd theta = quadricDesign();
+  const Eigen::MatrixXd dp_dtheta = massPropertiesParameterJacobian(problem, theta);
+  ASSERT_EQ(dp_dtheta.rows(), 10);
+  ASSERT_EQ(dp_dtheta.cols(), 10);
+  auto props = [&](const Eigen::VectorXd& th) {
+    std::vector<double> r;
+    problem.indicator(th, &r);
+    return problem.task().evaluate(r, nullptr).mass.toVector();
+  };
+  std::mt19937 rng(11);
+  std::normal_distribution<double> n;
+  Eigen::VectorXd d(10);
+  for (int i = 0; i < 10; ++i) d[i] = n(rng);
+  d.normalize();
+  const double h = 1e-6;
+  const MomentVector fd = (props(theta + h * d) - props(theta - h * d)) / (2 * h);
+  const MomentVector an = dp_dtheta * d;
+  for (int j = 0; j < 10; ++j) EXPECT_NEAR(an[j], fd[j], 1e-6 * std::abs(fd[j])) << j;
+}

@@ -57,6 +57,7 @@ struct IdentifiabilityOptions {
   int hanging_candidates = 40;         ///< surface points tried as hanging points
   int max_dynamic_candidates = 3;      ///< rocking axes tried (each one simulation)
   double max_dynamic_seconds = 20.0;   ///< no further dynamic candidate once this much time is spent
+  double max_theta_seconds = 10.0;     ///< budget of the backward passes for the θ ranks
   bool suggest = true;
 };
 
