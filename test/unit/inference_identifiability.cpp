@@ -249,6 +249,10 @@ TEST(Identifiability, AfterOneHangFromTheTopItSuggestsAHangOffThatVertical) {
   EXPECT_EQ(a.suggestion.kind, "hang");
   const Eigen::Vector3d q = a.suggestion.point;
   EXPECT_GT(std::hypot(q.x() - s.c.x(), q.y() - s.c.y()), 0.02) << a.suggestion.sentence;
+  // It is evaluated in the pose the body settles in: c straight below the point.
+  const Eigen::Matrix3d R =
+      targetRotation(a.suggestion.config.number("target_roll_deg"), a.suggestion.config.number("target_pitch_deg"));
+  EXPECT_LT((R * (s.c - q).normalized() - Eigen::Vector3d(0, 0, -1)).norm(), 1e-12);
   ASSERT_EQ(a.suggestion.newly_determined.size(), 1u);
   EXPECT_EQ(a.suggestion.newly_determined[0], "cz");
   EXPECT_NE(a.suggestion.sentence.find("to fix the centre of mass along z"), std::string::npos)
