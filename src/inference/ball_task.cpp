@@ -2,8 +2,10 @@
 // the floor, bounces and spins; the simulated trajectories of a few tracked body points (pivot
 // points; the spin shows in the surface points) must match the observed ones. Loss: mean squared
 // distance over samples and points, over the object size². Forward mode through the rigid
-// simulation (Dual10), as for the tumbler.
+// simulation (Dual10), as for the tumbler. Observations (TaskEvaluation::observations): the tracked
+// points' coordinates at up to 30 observed times, with d/d(m, c, I).
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -120,6 +122,7 @@ class BallTask : public Task {
       dL = loss.derivatives();
       ev.features.push_back(Feature{"rms_error_m", std::sqrt(sum.value() / count), "m", true, 0.0, 1e-3 * size_, 1.0});
     }
+    addObservations(traj, I, &ev);
     ev.features.push_back(Feature{"apex_height_m", apex, "m"});
     ev.features.push_back(Feature{"final_spin_rad_s", traj.states.back().angular_velocity.norm().value(), "rad/s"});
     ev.features.push_back(Feature{"mass_kg", ev.mass.mass, "kg"});
@@ -128,6 +131,44 @@ class BallTask : public Task {
   }
 
  private:
+  // Observations: the trajectory residual components (x, y, z of every tracked point) at up to
+  // kObservedTimes of the observed sample times (evenly strided; without a target trajectory, of the
+  // simulated output times). Noise: the rms_error_m tolerance 1e-3·size, divided by √stride so that
+  // the strided rows carry the information of all samples (each stands for `stride` of them).
+  static constexpr std::size_t kObservedTimes = 30;
+  void addObservations(const RigidTrajectory<Dual10>& traj, const RigidInertia<Dual10>& I, TaskEvaluation* ev) const {
+    const double dt = traj.time_s.size() > 1 ? traj.time_s[1] - traj.time_s[0] : options_.output_dt_s;
+    std::vector<double> times = obs_t_;
+    if (times.empty())
+      for (std::size_t k = 1; k < traj.time_s.size(); ++k) times.push_back(traj.time_s[k]);
+    const std::size_t stride = std::max<std::size_t>(1, (times.size() + kObservedTimes - 1) / kObservedTimes);
+    const double noise = 1e-3 * size_ / std::sqrt(double(stride));
+    const char* axis[3] = {"x", "y", "z"};
+    for (std::size_t j = 0; j < times.size(); j += stride) {
+      const double u = times[j] / dt;
+      const std::size_t k = static_cast<std::size_t>(std::floor(std::max(u, 0.0)));
+      if (u < 0 || k + 1 >= traj.states.size()) continue;
+      const double a = u - k;
+      for (std::size_t p = 0; p < pivots_.size(); ++p) {
+        auto at = [&](std::size_t n) {
+          const auto& s = traj.states[n];
+          return Vec3<Dual10>(s.position + s.orientation * (pivots_[p].cast<Dual10>() - I.com));
+        };
+        const Vec3<Dual10> x = (1 - a) * at(k) + a * at(k + 1);
+        for (int c = 0; c < 3; ++c) {
+          Observation o{"point" + std::to_string(p) + "_" + axis[c] + "_m@" + std::to_string(times[j]) + "s",
+                        x[c].value(),
+                        "m",
+                        !obs_t_.empty(),
+                        obs_t_.empty() ? 0.0 : obs_[j][p][c],
+                        noise,
+                        x[c].derivatives()};
+          ev->observations.push_back(o);
+        }
+      }
+    }
+  }
+
   RigidSimOptions options_;
   double height_ = 0, zmin_ = 0;
   Eigen::Vector3d v0_, w0_, centroid_;

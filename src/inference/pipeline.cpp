@@ -157,6 +157,18 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
     head << " The target may be unreachable because the " << res.geometry.point_name << " lies outside the object ("
          << outside << ").";
   res.message = head.str();
+  // What the experiments determine (rigid observations), at the final design: no optimiser work.
+  if (res.cancelled) {
+    res.identifiability.notes.push_back("not analysed: the run was cancelled");
+  } else {
+    try {
+      res.identifiability = analyseIdentifiability(problem, res.theta, res.final);
+    } catch (const TopoError& e) {
+      res.identifiability.notes.push_back(std::string("not analysed: ") + e.what());
+    } catch (const SimulationCancelled&) {
+      res.identifiability.notes.push_back("not analysed: cancelled while simulating a candidate experiment");
+    }
+  }
   return res;
 }
 

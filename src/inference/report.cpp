@@ -1,5 +1,6 @@
 #include "topo_gaussian/inference/report.h"
 
+#include <cmath>
 #include <sstream>
 
 #include "topo_gaussian/common/json.h"
@@ -78,6 +79,50 @@ std::string experimentsJson(const ProblemEvaluation& ev, const TaskConfig& c) {
   return s + "]";
 }
 
+std::string identifiabilityJson(const IdentifiabilityAnalysis& a) {
+  std::ostringstream s;
+  s << "{\"available\": " << (a.available ? "true" : "false") << ", \"summary\": " << quote(a.summary)
+    << ", \"observations\": " << a.observations << ", \"threshold\": " << num(a.threshold) << ", \"rank\": " << a.rank
+    << ", \"determined_directions\": " << a.determined_directions << ", \"theta_parameters\": " << a.theta_parameters
+    << ", \"theta_rank\": " << a.theta_rank << ", \"dp_dtheta_rank\": " << a.dp_dtheta_rank;
+  if (a.available) {
+    s << ", \"natural_units\": [";
+    for (int j = 0; j < 10; ++j) s << (j ? ", " : "") << num(a.natural_units(j));
+    s << "], \"singular_values\": [";
+    for (int j = 0; j < 10; ++j) s << (j ? ", " : "") << num(a.singular_values(j));
+    s << "], \"right_singular_vectors\": [";
+    for (int k = 0; k < 10; ++k) {
+      s << (k ? ", [" : "[");
+      for (int j = 0; j < 10; ++j) s << (j ? ", " : "") << num(a.V(j, k));
+      s << "]";
+    }
+    s << "], \"moments\": {";
+    for (std::size_t j = 0; j < a.moments.size(); ++j) {
+      const auto& m = a.moments[j];
+      // An infinite std (a free moment) is written as null: JSON has no infinity.
+      s << (j ? ", " : "") << quote(m.name) << ": {\"std\": " << (std::isfinite(m.std) ? num(m.std) : "null")
+        << ", \"unit\": " << quote(m.unit) << ", \"natural_unit\": " << num(m.natural_unit)
+        << ", \"std_relative\": " << (std::isfinite(m.std_relative) ? num(m.std_relative) : "null")
+        << ", \"determined\": " << (m.determined ? "true" : "false") << "}";
+    }
+    s << "}";
+  }
+  s << ", \"suggestion\": ";
+  if (a.has_suggestion) {
+    const auto& g = a.suggestion;
+    s << "{\"kind\": " << quote(g.kind) << ", \"sentence\": " << quote(g.sentence) << ", \"point\": " << vec3(g.point)
+      << ", \"axis\": " << vec3(g.axis) << ", \"score_gain\": " << num(g.score_gain) << ", \"newly_determined\": [";
+    for (std::size_t i = 0; i < g.newly_determined.size(); ++i) s << (i ? ", " : "") << quote(g.newly_determined[i]);
+    s << "]}";
+  } else {
+    s << "null";
+  }
+  s << ", \"candidates_evaluated\": " << a.candidates.size() << ", \"notes\": [";
+  for (std::size_t i = 0; i < a.notes.size(); ++i) s << (i ? ", " : "") << quote(a.notes[i]);
+  s << "], \"seconds\": " << num(a.seconds) << "}";
+  return s.str();
+}
+
 }  // namespace
 
 std::string simulationJson(const ProblemEvaluation& ev, const TaskConfig& config, const TaskGeometry& geometry) {
@@ -112,7 +157,7 @@ std::string reportJson(const InferenceResult& r, const TaskConfig& config) {
     << ",\n  \"initial_center_of_mass\": " << vec3(r.initial.task.mass.com) << ",\n  \"particles\": " << r.r.size()
     << ",\n  \"parameters_count\": " << r.theta.size() << ",\n  \"timings_s\": {\"setup\": " << num(r.setup_s)
     << ", \"optimize\": " << num(r.optimize_s) << ", \"per_evaluation\": " << num(r.evaluation_s)
-    << "},\n  \"loss_history\": [";
+    << "},\n  \"identifiability\": " << identifiabilityJson(r.identifiability) << ",\n  \"loss_history\": [";
   for (std::size_t i = 0; i < r.optimizer.history.size(); ++i) {
     const auto& h = r.optimizer.history[i];
     s << (i ? ", " : "") << "{\"iteration\": " << h.iteration << ", \"loss\": " << num(h.loss)

@@ -2,7 +2,8 @@
 // point (hanging), balance on a point (balance) or stand on its base (stand) in a target
 // orientation. Equilibrium needs the centre of mass on the vertical through the point, so the loss
 // is the squared offset of c from that vertical, perpendicular to gravity, over the object size².
-// No time stepping: the loss depends on c alone.
+// No time stepping: the loss depends on c alone. Observations (TaskEvaluation::observations): the two
+// horizontal components of that offset, linear in c.
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -128,6 +129,7 @@ class StaticTask : public Task {
       ev.features.push_back(Feature{"stands", mg > 0 ? 1.0 : 0.0, "", true, 1.0, 1.0, 0.0});
     }
     ev.features.push_back(Feature{"mass_kg", ev.mass.mass, "kg"});
+    if (name_ != "stand") addOffsetObservations(d, off, &ev);
     if (swing_duration_ > 0) swing(ev);
     if (dL_dr) {
       Eigen::Matrix<double, 10, 1> g = Eigen::Matrix<double, 10, 1>::Zero();
@@ -138,6 +140,24 @@ class StaticTask : public Task {
   }
 
  private:
+  // Observations (hanging, balance): the two components of the world offset d = R (c − point) along the
+  // horizontal directions h1 (world x made perpendicular to gravity; world y when gravity is along x) and
+  // h2 = up × h1; target 0, noise the com_offset_m tolerance; d/dc = Rᵀ h_k. stand has none: standing
+  // only bounds c (an inequality), which determines no moment.
+  void addOffsetObservations(const Eigen::Vector3d& d, const Feature& off, TaskEvaluation* ev) const {
+    const Eigen::Vector3d up = -g_hat_;
+    Eigen::Vector3d h1 = std::abs(up.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+    h1 = (h1 - h1.dot(up) * up).normalized();
+    const Eigen::Vector3d h2 = up.cross(h1);
+    const Eigen::Vector3d h[2] = {h1, h2};
+    const char* names[2] = {"com_offset_h1_m", "com_offset_h2_m"};
+    for (int k = 0; k < 2; ++k) {
+      Observation o{names[k], h[k].dot(d), "m", true, 0.0, off.tolerance * off.scale};
+      o.d_dp.segment<3>(1) = R_.transpose() * h[k];
+      ev->observations.push_back(o);
+    }
+  }
+
   // The design hung from the point (ball joint) and released swing_tilt_deg off the target pose about
   // world x: it swings as a physical pendulum. Reports the simulated period and the small-amplitude
   // closed form 2π √(I_p / (m g d)) about the same axis, for comparison.

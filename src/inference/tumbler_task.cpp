@@ -1,7 +1,8 @@
 // Tumbler (wobbly doll, paper §7 "Wobbly Doll"): the object rests on the ground, is released at a
 // tilt (or pushed), and rocks. Features: rocking period and maximum tilt from the simulated tilt
 // signal; loss w_T ((T − T*)/T*)² + w_θ ((θ − θ*)/θ*)². The rigid simulation runs in forward mode
-// (Dual10), so the features carry d/d(m, c, I); the chain to r goes through the mass moments.
+// (Dual10), so the features carry d/d(m, c, I); the chain to r goes through the mass moments. The
+// observations (TaskEvaluation::observations) are period_s and max_tilt_deg with those derivatives.
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -107,6 +108,15 @@ class TumblerTask : public Task {
     Feature ft{"max_tilt_deg", f.max_abs.value(), "deg", tilt_target_ > 0, tilt_target_, 1e-9, 0.01};
     ev.features = {fp, ft, Feature{"equilibrium_tilt_deg", f.equilibrium.value(), "deg"},
                    Feature{"amplitude_deg", f.amplitude.value(), "deg"}, Feature{"mass_kg", ev.mass.mass, "kg"}};
+    // Observations: period and max tilt with d/dp (Dual10); noise the features' 1 % tolerance.
+    const Dual10* obs[2] = {&f.period, &f.max_abs};
+    const Feature* feat[2] = {&ev.features[0], &ev.features[1]};
+    for (int k = 0; k < 2; ++k) {
+      const Feature& ft = *feat[k];
+      const double noise = ft.tolerance * std::max(ft.has_target ? std::abs(ft.target) : std::abs(ft.value), 1e-12);
+      ev.observations.push_back(
+          Observation{ft.name, ft.value, ft.unit, ft.has_target, ft.target, noise, obs[k]->derivatives()});
+    }
     if (dL_dr) chainToIndicator(rm, dL, dL_dr);
     return ev;
   }

@@ -173,6 +173,16 @@ int inferCommand(const std::vector<std::string>& argv) {
     if (f.has_target) std::cerr << "   (target " << f.target << (f.reached() ? ", reached)" : ", NOT reached)");
     std::cerr << "\n";
   }
+  const inference::IdentifiabilityAnalysis& id = res.identifiability;
+  if (id.available) {
+    std::cerr << "[topo infer] what the experiments determine (linearised std; determined below " << 100 * id.threshold
+              << " % of the natural unit):\n";
+    for (const auto& m : id.moments)
+      std::cerr << "[topo infer]   " << std::setw(4) << std::left << m.name << " "
+                << (m.determined ? "DETERMINED" : "FREE      ") << "  std " << m.std << " " << m.unit << "\n";
+  }
+  if (!id.summary.empty()) std::cerr << "[topo infer] " << id.summary << "\n";
+  for (const auto& n : id.notes) std::cerr << "[topo infer] identifiability: " << n << "\n";
   std::cerr << "[topo infer] wrote " << out.files.size() << " files to " << out.output_dir << "\n";
   if (a.has("json")) std::cout << out.report_json;
   return res.targets_reached ? 0 : 3;

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "topo_gaussian/inference/identifiability.h"
 #include "topo_gaussian/inference/interior_problem.h"
 #include "topo_gaussian/inference/optimizer.h"
 #include "topo_gaussian/inference/task_config.h"
@@ -30,6 +31,9 @@ struct InferenceResult {
   std::vector<std::string> warnings;  ///< for a person, not errors (e.g. a hanging point outside the object)
   std::string message;                ///< one paragraph for a person: what happened, how close, what to do
   double setup_s = 0, optimize_s = 0, evaluation_s = 0;  ///< timings; evaluation_s = per loss+gradient
+  /// What the experiments determine at the final design, and the next experiment (identifiability.h);
+  /// available = false (with notes) for tasks without observations or a cancelled run.
+  IdentifiabilityAnalysis identifiability;
 };
 
 /// Called after every objective evaluation with its details (features of the design just tried).

@@ -32,6 +32,20 @@ struct Feature {
   bool reached() const;
 };
 
+/// One observed quantity of a rigid task, linearised in the ten mass properties p = (m, cx, cy, cz, Ixx,
+/// Iyy, Izz, Ixy, Ixz, Iyz) (MassProperties::toVector order): y ≈ y(p₀) + d_dp · (p − p₀). These are the
+/// residual components the loss compares (never a norm: it is not differentiable where it is matched),
+/// with the noise at which a person calls the observation matched. inference/identifiability.h stacks them.
+struct Observation {
+  std::string name;
+  double value = 0.0;  ///< simulated value at this design
+  std::string unit;
+  bool has_target = false;  ///< measured (in the loss); false: what this experiment would observe
+  double target = 0.0;
+  double noise = 1.0;  ///< the feature's tolerance in the value's unit (> 0)
+  Eigen::Matrix<double, 10, 1> d_dp = Eigen::Matrix<double, 10, 1>::Zero();  ///< dy/dp
+};
+
 /// Geometry a task reports for pictures and report.json (world frame of the target pose).
 struct TaskGeometry {
   bool has_point = false;
@@ -52,6 +66,9 @@ struct TaskEvaluation {
   /// Rigid motion of the object (tumbler, ball, hanging swing), sampled like the signal; empty for
   /// tasks without one (static poses, soft bodies).
   std::vector<BodyPose> motion;
+  /// Rigid tasks (hanging, balance, tumbler, ball): the observed quantities with dy/dp. Empty for tasks
+  /// whose observations depend on more than (m, c, I) or that only bound them (stand, qiqi, soft tasks).
+  std::vector<Observation> observations;
 };
 
 class Task {

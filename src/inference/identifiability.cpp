@@ -1,0 +1,453 @@
+#include "topo_gaussian/inference/identifiability.h"
+
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/common/stopwatch.h"
+#include "topo_gaussian/topology/indicator.h"
+
+namespace topo_gaussian::inference {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+const char* kNames[10] = {"m", "cx", "cy", "cz", "Ixx", "Iyy", "Izz", "Ixy", "Ixz", "Iyz"};
+
+std::string joinWords(const std::vector<std::string>& w) {
+  std::string s;
+  for (std::size_t i = 0; i < w.size(); ++i) s += (i == 0 ? "" : (i + 1 == w.size() ? " and " : ", ")) + w[i];
+  return s;
+}
+
+/// "the mass, the centre of mass along x and z and the inertia Ixx, Iyy" for moment indices.
+std::string momentWords(const std::vector<int>& idx) {
+  std::vector<std::string> axes, inertia, groups;
+  bool mass = false;
+  for (int j : idx) {
+    if (j == 0) mass = true;
+    if (j >= 1 && j <= 3) axes.push_back(std::string(1, "xyz"[j - 1]));
+    if (j >= 4) inertia.push_back(kNames[j]);
+  }
+  if (mass) groups.push_back("the mass");
+  if (!axes.empty()) groups.push_back("the centre of mass along " + joinWords(axes));
+  if (!inertia.empty()) {
+    std::string s = "the inertia ";
+    for (std::size_t i = 0; i < inertia.size(); ++i) s += (i ? ", " : "") + inertia[i];
+    groups.push_back(s);
+  }
+  return joinWords(groups);
+}
+
+std::string vecText(const Eigen::Vector3d& v) {
+  return "(" + numberText(v.x(), 3) + ", " + numberText(v.y(), 3) + ", " + numberText(v.z(), 3) + ")";
+}
+
+/// Task defaults, the template experiment's own explicit non-target values, and the object's shared ones.
+TaskConfig candidateConfig(const std::string& task, const TaskConfig& object, const TaskConfig* like) {
+  TaskConfig c = TaskConfig::defaults(task);
+  auto copy = [&](const TaskConfig& from, const std::string& key) {
+    if (!c.spec(key) || !from.has(key)) return;
+    try {
+      c.set(key, from.valueText(key), "identifiability candidate");
+    } catch (const TopoError&) {  // an empty list or a value this task refuses: keep the default
+    }
+  };
+  if (like)
+    for (const auto& key : like->explicitKeys())
+      if (like->spec(key) && !like->spec(key)->is_target) copy(*like, key);
+  for (const auto& sp : object.specs())
+    if (TaskConfig::isShared(sp.name)) copy(object, sp.name);
+  return c;
+}
+
+/// Up to n points spread over the surface: farthest-point sampling from the highest one.
+std::vector<Eigen::Vector3d> spreadSurfacePoints(const VolumeCloud& cloud, int n) {
+  std::vector<Eigen::Vector3d> pool = cloud.contact.X;
+  if (pool.empty())
+    for (std::size_t i = 0; i < cloud.size(); ++i)
+      if (cloud.surface[i]) pool.push_back(cloud.X[i]);
+  std::vector<Eigen::Vector3d> out;
+  if (pool.empty() || n <= 0) return out;
+  std::size_t first = 0;
+  for (std::size_t i = 1; i < pool.size(); ++i)
+    if (pool[i].z() > pool[first].z()) first = i;
+  std::vector<double> d(pool.size(), kInf);
+  std::size_t next = first;
+  for (int k = 0; k < n && k < static_cast<int>(pool.size()); ++k) {
+    out.push_back(pool[next]);
+    std::size_t far = next;
+    double best = -1;
+    for (std::size_t i = 0; i < pool.size(); ++i) {
+      d[i] = std::min(d[i], (pool[i] - pool[next]).squaredNorm());
+      if (d[i] > best) best = d[i], far = i;
+    }
+    if (best <= 0) break;
+    next = far;
+  }
+  return out;
+}
+
+}  // namespace
+
+MomentVector naturalMomentUnits(double solid_mass_kg, double size_m) {
+  if (!(solid_mass_kg > 0) || !(size_m > 0))
+    throw TopoError(
+        "natural units of the mass moments",
+        "need a positive solid mass and size (got " + numberText(solid_mass_kg) + " kg, " + numberText(size_m) + " m)",
+        "give a volume with particles and a positive density_solid");
+  MomentVector u;
+  const double I = solid_mass_kg * size_m * size_m;
+  u << solid_mass_kg, size_m, size_m, size_m, I, I, I, I, I, I;
+  return u;
+}
+
+void appendObservationRows(const TaskEvaluation& evaluation, double weight, bool only_targets, MomentJacobian* J) {
+  for (const auto& o : evaluation.observations) {
+    if (only_targets && !o.has_target) continue;
+    if (!(o.noise > 0) || !std::isfinite(o.noise))
+      throw TopoError("observation " + o.name, "has noise " + numberText(o.noise) + " " + o.unit,
+                      "a task must give each observation a positive noise scale (its tolerance)");
+    J->conservativeResize(J->rows() + 1, Eigen::NoChange);
+    J->row(J->rows() - 1) = (std::sqrt(weight) / o.noise) * o.d_dp.transpose();
+  }
+}
+
+IdentifiabilityAnalysis analyseMomentJacobian(const MomentJacobian& J_si, const MomentVector& u, double threshold) {
+  if (!(threshold > 0)) throw TopoError("determined_threshold", "is not positive", "give e.g. 0.02 (2 %)");
+  if (!((u.array() > 0).all()))
+    throw TopoError("natural units of the mass moments", "are not all positive", "use naturalMomentUnits");
+  if (!J_si.allFinite())
+    throw TopoError("observation Jacobian", "has NaN or infinite entries",
+                    "check the experiments' simulations (a diverged simulation gives no derivatives)");
+  IdentifiabilityAnalysis a;
+  a.available = true;
+  a.threshold = threshold;
+  a.natural_units = u;
+  a.observations = static_cast<int>(J_si.rows());
+  a.J = J_si * u.asDiagonal();
+  // Pad to at least 10 rows so the SVD has ten singular values (zero rows add no information).
+  Eigen::MatrixXd Jp = Eigen::MatrixXd::Zero(std::max<Eigen::Index>(10, a.J.rows()), 10);
+  Jp.topRows(a.J.rows()) = a.J;
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(Jp, Eigen::ComputeFullV);
+  a.singular_values = svd.singularValues().head<10>();
+  a.V = svd.matrixV();
+  const double smax = a.singular_values(0);
+  std::vector<bool> null(10, true);
+  for (int k = 0; k < 10; ++k) {
+    null[k] = !(smax > 0) || a.singular_values(k) <= 1e-12 * smax;
+    if (!null[k]) ++a.rank;
+    if (!null[k] && 1.0 / a.singular_values(k) < threshold) ++a.determined_directions;
+  }
+  static const char* words[10] = {"the mass",
+                                  "the centre of mass along x",
+                                  "the centre of mass along y",
+                                  "the centre of mass along z",
+                                  "the inertia Ixx",
+                                  "the inertia Iyy",
+                                  "the inertia Izz",
+                                  "the inertia Ixy",
+                                  "the inertia Ixz",
+                                  "the inertia Iyz"};
+  std::vector<int> determined, free;
+  for (int j = 0; j < 10; ++j) {
+    MomentIdentification mi;
+    mi.name = kNames[j];
+    mi.words = words[j];
+    mi.unit = j == 0 ? "kg" : (j <= 3 ? "m" : "kg m^2");
+    mi.natural_unit = u(j);
+    double var = 0, in_null = 0;
+    for (int k = 0; k < 10; ++k) {
+      const double v2 = a.V(j, k) * a.V(j, k);
+      if (null[k])
+        in_null += v2;
+      else
+        var += v2 / (a.singular_values(k) * a.singular_values(k));
+    }
+    mi.std_relative = in_null > 1e-12 ? kInf : std::sqrt(var);
+    mi.std = mi.std_relative * u(j);
+    mi.determined = mi.std_relative < threshold;
+    (mi.determined ? determined : free).push_back(j);
+    a.moments.push_back(mi);
+  }
+  std::ostringstream s;
+  if (determined.empty()) {
+    s << "These experiments determine none of the ten mass moments";
+  } else {
+    s << "These experiments determine " << momentWords(determined) << " (std";
+    for (std::size_t i = 0; i < determined.size(); ++i) {
+      const auto& mi = a.moments[determined[i]];
+      s << (i ? ", " : " ") << mi.name << " " << numberText(mi.std, 2) << " " << mi.unit;
+    }
+    s << ")";
+  }
+  if (free.empty())
+    s << "; all ten are determined.";
+  else
+    s << "; " << momentWords(free) << (free.size() == 1 ? " is" : " are")
+      << " not determined by these experiments (std above " << numberText(100 * threshold, 2)
+      << " % of its natural unit).";
+  if (!a.moments[0].determined)
+    s << " Rigid motion alone never fixes the mass (a heavier copy with the same centre of mass and inertia per "
+         "kilogram moves alike): weigh it.";
+  a.summary = s.str();
+  return a;
+}
+
+double undeterminedScore(const IdentifiabilityAnalysis& a) {
+  double s = 0;
+  for (const auto& m : a.moments) s += std::log(std::min(m.std_relative, 1.0));
+  return s;
+}
+
+Eigen::MatrixXd massPropertiesIndicatorJacobian(const Task& task, const VolumeCloud& cloud,
+                                                const std::vector<double>& r) {
+  std::vector<double> m, dm;
+  task.masses(r, &m, &dm);
+  const double s = cubeCellVariance(cloud.spacing);
+  const MassMoments moments = computeMassMoments(cloud.X, m, s);
+  const Eigen::Matrix<double, 10, 10> Jpm = massPropertiesJacobian(moments);
+  Eigen::MatrixXd out(10, static_cast<Eigen::Index>(cloud.size()));
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3d& x = cloud.X[i];
+    MomentVector d;  // ∂(raw moments)/∂m_i, MassMoments::toVector order
+    d << 1, x.x(), x.y(), x.z(), x.x() * x.x() + s, x.y() * x.y() + s, x.z() * x.z() + s, x.x() * x.y(), x.x() * x.z(),
+        x.y() * x.z();
+    out.col(static_cast<Eigen::Index>(i)) = Jpm * d * dm[i];
+  }
+  return out;
+}
+
+Eigen::MatrixXd massPropertiesParameterJacobian(const InteriorProblem& problem, const Eigen::VectorXd& theta) {
+  std::vector<double> r;
+  problem.indicator(theta, &r);
+  const Eigen::MatrixXd dp_dr = massPropertiesIndicatorJacobian(problem.task(), problem.cloud(), r);
+  Eigen::MatrixXd out(10, problem.numParameters());
+  std::vector<double> row(r.size());
+  Eigen::VectorXd g;
+  for (int j = 0; j < 10; ++j) {
+    for (std::size_t i = 0; i < r.size(); ++i) row[i] = dp_dr(j, static_cast<Eigen::Index>(i));
+    indicatorBackward(problem.representation(), theta, problem.indicatorOptions(), row, &g);
+    out.row(j) = g.transpose();
+  }
+  return out;
+}
+
+void suggestNextExperiment(const InteriorProblem& problem, const std::vector<double>& r, const MomentJacobian& J_si,
+                           const IdentifiabilityOptions& options, IdentifiabilityAnalysis* analysis) {
+  const VolumeCloud& cloud = problem.cloud();
+  const MomentVector& u = analysis->natural_units;
+  const double base = undeterminedScore(analyseMomentJacobian(J_si, u, options.determined_threshold));
+  std::vector<double> m;
+  problem.task().masses(r, &m, nullptr);
+  const MassProperties props = computeMassProperties(cloud.X, m, cubeCellVariance(cloud.spacing));
+  auto score = [&](ExperimentSuggestion& cand, const TaskEvaluation& ev) {
+    MomentJacobian J = J_si;
+    appendObservationRows(ev, 1.0, false, &J);
+    const IdentifiabilityAnalysis a = analyseMomentJacobian(J, u, options.determined_threshold);
+    cand.score_gain = base - undeterminedScore(a);
+    for (int j = 0; j < 10; ++j)
+      if (a.moments[j].determined && !analysis->moments[j].determined) cand.newly_determined.push_back(kNames[j]);
+  };
+
+  // Hang from a surface point: the design then hangs with c straight below the point; the target pose is
+  // that equilibrium (roll about x, then pitch about y, taking c − q onto gravity; gravity along −z).
+  const Eigen::Vector3d g = problem.config().vector3("gravity");
+  const bool down_z = g.norm() > 0 && g.normalized().dot(Eigen::Vector3d(0, 0, -1)) > 1 - 1e-9;
+  if (!down_z) analysis->notes.push_back("gravity is not along -z: hanging candidates are evaluated in the rest pose");
+  for (const Eigen::Vector3d& q : spreadSurfacePoints(cloud, options.hanging_candidates)) {
+    ExperimentSuggestion cand;
+    cand.kind = "hang";
+    cand.point = q;
+    cand.config = candidateConfig("hanging", problem.config(), nullptr);
+    cand.config.setVector("hanging_point", q);
+    const Eigen::Vector3d d = props.com - q;
+    if (d.norm() < 1e-9 * (u(1) + 1)) continue;
+    if (down_z) {
+      const Eigen::Vector3d dh = d.normalized();
+      const double roll = std::atan2(-dh.y(), -dh.z());
+      const double rho = std::hypot(dh.y(), dh.z());
+      const double pitch = std::atan2(dh.x(), rho);
+      cand.config.setNumber("target_roll_deg", roll * 180.0 / M_PI);
+      cand.config.setNumber("target_pitch_deg", pitch * 180.0 / M_PI);
+    }
+    const auto task = makeTask(cand.config, cloud);
+    score(cand, task->evaluate(r, nullptr));
+    analysis->candidates.push_back(std::move(cand));
+  }
+
+  // Rock about another horizontal axis, when a tumbler experiment shows the object rocks.
+  const TaskConfig* tumbler = nullptr;
+  std::vector<Eigen::Vector3d> used;
+  for (std::size_t e = 0; e < problem.numExperiments(); ++e)
+    if (problem.experiment(e).config.task() == "tumbler") {
+      if (!tumbler) tumbler = &problem.experiment(e).config;
+      used.push_back(problem.experiment(e).config.vector3("rocking_axis").normalized());
+    }
+  if (!tumbler) {
+    analysis->notes.push_back(
+        "rocking candidates skipped: no tumbler experiment shows that the object rocks on a rounded base");
+  } else {
+    const auto t0 = Clock::now();
+    int tried = 0;
+    const double c = std::sqrt(0.5);
+    for (const Eigen::Vector3d& axis :
+         {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(c, c, 0), Eigen::Vector3d(c, -c, 0)}) {
+      bool seen = false;
+      for (const auto& a : used) seen = seen || std::abs(a.dot(axis)) > std::cos(10.0 * M_PI / 180.0);
+      if (seen) continue;
+      if (tried >= options.max_dynamic_candidates || secondsSince(t0) > options.max_dynamic_seconds) {
+        analysis->notes.push_back("rocking about " + vecText(axis) + " not tried (candidate budget of " +
+                                  std::to_string(options.max_dynamic_candidates) + " simulations or " +
+                                  numberText(options.max_dynamic_seconds) + " s spent)");
+        continue;
+      }
+      ++tried;
+      ExperimentSuggestion cand;
+      cand.kind = "rock";
+      cand.axis = axis;
+      cand.config = candidateConfig("tumbler", problem.config(), tumbler);
+      cand.config.setVector("rocking_axis", axis);
+      try {
+        const auto task = makeTask(cand.config, cloud);
+        task->setShouldStop(problem.task().shouldStop());
+        score(cand, task->evaluate(r, nullptr));
+        analysis->candidates.push_back(std::move(cand));
+      } catch (const TopoError& e) {
+        analysis->notes.push_back("rocking about " + vecText(axis) + " not evaluated: " + e.what());
+      }
+    }
+  }
+  analysis->notes.push_back(
+      "swinging on a pivot is not a candidate: no task observes a swing with derivatives (hanging's "
+      "swing_duration_s simulates one but has no target)");
+
+  std::stable_sort(
+      analysis->candidates.begin(), analysis->candidates.end(),
+      [](const ExperimentSuggestion& a, const ExperimentSuggestion& b) { return a.score_gain > b.score_gain + 1e-9; });
+  for (auto& cand : analysis->candidates) {
+    std::ostringstream s;
+    if (cand.kind == "hang")
+      s << "hang it from " << vecText(cand.point) << " m";
+    else
+      s << "rock it about the body axis " << vecText(cand.axis);
+    std::vector<int> idx;
+    for (const auto& n : cand.newly_determined)
+      for (int j = 0; j < 10; ++j)
+        if (n == kNames[j]) idx.push_back(j);
+    if (!idx.empty())
+      s << " to fix " << momentWords(idx);
+    else
+      s << " to narrow the undetermined moments (score gain " << numberText(cand.score_gain, 3) << ")";
+    cand.sentence = s.str();
+  }
+  if (!analysis->candidates.empty() && analysis->candidates.front().score_gain > 1e-6) {
+    analysis->has_suggestion = true;
+    analysis->suggestion = analysis->candidates.front();
+  } else {
+    analysis->notes.push_back("no candidate experiment improves what the experiments determine");
+  }
+}
+
+namespace {
+
+int rankOf(const Eigen::MatrixXd& M) {
+  if (M.size() == 0) return 0;
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(M.rows() <= M.cols() ? Eigen::MatrixXd(M.transpose()) : M);
+  const auto& s = svd.singularValues();
+  int k = 0;
+  for (int i = 0; i < s.size(); ++i) k += s(i) > 1e-9 * s(0) && s(0) > 0;
+  return k;
+}
+
+// rank J_θ = rank(S_k V_kᵀ diag(1/u) dp/dθ) over the rank(J) directions k: one backward pass through the
+// representation per direction (not one per moment), then dp/dθ's own rank (ten passes) when the time
+// budget allows. A neural representation's backward pass can take a minute: the first pass is timed and
+// the rest skipped (with a note) when they would exceed options.max_theta_seconds.
+void thetaRanks(const InteriorProblem& problem, const Eigen::VectorXd& theta, const std::vector<double>& r,
+                const IdentifiabilityOptions& options, IdentifiabilityAnalysis* a) {
+  const Eigen::MatrixXd P = a->natural_units.cwiseInverse().asDiagonal() *
+                            massPropertiesIndicatorJacobian(problem.task(), problem.cloud(), r);
+  a->theta_parameters = problem.numParameters();
+  auto backward = [&](const Eigen::VectorXd& dL_dr) {
+    const std::vector<double> d(dL_dr.data(), dL_dr.data() + dL_dr.size());
+    Eigen::VectorXd g;
+    indicatorBackward(problem.representation(), theta, problem.indicatorOptions(), d, &g);
+    return g;
+  };
+  const auto t0 = Clock::now();
+  Eigen::MatrixXd G(a->rank, a->theta_parameters);
+  for (int k = 0; k < a->rank; ++k) {
+    G.row(k) = a->singular_values(k) * backward(P.transpose() * a->V.col(k)).transpose();
+    if (k == 0 && secondsSince(t0) * a->rank > options.max_theta_seconds) {
+      a->notes.push_back("the rank in the design parameters is not computed: one backward pass through the " +
+                         problem.representation().name() + " representation takes " + numberText(secondsSince(t0)) +
+                         " s (budget " + numberText(options.max_theta_seconds) + " s)");
+      return;
+    }
+  }
+  a->theta_rank = rankOf(G);
+  const double per_pass = a->rank > 0 ? secondsSince(t0) / a->rank : 0.0;
+  if (per_pass * 10 > options.max_theta_seconds) {
+    a->notes.push_back("the rank of dp/dtheta is not computed (10 backward passes over the time budget)");
+  } else {
+    Eigen::MatrixXd D(10, a->theta_parameters);
+    for (int j = 0; j < 10; ++j) D.row(j) = backward(P.row(j).transpose()).transpose();
+    a->dp_dtheta_rank = rankOf(D);
+  }
+  std::ostringstream s;
+  s << " Of the representation's " << a->theta_parameters << " parameters, the observations constrain " << a->theta_rank
+    << " combination" << (a->theta_rank == 1 ? "" : "s");
+  if (a->dp_dtheta_rank >= 0) s << " (the representation moves " << a->dp_dtheta_rank << " of the ten moments)";
+  s << ".";
+  a->summary += s.str();
+}
+
+}  // namespace
+
+IdentifiabilityAnalysis analyseIdentifiability(const InteriorProblem& problem, const Eigen::VectorXd& theta,
+                                               const ProblemEvaluation& at, const IdentifiabilityOptions& options) {
+  const auto t0 = Clock::now();
+  MomentJacobian J(0, 10);
+  std::vector<std::string> notes;
+  int with = 0;
+  for (std::size_t e = 0; e < at.experiments.size(); ++e) {
+    const auto& xe = at.experiments[e];
+    const auto before = J.rows();
+    appendObservationRows(xe.eval, xe.weight, true, &J);
+    if (J.rows() > before) {
+      ++with;
+    } else {
+      notes.push_back("experiment " + xe.name + " (" + problem.experiment(e).config.task() +
+                      ") reports no measured observation of the mass moments: not part of this analysis");
+    }
+  }
+  std::vector<double> r;
+  problem.indicator(theta, &r);
+  double solid = 0;
+  for (double v : problem.cloud().V) solid += v;
+  solid *= problem.task().density().value_r1;
+  const MomentVector u = naturalMomentUnits(solid, problem.task().size());
+  if (with == 0) {
+    IdentifiabilityAnalysis a;
+    a.notes = notes;
+    a.natural_units = u;
+    a.summary =
+        "No experiment reports observations of the mass moments (only rigid tasks do: hanging, balance, "
+        "tumbler, ball), so what they determine is not analysed.";
+    a.seconds = secondsSince(t0);
+    return a;
+  }
+  IdentifiabilityAnalysis a = analyseMomentJacobian(J, u, options.determined_threshold);
+  a.notes = notes;
+  thetaRanks(problem, theta, r, options, &a);
+  if (options.suggest) suggestNextExperiment(problem, r, J, options, &a);
+  if (a.has_suggestion) a.summary += " Next: " + a.suggestion.sentence + ".";
+  a.seconds = secondsSince(t0);
+  return a;
+}
+
+}  // namespace topo_gaussian::inference
