@@ -1,8 +1,10 @@
 // Tumbler (wobbly doll, paper §7 "Wobbly Doll"): the object rests on the ground, is released at a
 // tilt (or pushed), and rocks. Features: rocking period and maximum tilt from the simulated tilt
-// signal; loss w_T ((T − T*)/T*)² + w_θ ((θ − θ*)/θ*)². The rigid simulation runs in forward mode
-// (Dual10), so the features carry d/d(m, c, I); the chain to r goes through the mass moments. The
-// observations (TaskEvaluation::observations) are period_s and max_tilt_deg with those derivatives.
+// signal; loss w_T ((T − T*)/T*)² + w_θ ((θ − θ*)/θ*)² [+ w_A ((A − A*)/A*)² with an observed
+// amplitude A*, the mean half peak-to-peak swing: released at rest at θ0 about its rest tilt φe the doll
+// swings |θ0 − φe|, so A* tells where it rests, which period and max tilt do not]. The rigid simulation runs in forward
+// mode (Dual10), so the features carry d/d(m, c, I); the chain to r goes through the mass moments. The observations
+// (TaskEvaluation::observations) are period_s and max_tilt_deg with those derivatives.
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -33,6 +35,8 @@ class TumblerTask : public Task {
     omega0_ = c.number("initial_angular_velocity_rad_s");
     w_period_ = c.number("weight_period");
     w_tilt_ = c.number("weight_tilt");
+    w_amplitude_ = c.number("weight_amplitude");
+    if (c.has("amplitude_deg")) amplitude_target_ = c.number("amplitude_deg");
     cycles_ = c.integer("measured_cycles");
     if (c.has("period_s")) period_target_ = c.number("period_s");
     if (c.has("max_tilt_deg")) tilt_target_ = c.number("max_tilt_deg");
@@ -48,8 +52,8 @@ class TumblerTask : public Task {
   }
 
   void requireTargets() const override {
-    if (period_target_ <= 0 && tilt_target_ <= 0)
-      throw TopoError("tumbler targets", "neither period_s nor max_tilt_deg is given",
+    if (period_target_ <= 0 && tilt_target_ <= 0 && amplitude_target_ <= 0)
+      throw TopoError("tumbler targets", "neither period_s nor max_tilt_deg nor amplitude_deg is given",
                       "give the observed values, e.g. --target period_s=0.25 --target max_tilt_deg=12");
   }
 
@@ -104,14 +108,21 @@ class TumblerTask : public Task {
       ev.loss += w_tilt_ * e.value() * e.value();
       dL += w_tilt_ * 2.0 * e.value() * e.derivatives();
     }
+    if (amplitude_target_ > 0) {
+      const Dual10 e = (f.amplitude - amplitude_target_) / amplitude_target_;
+      ev.loss += w_amplitude_ * e.value() * e.value();
+      dL += w_amplitude_ * 2.0 * e.value() * e.derivatives();
+    }
     Feature fp{"period_s", f.period.value(), "s", period_target_ > 0, period_target_, 1e-9, 0.01};
     Feature ft{"max_tilt_deg", f.max_abs.value(), "deg", tilt_target_ > 0, tilt_target_, 1e-9, 0.01};
-    ev.features = {fp, ft, Feature{"equilibrium_tilt_deg", f.equilibrium.value(), "deg"},
-                   Feature{"amplitude_deg", f.amplitude.value(), "deg"}, Feature{"mass_kg", ev.mass.mass, "kg"}};
+    ev.features = {
+        fp, ft, Feature{"equilibrium_tilt_deg", f.equilibrium.value(), "deg"},
+        Feature{"amplitude_deg", f.amplitude.value(), "deg", amplitude_target_ > 0, amplitude_target_, 1e-9, 0.01},
+        Feature{"mass_kg", ev.mass.mass, "kg"}};
     // Observations: period and max tilt with d/dp (Dual10); noise the features' 1 % tolerance.
-    const Dual10* obs[2] = {&f.period, &f.max_abs};
-    const Feature* feat[2] = {&ev.features[0], &ev.features[1]};
-    for (int k = 0; k < 2; ++k) {
+    const Dual10* obs[3] = {&f.period, &f.max_abs, &f.amplitude};
+    const Feature* feat[3] = {&ev.features[0], &ev.features[1], &ev.features[3]};
+    for (int k = 0; k < 3; ++k) {
       const Feature& ft = *feat[k];
       const double noise = ft.tolerance * std::max(ft.has_target ? std::abs(ft.target) : std::abs(ft.value), 1e-12);
       ev.observations.push_back(
@@ -159,8 +170,8 @@ class TumblerTask : public Task {
   std::vector<double> all_weights_;
   double reach_deg_ = 90;
   Eigen::Vector3d axis_, up_;
-  double tilt0_ = 0, omega0_ = 0, w_period_ = 1, w_tilt_ = 1;
-  double period_target_ = -1, tilt_target_ = -1;
+  double tilt0_ = 0, omega0_ = 0, w_period_ = 1, w_tilt_ = 1, w_amplitude_ = 1;
+  double period_target_ = -1, tilt_target_ = -1, amplitude_target_ = -1;
   int cycles_ = 2;
   std::vector<Eigen::Vector3d> contact_;
 };
@@ -187,7 +198,8 @@ bool uniformSignal(const std::vector<double>& t, const std::vector<double>& y, s
   return out->size() >= 8;
 }
 
-/// period_s and max_tilt_deg from observed rocking (inference/motion_targets.h describes the rule).
+/// period_s, max_tilt_deg and (from a window that starts at the release) amplitude_deg from observed
+/// rocking (inference/motion_targets.h describes the rule).
 MotionTargets rockingTargets(const TaskConfig& config, const motion::MotionFeatures& f) {
   MotionTargets out;
   if (!f.oscillation_found || !(f.period_s > 0)) {
@@ -199,7 +211,7 @@ MotionTargets rockingTargets(const TaskConfig& config, const motion::MotionFeatu
   // release, so the target is the release tilt itself (anything below is unreachable).
   const double release = config.has("initial_tilt_deg") ? std::abs(config.number("initial_tilt_deg")) : 0.0;
   std::ostringstream os;
-  double period = f.period_s, tilt = f.amplitude_confidence > 0 ? f.max_tilt_deg : 0.0;
+  double period = f.period_s, tilt = f.amplitude_confidence > 0 ? f.max_tilt_deg : 0.0, amplitude = 0.0;
   std::vector<double> y;
   double dt = 0;
   if (uniformSignal(f.time_s, f.angle_deg, &y, &dt)) {
@@ -214,9 +226,13 @@ MotionTargets rockingTargets(const TaskConfig& config, const motion::MotionFeatu
     if (o.valid && o.period > 0) {
       period = o.period;
       tilt = o.max_abs;
+      // Measured as the task measures its simulation, the amplitude is comparable too (over a window
+      // started mid-swing the swing may have decayed, so it is used only here).
+      amplitude = o.amplitude;
       os << "the window starts at a release: the task's analysis of the observed signal (" << y.size()
          << " samples, first " << cycles << " cycles) gives period " << o.period << " s, max tilt " << o.max_abs
-         << " deg (the tracker's own over the window: " << f.period_s << " s, " << f.max_tilt_deg << " deg)";
+         << " deg, amplitude " << o.amplitude << " deg (the tracker's own over the window: " << f.period_s << " s, "
+         << f.max_tilt_deg << " deg)";
     } else {
       os << "the window starts mid-swing: the tracker's period and max tilt over the window are used";
     }
@@ -231,6 +247,7 @@ MotionTargets rockingTargets(const TaskConfig& config, const motion::MotionFeatu
   } else {
     os << "; the tilt was not measured, only the period is used";
   }
+  if (amplitude > 0) out.targets.emplace_back("amplitude_deg", amplitude);
   out.note = os.str();
   return out;
 }
@@ -257,6 +274,11 @@ void registerTumblerTask(TaskList* tasks) {
     p.number("weight_tilt", 1.0, "unitless", "loss weight of ((tilt - tilt*)/tilt*)^2, unitless", 0);
     p.target("period_s", ParamType::Number, "s", "observed rocking period [s]", 0, 1e300, true);
     p.target("max_tilt_deg", ParamType::Number, "deg", "observed maximum tilt [deg]", 0, 90, true);
+    p.number("weight_amplitude", 1.0, "unitless", "loss weight of ((A - A*)/A*)^2, unitless", 0);
+    p.target("amplitude_deg", ParamType::Number, "deg",
+             "observed rocking amplitude, the mean half peak-to-peak swing over the measured cycles [deg]: with "
+             "the release tilt it fixes the tilt the doll rests at",
+             0, 90, true);
   };
   t.make = [](const TaskConfig& config, const VolumeCloud& cloud) -> std::unique_ptr<Task> {
     return std::make_unique<TumblerTask>(config, cloud);

@@ -23,10 +23,11 @@ TEST(MotionTargets, TumblerSignalGetsTheTasksOwnAnalysis) {
   inference::TaskConfig c = inference::TaskConfig::defaults("tumbler");
   c.set("dt_s", "0.0166666666666667");
   const inference::ProblemEvaluation ev = inference::simulateInterior(c, cloud, {});
-  double period = 0, tilt = 0;
+  double period = 0, tilt = 0, amplitude = 0;
   for (const auto& f : ev.task.features) {
     if (f.name == "period_s") period = f.value;
     if (f.name == "max_tilt_deg") tilt = f.value;
+    if (f.name == "amplitude_deg") amplitude = f.value;
   }
   motion::MotionFeatures m;
   m.kind = "tilt";
@@ -39,11 +40,15 @@ TEST(MotionTargets, TumblerSignalGetsTheTasksOwnAnalysis) {
     m.angle_deg.push_back(-ev.task.signal[k]);             // the image angle may have the other sign
   }
   const inference::MotionTargets t = inference::targetsFromMotion(c, m);
-  ASSERT_EQ(t.targets.size(), 2u) << t.note;
+  ASSERT_EQ(t.targets.size(), 3u) << t.note;
   EXPECT_EQ(t.targets[0].first, "period_s");
   EXPECT_NEAR(t.targets[0].second, period, 1e-9 * period);
   EXPECT_EQ(t.targets[1].first, "max_tilt_deg");
   EXPECT_NEAR(t.targets[1].second, tilt, 1e-9);
+  // measured as the task measures it, so the amplitude (where the doll rests) is a target too
+  EXPECT_EQ(t.targets[2].first, "amplitude_deg");
+  EXPECT_GT(amplitude, 1.0);
+  EXPECT_NEAR(t.targets[2].second, amplitude, 1e-9);
   std::printf("[targets] tumbler: task %.5f s %.4f deg; from the observed signal %.5f s %.4f deg\n", period, tilt,
               t.targets[0].second, t.targets[1].second);
   // a window that starts mid-swing (a steady rocking seen from a quarter period in): the tracker's

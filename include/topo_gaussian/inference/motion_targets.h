@@ -8,6 +8,8 @@
 //                            so observed and simulated features are measured alike. A maximum tilt that
 //                            does not exceed the release tilt (initial_tilt_deg) by 1 % becomes the
 //                            release tilt: a doll released at rest always reaches it, never less.
+//                            From a window that starts at the release also amplitude_deg (the mean half
+//                            peak-to-peak swing): with the release tilt it fixes the rest tilt.
 //   hanging, balance, stand  target_roll_deg ← equilibrium_deg                   (the camera looks along
 //                            world x, so the image angle is the roll about x; equilibrium measured)
 //   finger                   bend_angle_deg ← bending_angle_deg                  (bending measured)
