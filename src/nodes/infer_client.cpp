@@ -243,5 +243,14 @@ int main(int argc, char** argv) {
                 iou_cavity, iou_solid);
     std::printf("[demo] (centre of mass errors relative to the object's size %.4g m)\n", size);
   }
+  if (!res->identifiability.empty()) {
+    std::string det, fr;
+    for (const auto& m : res->determined_moments) det += (det.empty() ? "" : " ") + m;
+    for (const auto& m : res->free_moments) fr += (fr.empty() ? "" : " ") + m;
+    std::printf("[demo] determined by the experiments: %s; free: %s\n", det.empty() ? "none" : det.c_str(),
+                fr.empty() ? "none" : fr.c_str());
+    std::printf("[demo] %s\n", res->identifiability.c_str());
+    if (!res->next_experiment.empty()) std::printf("[demo] next: %s\n", res->next_experiment.c_str());
+  }
   return status;
 }

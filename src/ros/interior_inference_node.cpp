@@ -469,6 +469,10 @@ void InteriorInferenceNode::execute(const topo_gaussian::InferInteriorGoalConstP
     result.center_of_mass = {mass.com.x(), mass.com.y(), mass.com.z()};
     for (int a = 0; a < 3; ++a)
       for (int b = 0; b < 3; ++b) result.inertia.push_back(mass.inertia(a, b));
+    const inference::IdentifiabilityAnalysis& id = res.identifiability;
+    result.identifiability = id.summary;
+    for (const auto& m : id.moments) (m.determined ? result.determined_moments : result.free_moments).push_back(m.name);
+    if (id.has_suggestion) result.next_experiment = id.suggestion.sentence;
     for (const auto& xe : res.final.experiments) {
       result.experiment_names.push_back(xe.name);
       result.experiment_losses.push_back(xe.eval.loss);
