@@ -60,17 +60,18 @@ std::string spreadSentence(const DesignSpread& s) {
   const int others = s.tried;
   if (!s.computed) return "The design spread was not explored.";
   if (s.accepted <= 1) {
-    o << "No other design found fits the targets as well as the best (" << others << " of " << s.restarts
+    o << "No other design found fits the observations as well as the best (" << others << " of " << s.restarts
       << " searches from other solid fractions finished): the interior looks determined by these observations, as "
          "far as this search can tell.";
   } else if (s.undetermined_fraction <= 0) {
-    o << s.accepted << " designs fit the targets equally well (solid fraction "
+    o << s.accepted << " designs fit the observations equally well (solid fraction "
       << range(s.solid_fraction_min, s.solid_fraction_max, 3)
       << ") and agree on whether every particle is solid or hollow.";
   } else {
     o << numberText(100.0 * s.undetermined_fraction, 3) << " % of the volume is undetermined: " << s.accepted
       << " designs with solid fraction " << range(s.solid_fraction_min, s.solid_fraction_max, 3) << " (mass "
-      << range(s.mass_min_kg, s.mass_max_kg, 3) << " kg) fit the targets equally well; more experiments (another "
+      << range(s.mass_min_kg, s.mass_max_kg, 3)
+      << " kg) fit the observations as well as the best design; more experiments (another "
       << "hanging point, rocking about another axis) would tell them apart.";
   }
   if (s.cancelled) o << " (Cancelled: " << s.tried << " of " << s.restarts << " searches ran.)";
@@ -108,7 +109,8 @@ struct StageOutcome {
 }  // namespace
 
 DesignSpread exploreDesignSpread(const TaskConfig& config, const VolumeCloud& cloud, const Eigen::VectorXd& best_theta,
-                                 const ProblemEvaluation& best, const DesignSpreadOptions& o) {
+                                 const ProblemEvaluation& best, const DesignSpreadOptions& o,
+                                 std::vector<std::vector<double>>* accepted_indicators) {
   const auto t0 = Clock::now();
   DesignSpread s;
   s.computed = true;
@@ -134,11 +136,13 @@ DesignSpread exploreDesignSpread(const TaskConfig& config, const VolumeCloud& cl
   std::mt19937 rng(o.seed);
   std::normal_distribution<double> normal(0.0, 1.0);
   int iteration = o.first_iteration;
-  const auto stage = [&](const InteriorProblem& p, const Eigen::VectorXd& start) {
+  const int pull_budget = std::max(kSpreadMinStageEvaluations, o.max_evaluations / 2);
+  const int polish_budget = std::max(kSpreadMinStageEvaluations, o.max_evaluations - o.max_evaluations / 2);
+  const auto stage = [&](const InteriorProblem& p, const Eigen::VectorXd& start, int budget) {
     OptimizerOptions oo;
     oo.method = o.optimizer;
     oo.learning_rate = o.learning_rate;
-    oo.max_iterations = std::max(1, o.max_evaluations);
+    oo.max_iterations = budget;
     oo.should_stop = o.should_stop;
     bool stopped = false;
     const OptimizerResult r =
@@ -173,13 +177,13 @@ DesignSpread exploreDesignSpread(const TaskConfig& config, const VolumeCloud& cl
             std::isfinite(hi[k] - lo[k]) ? hi[k] - lo[k] : 2.0 * std::max(1.0, best_theta.cwiseAbs().maxCoeff());
         start[k] = std::clamp(start[k] + 0.05 * range * normal(rng), lo[k], hi[k]);
       }
-      const StageOutcome a = stage(pull_problem, start);
+      const StageOutcome a = stage(pull_problem, start, pull_budget);
       d.evaluations += a.evaluations;
       if (a.cancelled) {
         s.cancelled = true;
         break;
       }
-      const StageOutcome b = stage(problem, a.theta);
+      const StageOutcome b = stage(problem, a.theta, polish_budget);
       d.evaluations += b.evaluations;
       if (b.cancelled) {
         s.cancelled = true;
@@ -229,6 +233,7 @@ DesignSpread exploreDesignSpread(const TaskConfig& config, const VolumeCloud& cl
     s.inertia_max = s.inertia_max.cwiseMax(diag);
   }
   s.sentence = spreadSentence(s);
+  if (accepted_indicators) *accepted_indicators = std::move(accepted_r);
   s.seconds = secondsSince(t0);
   return s;
 }

@@ -1,5 +1,6 @@
 #include "topo_gaussian/inference/pipeline.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -51,7 +52,7 @@ void exploreSpread(const TaskConfig& config, const VolumeCloud& cloud, const Pro
   }
   DesignSpreadOptions so;
   so.restarts = restarts;
-  so.max_evaluations = config.integer("max_iterations");
+  so.max_evaluations = std::min(config.integer("max_iterations"), std::max(1, res->optimizer.evaluations));
   so.should_stop = should_stop;
   so.progress = progress;
   so.first_iteration = res->optimizer.iterations;

@@ -139,7 +139,7 @@ void declareCommonParameters(TaskParameters& p) {
   p.integer("restarts", 4, "unitless",
             "further optimisations after the best design, pulled to other solid fractions, that look for designs "
             "fitting as well (per-particle solid/hollow confidence, spread of mass and solid fraction), unitless; "
-            "each costs up to 2 x max_iterations evaluations; 0: none",
+            "each costs about as many evaluations as the main run (at least 20); 0: none",
             0, 1000);
 }
 

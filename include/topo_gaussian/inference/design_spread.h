@@ -27,13 +27,18 @@
 namespace topo_gaussian::inference {
 
 /// Without reached targets, a design is accepted when its task loss ≤ this × the best's (+1e-15).
-constexpr double kSpreadLossFactor = 1.1;
+constexpr double kSpreadLossFactor = 1.01;
+/// Fewest evaluations of a restart's pull and of its polish.
+constexpr int kSpreadMinStageEvaluations = 10;
 /// Weight w_pull of the pull towards another solid fraction (the task losses are dimensionless).
 constexpr double kSpreadPullWeight = 0.1;
 
 struct DesignSpreadOptions {
-  int restarts = 0;                 ///< further designs to look for (0: only the best, nothing explored)
-  int max_evaluations = 200;        ///< per stage (pull, then polish) of one restart
+  int restarts = 0;  ///< further designs to look for (0: only the best, nothing explored)
+  /// Evaluations of one restart, split between its pull (half) and its polish (the rest), at least
+  /// kSpreadMinStageEvaluations each. runInference gives the main run's count (what one fit costs), so
+  /// the search costs about restarts × the main run.
+  int max_evaluations = 200;
   unsigned seed = 1;                ///< of the starts' perturbations
   StopCheck should_stop;            ///< polled like runInference's; true ends the search (partial spread)
   ProgressCallback progress;        ///< every iteration of every restart; false cancels
@@ -79,8 +84,10 @@ bool allTargetsReached(const ProblemEvaluation& evaluation);
 
 /// Runs the search around the best design θ_best (with its evaluation). Throws nothing for a restart
 /// that fails (its note says why); a cancel returns the spread of the designs found so far.
+/// accepted_indicators (optional): r of every accepted design, the best first.
 DesignSpread exploreDesignSpread(const TaskConfig& config, const VolumeCloud& cloud, const Eigen::VectorXd& best_theta,
-                                 const ProblemEvaluation& best, const DesignSpreadOptions& options);
+                                 const ProblemEvaluation& best, const DesignSpreadOptions& options,
+                                 std::vector<std::vector<double>>* accepted_indicators = nullptr);
 
 /// The per-particle part alone: p_solid, confidence and the undetermined volume fraction of the
 /// accepted designs' indicators (designs[0] is the best). Throws TopoError for no design or sizes
