@@ -86,8 +86,9 @@ namespace {
 std::vector<double> pullFractions(double best, double floor, int restarts) {
   const double below_room = std::max(0.0, best - floor), above_room = std::max(0.0, 1.0 - best);
   int n_below = int(std::lround(restarts * below_room / std::max(1e-12, below_room + above_room)));
-  if (restarts >= 2 && above_room > 0.02) n_below = std::min(n_below, restarts - 1);
-  if (restarts >= 2 && below_room > 0.02) n_below = std::max(n_below, 1);
+  // Both ways when there is room (5 % of the volume) on both sides.
+  if (restarts >= 2 && above_room > 0.05) n_below = std::min(n_below, restarts - 1);
+  if (restarts >= 2 && below_room > 0.05) n_below = std::max(n_below, 1);
   const int n_above = restarts - n_below;
   std::vector<double> below, above, out;
   for (int j = 1; j <= n_below; ++j) below.push_back(best - below_room * j / (n_below + 1.0));

@@ -136,7 +136,7 @@ void declareCommonParameters(TaskParameters& p) {
   p.number("gradient_tolerance", 1e-14, "unitless", "stop when the gradient norm is below this, unitless", 0);
   p.vector3("gravity", &g, "m/s^2", "gravity in the world frame [m/s^2]");
   // how sure is the interior (inference/design_spread.h)
-  p.integer("restarts", 4, "unitless",
+  p.integer("restarts", 2, "unitless",
             "further optimisations after the best design, pulled to other solid fractions, that look for designs "
             "fitting as well (per-particle solid/hollow confidence, spread of mass and solid fraction), unitless; "
             "each costs about as many evaluations as the main run (at least 20); 0: none",
