@@ -196,6 +196,7 @@ DesignSpread exploreDesignSpread(const TaskConfig& config, const VolumeCloud& cl
       d.task_loss = ev.task_loss;
       d.mass = ev.task.mass;
       d.accepted = acceptedByFit(ev, best, best_reached);
+      if (!d.accepted) d.note = "the polish ended: " + b.message;
       if (d.accepted) {
         accepted_r.emplace_back();
         problem.indicator(b.theta, &accepted_r.back());
