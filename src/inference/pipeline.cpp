@@ -1,5 +1,6 @@
 #include "topo_gaussian/inference/pipeline.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -37,6 +38,31 @@ std::vector<double> particleStiffness(const TaskConfig& config, const std::vecto
   e.apply(r, &out, nullptr);
   return out;
 }
+
+namespace {
+/// The designs that fit as well as the best (restarts > 0): res.spread, res.solid_confidence and a
+/// sentence in the message. A cancelled run skips it.
+void exploreSpread(const TaskConfig& config, const VolumeCloud& cloud, const ProgressCallback& progress,
+                   const StopCheck& should_stop, InferenceResult* res, std::ostringstream* message) {
+  const int restarts = config.integer("restarts");
+  if (restarts <= 0) return;
+  if (res->cancelled) {
+    *message << " The design spread (restarts = " << restarts << ") was skipped: the run was cancelled.";
+    return;
+  }
+  DesignSpreadOptions so;
+  so.restarts = restarts;
+  so.max_evaluations = std::min(config.integer("max_iterations"), std::max(1, res->optimizer.evaluations));
+  so.should_stop = should_stop;
+  so.progress = progress;
+  so.first_iteration = res->optimizer.iterations;
+  so.optimizer = config.text("optimizer");
+  so.learning_rate = config.number("learning_rate");
+  res->spread = exploreDesignSpread(config, cloud, res->theta, res->final, so);
+  res->solid_confidence = res->spread.confidence;
+  *message << " " << res->spread.sentence;
+}
+}  // namespace
 
 InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud, const ProgressCallback& progress,
                              const EvaluationCallback& on_evaluation, const StopCheck& should_stop) {
@@ -156,6 +182,7 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   if (!res.targets_reached && !outside.empty())
     head << " The target may be unreachable because the " << res.geometry.point_name << " lies outside the object ("
          << outside << ").";
+  exploreSpread(config, cloud, progress, should_stop, &res, &head);
   res.message = head.str();
   // What the experiments determine (rigid observations), at the final design: no optimiser work.
   if (res.cancelled) {

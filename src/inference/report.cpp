@@ -123,6 +123,36 @@ std::string identifiabilityJson(const IdentifiabilityAnalysis& a) {
   return s.str();
 }
 
+/// The "uncertainty" section: the designs that fit as well as the best (inference/design_spread.h).
+std::string uncertaintyJson(const InferenceResult& r) {
+  const DesignSpread& d = r.spread;
+  if (!d.computed) return "{\"explored\": false, \"sentence\": \"not explored (restarts = 0 or cancelled)\"}";
+  double low = 0;  // volume-free summary: particles whose confidence is below 1
+  for (double c : d.confidence) low += c < 1.0 ? 1 : 0;
+  std::ostringstream s;
+  s << "{\"explored\": true, \"restarts\": " << d.restarts << ", \"tried\": " << d.tried
+    << ", \"accepted_designs\": " << d.accepted << ", \"acceptance_rule\": " << quote(d.rule)
+    << ", \"cancelled\": " << (d.cancelled ? "true" : "false")
+    << ", \"undetermined_volume_fraction\": " << num(d.undetermined_fraction) << ", \"uncertain_particles\": " << low
+    << ", \"solid_fraction\": [" << num(d.solid_fraction_min) << ", " << num(d.solid_fraction_max)
+    << "], \"mass_kg\": [" << num(d.mass_min_kg) << ", " << num(d.mass_max_kg)
+    << "], \"center_of_mass_min\": " << vec3(d.com_min_m) << ", \"center_of_mass_max\": " << vec3(d.com_max_m)
+    << ", \"inertia_diagonal_min\": " << vec3(d.inertia_min) << ", \"inertia_diagonal_max\": " << vec3(d.inertia_max)
+    << ", \"sentence\": " << quote(d.sentence) << ", \"seconds\": " << num(d.seconds) << ", \"designs\": [";
+  for (std::size_t k = 0; k < d.designs.size(); ++k) {
+    const SpreadDesign& x = d.designs[k];
+    s << (k ? ", " : "")
+      << "{\"pulled_to_solid_fraction\": " << (x.target_fraction < 0 ? "null" : num(x.target_fraction))
+      << ", \"solid_fraction\": " << num(x.solid_fraction) << ", \"task_loss\": " << num(x.task_loss)
+      << ", \"mass_kg\": " << num(x.mass.mass) << ", \"accepted\": " << (x.accepted ? "true" : "false")
+      << ", \"evaluations\": " << x.evaluations;
+    if (!x.note.empty()) s << ", \"note\": " << quote(x.note);
+    s << "}";
+  }
+  s << "]}";
+  return s.str();
+}
+
 }  // namespace
 
 std::string simulationJson(const ProblemEvaluation& ev, const TaskConfig& config, const TaskGeometry& geometry) {
@@ -155,9 +185,10 @@ std::string reportJson(const InferenceResult& r, const TaskConfig& config) {
   s << "]"
     << ",\n  " << geometryJson(r.final, r.geometry)
     << ",\n  \"initial_center_of_mass\": " << vec3(r.initial.task.mass.com) << ",\n  \"particles\": " << r.r.size()
-    << ",\n  \"parameters_count\": " << r.theta.size() << ",\n  \"timings_s\": {\"setup\": " << num(r.setup_s)
-    << ", \"optimize\": " << num(r.optimize_s) << ", \"per_evaluation\": " << num(r.evaluation_s)
-    << "},\n  \"identifiability\": " << identifiabilityJson(r.identifiability) << ",\n  \"loss_history\": [";
+    << ",\n  \"uncertainty\": " << uncertaintyJson(r) << ",\n  \"parameters_count\": " << r.theta.size()
+    << ",\n  \"timings_s\": {\"setup\": " << num(r.setup_s) << ", \"optimize\": " << num(r.optimize_s)
+    << ", \"per_evaluation\": " << num(r.evaluation_s) << "},\n  \"identifiability\": " << identifiabilityJson(r.identifiability)
+    << ",\n  \"loss_history\": [";
   for (std::size_t i = 0; i < r.optimizer.history.size(); ++i) {
     const auto& h = r.optimizer.history[i];
     s << (i ? ", " : "") << "{\"iteration\": " << h.iteration << ", \"loss\": " << num(h.loss)

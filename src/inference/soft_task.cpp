@@ -36,6 +36,7 @@ void declareSoftParameters(TaskParameters& p, const SoftDefaults& d) {
   p.setDefault("density_hollow", d.density_hollow);
   p.setDefault("density_solid", 1000.0);
   p.setDefault("pin_shell", d.pin_shell ? 1.0 : 0.0);
+  p.setDefault("restarts", 0.0);  // a soft fit costs minutes: the design spread only when asked for
 }
 
 CorotatedSphOptions sphOptionsFromConfig(const TaskConfig& c, double spacing) {

@@ -138,6 +138,12 @@ void declareCommonParameters(TaskParameters& p) {
             "stop when the best loss fell by less than 0.01 % over this many evaluations, unitless (0 = never)", 0,
             1e7);
   p.vector3("gravity", &g, "m/s^2", "gravity in the world frame [m/s^2]");
+  // how sure is the interior (inference/design_spread.h)
+  p.integer("restarts", 2, "unitless",
+            "further optimisations after the best design, pulled to other solid fractions, that look for designs "
+            "fitting as well (per-particle solid/hollow confidence, spread of mass and solid fraction), unitless; "
+            "each costs about as many evaluations as the main run (at least 20); 0: none",
+            0, 1000);
 }
 
 }  // namespace

@@ -342,35 +342,39 @@ std::uint32_t interiorRgb(double r) {
 
 sensor_msgs::PointCloud2 toInteriorCloud(const VolumeCloud& cloud, const std::vector<double>& r,
                                          const std::vector<double>& density, const std::vector<double>& stiffness,
-                                         const std::string& frame_id, const ::ros::Time& stamp) {
+                                         const std::string& frame_id, const ::ros::Time& stamp,
+                                         const std::vector<double>& confidence) {
   const std::size_t n = cloud.size();
-  if (r.size() != n || density.size() != n || (!stiffness.empty() && stiffness.size() != n))
+  if (r.size() != n || density.size() != n || (!stiffness.empty() && stiffness.size() != n) ||
+      (!confidence.empty() && confidence.size() != n))
     throw TopoError("interior",
-                    "has " + std::to_string(r.size()) + " indicator, " + std::to_string(density.size()) +
-                        " density and " + std::to_string(stiffness.size()) + " stiffness values for " +
-                        std::to_string(n) + " particles",
+                    "has " + std::to_string(r.size()) + " indicator, " + std::to_string(density.size()) + " density, " +
+                        std::to_string(stiffness.size()) + " stiffness and " + std::to_string(confidence.size()) +
+                        " confidence values for " + std::to_string(n) + " particles",
                     "give one value per particle of the volume cloud");
   sensor_msgs::PointCloud2 msg;
   msg.header.frame_id = frame_id;
   msg.header.stamp = stamp;
   msg.height = 1;
   sensor_msgs::PointCloud2Modifier modifier(msg);
-  modifier.setPointCloud2Fields(7, "x", 1, PointField::FLOAT32, "y", 1, PointField::FLOAT32, "z", 1,
+  modifier.setPointCloud2Fields(8, "x", 1, PointField::FLOAT32, "y", 1, PointField::FLOAT32, "z", 1,
                                 PointField::FLOAT32, "solid", 1, PointField::FLOAT32, "density", 1, PointField::FLOAT32,
-                                "stiffness", 1, PointField::FLOAT32, "rgb", 1, PointField::FLOAT32);
+                                "stiffness", 1, PointField::FLOAT32, "confidence", 1, PointField::FLOAT32, "rgb", 1,
+                                PointField::FLOAT32);
   modifier.resize(n);
   msg.is_dense = true;
   msg.is_bigendian = false;
   if (n == 0) return msg;  // the iterators dereference data.front(): not on an empty cloud
   sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z"), s(msg, "solid"), d(msg, "density"),
-      e(msg, "stiffness"), c(msg, "rgb");
-  for (std::size_t i = 0; i < n; ++i, ++x, ++y, ++z, ++s, ++d, ++e, ++c) {
+      e(msg, "stiffness"), k(msg, "confidence"), c(msg, "rgb");
+  for (std::size_t i = 0; i < n; ++i, ++x, ++y, ++z, ++s, ++d, ++e, ++k, ++c) {
     *x = float(cloud.X[i].x());
     *y = float(cloud.X[i].y());
     *z = float(cloud.X[i].z());
     *s = float(r[i]);
     *d = float(density[i]);
     *e = stiffness.empty() ? 0.0f : float(stiffness[i]);
+    *k = confidence.empty() ? 1.0f : float(confidence[i]);
     const std::uint32_t rgb = interiorRgb(r[i]);
     std::memcpy(&*c, &rgb, sizeof(rgb));  // packed as PCL does: the float's bits are 0x00RRGGBB
     if (!(std::isfinite(*x) && std::isfinite(*y) && std::isfinite(*z) && std::isfinite(*s))) msg.is_dense = false;

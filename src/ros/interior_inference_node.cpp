@@ -286,7 +286,7 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
     result_continuous_ = done.config.boolean("continuous_material");
   }
   const auto& res = done.result;
-  out.interior = show(*done.volume, done.config, res.r, res.density, res.final, res.geometry);
+  out.interior = show(*done.volume, done.config, res.r, res.density, res.final, res.geometry, res.solid_confidence);
   return out;
 }
 
@@ -306,12 +306,13 @@ inference::ProblemEvaluation InteriorInferenceNode::simulateAndShow(const Volume
 sensor_msgs::PointCloud2 InteriorInferenceNode::show(const VolumeCloud& cloud, const inference::TaskConfig& config,
                                                      const std::vector<double>& r, const std::vector<double>& density,
                                                      const inference::ProblemEvaluation& ev,
-                                                     const inference::TaskGeometry& geometry) {
+                                                     const inference::TaskGeometry& geometry,
+                                                     const std::vector<double>& confidence) {
   // Stamp 0: latched messages stay usable for a late subscriber (rviz transforms them with the latest
   // tf, not with a stamp older than its tf buffer).
   const ::ros::Time stamp(0);
-  auto interior = boost::make_shared<sensor_msgs::PointCloud2>(
-      toInteriorCloud(cloud, r, density, inference::particleStiffness(config, r), params_.object_frame, stamp));
+  auto interior = boost::make_shared<sensor_msgs::PointCloud2>(toInteriorCloud(
+      cloud, r, density, inference::particleStiffness(config, r), params_.object_frame, stamp, confidence));
   InteriorMarkerInput mi;
   mi.cloud = &cloud;
   mi.r = &r;

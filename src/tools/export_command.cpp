@@ -100,6 +100,7 @@ int exportCommand(const std::vector<std::string>& argv) {
     }
   }
   o.continuous = interior.continuous;
+  o.confidence = interior.confidence;  // kept when the run explored the designs that fit as well
   o.title = a.str("title", "interior " + interior_path);
   if (a.has("report")) {
     o.report_source = a.str("report");

@@ -168,6 +168,14 @@ int inferCommand(const std::vector<std::string>& argv) {
   const inference::InferenceResult& res = out.result;
   for (const auto& w : res.warnings) std::cerr << "[topo infer] warning: " << w << "\n";
   std::cerr << "[topo infer] " << out.message << "\n";
+  if (res.spread.computed) {  // the sentence is in the message above; here the ranges behind it
+    const inference::DesignSpread& d = res.spread;
+    std::cerr << "[topo infer] how sure: " << d.accepted << " designs fit as well (of " << d.tried + 1
+              << " tried; rule: " << d.rule << "): solid fraction " << d.solid_fraction_min << " .. "
+              << d.solid_fraction_max << ", mass " << d.mass_min_kg << " .. " << d.mass_max_kg
+              << " kg, centre of mass (" << d.com_min_m.transpose() << ") .. (" << d.com_max_m.transpose()
+              << ") m; undetermined volume " << 100.0 * d.undetermined_fraction << " %\n";
+  }
   for (const auto& f : res.final.task.features) {
     std::cerr << "[topo infer]   " << std::setw(28) << std::left << f.name << " " << f.value << " " << f.unit;
     if (f.has_target) std::cerr << "   (target " << f.target << (f.reached() ? ", reached)" : ", NOT reached)");

@@ -52,8 +52,10 @@ double fitScale(const std::vector<Panel>& panels, const Lattice& L) {
   return std::max(s, 1e-9);
 }
 
+constexpr int kHatchPeriod = 5;  ///< pixels between the hatching's diagonal lines
+
 void drawPanel(cv::Mat& img, const Panel& p, double s, const Lattice& L, const std::vector<Eigen::Vector3d>& X,
-               const std::vector<double>& r, double iso) {
+               const std::vector<double>& r, double iso, const std::vector<double>& confidence) {
   int u, v;
   planeAxes(p.axis, &u, &v);
   const double umin = L.lo[u] - 0.5 * L.h, vmax = L.hi[v] + 0.5 * L.h;
@@ -71,6 +73,13 @@ void drawPanel(cv::Mat& img, const Panel& p, double s, const Lattice& L, const s
     const int y1 = std::max(y0, oy + int(std::floor((vmax - (cv_ - 0.5 * L.h)) * s)) - 1);
     cv::rectangle(img, cv::Point(x0, y0), cv::Point(x1, y1), r[i] >= iso ? kSliceSolidBgr : kSliceHollowBgr,
                   cv::FILLED);
+    if (!confidence.empty() && confidence[i] < 1.0) {  // hatched in image coordinates: lines run on across cells
+      const cv::Vec3b ink(static_cast<uchar>(kSliceUncertainBgr[0]), static_cast<uchar>(kSliceUncertainBgr[1]),
+                          static_cast<uchar>(kSliceUncertainBgr[2]));
+      for (int y = std::max(0, y0); y <= std::min(y1, img.rows - 1); ++y)
+        for (int x = std::max(0, x0); x <= std::min(x1, img.cols - 1); ++x)
+          if ((x + y) % kHatchPeriod == 0) img.at<cv::Vec3b>(y, x) = ink;
+    }
   }
   // Axis arrows (lower left) and a scale bar (lower right) in the strip under the drawing.
   const int base = p.rect.y + p.rect.height - 8;
@@ -107,6 +116,11 @@ cv::Mat drawInteriorSlices(const std::vector<Eigen::Vector3d>& X, const std::vec
     throw TopoError("slice picture",
                     std::to_string(X.size()) + " positions but " + std::to_string(r.size()) + " values of r",
                     "give one indicator value per particle");
+  if (!o.confidence.empty() && o.confidence.size() != X.size())
+    throw TopoError(
+        "slice picture",
+        std::to_string(X.size()) + " positions but " + std::to_string(o.confidence.size()) + " confidence values",
+        "give one confidence per particle, or none");
   if (!(spacing > 0.0) || !std::isfinite(spacing))
     throw TopoError("slice picture", "spacing " + numberText(spacing) + " is not positive", "give the lattice spacing");
   Lattice L;
@@ -124,7 +138,8 @@ cv::Mat drawInteriorSlices(const std::vector<Eigen::Vector3d>& X, const std::vec
   centroid /= double(X.size());
   L.hi = L.lo + spacing * ((L.hi - L.lo) / spacing).array().round().matrix();  // on the lattice
 
-  const int W = std::max(600, o.width), head = 70, row1 = 430, row2 = o.along_count > 0 ? 330 : 0;
+  const int W = std::max(600, o.width), head = o.confidence.empty() ? 70 : 92, row1 = 430,
+            row2 = o.along_count > 0 ? 330 : 0;
   cv::Mat img(head + row1 + row2 + 10, W, CV_8UC3, kSliceOutsideBgr);
 
   std::vector<Panel> top;
@@ -138,7 +153,7 @@ cv::Mat drawInteriorSlices(const std::vector<Eigen::Vector3d>& X, const std::vec
     top.push_back(p);
   }
   const double s1 = fitScale(top, L);
-  for (const Panel& p : top) drawPanel(img, p, s1, L, X, r, o.iso);
+  for (const Panel& p : top) drawPanel(img, p, s1, L, X, r, o.iso, o.confidence);
 
   if (row2 > 0) {
     int longest = 0;
@@ -156,7 +171,7 @@ cv::Mat drawInteriorSlices(const std::vector<Eigen::Vector3d>& X, const std::vec
       along.push_back(p);
     }
     const double s2 = fitScale(along, L);
-    for (const Panel& p : along) drawPanel(img, p, s2, L, X, r, o.iso);
+    for (const Panel& p : along) drawPanel(img, p, s2, L, X, r, o.iso, o.confidence);
     cv::line(img, cv::Point(0, head + row1), cv::Point(W, head + row1), kFrame, 1);
   }
 
@@ -166,6 +181,23 @@ cv::Mat drawInteriorSlices(const std::vector<Eigen::Vector3d>& X, const std::vec
                              numberText(100.0 * double(solid) / double(X.size()), 3) + " %), spacing " +
                              lengthText(spacing);
   drawText(img, counts, cv::Point(14, 56), 0.5, kInk);
+  if (!o.confidence.empty()) {  // a hatched swatch and the count of undetermined particles
+    std::size_t n = 0;
+    for (double c : o.confidence) n += c < 1.0 ? 1 : 0;
+    const cv::Rect swatch(14, 66, 18, 18);
+    cv::rectangle(img, swatch, kSliceSolidBgr, cv::FILLED);
+    for (int y = swatch.y; y < swatch.y + swatch.height; ++y)
+      for (int x = swatch.x; x < swatch.x + swatch.width; ++x)
+        if ((x + y) % kHatchPeriod == 0)
+          img.at<cv::Vec3b>(y, x) =
+              cv::Vec3b(static_cast<uchar>(kSliceUncertainBgr[0]), static_cast<uchar>(kSliceUncertainBgr[1]),
+                        static_cast<uchar>(kSliceUncertainBgr[2]));
+    cv::rectangle(img, swatch, kInk, 1);
+    drawText(img,
+             "hatched: undetermined, designs that fit as well disagree (" + std::to_string(n) + " particles, " +
+                 numberText(100.0 * double(n) / double(X.size()), 3) + " %)",
+             cv::Point(40, 81), 0.5, kInk);
+  }
   int x = W - 520;
   for (const auto& [colour, label] :
        std::vector<std::pair<cv::Scalar, std::string>>{{kSliceSolidBgr, "solid (r >= " + numberText(o.iso) + ")"},

@@ -203,6 +203,7 @@ InferenceRunOutcome runUnguarded(const InferenceRunRequest& rq) {
       eo.signals = out.signals;
       eo.continuous = continuous;
       eo.title = config.task() + " interior";
+      eo.confidence = res.solid_confidence;
       const ExportSummary s = exportInterior(*out.volume, res.r, res.density, eo);
       for (const auto& f : s.files) out.files.push_back(dir + f);
       out.report_json = io::readTextFile(dir + "report.json");  // with its "interface" section
@@ -217,7 +218,7 @@ InferenceRunOutcome runUnguarded(const InferenceRunRequest& rq) {
     } catch (const TopoError& e) {
       out.notes.push_back(std::string("no \"interface\" section in report.json: ") + e.what());
     }
-    io::writeInteriorPly(dir + "interior.ply", *out.volume, res.r, res.density, continuous);
+    io::writeInteriorPly(dir + "interior.ply", *out.volume, res.r, res.density, continuous, res.solid_confidence);
     io::writeTextFile(dir + "report.json", out.report_json);
     out.files.push_back(dir + "interior.ply");
     out.files.push_back(dir + "report.json");

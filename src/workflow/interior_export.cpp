@@ -141,7 +141,7 @@ ExportSummary exportInterior(const VolumeCloud& cloud, const std::vector<double>
                       (s.interface.check.voids == 1 ? " void" : " voids") +
                       " (the hollow parts): resin and powder printers need a drain hole to empty it");
 
-  io::writeInteriorPly(dir + "interior.ply", cloud, r, density, o.continuous);
+  io::writeInteriorPly(dir + "interior.ply", cloud, r, density, o.continuous, o.confidence);
   s.files.push_back("interior.ply");
   writeStlBinary(mesh, dir + "interior.stl", o.stl_scale,
                  "topo_gaussian solid region (r >= " + num(o.iso) + "), unit " + o.stl_unit);
@@ -150,6 +150,7 @@ ExportSummary exportInterior(const VolumeCloud& cloud, const std::vector<double>
   const auto tp = Clock::now();
   vision::SliceOptions so;
   so.iso = o.iso;
+  so.confidence = o.confidence;
   vision::writePng(vision::drawInteriorSlices(cloud.X, r, cloud.spacing, o.title, so), dir + "slices.png");
   s.files.push_back("slices.png");
 

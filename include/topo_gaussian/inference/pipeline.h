@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "topo_gaussian/inference/identifiability.h"
+#include "topo_gaussian/inference/design_spread.h"
 #include "topo_gaussian/inference/interior_problem.h"
 #include "topo_gaussian/inference/optimizer.h"
 #include "topo_gaussian/inference/task_config.h"
@@ -30,6 +31,10 @@ struct InferenceResult {
   bool cancelled = false;             ///< by progress or should_stop: the best design evaluated so far
   std::vector<std::string> warnings;  ///< for a person, not errors (e.g. a hanging point outside the object)
   std::string message;                ///< one paragraph for a person: what happened, how close, what to do
+  /// Designs that fit as well as the best (restarts > 0; inference/design_spread.h): per particle the
+  /// agreement with the best design's solid/hollow label (empty when not explored), and the spread.
+  std::vector<double> solid_confidence;
+  DesignSpread spread;
   double setup_s = 0, optimize_s = 0, evaluation_s = 0;  ///< timings; evaluation_s = per loss+gradient
   /// What the experiments determine at the final design, and the next experiment (identifiability.h);
   /// available = false (with notes) for tasks without observations or a cancelled run.

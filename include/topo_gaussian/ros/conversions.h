@@ -6,9 +6,11 @@
 //  - PointCloud2 (volume layout) -> VolumeCloud, for tests and later nodes.
 //  - ContactSamples <-> PointCloud2 "contact layout": x y z normal_x normal_y normal_z area (FLOAT32;
 //    m, unit, m^2), published by cloud_ingest on `contact_samples` beside `volume` with the same stamp.
-//  - an inferred interior <-> PointCloud2 "interior layout": x y z solid density stiffness rgb, all
-//    FLOAT32 (m, r in [0, 1], kg/m^3, Pa or 0 for rigid tasks, and rgb packed as PCL and rviz read
-//    it: solid red, hollow blue, blended by r).
+//  - an inferred interior <-> PointCloud2 "interior layout": x y z solid density stiffness confidence
+//    rgb, all FLOAT32 (m, r in [0, 1], kg/m^3, Pa or 0 for rigid tasks, the agreement in [0, 1] of
+//    the designs that fit as well with this particle's solid/hollow label (inference/design_spread.h;
+//    1 when not explored or for a known interior), and rgb packed as PCL and rviz read it: solid red,
+//    hollow blue, blended by r).
 // Errors are TopoError with a message that names the topic (or other source) and the field.
 #pragma once
 
@@ -58,11 +60,13 @@ constexpr std::uint32_t kSolidRgb = 0xDC2828, kHollowRgb = 0x2864DC;
 /// The colour of a particle with indicator r: kHollowRgb at 0, kSolidRgb at 1, linear between.
 std::uint32_t interiorRgb(double r);
 
-/// An interior (r, density per particle; stiffness per particle or empty = 0) as a PointCloud2 in
-/// the interior layout. Throws TopoError when the sizes differ from the cloud's.
+/// An interior (r, density per particle; stiffness per particle or empty = 0; confidence per
+/// particle or empty = 1) as a PointCloud2 in the interior layout. Throws TopoError when the sizes
+/// differ from the cloud's.
 sensor_msgs::PointCloud2 toInteriorCloud(const VolumeCloud& cloud, const std::vector<double>& r,
                                          const std::vector<double>& density, const std::vector<double>& stiffness,
-                                         const std::string& frame_id, const ::ros::Time& stamp);
+                                         const std::string& frame_id, const ::ros::Time& stamp,
+                                         const std::vector<double>& confidence = {});
 
 /// Positions and r (the `solid` field) of a cloud in the interior layout (x y z solid required, the
 /// rest ignored). Throws TopoError naming `source` for missing fields, malformed data, or r outside

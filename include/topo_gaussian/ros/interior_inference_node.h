@@ -5,7 +5,7 @@
 //   out: action `infer_interior` (InferInterior.action: feedback every iteration, result with the
 //        interior cloud, achieved vs target features and the files written; a cancel or a new goal
 //        returns the best design so far; invalid goals abort with the reason)
-//        topic `interior` (PointCloud2, latched; x y z solid density stiffness rgb, frame ~object_frame)
+//        topic `interior` (PointCloud2, latched; x y z solid density stiffness confidence rgb, frame ~object_frame)
 //        topic `interior_markers` (MarkerArray, latched; see interior_markers.h)
 //        tf ~world_frame → ~object_frame: the simulated motion of the latest result, replayed in a loop
 //        services ~infer (Infer.srv, the blocking form of the action), ~simulate (SimulateInterior.srv),
@@ -117,7 +117,8 @@ class InteriorInferenceNode {
   /// starts replaying its motion; returns the interior cloud it published.
   sensor_msgs::PointCloud2 show(const VolumeCloud& cloud, const inference::TaskConfig& config,
                                 const std::vector<double>& r, const std::vector<double>& density,
-                                const inference::ProblemEvaluation& ev, const inference::TaskGeometry& geometry);
+                                const inference::ProblemEvaluation& ev, const inference::TaskGeometry& geometry,
+                                const std::vector<double>& confidence = {});
   /// Simulates a design and shows it (one InteriorProblem for the features, density and geometry).
   inference::ProblemEvaluation simulateAndShow(const VolumeCloud& cloud, const inference::TaskConfig& config,
                                                const std::vector<double>& r, bool show_it);

@@ -62,6 +62,7 @@ struct ExportOptions {
   std::string stl_unit = "mm";                ///< written in the STL header and export.json
   bool continuous = false;                    ///< interior.ply comment: r is a density fraction
   std::string title = "interior";             ///< heading of the pictures
+  std::vector<double> confidence;  ///< per particle (inference/design_spread.h) or empty: interior.ply, slices.png
 };
 
 struct ExportSummary {
