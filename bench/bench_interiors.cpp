@@ -424,7 +424,7 @@ CaseResult runCase(const CaseSpec& s, bool quick, unsigned seed, const std::stri
 }
 
 std::string sharedData() {
-  for (const char* p : {"../shared/data", "../../shared/data", "/work/shared/data"})
+  for (const char* p : {"../shared/data", "../../shared/data"})  // from the repository root (or build/)
     if (std::filesystem::exists(std::string(p) + "/meshes/spot.obj")) return p;
   return "";
 }
