@@ -41,6 +41,7 @@
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/json.h"
+#include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/geometry/ingest.h"
 #include "topo_gaussian/geometry/shape_generator.h"
 #include "topo_gaussian/inference/pipeline.h"
@@ -380,9 +381,16 @@ CaseResult runCase(const CaseSpec& s, bool quick, unsigned seed, const std::stri
   vision::writePng(both, png);
   out.seconds = seconds(t0);
 
-  // determined: ... — the identifiability analysis (issue 16 §2: which of the ten moments the
-  // experiments determine) prints here once InferenceResult carries it.
-  const std::string determined = "pending (issue 16 §2)";
+  // determined: the identifiability analysis (issue 16 §2): the moments the experiments determine
+  // and how many combinations of the ten they pin; then how much of the volume the designs that fit
+  // as well disagree on (the design spread).
+  std::string determined;
+  const auto& id = result.identifiability;
+  for (const auto& m : id.moments)
+    if (m.determined) determined += (determined.empty() ? "" : " ") + m.name;
+  determined = (determined.empty() ? std::string("none") : determined) + " (" +
+               std::to_string(id.determined_directions) + " of 10 combinations; undetermined volume " +
+               numberText(100.0 * result.spread.undetermined_fraction, 3) + " %)";
 
   std::string names;
   int hangs = 0, rocks = 0;

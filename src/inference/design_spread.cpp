@@ -17,10 +17,29 @@ bool allTargetsReached(const ProblemEvaluation& ev) {
   return true;
 }
 
+/// Every targeted feature of the candidate within its tolerance of the best design's value: the two
+/// are indistinguishable at the tolerance that calls a feature matched (Feature::reached).
+bool matchesBestWithinTolerance(const ProblemEvaluation& candidate, const ProblemEvaluation& best) {
+  const auto& fb = best.task.features;
+  const auto& fc = candidate.task.features;
+  if (fb.size() != fc.size()) return false;
+  bool any = false;
+  for (std::size_t k = 0; k < fb.size(); ++k) {
+    if (!fb[k].has_target) continue;
+    any = true;
+    const double tol = fb[k].tolerance * std::max(std::abs(fb[k].target), fb[k].scale);
+    if (!(std::abs(fc[k].value - fb[k].value) <= tol)) return false;
+  }
+  return any;
+}
+
 bool acceptedByFit(const ProblemEvaluation& candidate, const ProblemEvaluation& best, bool best_reached) {
   if (!std::isfinite(candidate.task_loss)) return false;
   if (best_reached) return allTargetsReached(candidate);
-  return candidate.task_loss <= kSpreadLossFactor * best.task_loss + 1e-15;
+  // The best leaves a residual (model error, or experiments that disagree): a design fits as well
+  // when its loss is as low, or when its features cannot be told from the best's at the tolerance.
+  return candidate.task_loss <= kSpreadLossFactor * best.task_loss + 1e-15 ||
+         matchesBestWithinTolerance(candidate, best);
 }
 
 void summarizeDesigns(const std::vector<std::vector<double>>& designs, const VolumeCloud& cloud, DesignSpread* spread) {
@@ -119,7 +138,8 @@ DesignSpread exploreDesignSpread(const TaskConfig& config, const VolumeCloud& cl
   const bool best_reached = allTargetsReached(best);
   s.rule = best_reached ? "every target reached (as by the best design)"
                         : "task loss <= " + numberText(kSpreadLossFactor) +
-                              " x the best design's (the best reached not every target)";
+                              " x the best design's, or every targeted feature within its tolerance of the best "
+                              "design's (the best reached not every target)";
   InteriorProblem problem(config, cloud);
   problem.setShouldStop(o.should_stop);
   Eigen::VectorXd lo, hi;

@@ -200,6 +200,12 @@ IdentifiabilityAnalysis analyseMomentJacobian(const MomentJacobian& J_si, const 
 double undeterminedScore(const IdentifiabilityAnalysis& a) {
   double s = 0;
   for (const auto& m : a.moments) s += std::log(std::min(m.std_relative, 1.0));
+  // Combinations count too: a moment is determined only when no free direction touches it, so an
+  // experiment that pins one more combination (a new hang fixes c along one more direction while m
+  // stays free) lowers no single moment's std yet is progress. −Σ_k log clamp(threshold·s_k, 1e-8, 1):
+  // 0 when every direction is determined, +18.4 for each free one.
+  for (int k = 0; k < a.singular_values.size(); ++k)
+    s -= std::log(std::clamp(a.threshold * a.singular_values(k), 1e-8, 1.0));
   return s;
 }
 
@@ -249,6 +255,7 @@ void suggestNextExperiment(const InteriorProblem& problem, const std::vector<dou
     appendObservationRows(ev, 1.0, false, &J);
     const IdentifiabilityAnalysis a = analyseMomentJacobian(J, u, options.determined_threshold);
     cand.score_gain = base - undeterminedScore(a);
+    cand.directions_after = a.determined_directions;
     for (int j = 0; j < 10; ++j)
       if (a.moments[j].determined && !analysis->moments[j].determined) cand.newly_determined.push_back(kNames[j]);
   };
@@ -340,6 +347,10 @@ void suggestNextExperiment(const InteriorProblem& problem, const std::vector<dou
         if (n == kNames[j]) idx.push_back(j);
     if (!idx.empty())
       s << " to fix " << momentWords(idx);
+    else if (cand.directions_after > analysis->determined_directions)
+      s << " to determine " << (cand.directions_after - analysis->determined_directions)
+        << " more combination(s) of the moments (" << analysis->determined_directions << " -> " << cand.directions_after
+        << " of 10)";
     else
       s << " to narrow the undetermined moments (score gain " << numberText(cand.score_gain, 3) << ")";
     cand.sentence = s.str();

@@ -17,6 +17,7 @@
 #include <sensor_msgs/point_cloud2_iterator.h>
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -242,6 +243,17 @@ int main(int argc, char** argv) {
     std::printf("[demo] IoU of the cavity %.3f, of the solid %.3f (recovered particles against the twin's interior)\n",
                 iou_cavity, iou_solid);
     std::printf("[demo] (centre of mass errors relative to the object's size %.4g m)\n", size);
+  }
+  {  // how sure: the share of particles whose solid/hollow label the designs that fit as well disagree on
+    bool has = false;
+    for (const auto& f : res->interior.fields) has = has || f.name == "confidence";
+    if (has && res->interior.width * res->interior.height > 0) {
+      sensor_msgs::PointCloud2ConstIterator<float> c(res->interior, "confidence");
+      std::size_t n = 0, unsure = 0;
+      for (; c != c.end(); ++c, ++n) unsure += *c < 0.999f;
+      std::printf("[demo] %.1f %% of the particles are uncertain (designs that fit as well disagree on them)\n",
+                  100.0 * double(unsure) / double(std::max<std::size_t>(n, 1)));
+    }
   }
   if (!res->identifiability.empty()) {
     std::string det, fr;

@@ -5,7 +5,8 @@
 //     L_pull(θ) = L_task(θ) + w_pull (f(θ) − f*)²,   f = Σ V_i r_i / Σ V_i,
 // then polished on the unpulled loss from where the pull left it. A design is ACCEPTED when it fits
 // as well as the best (acceptedByFit): every target reached when the best reached them all,
-// otherwise a task loss within kSpreadLossFactor × the best's. From the accepted designs (the best
+// otherwise a task loss within kSpreadLossFactor × the best's, or every targeted feature within its
+// tolerance of the best design's value (indistinguishable at the tolerance that calls it matched). From the accepted designs (the best
 // included), per particle i with solid_i = r_i ≥ 0.5:
 //     p_solid_i    = (designs in which i is solid) / (accepted designs)
 //     confidence_i = (designs whose label of i is the best design's label) / (accepted designs)

@@ -49,6 +49,7 @@ struct ExperimentSuggestion {
   Eigen::Vector3d axis = Eigen::Vector3d::Zero();   ///< rocking axis, body frame (rock)
   double score_gain = 0.0;                          ///< decrease of Σ_j log min(std_j/u_j, 1)
   std::vector<std::string> newly_determined;        ///< moment names that become determined
+  int directions_after = 0;                         ///< determined directions with this experiment added
   std::string sentence;                             ///< "hang it from (x, y, z) m to fix ..."
 };
 
@@ -94,7 +95,8 @@ void appendObservationRows(const TaskEvaluation& evaluation, double weight, bool
 IdentifiabilityAnalysis analyseMomentJacobian(const MomentJacobian& J_si, const MomentVector& natural_units,
                                               double threshold = 0.02);
 
-/// Σ_j log min(std_j / u_j, 1): lower is better determined (a free moment counts 0).
+/// Σ_j log min(std_j / u_j, 1) − Σ_k log clamp(threshold · s_k, 1e-8, 1): lower is better determined (a
+/// free moment counts 0; each free direction of J counts +18.4, a determined one 0).
 double undeterminedScore(const IdentifiabilityAnalysis& analysis);
 
 /// dp/dr (10 × N): how the ten mass properties move with each particle's indicator (task's density).
