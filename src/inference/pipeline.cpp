@@ -60,6 +60,18 @@ void exploreSpread(const TaskConfig& config, const VolumeCloud& cloud, const Pro
   so.learning_rate = config.number("learning_rate");
   res->spread = exploreDesignSpread(config, cloud, res->theta, res->final, so);
   res->solid_confidence = res->spread.confidence;
+  if (res->spread.found_better) {  // the best design evaluated is the result, wherever it was found
+    const double before = res->final.loss;
+    InteriorProblem problem(config, cloud);
+    res->theta = res->spread.better_theta;
+    res->final = res->spread.better_evaluation;
+    problem.indicator(res->theta, &res->r);
+    problem.task().density().apply(res->r, &res->density, nullptr);
+    res->targets_reached = allTargetsReached(res->final);
+    res->converged = res->converged && res->targets_reached;
+    *message << " A search from another solid fraction found a design with a lower loss (" << res->final.loss << " < "
+             << before << "): it is the result.";
+  }
   *message << " " << res->spread.sentence;
 }
 }  // namespace

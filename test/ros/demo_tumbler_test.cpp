@@ -65,6 +65,7 @@ topo_gaussian::InferInteriorGoal tumblerGoal() {
   g.experiments = kExperiments;
   g.overrides = kTwinOverrides;
   g.overrides.push_back("rock25.initial_tilt_deg=25");
+  g.overrides.push_back("restarts=1");  // one search for designs that fit as well (make demo: the default 2)
   return g;
 }
 
@@ -114,7 +115,7 @@ TEST(DemoTumbler, EndToEndReproducesTheTwinsGroundTruth) {
     if (!fb->feature_names.empty() && fb->feature_names.size() == fb->feature_values.size()) with_features = true;
     if (fb->experiment_names.size() == 2 && fb->experiment_losses.size() == 2) with_experiments = true;
   });
-  ASSERT_TRUE(c->waitForResult(ros::Duration(400.0))) << "no result in 400 s";
+  ASSERT_TRUE(c->waitForResult(ros::Duration(700.0))) << "no result in 700 s";
   ASSERT_EQ(c->getState(), actionlib::SimpleClientGoalState::SUCCEEDED) << c->getResult()->message;
   const auto res = c->getResult();
   const double T1 = valueOf(res->feature_names, res->achieved, "rock10.period_s");

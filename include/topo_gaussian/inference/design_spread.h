@@ -6,8 +6,8 @@
 // then polished on the unpulled loss from where the pull left it. A design is ACCEPTED when it fits
 // as well as the best (acceptedByFit): every target reached when the best reached them all,
 // otherwise a task loss within kSpreadLossFactor × the best's, or every targeted feature within its
-// tolerance of the best design's value (indistinguishable at the tolerance that calls it matched). From the accepted designs (the best
-// included), per particle i with solid_i = r_i ≥ 0.5:
+// tolerance of the best design's value (indistinguishable at the tolerance that calls it matched). From the accepted
+// designs (the best included), per particle i with solid_i = r_i ≥ 0.5:
 //     p_solid_i    = (designs in which i is solid) / (accepted designs)
 //     confidence_i = (designs whose label of i is the best design's label) / (accepted designs)
 // (1 = every design that fits agrees; ≤ 0.5 = at least as many designs that fit disagree), and the
@@ -71,6 +71,11 @@ struct DesignSpread {
   Eigen::Vector3d com_min_m = Eigen::Vector3d::Zero(), com_max_m = Eigen::Vector3d::Zero();
   /// Diagonal of the inertia about the centre of mass, body axes [kg m²].
   Eigen::Vector3d inertia_min = Eigen::Vector3d::Zero(), inertia_max = Eigen::Vector3d::Zero();
+  /// A restart ended at a lower task loss than the best design it started from: that design is the
+  /// reference instead (acceptance and confidence are judged against it), and runInference returns it.
+  bool found_better = false;
+  Eigen::VectorXd better_theta;
+  ProblemEvaluation better_evaluation;
   std::string rule;      ///< the acceptance rule, in words
   std::string sentence;  ///< for a person: how much of the volume is undetermined
   double seconds = 0;
