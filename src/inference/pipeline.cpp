@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/common/stopwatch.h"
 #include "topo_gaussian/inference/task_registry.h"
 
@@ -74,6 +75,49 @@ void exploreSpread(const TaskConfig& config, const VolumeCloud& cloud, const Pro
   }
   *message << " " << res->spread.sentence;
 }
+/// Grey designs: the drawn interior (solid where r ≥ 0.5) against the simulated one (grey r).
+void checkBinarised(const TaskConfig& config, const VolumeCloud& cloud, const InteriorProblem& problem,
+                    InferenceResult* res, std::ostringstream* message) {
+  if (res->cancelled || res->r.size() != cloud.size() || config.boolean("continuous_material")) return;
+  double grey = 0;
+  std::vector<double> binary(res->r.size());
+  for (std::size_t i = 0; i < res->r.size(); ++i) {
+    if (res->r[i] > 0.1 && res->r[i] < 0.9) grey += cloud.V[i];
+    binary[i] = res->r[i] >= 0.5 ? 1.0 : 0.0;
+  }
+  res->grey_fraction = grey / cloud.totalVolume();
+  if (!(res->grey_fraction > 0.01)) return;
+  try {
+    res->binarised = problem.evaluateIndicator(binary, nullptr);
+    res->has_binarised = true;
+  } catch (const SimulationCancelled&) {
+    return;
+  } catch (const TopoError& e) {
+    res->warnings.push_back("the binarised design (solid where r >= 0.5, as drawn) could not be simulated: " +
+                            std::string(e.what()));
+    return;
+  }
+  std::ostringstream differ;
+  const auto& a = res->final.task.features;
+  const auto& b = res->binarised.task.features;
+  for (std::size_t k = 0; k < a.size() && k < b.size(); ++k) {
+    if (!a[k].has_target) continue;
+    const double tol = a[k].tolerance * std::max(std::abs(a[k].target), a[k].scale);
+    if (std::abs(b[k].value - a[k].value) > tol)
+      differ << (differ.tellp() > 0 ? ", " : "") << a[k].name << " " << b[k].value << " " << a[k].unit << " (result "
+             << a[k].value << ", target " << a[k].target << ")";
+  }
+  if (differ.tellp() == 0) return;
+  std::ostringstream w;
+  w << numberText(100.0 * res->grey_fraction, 3) << " % of the volume is grey (0.1 < r < 0.9, a density between the "
+    << "materials): the drawn interior (solid where r >= 0.5, solid fraction "
+    << numberText(res->binarised.solid_fraction, 3) << ") is not the simulated one (solid fraction "
+    << numberText(res->final.solid_fraction, 3) << ") and simulates " << differ.str()
+    << "; read the result as a density field, or sharpen it (smaller epsilon, weight_smoothness)";
+  res->warnings.push_back(w.str());
+  *message << " Warning: " << w.str() << ".";
+}
+
 }  // namespace
 
 InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud, const ProgressCallback& progress,
@@ -195,6 +239,7 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
     head << " The target may be unreachable because the " << res.geometry.point_name << " lies outside the object ("
          << outside << ").";
   exploreSpread(config, cloud, progress, should_stop, &res, &head);
+  checkBinarised(config, cloud, problem, &res, &head);
   res.message = head.str();
   // What the experiments determine (rigid observations), at the final design: no optimiser work.
   if (res.cancelled) {

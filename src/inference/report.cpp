@@ -185,10 +185,14 @@ std::string reportJson(const InferenceResult& r, const TaskConfig& config) {
   s << "]"
     << ",\n  " << geometryJson(r.final, r.geometry)
     << ",\n  \"initial_center_of_mass\": " << vec3(r.initial.task.mass.com) << ",\n  \"particles\": " << r.r.size()
-    << ",\n  \"uncertainty\": " << uncertaintyJson(r) << ",\n  \"parameters_count\": " << r.theta.size()
-    << ",\n  \"timings_s\": {\"setup\": " << num(r.setup_s) << ", \"optimize\": " << num(r.optimize_s)
-    << ", \"per_evaluation\": " << num(r.evaluation_s) << "},\n  \"identifiability\": " << identifiabilityJson(r.identifiability)
-    << ",\n  \"loss_history\": [";
+    << ",\n  \"uncertainty\": " << uncertaintyJson(r) << ",\n  \"grey_fraction\": " << num(r.grey_fraction)
+    << ",\n  \"binarised\": "
+    << (r.has_binarised ? "{\"solid_fraction\": " + num(r.binarised.solid_fraction) + ", \"loss\": " +
+                              num(r.binarised.loss) + ", \"features\": " + featuresJson(r.binarised.task.features) + "}"
+                        : std::string("null"))
+    << ",\n  \"parameters_count\": " << r.theta.size() << ",\n  \"timings_s\": {\"setup\": " << num(r.setup_s)
+    << ", \"optimize\": " << num(r.optimize_s) << ", \"per_evaluation\": " << num(r.evaluation_s)
+    << "},\n  \"identifiability\": " << identifiabilityJson(r.identifiability) << ",\n  \"loss_history\": [";
   for (std::size_t i = 0; i < r.optimizer.history.size(); ++i) {
     const auto& h = r.optimizer.history[i];
     s << (i ? ", " : "") << "{\"iteration\": " << h.iteration << ", \"loss\": " << num(h.loss)

@@ -331,3 +331,35 @@ TEST(Experiments, ContradictoryExperimentsAreSaidToBe) {
   EXPECT_NE(res.message.find("level ("), std::string::npos) << res.message;
   EXPECT_NE(res.message.find("tilted ("), std::string::npos) << res.message;
 }
+
+TEST(Experiments, AGreyDesignIsComparedWithTheBinaryInteriorThatIsDrawn) {
+  // A wide sigmoid (epsilon 20) leaves r between the materials: the interior drawn (solid where
+  // r >= 0.5) is then not the one simulated, and the result says so with the binary design's features.
+  const CavityBox box;
+  TaskConfig c = TaskConfig::defaults("hanging");
+  c.set("epsilon", "20");
+  c.set("restarts", "0");
+  c.set("hanging_point", "0.004,0,0.04");
+  const InferenceResult res = runInference(c, box.cloud);
+  EXPECT_GT(res.grey_fraction, 0.5) << res.message;
+  ASSERT_TRUE(res.has_binarised);
+  double grey_offset = -1, binary_offset = -1;
+  for (const auto& f : res.final.task.features)
+    if (f.name == "com_offset_m") grey_offset = f.value;
+  for (const auto& f : res.binarised.task.features)
+    if (f.name == "com_offset_m") binary_offset = f.value;
+  ASSERT_GE(grey_offset, 0);
+  ASSERT_GE(binary_offset, 0);
+  std::printf("[grey] grey fraction %.3f: c offset %.3g m simulated, %.3g m drawn\n", res.grey_fraction, grey_offset,
+              binary_offset);
+  EXPECT_GT(std::abs(binary_offset - grey_offset), 10 * 1e-3 * 0.1414) << "the drawn design hangs differently";
+  ASSERT_FALSE(res.warnings.empty());
+  EXPECT_NE(res.warnings.back().find("is grey"), std::string::npos) << res.warnings.back();
+  EXPECT_NE(res.message.find("not the simulated one"), std::string::npos) << res.message;
+  // A sharp design (the default epsilon, reached targets) is not flagged unless it is grey.
+  TaskConfig sharp = TaskConfig::defaults("hanging");
+  sharp.set("restarts", "0");
+  sharp.set("hanging_point", "0,0,0.04");
+  const InferenceResult ok = runInference(sharp, box.cloud);
+  for (const auto& w : ok.warnings) EXPECT_EQ(w.find("is grey"), std::string::npos) << w;
+}

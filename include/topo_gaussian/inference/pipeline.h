@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "topo_gaussian/inference/identifiability.h"
 #include "topo_gaussian/inference/design_spread.h"
+#include "topo_gaussian/inference/identifiability.h"
 #include "topo_gaussian/inference/interior_problem.h"
 #include "topo_gaussian/inference/optimizer.h"
 #include "topo_gaussian/inference/task_config.h"
@@ -25,6 +25,13 @@ struct InferenceResult {
   std::vector<double> density;  ///< [kg/m³]
   ProblemEvaluation initial;    ///< the starting design (fully solid unless configured otherwise)
   ProblemEvaluation final;      ///< the best design
+  /// The drawn interior is binary (solid where r ≥ 0.5) but the simulated one may be grey (0 < r < 1:
+  /// a density between the materials). grey_fraction = Σ V_i [0.1 < r_i < 0.9] / Σ V_i; above 1 %
+  /// the binarised design is simulated too (has_binarised) and a warning says when its features
+  /// differ from the result's by more than their tolerance (continuous_material: not checked).
+  double grey_fraction = 0.0;
+  bool has_binarised = false;
+  ProblemEvaluation binarised;
   OptimizerResult optimizer;
   bool converged = false;  ///< optimiser converged AND every target feature reached
   bool targets_reached = false;
