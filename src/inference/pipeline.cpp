@@ -68,8 +68,6 @@ void exploreSpread(const TaskConfig& config, const VolumeCloud& cloud, const Pro
     res->final = res->spread.better_evaluation;
     problem.indicator(res->theta, &res->r);
     problem.task().density().apply(res->r, &res->density, nullptr);
-    res->targets_reached = allTargetsReached(res->final);
-    res->converged = res->converged && res->targets_reached;
     *message << " A search from another solid fraction found a design with a lower loss (" << res->final.loss << " < "
              << before << "): it is the result.";
   }
@@ -202,6 +200,10 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   problem.indicator(res.theta, &res.r);
   problem.task().density().apply(res.r, &res.density, nullptr);
 
+  // The designs that fit as well (a restart that ends lower becomes the result), before the verdict.
+  std::ostringstream spread_message;
+  exploreSpread(config, cloud, progress, should_stop, &res, &spread_message);
+
   // How close are the features to their targets?
   res.targets_reached = true;
   std::ostringstream msg;
@@ -238,7 +240,7 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   if (!res.targets_reached && !outside.empty())
     head << " The target may be unreachable because the " << res.geometry.point_name << " lies outside the object ("
          << outside << ").";
-  exploreSpread(config, cloud, progress, should_stop, &res, &head);
+  head << spread_message.str();
   checkBinarised(config, cloud, problem, &res, &head);
   res.message = head.str();
   // What the experiments determine (rigid observations), at the final design: no optimiser work.
