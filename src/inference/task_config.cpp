@@ -659,13 +659,6 @@ TaskConfig TaskConfig::load(const std::string& name_or_path, const std::string& 
 
 namespace {
 
-/// "NAME=VALUE" → {NAME, VALUE}; a value without '=' (or whose '=' comes after a '/') → {"", VALUE}.
-std::pair<std::string, std::string> namedValue(const std::string& s) {
-  const auto eq = s.find('=');
-  if (eq == std::string::npos || s.find('/') < eq) return {"", s};
-  return {s.substr(0, eq), s.substr(eq + 1)};
-}
-
 /// "dir/rock_x.yaml" → "rock_x"; a task name stays.
 std::string experimentStem(const std::string& path) {
   std::string stem = std::filesystem::path(path).filename().string();
@@ -675,23 +668,30 @@ std::string experimentStem(const std::string& path) {
 
 }  // namespace
 
+std::pair<std::string, std::string> TaskConfig::splitNamedValue(const std::string& s) {
+  const auto eq = s.find('=');
+  if (eq == std::string::npos || s.find('/') < eq) return {"", s};
+  return {s.substr(0, eq), s.substr(eq + 1)};
+}
+
 TaskConfig TaskConfig::loadWithExperiments(const std::string& task, const std::vector<std::string>& experiments,
                                            const std::string& task_dir) {
   if (task.empty() && experiments.empty())
     throw TopoError("task", "is empty and no experiment is given",
                     "name a task (" + joinNames(taskNames()) + "), a task YAML file or experiments");
   std::size_t next = 0;
-  TaskConfig c = load(task.empty() ? namedValue(experiments[0]).second : task, task_dir);
+  TaskConfig c = load(task.empty() ? TaskConfig::splitNamedValue(experiments[0]).second : task, task_dir);
   if (experiments.empty()) return c;
   if (!c.hasExperiments()) {  // the task (or the first experiment) becomes the first experiment
-    const auto [name, file] = task.empty() ? namedValue(experiments[0]) : std::make_pair(std::string(), task);
+    const auto [name, file] =
+        task.empty() ? TaskConfig::splitNamedValue(experiments[0]) : std::make_pair(std::string(), task);
     TaskConfig top = common();
     top.addExperiment(name.empty() ? experimentStem(file) : name, 1.0, c);
     c = std::move(top);
     if (task.empty()) next = 1;
   }
   for (std::size_t i = next; i < experiments.size(); ++i) {
-    const auto [name, file] = namedValue(experiments[i]);
+    const auto [name, file] = TaskConfig::splitNamedValue(experiments[i]);
     c.addExperiment(name.empty() ? experimentStem(file) : name, 1.0, load(file, task_dir));
   }
   return c;

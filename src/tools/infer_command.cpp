@@ -73,13 +73,6 @@ const char* kSimulateHelp =
     "  --trajectory FILE.csv  ball: write the tracked points (t, x y z per point), usable as a target\n"
     "  --json                 print the features as one JSON object\n";
 
-/// "NAME=VALUE" → {NAME, VALUE}; a value without '=' (or whose '=' comes after a '/') → {"", VALUE}.
-std::pair<std::string, std::string> namedValue(const std::string& s) {
-  const auto eq = s.find('=');
-  if (eq == std::string::npos || s.find('/') < eq) return {"", s};
-  return {s.substr(0, eq), s.substr(eq + 1)};
-}
-
 /// The task with --representation and --set applied (targets are the run's: see inferCommand).
 inference::TaskConfig loadConfig(const Args& a) {
   const std::vector<std::string> experiments = a.has("experiment") ? a.all("experiment") : std::vector<std::string>{};
@@ -139,7 +132,7 @@ int inferCommand(const std::vector<std::string>& argv) {
   if (!rq.volume && inference::defaultShapeForTask(config.task()).empty())
     throw UsageError("give --volume or --surface (tasks with a default shape: finger, pear, cantilever)");
   for (const auto& f : a.has("features") ? a.all("features") : std::vector<std::string>{}) {
-    const auto [experiment, file] = namedValue(f);
+    const auto [experiment, file] = inference::TaskConfig::splitNamedValue(f);
     auto window = std::make_shared<motion::MotionFeatures>(io::readMotionFeaturesJson(file));
     if (!experiment.empty()) window->experiment = experiment;
     if (!rq.observed && window->experiment.empty())

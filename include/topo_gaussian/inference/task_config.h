@@ -9,6 +9,7 @@
 #include <map>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace topo_gaussian::inference {
@@ -63,6 +64,9 @@ class TaskConfig {
   /// `topo infer --task T --experiment F ...` and the InferInterior goal's `experiments` load.
   static TaskConfig loadWithExperiments(const std::string& task, const std::vector<std::string>& experiments,
                                         const std::string& task_dir = "");
+  /// "NAME=VALUE" → {NAME, VALUE}; a text without '=' (or whose '=' comes after a '/', a path) →
+  /// {"", text}: how `--experiment [NAME=]FILE` and `--features [NAME=]FILE` are read.
+  static std::pair<std::string, std::string> splitNamedValue(const std::string& text);
   /// The registered tasks, in registry order.
   static std::vector<std::string> taskNames();
 
