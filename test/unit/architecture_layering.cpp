@@ -3,7 +3,9 @@
 // that must not depend on PCL, OpenCV or ROS are not linked against them.
 //
 //   common                       standard library only
-//   physics, topology            common (+ Eigen, OpenMP)
+//   physics                      common (+ Eigen, OpenMP)
+//   cuda                         common, physics (+ the CUDA runtime; part of topo_physics)
+//   topology                     common, physics, cuda (+ Eigen, OpenMP)
 //   io                           common, physics (+ nlohmann_json)
 //   geometry                     common, physics, io (+ PCL)
 //   vision                       common (+ OpenCV)
@@ -29,14 +31,15 @@ const std::map<std::string, std::set<std::string>>& allowed() {
   static const std::map<std::string, std::set<std::string>> a = {
       {"common", {"common"}},
       {"physics", {"common", "physics"}},
-      {"topology", {"common", "physics", "topology"}},
+      {"cuda", {"common", "physics", "cuda"}},
+      {"topology", {"common", "physics", "cuda", "topology"}},
       {"io", {"common", "physics", "io"}},
       {"geometry", {"common", "physics", "io", "geometry"}},
       {"vision", {"common", "vision"}},
-      {"inference", {"common", "physics", "topology", "io", "inference"}},
-      {"workflow", {"common", "physics", "topology", "io", "geometry", "vision", "inference", "workflow"}},
-      {"ros", {"common", "physics", "topology", "io", "geometry", "vision", "inference", "workflow", "ros"}},
-      {"tools", {"common", "physics", "topology", "io", "geometry", "vision", "inference", "workflow"}},
+      {"inference", {"common", "physics", "cuda", "topology", "io", "inference"}},
+      {"workflow", {"common", "physics", "cuda", "topology", "io", "geometry", "vision", "inference", "workflow"}},
+      {"ros", {"common", "physics", "cuda", "topology", "io", "geometry", "vision", "inference", "workflow", "ros"}},
+      {"tools", {"common", "physics", "cuda", "topology", "io", "geometry", "vision", "inference", "workflow"}},
       {"nodes", {"common", "ros"}},
   };
   return a;
@@ -49,7 +52,7 @@ const std::map<std::string, std::vector<std::string>>& forbiddenThirdParty() {
       "actionlib", "cv_bridge",    "pcl_conversions", "visualization_msgs/"};
   static const std::map<std::string, std::vector<std::string>> f = [] {
     std::map<std::string, std::vector<std::string>> m;
-    for (const char* mod : {"common", "physics", "topology", "io", "inference"}) {
+    for (const char* mod : {"common", "physics", "cuda", "topology", "io", "inference"}) {
       m[mod] = ros;
       m[mod].insert(m[mod].end(), {"pcl/", "opencv2/", "flann/"});
     }

@@ -109,6 +109,16 @@ class CorotatedSph {
   const std::vector<Eigen::Vector3d>& kernelGradients() const { return gh_; }
   /// Particles that asked for gradient_order 2 but fell back to order 1 (too few neighbours).
   std::size_t linearFallbacks() const { return linear_fallbacks_; }
+  /// Rest constants of the force gather (see gather() in corotated_sph.cpp), for backends that
+  /// reproduce it (cuda/soft_body_cuda.h): c_i = α μ_i V_i / h², Σ_j V_j ĝ_ij, Σ_j 2 c_i V_j W_ij X_ji,
+  /// per CSR entry k→j the reverse gradient ĝ_jk and the hourglass weights (W_kj c_j X_jk,
+  /// W_kj (c_k V_j + c_j V_k)), and C_i = Σ_j V_j W_ij X_ji X_jiᵀ (empty when hourglass_alpha = 0).
+  const std::vector<double>& hourglassCoefficients() const { return c_; }
+  const std::vector<Eigen::Vector3d>& gradientSums() const { return gsum_; }
+  const std::vector<Eigen::Vector3d>& hourglassSums() const { return hgsum_; }
+  const std::vector<Eigen::Vector3d>& reverseKernelGradients() const { return ghr_; }
+  const std::vector<std::array<double, 4>>& hourglassWeights() const { return hgw_; }
+  const std::vector<Eigen::Matrix3d>& restMoments() const { return moment_; }
 
   // ------------------------------------------------------------ deformed state
   /// Rotations R_i for positions x (per options.rotation).

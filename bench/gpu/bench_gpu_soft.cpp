@@ -1,0 +1,146 @@
+// GPU benchmark of the explicit soft-body step (issue 20 §2): one JSON line per case, each with the
+// CPU path (SoftBodySimulator::step on all host threads) on the same body in the same run.
+//   explicit_<N>_<h>_<precision>  a clamped box (5 mm lattice, E 1e6, ν 0.3, StVK, A_pq rotations,
+//       hourglass 0.1) of N particles, smoothing length h = 1.0 or 1.5 spacings, leapfrog at
+//       dt = 0.5 × stableTimeStep(): particle-steps/s and µs per step of SoftBodyCuda::step over
+//       `steps` steps (graph batches, one status read at the end), the CPU's rate over a few
+//       steps, gpu_over_cpu, and the memory traffic: model_bytes_per_particle_step (what the
+//       kernels stream: per CSR entry the index, ĝ, W, the reverse ĝ and the hourglass weights; per
+//       particle the state and constants, neighbours' x, M and F̃ counted once), the achieved
+//       bandwidth that implies and its share of the measured device-to-device copy bandwidth
+//       (copy_GBs, read + write).
+// Without a CUDA device it prints one line {"case": "gpu", "skipped": reason} and exits 0.
+// Usage: bench_gpu_soft [--quick] [--lanes L] [CASE_SUBSTRING]    (bench/README.md: building on a GPU machine)
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include "../../test/unit/test_clouds.h"
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/cuda/backend.h"
+#include "topo_gaussian/cuda/soft_body_cuda.h"
+
+using namespace topo_gaussian;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+constexpr double kSpacing = 0.005;
+const char* g_only = nullptr;
+double g_copy_GBs = 0.0;
+
+double seconds(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+int threads() {
+#ifdef _OPENMP
+  return omp_get_max_threads();
+#else
+  return 1;
+#endif
+}
+
+std::unique_ptr<SoftBodySimulator> makeBody(int nx, int ny, int nz, double hfac) {
+  const VolumeCloud c = topo_test::boxCloud(nx * kSpacing, ny * kSpacing, nz * kSpacing, kSpacing);
+  CorotatedSphOptions o;
+  o.spacing = kSpacing;
+  o.smoothing_factor = hfac;
+  auto sim = std::make_unique<SoftBodySimulator>(CorotatedSph::fromCloud(c, lameFromYoung(1e6, 0.3), o));
+  double xmin = 1e300;
+  for (const auto& X : c.X) xmin = std::min(xmin, X.x());
+  std::vector<std::uint8_t> clamp(c.size(), 0);
+  for (std::size_t i = 0; i < c.size(); ++i) clamp[i] = c.X[i].x() < xmin + 0.5 * kSpacing;
+  sim->setClamped(clamp);
+  return sim;
+}
+
+int g_lanes = 8;
+
+void gpuCase(const std::string& base, int nx, int ny, int nz, double hfac, int gpu_steps, int cpu_steps) {
+  for (CudaPrecision p : {CudaPrecision::Float64, CudaPrecision::Float32}) {
+    const std::string name = base + (p == CudaPrecision::Float64 ? "_f64" : "_f32");
+    if (g_only && name.find(g_only) == std::string::npos) continue;
+    auto t = Clock::now();
+    auto sim = makeBody(nx, ny, nz, hfac);
+    const double setup_s = seconds(t);
+    const std::size_t n = sim->size();
+    const double nb = double(sim->sph().neighbors().indices.size()) / double(n);
+    const double dt = 0.5 * sim->stableTimeStep();
+    t = Clock::now();
+    SoftBodyCuda gpu(*sim, p, g_lanes);
+    const double upload_s = seconds(t);
+    gpu.step(dt, 100);  // warm-up: graph capture, caches, clocks
+    t = Clock::now();
+    gpu.step(dt, gpu_steps);
+    gpu.synchronize();
+    const double gpu_s = seconds(t);
+    const double gpu_rate = double(n) * gpu_steps / gpu_s;
+    // CPU path, same body: median of cpu_steps steps after one warm-up.
+    std::vector<double> times;
+    for (int k = -1; k < cpu_steps; ++k) {
+      t = Clock::now();
+      sim->step(dt);
+      if (k >= 0) times.push_back(seconds(t));
+    }
+    std::sort(times.begin(), times.end());
+    const double cpu_rate = double(n) / times[times.size() / 2];
+    const double T = p == CudaPrecision::Float64 ? 8.0 : 4.0;
+    const double bytes = (8.0 + 11.0 * T) * nb + 83.0 * T + 17.0;
+    const double achieved = gpu_rate * bytes / 1e9;
+    std::printf(
+        "{\"case\": \"%s\", \"device\": \"%s\", \"particles\": %zu, \"neighbours_mean\": %.1f, \"precision\": \"%s\", "
+        "\"lanes_per_particle\": %d, \"dt_s\": %.3e, \"steps\": %d, \"gpu_seconds\": %.4f, \"particle_steps_per_s\": "
+        "%.4g, \"us_per_step\": %.2f, "
+        "\"baseline\": \"cpu_step\", \"cpu_threads\": %d, \"cpu_particle_steps_per_s\": %.4g, \"gpu_over_cpu\": %.1f, "
+        "\"model_bytes_per_particle_step\": %.0f, \"achieved_GBs\": %.0f, \"copy_GBs\": %.0f, "
+        "\"bandwidth_share\": %.3f, \"bandwidth_bound_particle_steps_per_s\": %.4g, \"setup_s\": %.2f, "
+        "\"upload_s\": %.3f, \"device_MiB\": %.1f}\n",
+        name.c_str(), cudaDeviceInfo().name.c_str(), n, nb, p == CudaPrecision::Float64 ? "float64" : "float32",
+        g_lanes, dt, gpu_steps, gpu_s, gpu_rate, 1e6 * gpu_s / gpu_steps, threads(), cpu_rate, gpu_rate / cpu_rate,
+        bytes, achieved, g_copy_GBs, g_copy_GBs > 0 ? achieved / g_copy_GBs : 0.0, g_copy_GBs * 1e9 / bytes, setup_s,
+        upload_s, double(gpu.deviceBytes()) / (1024.0 * 1024.0));
+    std::fflush(stdout);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  bool quick = false;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--quick") == 0)
+      quick = true;
+    else if (std::strcmp(argv[i], "--lanes") == 0 && i + 1 < argc)
+      g_lanes = std::atoi(argv[++i]);
+    else
+      g_only = argv[i];
+  }
+  const CudaDeviceInfo& info = cudaDeviceInfo();
+  if (!info.available) {
+    std::printf("{\"case\": \"gpu\", \"skipped\": \"%s\"}\n", info.reason.c_str());
+    return 0;
+  }
+  try {
+    g_copy_GBs = cudaCopyBandwidthGBs();
+    const int s = quick ? 10 : 1;
+    // ~9k particles (the finger's size): 30 × 18 × 16 = 8640 cells.
+    gpuCase("explicit_9k_h1.0", 30, 18, 16, 1.0, 20000 / s, 20 / s + 3);
+    gpuCase("explicit_9k_h1.5", 30, 18, 16, 1.5, 20000 / s, 20 / s + 3);
+    // 1e5: 80 × 50 × 25; 1e6: 160 × 100 × 63.
+    gpuCase("explicit_100k_h1.0", 80, 50, 25, 1.0, 2000 / s, 10 / s + 2);
+    gpuCase("explicit_100k_h1.5", 80, 50, 25, 1.5, 2000 / s, 10 / s + 2);
+    if (!quick) gpuCase("explicit_1m_h1.0", 160, 100, 63, 1.0, 200, 3);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_gpu_soft: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

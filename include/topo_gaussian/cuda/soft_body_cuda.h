@@ -1,0 +1,79 @@
+// Explicit soft-body step on a CUDA GPU (issue 20 §1): SoftBodySimulator::step (paper appendix
+// "Soft body dynamics"; physics/soft_body.h) with the same corotated SPH forces
+// (physics/corotated_sph.h) evaluated by two kernels per step:
+//
+//   v ← v + ½dt (f/m + g − c v);  x ← x + dt v              (kick + drift, free particles)
+//   evaluate:  F̃_i = Σ_j V_j x_ji ĝ_ijᵀ,  D_i = Σ_j V_j W_ij x_ji X_jiᵀ,  R_i = polar(D_i or F̃_i),
+//              F_i = R_iᵀF̃_i,  P_i = ∂ψ/∂F,  M_i = V_i R_i P_i + c_i 2(F̃_i C_i − D_i)
+//              − p(t) w_i V_i cof F̃_i   (hourglass, pneumatic chamber term)
+//   gather + kick:  f_k = −Σ_{j∈N(k)} [V_k M_j ĝ_jk − V_j M_k ĝ_kj + q_kj − q_jk];
+//              v ← v + ½dt (f/m + g − c v)
+//
+// The rest constants (neighbourhoods, ĝ, W, the gather's sums) are the CPU body's
+// (CorotatedSph::reverseKernelGradients() etc.), uploaded once; the step is the CPU's arithmetic
+// with each neighbour sum split over a few lanes of a warp, so in float64 a step agrees with
+// SoftBodySimulator::step to round-off. float32
+// keeps positions and constants in single precision (tolerance in test/unit/core_cuda_soft_body.cpp).
+// Batches of steps are captured once in a CUDA graph and replayed (no host synchronisation inside a
+// batch); a batch ends by reading one status word: an inverted particle (det F ≤ 0) or a non-finite
+// velocity throws TopoError naming the particle and the step, as the CPU does.
+//
+// Not on the GPU yet (the constructor refuses them, naming the fix): contact and friction (soft
+// contact on surface samples), the adjoint, implicit steps.
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "topo_gaussian/physics/soft_body.h"
+
+namespace topo_gaussian {
+
+enum class CudaPrecision { Float64, Float32 };
+
+class SoftBodyCuda {
+ public:
+  /// Uploads the simulator's body (rest constants, masses, materials, clamps, chamber and pressure
+  /// schedule, gravity, damping) and state (x, v, conservative forces, time). Throws TopoError when
+  /// this build or machine has no CUDA device (cudaDeviceInfo().reason), or the simulator uses what
+  /// the GPU step does not have yet (contact).
+  /// lanes_per_particle: threads that share one particle's neighbour sums (1, 2, 4, 8, 16, 32; 8 is
+  /// the default, bench/gpu compares them).
+  explicit SoftBodyCuda(const SoftBodySimulator& sim, CudaPrecision precision = CudaPrecision::Float64,
+                        int lanes_per_particle = 8);
+  ~SoftBodyCuda();
+  SoftBodyCuda(const SoftBodyCuda&) = delete;
+  SoftBodyCuda& operator=(const SoftBodyCuda&) = delete;
+
+  std::size_t size() const;
+  CudaPrecision precision() const;
+  /// `steps` leapfrog steps of dt [s]; refuses dt ≤ 0 or dt > the simulator's stableTimeStep().
+  /// Throws TopoError (particle, step) when a particle inverted or a velocity became non-finite; the
+  /// device state is then that of the end of the batch and should not be used.
+  void step(double dt, long steps = 1);
+  /// Waits for the device, then copies the state back.
+  void download(std::vector<Eigen::Vector3d>* x, std::vector<Eigen::Vector3d>* v) const;
+  /// The conservative forces (elastic + pneumatic) of the last evaluation.
+  std::vector<Eigen::Vector3d> forces() const;
+  double time() const;
+  long stepCount() const;
+  /// Waits for the device (timing).
+  void synchronize() const;
+  /// Bytes allocated on the device for this body.
+  std::size_t deviceBytes() const;
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+/// The device's polar rotation (the CPU's Newton iteration; a Jacobi eigen-decomposition of AᵀA for
+/// the matrices it declines: reflected, nearly singular, non-finite) of each matrix; *fallbacks (if
+/// given) counts those. For tests of the kernel against the CPU's. Throws without a device.
+std::vector<Eigen::Matrix3d> cudaPolarRotations(const std::vector<Eigen::Matrix3d>& A, CudaPrecision precision,
+                                                long* fallbacks = nullptr);
+
+}  // namespace topo_gaussian

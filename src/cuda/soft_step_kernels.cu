@@ -1,0 +1,534 @@
+// Kernels of the explicit soft-body step (see include/topo_gaussian/cuda/soft_body_cuda.h for the
+// formulas). Each mirrors a CPU loop of physics/corotated_sph.cpp or physics/soft_body.cpp in the
+// same arithmetic order: evaluateKernel ↔ CorotatedSph::evaluate (EvalMode::Forces),
+// gatherKickKernel ↔ CorotatedSph::gather + the second half kick of SoftBodySimulator::step,
+// kickDriftKernel ↔ its first half kick and drift. Each particle's outputs are written by one
+// thread (deterministic: the same input gives the same bits, batch or single steps).
+#include <cuda_runtime.h>
+
+#include <climits>
+#include <cstdint>
+
+#include "soft_step_kernels.h"
+
+namespace topo_gaussian {
+namespace cuda_detail {
+
+namespace {
+
+constexpr int kBlock = 128;
+
+template <class T>
+struct Mat3 {
+  T a[9];  // column-major: a[r + 3c]
+  __device__ T& operator()(int r, int c) { return a[r + 3 * c]; }
+  __device__ T operator()(int r, int c) const { return a[r + 3 * c]; }
+};
+
+template <class T>
+__device__ inline Mat3<T> zero3() {
+  Mat3<T> m;
+#pragma unroll
+  for (int k = 0; k < 9; ++k) m.a[k] = T(0);
+  return m;
+}
+
+template <class T>
+__device__ inline T sqnorm(const Mat3<T>& m) {
+  T s = 0;
+#pragma unroll
+  for (int k = 0; k < 9; ++k) s += m.a[k] * m.a[k];
+  return s;
+}
+
+/// A·B
+template <class T>
+__device__ inline Mat3<T> mul(const Mat3<T>& A, const Mat3<T>& B) {
+  Mat3<T> C;
+#pragma unroll
+  for (int c = 0; c < 3; ++c)
+#pragma unroll
+    for (int r = 0; r < 3; ++r) C(r, c) = A(r, 0) * B(0, c) + A(r, 1) * B(1, c) + A(r, 2) * B(2, c);
+  return C;
+}
+
+/// Aᵀ·B
+template <class T>
+__device__ inline Mat3<T> mulTn(const Mat3<T>& A, const Mat3<T>& B) {
+  Mat3<T> C;
+#pragma unroll
+  for (int c = 0; c < 3; ++c)
+#pragma unroll
+    for (int r = 0; r < 3; ++r) C(r, c) = A(0, r) * B(0, c) + A(1, r) * B(1, c) + A(2, r) * B(2, c);
+  return C;
+}
+
+template <class T>
+__device__ inline Mat3<T> cofactor3(const Mat3<T>& X) {
+  Mat3<T> C;
+  C(0, 0) = X(1, 1) * X(2, 2) - X(1, 2) * X(2, 1);
+  C(0, 1) = X(1, 2) * X(2, 0) - X(1, 0) * X(2, 2);
+  C(0, 2) = X(1, 0) * X(2, 1) - X(1, 1) * X(2, 0);
+  C(1, 0) = X(0, 2) * X(2, 1) - X(0, 1) * X(2, 2);
+  C(1, 1) = X(0, 0) * X(2, 2) - X(0, 2) * X(2, 0);
+  C(1, 2) = X(0, 1) * X(2, 0) - X(0, 0) * X(2, 1);
+  C(2, 0) = X(0, 1) * X(1, 2) - X(0, 2) * X(1, 1);
+  C(2, 1) = X(0, 2) * X(1, 0) - X(0, 0) * X(1, 2);
+  C(2, 2) = X(0, 0) * X(1, 1) - X(0, 1) * X(1, 0);
+  return C;
+}
+
+template <class T>
+__device__ inline T det3(const Mat3<T>& X) {
+  return X(0, 0) * (X(1, 1) * X(2, 2) - X(1, 2) * X(2, 1)) - X(0, 1) * (X(1, 0) * X(2, 2) - X(1, 2) * X(2, 0)) +
+         X(0, 2) * (X(1, 0) * X(2, 1) - X(1, 1) * X(2, 0));
+}
+
+/// Newton-iteration thresholds: float64 as the CPU (corotated_sph.cpp, PolarNewton); float32 stops
+/// at its own round-off.
+template <class T>
+struct PolarTol;
+template <>
+struct PolarTol<double> {
+  static constexpr double converged = 1e-16, scaled = 1e-4;
+};
+template <>
+struct PolarTol<float> {
+  static constexpr float converged = 1e-11f, scaled = 1e-4f;
+};
+
+/// Symmetric 3×3 eigen-decomposition by cyclic Jacobi rotations: S = Q diag(w) Qᵀ.
+template <class T>
+__device__ void jacobiEigen(Mat3<T> S, Mat3<T>* Q, T w[3]) {
+  Mat3<T> q = zero3<T>();
+  q(0, 0) = q(1, 1) = q(2, 2) = T(1);
+  for (int sweep = 0; sweep < 30; ++sweep) {
+    const T off = S(0, 1) * S(0, 1) + S(0, 2) * S(0, 2) + S(1, 2) * S(1, 2);
+    const T diag = S(0, 0) * S(0, 0) + S(1, 1) * S(1, 1) + S(2, 2) * S(2, 2);
+    if (!(off > T(1e-30) * diag)) break;
+#pragma unroll
+    for (int p = 0; p < 2; ++p)
+#pragma unroll
+      for (int r = p + 1; r < 3; ++r) {
+        const T apq = S(p, r);
+        if (apq == T(0)) continue;
+        const T theta = (S(r, r) - S(p, p)) / (T(2) * apq);
+        const T t = (theta >= T(0) ? T(1) : T(-1)) / (fabs(theta) + sqrt(theta * theta + T(1)));
+        const T c = T(1) / sqrt(t * t + T(1)), s = t * c;
+        // S ← Jᵀ S J with J the rotation in the (p, r) plane.
+#pragma unroll
+        for (int k = 0; k < 3; ++k) {
+          const T skp = S(k, p), skr = S(k, r);
+          S(k, p) = c * skp - s * skr;
+          S(k, r) = s * skp + c * skr;
+        }
+#pragma unroll
+        for (int k = 0; k < 3; ++k) {
+          const T spk = S(p, k), srk = S(r, k);
+          S(p, k) = c * spk - s * srk;
+          S(r, k) = s * spk + c * srk;
+        }
+#pragma unroll
+        for (int k = 0; k < 3; ++k) {
+          const T qkp = q(k, p), qkr = q(k, r);
+          q(k, p) = c * qkp - s * qkr;
+          q(k, r) = s * qkp + c * qkr;
+        }
+      }
+  }
+  w[0] = S(0, 0);
+  w[1] = S(1, 1);
+  w[2] = S(2, 2);
+  *Q = q;
+}
+
+/// Proper rotation of the polar decomposition through AᵀA = V Σ² Vᵀ, U = A V Σ⁻¹ (the direction of
+/// the smallest singular value completed by a cross product, and flipped when det A < 0, as the
+/// CPU's SVD fallback does). For the matrices Newton's iteration declines: reflected, nearly
+/// singular or non-finite.
+template <class T>
+__device__ Mat3<T> polarFallback(const Mat3<T>& A) {
+  Mat3<T> Vm;
+  T w[3];
+  jacobiEigen(mulTn(A, A), &Vm, w);
+  // Order by descending singular value.
+  int o[3] = {0, 1, 2};
+  if (w[o[0]] < w[o[1]]) { int t = o[0]; o[0] = o[1]; o[1] = t; }
+  if (w[o[1]] < w[o[2]]) { int t = o[1]; o[1] = o[2]; o[2] = t; }
+  if (w[o[0]] < w[o[1]]) { int t = o[0]; o[0] = o[1]; o[1] = t; }
+  Mat3<T> Vs, U;
+#pragma unroll
+  for (int c = 0; c < 3; ++c)
+#pragma unroll
+    for (int r = 0; r < 3; ++r) Vs(r, c) = Vm(r, o[c]);
+  if (!(w[o[0]] > T(0)) || !isfinite(w[o[0]])) {
+    Mat3<T> I = zero3<T>();
+    I(0, 0) = I(1, 1) = I(2, 2) = T(1);
+    return I;
+  }
+  // Right-handed V.
+  if (det3(Vs) < T(0))
+#pragma unroll
+    for (int r = 0; r < 3; ++r) Vs(r, 2) = -Vs(r, 2);
+  for (int c = 0; c < 2; ++c) {
+    T u[3], nrm = 0;
+#pragma unroll
+    for (int r = 0; r < 3; ++r) {
+      u[r] = A(r, 0) * Vs(0, c) + A(r, 1) * Vs(1, c) + A(r, 2) * Vs(2, c);
+      nrm += u[r] * u[r];
+    }
+    nrm = sqrt(nrm);
+    if (c == 1) {  // Gram-Schmidt against column 0
+      T d = 0;
+#pragma unroll
+      for (int r = 0; r < 3; ++r) d += u[r] * U(r, 0);
+      nrm = 0;
+#pragma unroll
+      for (int r = 0; r < 3; ++r) {
+        u[r] -= d * U(r, 0);
+        nrm += u[r] * u[r];
+      }
+      nrm = sqrt(nrm);
+    }
+    if (!(nrm > T(0))) {  // rank-deficient: any unit vector orthogonal to the previous column
+      const T a0 = c == 0 ? T(1) : U(0, 0), a1 = c == 0 ? T(0) : U(1, 0), a2 = c == 0 ? T(0) : U(2, 0);
+      if (fabs(a0) < T(0.9)) { u[0] = 0; u[1] = a2; u[2] = -a1; } else { u[0] = -a2; u[1] = 0; u[2] = a0; }
+      if (c == 0) { u[0] = 1; u[1] = 0; u[2] = 0; }
+      nrm = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    }
+#pragma unroll
+    for (int r = 0; r < 3; ++r) U(r, c) = u[r] / nrm;
+  }
+  // Third column: U₂ = U₀ × U₁ (then R = U Vᵀ is proper; for det A < 0 this flips the smallest
+  // singular direction, as the CPU's SVD fallback does).
+  U(0, 2) = U(1, 0) * U(2, 1) - U(2, 0) * U(1, 1);
+  U(1, 2) = U(2, 0) * U(0, 1) - U(0, 0) * U(2, 1);
+  U(2, 2) = U(0, 0) * U(1, 1) - U(1, 0) * U(0, 1);
+  Mat3<T> R;
+#pragma unroll
+  for (int c = 0; c < 3; ++c)
+#pragma unroll
+    for (int r = 0; r < 3; ++r) R(r, c) = U(r, 0) * Vs(c, 0) + U(r, 1) * Vs(c, 1) + U(r, 2) * Vs(c, 2);
+  return R;
+}
+
+/// The CPU's polarRotation (Higham's scaled Newton iteration), the same steps and thresholds.
+template <class T>
+__device__ Mat3<T> polarRotation(const Mat3<T>& A, bool* fallback) {
+  *fallback = false;
+  const T na2 = sqnorm(A);
+  if (na2 > T(0) && isfinite(na2)) {
+    Mat3<T> X;
+    const T s = sqrt(T(3) / na2);
+#pragma unroll
+    for (int k = 0; k < 9; ++k) X.a[k] = s * A.a[k];
+    T step2 = 1;
+    for (int it = 0; it < 40; ++it) {
+      const Mat3<T> C = cofactor3(X);
+      const T det = X(0, 0) * C(0, 0) + X(0, 1) * C(0, 1) + X(0, 2) * C(0, 2);
+      if (it == 0 ? !(det >= T(1e-3)) : !(det > T(0))) break;
+      T a = T(0.5), b = T(0.5) / det;
+      if (it == 0 ? det < T(0.9) : step2 > PolarTol<T>::scaled) {
+        const T z = sqrt(sqrt(sqnorm(C) / (det * det * sqnorm(X))));
+        a *= z;
+        b /= z;
+      }
+      T s2 = 0;
+#pragma unroll
+      for (int k = 0; k < 9; ++k) {
+        const T xn = a * X.a[k] + b * C.a[k];
+        const T d = xn - X.a[k];
+        s2 += d * d;
+        X.a[k] = xn;
+      }
+      step2 = s2;
+      if (step2 < PolarTol<T>::converged) return X;
+    }
+  }
+  *fallback = true;
+  return polarFallback(A);
+}
+
+template <class T>
+__device__ inline void encodeFirst(unsigned long long* word, long long step, int particle) {
+  atomicMin(word, (static_cast<unsigned long long>(step) << 32) | static_cast<unsigned int>(particle));
+}
+
+template <class T>
+__device__ inline double pressureAt(const SoftDeviceBody<T>& b, double t) {
+  if (b.ramp_s <= 0.0) return b.pressure_pa;
+  const double r = t / b.ramp_s;
+  return b.pressure_pa * (r < 0.0 ? 0.0 : (r > 1.0 ? 1.0 : r));
+}
+
+// ------------------------------------------------------------------ kernels
+//
+// The neighbour sums of a particle are split over a group of L consecutive lanes of a warp (lane l
+// takes the CSR entries e0 + l, e0 + l + L, …, so a group reads its row's per-entry constants in
+// contiguous runs) and combined by a butterfly of shuffles; the group's lane 0 then does the
+// per-particle work. The summation order differs from the CPU's serial sum only by round-off.
+
+/// Sums v over the L lanes of the group (every lane gets the total).
+template <int L, class T>
+__device__ inline T groupSum(T v) {
+#pragma unroll
+  for (int off = L / 2; off > 0; off /= 2) v += __shfl_xor_sync(0xffffffffu, v, off, L);
+  return v;
+}
+
+/// First half kick and drift of free particles (SoftBodySimulator::step's kick(½dt, true)); thread 0
+/// advances the clock and the step counter (read by the step's later kernels).
+template <class T>
+__global__ void kickDriftKernel(SoftDeviceBody<T> b, T h, T dt, double dt_clock) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i == 0) {
+    *b.time += dt_clock;
+    *b.step += 1;
+  }
+  if (i >= b.n || b.clamped[i]) return;
+  const T m = b.mass[i];
+#pragma unroll
+  for (int d = 0; d < 3; ++d) {
+    const T v = b.v[3 * i + d];
+    const T vn = v + h * (b.f[3 * i + d] / m + b.gravity[d] - b.damping * v);
+    b.v[3 * i + d] = vn;
+    b.x[3 * i + d] += dt * vn;
+  }
+}
+
+/// CorotatedSph::evaluate (Forces) at x, plus the pneumatic term in M, at time *time.
+template <class T, int L>
+__global__ void __launch_bounds__(kBlock) evaluateKernel(SoftDeviceBody<T> b) {
+  const int tid = blockIdx.x * blockDim.x + threadIdx.x;
+  const int i = tid / L, lane = tid % L;
+  const bool active = i < b.n;
+  const int e0 = active ? b.offsets[i] : 0, e1 = active ? b.offsets[i + 1] : 0;
+  const int ii = active ? i : 0;
+  const T xi0 = b.x[3 * ii], xi1 = b.x[3 * ii + 1], xi2 = b.x[3 * ii + 2];
+  const T Xi0 = b.X[3 * ii], Xi1 = b.X[3 * ii + 1], Xi2 = b.X[3 * ii + 2];
+  const T ci = b.c[ii];
+  const bool hg_row = b.hourglass && ci > T(0);
+  const bool need_D = hg_row || b.shape_matching;
+  Mat3<T> Ft = zero3<T>(), D = zero3<T>();
+  for (int e = e0 + lane; e < e1; e += L) {
+    const int j = b.idx[e];
+    const T v = b.V[j];
+    const T d0 = v * (b.x[3 * j] - xi0), d1 = v * (b.x[3 * j + 1] - xi1), d2 = v * (b.x[3 * j + 2] - xi2);
+    const T g0 = b.gh[3 * e], g1 = b.gh[3 * e + 1], g2 = b.gh[3 * e + 2];
+    Ft(0, 0) += d0 * g0; Ft(1, 0) += d1 * g0; Ft(2, 0) += d2 * g0;
+    Ft(0, 1) += d0 * g1; Ft(1, 1) += d1 * g1; Ft(2, 1) += d2 * g1;
+    Ft(0, 2) += d0 * g2; Ft(1, 2) += d1 * g2; Ft(2, 2) += d2 * g2;
+    if (need_D) {
+      const T w = b.W[e];
+      const T b0 = w * d0, b1 = w * d1, b2 = w * d2;
+      const T X0 = b.X[3 * j] - Xi0, X1 = b.X[3 * j + 1] - Xi1, X2 = b.X[3 * j + 2] - Xi2;
+      D(0, 0) += b0 * X0; D(1, 0) += b1 * X0; D(2, 0) += b2 * X0;
+      D(0, 1) += b0 * X1; D(1, 1) += b1 * X1; D(2, 1) += b2 * X1;
+      D(0, 2) += b0 * X2; D(1, 2) += b1 * X2; D(2, 2) += b2 * X2;
+    }
+  }
+#pragma unroll
+  for (int k = 0; k < 9; ++k) {
+    Ft.a[k] = groupSum<L>(Ft.a[k]);
+    D.a[k] = groupSum<L>(D.a[k]);
+  }
+  if (!active || lane != 0) return;
+  bool fell_back = false;
+  const Mat3<T> R = polarRotation(b.shape_matching ? D : Ft, &fell_back);
+  if (fell_back) atomicAdd(&b.status[2], 1ull);
+  const Mat3<T> F = mulTn(R, Ft);
+  if (!(det3(F) > T(0))) encodeFirst<T>(&b.status[0], *b.step, i);
+  // P = ∂ψ/∂F (piolaAndEnergy).
+  const T mu = b.mu[i], la = b.lambda[i];
+  Mat3<T> eps;
+  if (b.stvk) {
+    eps = mulTn(F, F);
+#pragma unroll
+    for (int k = 0; k < 9; ++k) eps.a[k] *= T(0.5);
+    eps(0, 0) -= T(0.5); eps(1, 1) -= T(0.5); eps(2, 2) -= T(0.5);
+  } else {
+#pragma unroll
+    for (int c = 0; c < 3; ++c)
+#pragma unroll
+      for (int r = 0; r < 3; ++r) eps(r, c) = T(0.5) * (F(r, c) + F(c, r));
+    eps(0, 0) -= T(1); eps(1, 1) -= T(1); eps(2, 2) -= T(1);
+  }
+  const T tr = eps(0, 0) + eps(1, 1) + eps(2, 2);
+  Mat3<T> S;
+#pragma unroll
+  for (int k = 0; k < 9; ++k) S.a[k] = T(2) * mu * eps.a[k];
+  S(0, 0) += la * tr; S(1, 1) += la * tr; S(2, 2) += la * tr;
+  const Mat3<T> P = b.stvk ? mul(F, S) : S;
+  // M_i = V_i R_i P_i + c_i H_i, H_i = 2(F̃_i C_i − D_i).
+  const Mat3<T> RP = mul(R, P);
+  const T Vi = b.V[i];
+  Mat3<T> M;
+#pragma unroll
+  for (int k = 0; k < 9; ++k) M.a[k] = Vi * RP.a[k];
+  if (hg_row) {
+    Mat3<T> C;
+#pragma unroll
+    for (int k = 0; k < 9; ++k) C.a[k] = b.moment[9 * i + k];
+    const Mat3<T> FC = mul(Ft, C);
+#pragma unroll
+    for (int k = 0; k < 9; ++k) M.a[k] += ci * (T(2) * (FC.a[k] - D.a[k]));
+  }
+  // Pneumatic chamber: ∂E_a/∂F̃_i = −p w_i V_i cof F̃_i.
+  if (b.chamber) {
+    const double p = pressureAt(b, *b.time);
+    const T wi = b.chamber[i];
+    if (p != 0.0 && wi != T(0)) {
+      const Mat3<T> Cf = cofactor3(Ft);
+      const T s = -static_cast<T>(p) * wi * Vi;
+#pragma unroll
+      for (int k = 0; k < 9; ++k) M.a[k] += s * Cf.a[k];
+    }
+  }
+#pragma unroll
+  for (int k = 0; k < 9; ++k) {
+    b.Ft[9 * i + k] = Ft.a[k];
+    b.M[9 * i + k] = M.a[k];
+  }
+}
+
+/// CorotatedSph::gather (negated: f = −∂E/∂x) and, with kick, the second half kick of free particles.
+template <class T, int L>
+__global__ void __launch_bounds__(kBlock) gatherKickKernel(SoftDeviceBody<T> b, T h, bool kick) {
+  const int tid = blockIdx.x * blockDim.x + threadIdx.x;
+  const int k = tid / L, lane = tid % L;
+  const bool active = k < b.n;
+  const int e0 = active ? b.offsets[k] : 0, e1 = active ? b.offsets[k + 1] : 0;
+  const int kk = active ? k : 0;
+  T a0 = 0, a1 = 0, a2 = 0, t0 = 0, t1 = 0, t2 = 0, u0 = 0, u1 = 0, u2 = 0;
+  if (b.hourglass) {
+    const T xk0 = b.x[3 * kk], xk1 = b.x[3 * kk + 1], xk2 = b.x[3 * kk + 2];
+    for (int e = e0 + lane; e < e1; e += L) {
+      const int j = b.idx[e];
+      const T* m = b.M + 9 * j;
+      const T r0 = b.ghr[3 * e], r1 = b.ghr[3 * e + 1], r2 = b.ghr[3 * e + 2];
+      a0 += m[0] * r0 + m[3] * r1 + m[6] * r2;
+      a1 += m[1] * r0 + m[4] * r1 + m[7] * r2;
+      a2 += m[2] * r0 + m[5] * r1 + m[8] * r2;
+      const T* y = b.hgw + 4 * e;
+      const T* f = b.Ft + 9 * j;
+      t0 += f[0] * y[0] + f[3] * y[1] + f[6] * y[2];
+      t1 += f[1] * y[0] + f[4] * y[1] + f[7] * y[2];
+      t2 += f[2] * y[0] + f[5] * y[1] + f[8] * y[2];
+      u0 += y[3] * (b.x[3 * j] - xk0);
+      u1 += y[3] * (b.x[3 * j + 1] - xk1);
+      u2 += y[3] * (b.x[3 * j + 2] - xk2);
+    }
+    t0 = groupSum<L>(t0); t1 = groupSum<L>(t1); t2 = groupSum<L>(t2);
+    u0 = groupSum<L>(u0); u1 = groupSum<L>(u1); u2 = groupSum<L>(u2);
+  } else {
+    for (int e = e0 + lane; e < e1; e += L) {
+      const T* m = b.M + 9 * b.idx[e];
+      const T r0 = b.ghr[3 * e], r1 = b.ghr[3 * e + 1], r2 = b.ghr[3 * e + 2];
+      a0 += m[0] * r0 + m[3] * r1 + m[6] * r2;
+      a1 += m[1] * r0 + m[4] * r1 + m[7] * r2;
+      a2 += m[2] * r0 + m[5] * r1 + m[8] * r2;
+    }
+  }
+  a0 = groupSum<L>(a0); a1 = groupSum<L>(a1); a2 = groupSum<L>(a2);
+  if (!active || lane != 0) return;
+  const T Vk = b.V[k];
+  Mat3<T> Mk;
+#pragma unroll
+  for (int q = 0; q < 9; ++q) Mk.a[q] = b.M[9 * k + q];
+  const T gs0 = b.gsum[3 * k], gs1 = b.gsum[3 * k + 1], gs2 = b.gsum[3 * k + 2];
+  const T a[3] = {a0, a1, a2};
+  T g[3];
+  if (b.hourglass) {
+    Mat3<T> Fk;
+#pragma unroll
+    for (int q = 0; q < 9; ++q) Fk.a[q] = b.Ft[9 * k + q];
+    const T hs0 = b.hgsum[3 * k], hs1 = b.hgsum[3 * k + 1], hs2 = b.hgsum[3 * k + 2];
+    const T t[3] = {t0, t1, t2}, u[3] = {u0, u1, u2};
+#pragma unroll
+    for (int r = 0; r < 3; ++r)
+      g[r] = Vk * a[r] - (Mk(r, 0) * gs0 + Mk(r, 1) * gs1 + Mk(r, 2) * gs2) +
+             (Fk(r, 0) * hs0 + Fk(r, 1) * hs1 + Fk(r, 2) * hs2) + (T(2) * Vk) * t[r] - T(2) * u[r];
+  } else {
+#pragma unroll
+    for (int r = 0; r < 3; ++r) g[r] = Vk * a[r] - (Mk(r, 0) * gs0 + Mk(r, 1) * gs1 + Mk(r, 2) * gs2);
+  }
+  const bool free = !b.clamped[k];
+  const T m = b.mass[k];
+  bool finite = true;
+#pragma unroll
+  for (int r = 0; r < 3; ++r) {
+    const T f = -g[r];
+    b.f[3 * k + r] = f;
+    if (kick && free) {
+      const T v = b.v[3 * k + r];
+      const T vn = v + h * (f / m + b.gravity[r] - b.damping * v);
+      b.v[3 * k + r] = vn;
+      finite = finite && isfinite(vn);
+    }
+  }
+  if (!finite) encodeFirst<T>(&b.status[1], *b.step, k);
+}
+
+template <class T>
+__global__ void polarKernel(const T* A, T* R, int count, unsigned long long* fallbacks) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= count) return;
+  Mat3<T> a;
+#pragma unroll
+  for (int k = 0; k < 9; ++k) a.a[k] = A[9 * i + k];
+  bool fb = false;
+  const Mat3<T> r = polarRotation(a, &fb);
+  if (fb) atomicAdd(fallbacks, 1ull);
+#pragma unroll
+  for (int k = 0; k < 9; ++k) R[9 * i + k] = r.a[k];
+}
+
+inline int blocks(long long threads) { return static_cast<int>((threads + kBlock - 1) / kBlock); }
+
+template <class T, int L>
+void launchForces(const SoftDeviceBody<T>& b, T h, bool kick, cudaStream_t s) {
+  evaluateKernel<T, L><<<blocks(static_cast<long long>(b.n) * L), kBlock, 0, s>>>(b);
+  gatherKickKernel<T, L><<<blocks(static_cast<long long>(b.n) * L), kBlock, 0, s>>>(b, h, kick);
+}
+
+template <class T>
+void launchForcesLanes(const SoftDeviceBody<T>& b, T h, bool kick, cudaStream_t s) {
+  switch (b.lanes) {
+    case 1: launchForces<T, 1>(b, h, kick, s); break;
+    case 2: launchForces<T, 2>(b, h, kick, s); break;
+    case 4: launchForces<T, 4>(b, h, kick, s); break;
+    case 16: launchForces<T, 16>(b, h, kick, s); break;
+    case 32: launchForces<T, 32>(b, h, kick, s); break;
+    default: launchForces<T, 8>(b, h, kick, s); break;
+  }
+}
+
+}  // namespace
+
+template <class T>
+void launchLeapfrogStep(const SoftDeviceBody<T>& b, double dt, void* stream) {
+  cudaStream_t s = static_cast<cudaStream_t>(stream);
+  const T h = static_cast<T>(0.5 * dt);
+  kickDriftKernel<T><<<blocks(b.n), kBlock, 0, s>>>(b, h, static_cast<T>(dt), dt);
+  launchForcesLanes(b, h, true, s);  // forces at t + dt, second half kick
+}
+
+template <class T>
+void launchEvaluateForces(const SoftDeviceBody<T>& b, void* stream) {
+  launchForcesLanes(b, T(0), false, static_cast<cudaStream_t>(stream));
+}
+
+template <class T>
+void launchPolarRotations(const T* A, T* R, int count, unsigned long long* fallbacks, void* stream) {
+  polarKernel<T><<<blocks(count), kBlock, 0, static_cast<cudaStream_t>(stream)>>>(A, R, count, fallbacks);
+}
+
+template void launchLeapfrogStep<double>(const SoftDeviceBody<double>&, double, void*);
+template void launchLeapfrogStep<float>(const SoftDeviceBody<float>&, double, void*);
+template void launchEvaluateForces<double>(const SoftDeviceBody<double>&, void*);
+template void launchEvaluateForces<float>(const SoftDeviceBody<float>&, void*);
+template void launchPolarRotations<double>(const double*, double*, int, unsigned long long*, void*);
+template void launchPolarRotations<float>(const float*, float*, int, unsigned long long*, void*);
+
+}  // namespace cuda_detail
+}  // namespace topo_gaussian

@@ -1,0 +1,73 @@
+// Device-side layout of a soft body and the launchers of its explicit step (soft_step_kernels.cu).
+// Plain pointers into device memory; no Eigen, no CUDA headers (the host side is soft_body_cuda.cpp).
+// Vectors are stored as 3 consecutive values per particle (x0 y0 z0 x1 …), 3×3 matrices as 9
+// column-major values, per CSR entry data in the CPU body's CSR order.
+#pragma once
+
+#include <cstdint>
+
+namespace topo_gaussian {
+namespace cuda_detail {
+
+/// status words written by the kernels (device memory, 4 × unsigned long long):
+/// [0] first inverted particle, encoded step << 32 | particle (ULLONG_MAX: none; step counts from 1)
+/// [1] first non-finite velocity, same encoding
+/// [2] rotations that left the Newton iteration for the Jacobi fallback (count)
+constexpr int kStatusWords = 4;
+
+template <class T>
+struct SoftDeviceBody {
+  int n = 0;
+  int nnz = 0;
+  // rest constants
+  const int* offsets = nullptr;           // n + 1
+  const int* idx = nullptr;               // nnz
+  const T* X = nullptr;                   // 3n
+  const T* V = nullptr;                   // n
+  const T* mass = nullptr;                // n
+  const T* mu = nullptr;                  // n
+  const T* lambda = nullptr;              // n
+  const T* c = nullptr;                   // n, hourglass coefficients
+  const T* gh = nullptr;                  // 3 nnz, ĝ_ij
+  const T* W = nullptr;                   // nnz
+  const T* ghr = nullptr;                 // 3 nnz, ĝ_jk of the reverse entry
+  const T* hgw = nullptr;                 // 4 nnz
+  const T* gsum = nullptr;                // 3n
+  const T* hgsum = nullptr;               // 3n
+  const T* moment = nullptr;              // 9n (null without hourglass)
+  const std::uint8_t* clamped = nullptr;  // n
+  const T* chamber = nullptr;             // n (null: no actuation)
+  double pressure_pa = 0.0;
+  double ramp_s = 0.0;
+  int stvk = 1;            // 1 StVK, 0 corotated linear
+  int shape_matching = 1;  // rotation from A_pq (D_i), else from F̃_i
+  int hourglass = 1;
+  T gravity[3] = {0, 0, 0};
+  T damping = 0;
+  int lanes = 8;  // threads per particle in the neighbour sums: 1, 2, 4, 8, 16 or 32
+  // state
+  T* x = nullptr;                        // 3n
+  T* v = nullptr;                        // 3n
+  T* f = nullptr;                        // 3n, conservative forces at x
+  T* Ft = nullptr;                       // 9n
+  T* M = nullptr;                        // 9n
+  double* time = nullptr;                // 1
+  long long* step = nullptr;             // 1, steps taken
+  unsigned long long* status = nullptr;  // kStatusWords
+};
+
+/// One leapfrog step (three kernels) on `stream` (a cudaStream_t).
+template <class T>
+void launchLeapfrogStep(const SoftDeviceBody<T>& body, double dt, void* stream);
+
+/// The state at the current x (F̃, M, f) without moving: after an upload, or to refresh f.
+template <class T>
+void launchEvaluateForces(const SoftDeviceBody<T>& body, void* stream);
+
+/// Polar rotation of `count` matrices (9 column-major values each), for tests of the device
+/// polar decomposition against the CPU's.
+template <class T>
+void launchPolarRotations(const T* A, T* R, int count, unsigned long long* fallbacks, void* stream);
+
+}  // namespace cuda_detail
+}  // namespace topo_gaussian
