@@ -9,6 +9,9 @@
 //       particle the state and constants, neighbours' x, M and F̃ counted once), the achieved
 //       bandwidth that implies and its share of the measured device-to-device copy bandwidth
 //       (copy_GBs, read + write).
+//   rollout_<N>  the explicit rollout with its gradient (runSoftRolloutCuda against SoftRollout, float64,
+//       checkpoints every ⌈√steps⌉, a host loss called every step on both): forward and backward
+//       seconds, backward / forward, and the speed-up of forward + backward over the CPU.
 // Without a CUDA device it prints one line {"case": "gpu", "skipped": reason} and exits 0.
 // Usage: bench_gpu_soft [--quick] [--lanes L] [CASE_SUBSTRING]    (bench/README.md: building on a GPU machine)
 #include <algorithm>
@@ -28,6 +31,7 @@
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/cuda/backend.h"
 #include "topo_gaussian/cuda/soft_body_cuda.h"
+#include "topo_gaussian/cuda/soft_rollout_cuda.h"
 
 using namespace topo_gaussian;
 using Clock = std::chrono::steady_clock;
@@ -111,6 +115,42 @@ void gpuCase(const std::string& base, int nx, int ny, int nz, double hfac, int g
   }
 }
 
+/// SoftRollout (explicit, with gradient, checkpoints every ⌈√steps⌉) on the GPU and on the CPU from
+/// the same state; the loss is Σ_k Σ_i (z_i − Z_i) (host callback, called every step on both).
+void rolloutCase(const std::string& name, int nx, int ny, int nz, int steps) {
+  if (g_only && name.find(g_only) == std::string::npos) return;
+  auto loss = [](int, double, const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>&,
+                 std::vector<Eigen::Vector3d>* dx, std::vector<Eigen::Vector3d>*) {
+    double l = 0.0;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      l += x[i].z();
+      if (dx) (*dx)[i].z() += 1.0;
+    }
+    return l;
+  };
+  auto cpu = makeBody(nx, ny, nz, 1.0), gpu = makeBody(nx, ny, nz, 1.0);
+  SoftRolloutOptions o;
+  o.dt = 0.5 * cpu->stableTimeStep();
+  o.steps = steps;
+  runSoftRolloutCuda(makeBody(nx, ny, nz, 1.0).get(), [&] {
+    SoftRolloutOptions w = o;
+    w.steps = 10;
+    return w;
+  }(), loss, true);  // warm-up
+  const SoftRolloutResult g = runSoftRolloutCuda(gpu.get(), o, loss, true);
+  const SoftRolloutResult c = SoftRollout(cpu.get(), o).run(loss, true);
+  const double n = double(cpu->size());
+  std::printf(
+      "{\"case\": \"%s\", \"device\": \"%s\", \"particles\": %.0f, \"steps\": %d, \"precision\": \"float64\", "
+      "\"gpu_forward_s\": %.4f, \"gpu_backward_s\": %.4f, \"gpu_backward_over_forward\": %.2f, "
+      "\"baseline\": \"cpu_soft_rollout\", \"cpu_threads\": %d, \"cpu_forward_s\": %.4f, \"cpu_backward_s\": %.4f, "
+      "\"gpu_over_cpu_forward_plus_backward\": %.1f, \"loss_relative_difference\": %.2e}\n",
+      name.c_str(), cudaDeviceInfo().name.c_str(), n, steps, g.forward_s, g.backward_s, g.backward_s / g.forward_s,
+      threads(), c.forward_s, c.backward_s, (c.forward_s + c.backward_s) / (g.forward_s + g.backward_s),
+      std::abs(g.loss - c.loss) / std::abs(c.loss));
+  std::fflush(stdout);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -138,6 +178,9 @@ int main(int argc, char** argv) {
     gpuCase("explicit_100k_h1.0", 80, 50, 25, 1.0, 2000 / s, 10 / s + 2);
     gpuCase("explicit_100k_h1.5", 80, 50, 25, 1.5, 2000 / s, 10 / s + 2);
     if (!quick) gpuCase("explicit_1m_h1.0", 160, 100, 63, 1.0, 200, 3);
+    // Rollouts with gradient: 9k and 100k particles.
+    rolloutCase("rollout_9k", 30, 18, 16, quick ? 50 : 400);
+    rolloutCase("rollout_100k", 80, 50, 25, quick ? 20 : 100);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "bench_gpu_soft: %s\n", e.what());
     return 1;

@@ -44,6 +44,7 @@ struct SoftDeviceBody {
   int hourglass = 1;
   T gravity[3] = {0, 0, 0};
   T damping = 0;
+  double hg_alpha_over_h2 = 0.0;  // α / h² (the hourglass material derivative)
   int lanes = 8;  // threads per particle in the neighbour sums: 1, 2, 4, 8, 16 or 32
   // state
   T* x = nullptr;                        // 3n
@@ -51,6 +52,7 @@ struct SoftDeviceBody {
   T* f = nullptr;                        // 3n, conservative forces at x
   T* Ft = nullptr;                       // 9n
   T* M = nullptr;                        // 9n
+  T* R = nullptr;                        // 9n rotations R_i, written by the evaluation when set
   double* time = nullptr;                // 1
   long long* step = nullptr;             // 1, steps taken
   unsigned long long* status = nullptr;  // kStatusWords
@@ -63,6 +65,32 @@ void launchLeapfrogStep(const SoftDeviceBody<T>& body, double dt, void* stream);
 /// The state at the current x (F̃, M, f) without moving: after an upload, or to refresh f.
 template <class T>
 void launchEvaluateForces(const SoftDeviceBody<T>& body, void* stream);
+
+/// SoftRollout's explicit step (symplectic Euler: v ← v + dt (f/m + g − c v), x ← x + dt v for free
+/// particles; the clock advances), then the conservative forces at the new x (no kick).
+template <class T>
+void launchSymplecticStep(const SoftDeviceBody<T>& body, double dt, void* stream);
+
+/// The SPH state at x and *time (F̃, M and, with body.R set, R) without the forces.
+template <class T>
+void launchEvaluateState(const SoftDeviceBody<T>& body, void* stream);
+
+/// f = −Σ_j [V_k M_j ĝ_jk − V_j M_k ĝ_kj + q_kj − q_jk] with body.x, body.Ft, body.M (the gather of
+/// CorotatedSph, negated; linear in (x, F̃, M), so with (dx, dF̃, dM) it gives −H dx), into body.f.
+template <class T>
+void launchGatherForces(const SoftDeviceBody<T>& body, void* stream);
+
+/// One adjoint step of the symplectic Euler rollout at the evaluated state (soft_rollout.h):
+///   w = v̄ + dt x̄,  a = dt w / m,  m̄ −= a·f/m,  x̄ ← x̄ − H a,  v̄ ← (1 − c dt) w   (free particles;
+///   clamped rows zero),  μ̄ −= ∂(a·∇E)/∂μ,  λ̄ −= ∂(a·∇E)/∂λ,  w̄ −= ∂(a·∇E_a)/∂w.
+/// f: the conservative forces at the state; work: 3n (a) + 3n (w) + 3n (H a) + 9n + 9n values.
+template <class T>
+void launchAdjointStep(const SoftDeviceBody<T>& body, const T* f, double dt, T* xb, T* vb, T* g_mass, T* g_mu,
+                       T* g_lambda, T* g_chamber, T* work, void* stream);
+
+/// y += x (n3 values).
+template <class T>
+void launchAdd(T* y, const T* x, int n3, void* stream);
 
 /// Polar rotation of `count` matrices (9 column-major values each), for tests of the device
 /// polar decomposition against the CPU's.

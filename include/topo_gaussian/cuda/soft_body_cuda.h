@@ -64,7 +64,9 @@ class SoftBodyCuda {
   /// Bytes allocated on the device for this body.
   std::size_t deviceBytes() const;
 
+  /// The device state, for the backend's own code (src/cuda: the rollout and its adjoint).
   struct Impl;
+  Impl& impl() { return *impl_; }
 
  private:
   std::unique_ptr<Impl> impl_;

@@ -1,0 +1,30 @@
+// The explicit differentiable soft-body rollout on a CUDA GPU (issue 20 §1; paper §"Differentiability"):
+// SoftRollout with SoftIntegrator::SymplecticEuler (physics/soft_rollout.h), forward and reverse mode
+// through time, on the device:
+//   forward   v' = v + dt (f(x)/m + g − c v),  x' = x + dt v'        (free particles)
+//   adjoint   w = v̄' + dt x̄',  a = dt w / m,  x̄ = x̄' − H(x) a,  v̄ = (1 − c dt) w,
+//             m̄_i −= a_i·f_i/m_i,  μ̄, λ̄, w̄ −= aᵀ ∂f/∂(μ, λ, w)
+// with checkpoints every K steps (K = ⌈√steps⌉ by default) kept in device memory and each segment
+// recomputed from its checkpoint (states and forces of one segment on the device), so the device
+// holds steps/K + K + 1 states. H a is the force gather applied to (a, dF̃(a), dM(a)) (soft_body_cuda.h).
+// The loss is the same host callback as SoftRollout's: each state is copied to the host for it (2 × 3N
+// values a step, forward and backward).
+//
+// Not on the GPU (refused by name): implicit steps, contact and friction.
+#pragma once
+
+#include "topo_gaussian/cuda/soft_body_cuda.h"
+#include "topo_gaussian/physics/soft_rollout.h"
+
+namespace topo_gaussian {
+
+/// As SoftRollout(sim, options).run(loss, with_gradient), on the GPU: the simulator's state is the
+/// initial state and its design is used as is; it is left at the final state (evaluated on the CPU
+/// once at the end). forward_s / backward_s include the host loss calls. Throws TopoError for what
+/// SoftRollout refuses, for options.integrator ImplicitEuler or contact (not on the GPU yet), when no
+/// device is available, and, naming the step and particle, for a non-finite or inverted state.
+SoftRolloutResult runSoftRolloutCuda(SoftBodySimulator* sim, const SoftRolloutOptions& options,
+                                     const SoftStepLoss& loss, bool with_gradient,
+                                     CudaPrecision precision = CudaPrecision::Float64);
+
+}  // namespace topo_gaussian

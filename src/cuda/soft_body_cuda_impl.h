@@ -1,0 +1,192 @@
+// Host-side state of a soft body on the GPU (SoftBodyCuda::Impl): device buffers, the stream, the
+// captured step graph and the device layout (soft_step_kernels.h). Shared by soft_body_cuda.cpp and
+// soft_rollout_cuda.cpp; only compiled with TOPO_HAVE_CUDA.
+#pragma once
+
+#include <cuda_runtime_api.h>
+
+#include <array>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "soft_step_kernels.h"
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/cuda/soft_body_cuda.h"
+
+namespace topo_gaussian {
+
+namespace cuda_detail {
+
+inline void check(cudaError_t err, const char* what) {
+  if (err != cudaSuccess)
+    throw TopoError("CUDA soft body", std::string(what) + " failed: " + cudaGetErrorString(err),
+                    "check that the GPU has enough free memory (deviceBytes()) and is not in use by a crashed "
+                    "process; backend cpu runs without it");
+}
+
+/// A device allocation freed with its owner.
+struct DeviceBuffer {
+  void* ptr = nullptr;
+  std::size_t bytes = 0;
+  DeviceBuffer() = default;
+  DeviceBuffer(const DeviceBuffer&) = delete;
+  DeviceBuffer& operator=(const DeviceBuffer&) = delete;
+  ~DeviceBuffer() {
+    if (ptr) cudaFree(ptr);
+  }
+  void allocate(std::size_t b) {
+    bytes = b;
+    check(cudaMalloc(&ptr, b == 0 ? 1 : b), "cudaMalloc");
+  }
+};
+
+}  // namespace cuda_detail
+
+using cuda_detail::check;
+using cuda_detail::DeviceBuffer;
+
+struct SoftBodyCuda::Impl {
+  CudaPrecision precision = CudaPrecision::Float64;
+  std::size_t n = 0;
+  double dt_stable = 0.0;
+  std::vector<std::unique_ptr<DeviceBuffer>> buffers;
+  cudaStream_t stream = nullptr;
+  cudaGraphExec_t graph = nullptr;
+  double graph_dt = 0.0;
+  long graph_steps = 0;
+  cuda_detail::SoftDeviceBody<double> body64;
+  cuda_detail::SoftDeviceBody<float> body32;
+
+  ~Impl() {
+    if (graph) cudaGraphExecDestroy(graph);
+    if (stream) cudaStreamDestroy(stream);
+  }
+
+  template <class U>
+  U* upload(const std::vector<U>& host) {
+    buffers.push_back(std::make_unique<DeviceBuffer>());
+    buffers.back()->allocate(host.size() * sizeof(U));
+    if (!host.empty())
+      check(cudaMemcpy(buffers.back()->ptr, host.data(), host.size() * sizeof(U), cudaMemcpyHostToDevice), "upload");
+    return static_cast<U*>(buffers.back()->ptr);
+  }
+  template <class U>
+  U* allocate(std::size_t count) {
+    buffers.push_back(std::make_unique<DeviceBuffer>());
+    buffers.back()->allocate(count * sizeof(U));
+    return static_cast<U*>(buffers.back()->ptr);
+  }
+
+  template <class T>
+  static std::vector<T> flat(const std::vector<Eigen::Vector3d>& v) {
+    std::vector<T> out(3 * v.size());
+    for (std::size_t i = 0; i < v.size(); ++i)
+      for (int d = 0; d < 3; ++d) out[3 * i + d] = static_cast<T>(v[i](d));
+    return out;
+  }
+  template <class T>
+  static std::vector<T> flat(const std::vector<Eigen::Matrix3d>& m) {
+    std::vector<T> out(9 * m.size());
+    for (std::size_t i = 0; i < m.size(); ++i)
+      for (int k = 0; k < 9; ++k) out[9 * i + k] = static_cast<T>(m[i].data()[k]);
+    return out;
+  }
+  template <class T, std::size_t K>
+  static std::vector<T> flat(const std::vector<std::array<double, K>>& a) {
+    std::vector<T> out(K * a.size());
+    for (std::size_t i = 0; i < a.size(); ++i)
+      for (std::size_t k = 0; k < K; ++k) out[K * i + k] = static_cast<T>(a[i][k]);
+    return out;
+  }
+  template <class T>
+  static std::vector<T> cast(const std::vector<double>& v) {
+    return std::vector<T>(v.begin(), v.end());
+  }
+
+  template <class T>
+  void build(const SoftBodySimulator& sim, cuda_detail::SoftDeviceBody<T>* b) {
+    const CorotatedSph& sph = sim.sph();
+    const NeighborList& nbr = sph.neighbors();
+    b->n = static_cast<int>(n);
+    b->nnz = static_cast<int>(nbr.indices.size());
+    b->offsets = upload(nbr.offsets);
+    b->idx = upload(nbr.indices);
+    b->X = upload(flat<T>(sph.restPositions()));
+    b->V = upload(cast<T>(sph.volumes()));
+    b->mass = upload(cast<T>(sim.masses()));
+    b->mu = upload(cast<T>(sph.shearModuli()));
+    b->lambda = upload(cast<T>(sph.lameLambdas()));
+    b->c = upload(cast<T>(sph.hourglassCoefficients()));
+    b->gh = upload(flat<T>(sph.kernelGradients()));
+    b->W = upload(cast<T>(sph.kernelValues()));
+    b->ghr = upload(flat<T>(sph.reverseKernelGradients()));
+    b->hgw = upload(flat<T>(sph.hourglassWeights()));
+    b->gsum = upload(flat<T>(sph.gradientSums()));
+    b->hgsum = upload(flat<T>(sph.hourglassSums()));
+    b->hourglass = sph.options().hourglass_alpha > 0.0 ? 1 : 0;
+    b->hg_alpha_over_h2 = sph.options().hourglass_alpha / (sph.smoothingLength() * sph.smoothingLength());
+    b->moment = b->hourglass ? upload(flat<T>(sph.restMoments())) : nullptr;
+    b->clamped = upload(sim.clamped());
+    const PneumaticActuation& act = sim.actuation();
+    b->chamber = act.chamber.empty() ? nullptr : upload(cast<T>(act.chamber));
+    b->pressure_pa = act.pressure_pa;
+    b->ramp_s = act.ramp_s;
+    b->stvk = sph.options().model == SphEnergyModel::StVK ? 1 : 0;
+    b->shape_matching = sph.options().rotation == SphRotationSource::ShapeMatchingApq ? 1 : 0;
+    for (int d = 0; d < 3; ++d) b->gravity[d] = static_cast<T>(sim.options().gravity(d));
+    b->damping = static_cast<T>(sim.options().damping);
+    b->x = upload(flat<T>(sim.positions()));
+    b->v = upload(flat<T>(sim.velocities()));
+    b->f = upload(flat<T>(sim.conservativeForces()));
+    b->Ft = allocate<T>(9 * n);
+    b->M = allocate<T>(9 * n);
+    b->time = upload(std::vector<double>{sim.time()});
+    b->step = upload(std::vector<long long>{static_cast<long long>(sim.stepCount())});
+    b->status = upload(std::vector<unsigned long long>(cuda_detail::kStatusWords, 0));
+    resetStatus(b->status);
+  }
+
+  void resetStatus(unsigned long long* status) {
+    const unsigned long long init[cuda_detail::kStatusWords] = {std::numeric_limits<unsigned long long>::max(),
+                                                                std::numeric_limits<unsigned long long>::max(), 0, 0};
+    check(cudaMemcpyAsync(status, init, sizeof(init), cudaMemcpyHostToDevice, stream), "status reset");
+  }
+
+  unsigned long long* status() const { return precision == CudaPrecision::Float64 ? body64.status : body32.status; }
+
+  void launchSteps(double dt, long steps) {
+    for (long s = 0; s < steps; ++s) {
+      if (precision == CudaPrecision::Float64)
+        cuda_detail::launchLeapfrogStep(body64, dt, stream);
+      else
+        cuda_detail::launchLeapfrogStep(body32, dt, stream);
+    }
+  }
+
+  /// Runs `steps` steps: batches of up to kGraphSteps replayed from one captured graph.
+  void run(double dt, long steps) {
+    constexpr long kGraphSteps = 50;
+    const long chunk = std::min(steps, kGraphSteps);
+    if (chunk >= 2 && (graph == nullptr || graph_dt != dt || graph_steps != chunk)) {
+      if (graph) cudaGraphExecDestroy(graph);
+      graph = nullptr;
+      cudaGraph_t g = nullptr;
+      check(cudaStreamBeginCapture(stream, cudaStreamCaptureModeThreadLocal), "graph capture");
+      launchSteps(dt, chunk);
+      check(cudaStreamEndCapture(stream, &g), "graph capture");
+      check(cudaGraphInstantiate(&graph, g, 0), "graph instantiation");
+      cudaGraphDestroy(g);
+      graph_dt = dt;
+      graph_steps = chunk;
+    }
+    long done = 0;
+    if (chunk >= 2)
+      for (; done + chunk <= steps; done += chunk) check(cudaGraphLaunch(graph, stream), "graph launch");
+    launchSteps(dt, steps - done);
+    check(cudaGetLastError(), "kernel launch");
+  }
+};
+
+}  // namespace topo_gaussian

@@ -1,0 +1,274 @@
+// Device math of the soft-body kernels (soft_step_kernels.cu, soft_adjoint_kernels.cu): 3×3
+// matrices (column-major), the polar rotation (the CPU's Newton iteration, corotated_sph.cpp, and a
+// Jacobi fallback), the group sums of the lanes that share a particle, the status words.
+#pragma once
+
+#include <cuda_runtime.h>
+
+#include "soft_step_kernels.h"
+
+namespace topo_gaussian {
+namespace cuda_detail {
+namespace device {
+
+constexpr int kBlock = 128;
+
+template <class T>
+struct Mat3 {
+  T a[9];  // column-major: a[r + 3c]
+  __device__ T& operator()(int r, int c) { return a[r + 3 * c]; }
+  __device__ T operator()(int r, int c) const { return a[r + 3 * c]; }
+};
+
+template <class T>
+__device__ inline Mat3<T> zero3() {
+  Mat3<T> m;
+#pragma unroll
+  for (int k = 0; k < 9; ++k) m.a[k] = T(0);
+  return m;
+}
+
+template <class T>
+__device__ inline T sqnorm(const Mat3<T>& m) {
+  T s = 0;
+#pragma unroll
+  for (int k = 0; k < 9; ++k) s += m.a[k] * m.a[k];
+  return s;
+}
+
+/// A·B
+template <class T>
+__device__ inline Mat3<T> mul(const Mat3<T>& A, const Mat3<T>& B) {
+  Mat3<T> C;
+#pragma unroll
+  for (int c = 0; c < 3; ++c)
+#pragma unroll
+    for (int r = 0; r < 3; ++r) C(r, c) = A(r, 0) * B(0, c) + A(r, 1) * B(1, c) + A(r, 2) * B(2, c);
+  return C;
+}
+
+/// Aᵀ·B
+template <class T>
+__device__ inline Mat3<T> mulTn(const Mat3<T>& A, const Mat3<T>& B) {
+  Mat3<T> C;
+#pragma unroll
+  for (int c = 0; c < 3; ++c)
+#pragma unroll
+    for (int r = 0; r < 3; ++r) C(r, c) = A(0, r) * B(0, c) + A(1, r) * B(1, c) + A(2, r) * B(2, c);
+  return C;
+}
+
+template <class T>
+__device__ inline Mat3<T> cofactor3(const Mat3<T>& X) {
+  Mat3<T> C;
+  C(0, 0) = X(1, 1) * X(2, 2) - X(1, 2) * X(2, 1);
+  C(0, 1) = X(1, 2) * X(2, 0) - X(1, 0) * X(2, 2);
+  C(0, 2) = X(1, 0) * X(2, 1) - X(1, 1) * X(2, 0);
+  C(1, 0) = X(0, 2) * X(2, 1) - X(0, 1) * X(2, 2);
+  C(1, 1) = X(0, 0) * X(2, 2) - X(0, 2) * X(2, 0);
+  C(1, 2) = X(0, 1) * X(2, 0) - X(0, 0) * X(2, 1);
+  C(2, 0) = X(0, 1) * X(1, 2) - X(0, 2) * X(1, 1);
+  C(2, 1) = X(0, 2) * X(1, 0) - X(0, 0) * X(1, 2);
+  C(2, 2) = X(0, 0) * X(1, 1) - X(0, 1) * X(1, 0);
+  return C;
+}
+
+template <class T>
+__device__ inline T det3(const Mat3<T>& X) {
+  return X(0, 0) * (X(1, 1) * X(2, 2) - X(1, 2) * X(2, 1)) - X(0, 1) * (X(1, 0) * X(2, 2) - X(1, 2) * X(2, 0)) +
+         X(0, 2) * (X(1, 0) * X(2, 1) - X(1, 1) * X(2, 0));
+}
+
+/// Newton-iteration thresholds: float64 as the CPU (corotated_sph.cpp, PolarNewton); float32 stops
+/// at its own round-off.
+template <class T>
+struct PolarTol;
+template <>
+struct PolarTol<double> {
+  static constexpr double converged = 1e-16, scaled = 1e-4;
+};
+template <>
+struct PolarTol<float> {
+  static constexpr float converged = 1e-11f, scaled = 1e-4f;
+};
+
+/// Symmetric 3×3 eigen-decomposition by cyclic Jacobi rotations: S = Q diag(w) Qᵀ.
+template <class T>
+__device__ void jacobiEigen(Mat3<T> S, Mat3<T>* Q, T w[3]) {
+  Mat3<T> q = zero3<T>();
+  q(0, 0) = q(1, 1) = q(2, 2) = T(1);
+  for (int sweep = 0; sweep < 30; ++sweep) {
+    const T off = S(0, 1) * S(0, 1) + S(0, 2) * S(0, 2) + S(1, 2) * S(1, 2);
+    const T diag = S(0, 0) * S(0, 0) + S(1, 1) * S(1, 1) + S(2, 2) * S(2, 2);
+    if (!(off > T(1e-30) * diag)) break;
+#pragma unroll
+    for (int p = 0; p < 2; ++p)
+#pragma unroll
+      for (int r = p + 1; r < 3; ++r) {
+        const T apq = S(p, r);
+        if (apq == T(0)) continue;
+        const T theta = (S(r, r) - S(p, p)) / (T(2) * apq);
+        const T t = (theta >= T(0) ? T(1) : T(-1)) / (fabs(theta) + sqrt(theta * theta + T(1)));
+        const T c = T(1) / sqrt(t * t + T(1)), s = t * c;
+        // S ← Jᵀ S J with J the rotation in the (p, r) plane.
+#pragma unroll
+        for (int k = 0; k < 3; ++k) {
+          const T skp = S(k, p), skr = S(k, r);
+          S(k, p) = c * skp - s * skr;
+          S(k, r) = s * skp + c * skr;
+        }
+#pragma unroll
+        for (int k = 0; k < 3; ++k) {
+          const T spk = S(p, k), srk = S(r, k);
+          S(p, k) = c * spk - s * srk;
+          S(r, k) = s * spk + c * srk;
+        }
+#pragma unroll
+        for (int k = 0; k < 3; ++k) {
+          const T qkp = q(k, p), qkr = q(k, r);
+          q(k, p) = c * qkp - s * qkr;
+          q(k, r) = s * qkp + c * qkr;
+        }
+      }
+  }
+  w[0] = S(0, 0);
+  w[1] = S(1, 1);
+  w[2] = S(2, 2);
+  *Q = q;
+}
+
+/// Proper rotation of the polar decomposition through AᵀA = V Σ² Vᵀ, U = A V Σ⁻¹ (the direction of
+/// the smallest singular value completed by a cross product, and flipped when det A < 0, as the
+/// CPU's SVD fallback does). For the matrices Newton's iteration declines: reflected, nearly
+/// singular or non-finite.
+template <class T>
+__device__ Mat3<T> polarFallback(const Mat3<T>& A) {
+  Mat3<T> Vm;
+  T w[3];
+  jacobiEigen(mulTn(A, A), &Vm, w);
+  // Order by descending singular value.
+  int o[3] = {0, 1, 2};
+  if (w[o[0]] < w[o[1]]) { int t = o[0]; o[0] = o[1]; o[1] = t; }
+  if (w[o[1]] < w[o[2]]) { int t = o[1]; o[1] = o[2]; o[2] = t; }
+  if (w[o[0]] < w[o[1]]) { int t = o[0]; o[0] = o[1]; o[1] = t; }
+  Mat3<T> Vs, U;
+#pragma unroll
+  for (int c = 0; c < 3; ++c)
+#pragma unroll
+    for (int r = 0; r < 3; ++r) Vs(r, c) = Vm(r, o[c]);
+  if (!(w[o[0]] > T(0)) || !isfinite(w[o[0]])) {
+    Mat3<T> I = zero3<T>();
+    I(0, 0) = I(1, 1) = I(2, 2) = T(1);
+    return I;
+  }
+  // Right-handed V.
+  if (det3(Vs) < T(0))
+#pragma unroll
+    for (int r = 0; r < 3; ++r) Vs(r, 2) = -Vs(r, 2);
+  for (int c = 0; c < 2; ++c) {
+    T u[3], nrm = 0;
+#pragma unroll
+    for (int r = 0; r < 3; ++r) {
+      u[r] = A(r, 0) * Vs(0, c) + A(r, 1) * Vs(1, c) + A(r, 2) * Vs(2, c);
+      nrm += u[r] * u[r];
+    }
+    nrm = sqrt(nrm);
+    if (c == 1) {  // Gram-Schmidt against column 0
+      T d = 0;
+#pragma unroll
+      for (int r = 0; r < 3; ++r) d += u[r] * U(r, 0);
+      nrm = 0;
+#pragma unroll
+      for (int r = 0; r < 3; ++r) {
+        u[r] -= d * U(r, 0);
+        nrm += u[r] * u[r];
+      }
+      nrm = sqrt(nrm);
+    }
+    if (!(nrm > T(0))) {  // rank-deficient: any unit vector orthogonal to the previous column
+      const T a0 = c == 0 ? T(1) : U(0, 0), a1 = c == 0 ? T(0) : U(1, 0), a2 = c == 0 ? T(0) : U(2, 0);
+      if (fabs(a0) < T(0.9)) { u[0] = 0; u[1] = a2; u[2] = -a1; } else { u[0] = -a2; u[1] = 0; u[2] = a0; }
+      if (c == 0) { u[0] = 1; u[1] = 0; u[2] = 0; }
+      nrm = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    }
+#pragma unroll
+    for (int r = 0; r < 3; ++r) U(r, c) = u[r] / nrm;
+  }
+  // Third column: U₂ = U₀ × U₁ (then R = U Vᵀ is proper; for det A < 0 this flips the smallest
+  // singular direction, as the CPU's SVD fallback does).
+  U(0, 2) = U(1, 0) * U(2, 1) - U(2, 0) * U(1, 1);
+  U(1, 2) = U(2, 0) * U(0, 1) - U(0, 0) * U(2, 1);
+  U(2, 2) = U(0, 0) * U(1, 1) - U(1, 0) * U(0, 1);
+  Mat3<T> R;
+#pragma unroll
+  for (int c = 0; c < 3; ++c)
+#pragma unroll
+    for (int r = 0; r < 3; ++r) R(r, c) = U(r, 0) * Vs(c, 0) + U(r, 1) * Vs(c, 1) + U(r, 2) * Vs(c, 2);
+  return R;
+}
+
+/// The CPU's polarRotation (Higham's scaled Newton iteration), the same steps and thresholds.
+template <class T>
+__device__ Mat3<T> polarRotation(const Mat3<T>& A, bool* fallback) {
+  *fallback = false;
+  const T na2 = sqnorm(A);
+  if (na2 > T(0) && isfinite(na2)) {
+    Mat3<T> X;
+    const T s = sqrt(T(3) / na2);
+#pragma unroll
+    for (int k = 0; k < 9; ++k) X.a[k] = s * A.a[k];
+    T step2 = 1;
+    for (int it = 0; it < 40; ++it) {
+      const Mat3<T> C = cofactor3(X);
+      const T det = X(0, 0) * C(0, 0) + X(0, 1) * C(0, 1) + X(0, 2) * C(0, 2);
+      if (it == 0 ? !(det >= T(1e-3)) : !(det > T(0))) break;
+      T a = T(0.5), b = T(0.5) / det;
+      if (it == 0 ? det < T(0.9) : step2 > PolarTol<T>::scaled) {
+        const T z = sqrt(sqrt(sqnorm(C) / (det * det * sqnorm(X))));
+        a *= z;
+        b /= z;
+      }
+      T s2 = 0;
+#pragma unroll
+      for (int k = 0; k < 9; ++k) {
+        const T xn = a * X.a[k] + b * C.a[k];
+        const T d = xn - X.a[k];
+        s2 += d * d;
+        X.a[k] = xn;
+      }
+      step2 = s2;
+      if (step2 < PolarTol<T>::converged) return X;
+    }
+  }
+  *fallback = true;
+  return polarFallback(A);
+}
+
+template <class T>
+__device__ inline void encodeFirst(unsigned long long* word, long long step, int particle) {
+  atomicMin(word, (static_cast<unsigned long long>(step) << 32) | static_cast<unsigned int>(particle));
+}
+
+template <class T>
+__device__ inline double pressureAt(const SoftDeviceBody<T>& b, double t) {
+  if (b.ramp_s <= 0.0) return b.pressure_pa;
+  const double r = t / b.ramp_s;
+  return b.pressure_pa * (r < 0.0 ? 0.0 : (r > 1.0 ? 1.0 : r));
+}
+
+// The neighbour sums of a particle are split over a group of L consecutive lanes of a warp (lane l
+// takes the CSR entries e0 + l, e0 + l + L, …, so a group reads its row's per-entry constants in
+// contiguous runs) and combined by a butterfly of shuffles; the group's lane 0 then does the
+// per-particle work. The summation order differs from the CPU's serial sum only by round-off.
+
+/// Sums v over the L lanes of the group (every lane gets the total).
+template <int L, class T>
+__device__ inline T groupSum(T v) {
+#pragma unroll
+  for (int off = L / 2; off > 0; off /= 2) v += __shfl_xor_sync(0xffffffffu, v, off, L);
+  return v;
+}
+
+}  // namespace device
+}  // namespace cuda_detail
+}  // namespace topo_gaussian

@@ -1,0 +1,254 @@
+// The explicit rollout and its adjoint on the GPU; see include/topo_gaussian/cuda/soft_rollout_cuda.h.
+#include "topo_gaussian/cuda/soft_rollout_cuda.h"
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/cuda/backend.h"
+
+#if TOPO_HAVE_CUDA
+#include "soft_body_cuda_impl.h"
+#endif
+
+namespace topo_gaussian {
+
+namespace {
+
+void checkOptions(const SoftBodySimulator& sim, const SoftRolloutOptions& o) {
+  if (o.integrator != SoftIntegrator::SymplecticEuler)
+    throw TopoError("CUDA soft rollout", "implicit Euler steps are not on the GPU yet",
+                    "use the explicit (symplectic Euler) integrator, or backend cpu");
+  if (!sim.contact().empty())
+    throw TopoError("CUDA soft rollout", "the simulator has contact, which the GPU rollout does not model yet",
+                    "use backend cpu for soft bodies with contact (the pear)");
+  if (!std::isfinite(o.dt) || o.dt <= 0.0 || o.steps < 1) {
+    std::ostringstream s;
+    s << "dt = " << o.dt << " s, steps = " << o.steps;
+    throw TopoError("CUDA soft rollout", s.str(), "use dt > 0 and at least one step");
+  }
+  if (o.dt > sim.stableTimeStep()) {
+    std::ostringstream s;
+    s << "dt = " << o.dt << " s exceeds the explicit stability estimate " << sim.stableTimeStep() << " s";
+    throw TopoError("CUDA soft rollout", s.str(), "use dt <= stableTimeStep() (e.g. half of it)");
+  }
+}
+
+double since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+#if TOPO_HAVE_CUDA
+
+namespace {
+
+using Vec3s = std::vector<Eigen::Vector3d>;
+
+template <class T>
+cuda_detail::SoftDeviceBody<T>& bodyOf(SoftBodyCuda::Impl& I);
+template <>
+cuda_detail::SoftDeviceBody<double>& bodyOf<double>(SoftBodyCuda::Impl& I) {
+  return I.body64;
+}
+template <>
+cuda_detail::SoftDeviceBody<float>& bodyOf<float>(SoftBodyCuda::Impl& I) {
+  return I.body32;
+}
+
+template <class T>
+void toHost(const T* dev, std::size_t n, cudaStream_t s, Vec3s* out) {
+  std::vector<T> h(3 * n);
+  check(cudaMemcpyAsync(h.data(), dev, h.size() * sizeof(T), cudaMemcpyDeviceToHost, s), "download");
+  check(cudaStreamSynchronize(s), "download");
+  out->resize(n);
+  for (std::size_t i = 0; i < n; ++i) (*out)[i] = Eigen::Vector3d(h[3 * i], h[3 * i + 1], h[3 * i + 2]);
+}
+
+template <class T>
+void toDevice(const Vec3s& v, T* dev, cudaStream_t s) {
+  std::vector<T> h(3 * v.size());
+  for (std::size_t i = 0; i < v.size(); ++i)
+    for (int d = 0; d < 3; ++d) h[3 * i + d] = static_cast<T>(v[i](d));
+  check(cudaMemcpyAsync(dev, h.data(), h.size() * sizeof(T), cudaMemcpyHostToDevice, s), "upload");
+  check(cudaStreamSynchronize(s), "upload");  // h goes out of scope
+}
+
+template <class T>
+std::vector<double> scalarsToHost(const T* dev, std::size_t n, cudaStream_t s) {
+  std::vector<T> h(n);
+  check(cudaMemcpyAsync(h.data(), dev, n * sizeof(T), cudaMemcpyDeviceToHost, s), "download");
+  check(cudaStreamSynchronize(s), "download");
+  return std::vector<double>(h.begin(), h.end());
+}
+
+void setClock(double* time, double t, cudaStream_t s) {
+  check(cudaMemcpyAsync(time, &t, sizeof(double), cudaMemcpyHostToDevice, s), "clock");
+  check(cudaStreamSynchronize(s), "clock");
+}
+
+/// Throws when the kernels flagged a non-finite or inverted particle; `where` names the step.
+void checkStatus(SoftBodyCuda::Impl& I, const std::string& where) {
+  unsigned long long st[cuda_detail::kStatusWords];
+  check(cudaMemcpyAsync(st, I.status(), sizeof(st), cudaMemcpyDeviceToHost, I.stream), "status read");
+  check(cudaStreamSynchronize(I.stream), "status read");
+  const unsigned long long none = std::numeric_limits<unsigned long long>::max();
+  if (st[0] == none && st[1] == none) return;
+  const bool inverted = st[0] != none;
+  std::ostringstream s;
+  s << "particle " << ((inverted ? st[0] : st[1]) & 0xffffffffull)
+    << (inverted ? " inverted (det F <= 0)" : " became non-finite") << " at " << where;
+  I.resetStatus(I.status());
+  throw TopoError("CUDA soft rollout", s.str(), "reduce dt or check the material and loads");
+}
+
+template <class T>
+SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt, const SoftStepLoss& loss,
+                          bool with_gradient, CudaPrecision precision) {
+  const std::size_t n = sim->size();
+  const int N = opt.steps;
+  const int K = opt.checkpoint_every > 0 ? opt.checkpoint_every : static_cast<int>(std::ceil(std::sqrt(double(N))));
+  const double dt = opt.dt, t0 = sim->time();
+  SoftBodyCuda gpu(*sim, precision);
+  SoftBodyCuda::Impl& I = gpu.impl();
+  cuda_detail::SoftDeviceBody<T>& b = bodyOf<T>(I);
+  cudaStream_t s = I.stream;
+  const std::size_t bytes3 = 3 * n * sizeof(T);
+  auto copy = [&](T* dst, const T* src) {
+    check(cudaMemcpyAsync(dst, src, bytes3, cudaMemcpyDeviceToDevice, s), "device copy");
+  };
+
+  SoftRolloutResult res;
+  auto tf = std::chrono::steady_clock::now();
+  // Checkpoints (x, v, f) in device memory.
+  std::vector<T*> checkpoints;
+  Vec3s x, v;
+  toHost(b.x, n, s, &x);
+  toHost(b.v, n, s, &v);
+  res.loss = loss(0, t0, x, v, nullptr, nullptr);
+  for (int k = 0; k < N; ++k) {
+    if (with_gradient && k % K == 0) {
+      T* c = I.allocate<T>(9 * n);
+      copy(c, b.x);
+      copy(c + 3 * n, b.v);
+      copy(c + 6 * n, b.f);
+      checkpoints.push_back(c);
+    }
+    cuda_detail::launchSymplecticStep(b, dt, s);
+    check(cudaGetLastError(), "kernel launch");
+    checkStatus(I, "explicit step " + std::to_string(k + 1));
+    toHost(b.x, n, s, &x);
+    toHost(b.v, n, s, &v);
+    res.loss += loss(k + 1, t0 + (k + 1) * dt, x, v, nullptr, nullptr);
+  }
+  res.forward_s = since(tf);
+  res.peak_states = checkpoints.size();
+  res.peak_state_bytes = checkpoints.size() * n * 6 * sizeof(double);
+  const Vec3s x_end = x, v_end = v;
+  const double t_end = t0 + N * dt;
+  if (!with_gradient) {
+    sim->evaluateAt(x_end, t_end);
+    sim->setVelocities(v_end);
+    return res;
+  }
+
+  auto tb = std::chrono::steady_clock::now();
+  // Segment states (x, v, f) and the adjoint's work space.
+  T* seg = I.allocate<T>(static_cast<std::size_t>(K + 1) * 9 * n);
+  T* xb = I.allocate<T>(3 * n);
+  T* vb = I.allocate<T>(3 * n);
+  T* dl = I.allocate<T>(6 * n);
+  T* G = I.allocate<T>(4 * n);  // mass, mu, lambda, chamber
+  T* work = I.allocate<T>(30 * n);
+  T* R = I.allocate<T>(9 * n);
+  check(cudaMemsetAsync(G, 0, 4 * n * sizeof(T), s), "memset");
+  b.R = R;
+  {
+    Vec3s xb0(n, Eigen::Vector3d::Zero()), vb0(n, Eigen::Vector3d::Zero());
+    loss(N, t_end, x_end, v_end, &xb0, &vb0);
+    toDevice(xb0, xb, s);
+    toDevice(vb0, vb, s);
+  }
+  const bool chamber = b.chamber != nullptr;
+  for (int sg = static_cast<int>(checkpoints.size()) - 1; sg >= 0; --sg) {
+    const int k0 = sg * K, k1 = std::min(k0 + K, N);
+    // Recompute the segment from its checkpoint, keeping every state's x, v and f.
+    copy(b.x, checkpoints[sg]);
+    copy(b.v, checkpoints[sg] + 3 * n);
+    copy(b.f, checkpoints[sg] + 6 * n);
+    setClock(b.time, t0 + k0 * dt, s);
+    for (int q = 0; q < 3; ++q) copy(seg + q * 3 * n, checkpoints[sg] + q * 3 * n);
+    for (int k = k0; k < k1; ++k) {
+      cuda_detail::launchSymplecticStep(b, dt, s);
+      T* st = seg + static_cast<std::size_t>(k - k0 + 1) * 9 * n;
+      copy(st, b.x);
+      copy(st + 3 * n, b.v);
+      copy(st + 6 * n, b.f);
+    }
+    check(cudaGetLastError(), "kernel launch");
+    checkStatus(I, "the recomputed segment from step " + std::to_string(k0));
+    for (int k = k1 - 1; k >= k0; --k) {
+      const T* st = seg + static_cast<std::size_t>(k - k0) * 9 * n;
+      copy(b.x, st);
+      setClock(b.time, t0 + k * dt, s);
+      cuda_detail::launchEvaluateState(b, s);  // F̃, R at x_k (the forces are st + 6n)
+      cuda_detail::launchAdjointStep(b, st + 6 * n, dt, xb, vb, G, G + n, G + 2 * n, chamber ? G + 3 * n : nullptr,
+                                     work, s);
+      check(cudaGetLastError(), "kernel launch");
+      // ∂ℓ_k/∂x_k and ∂ℓ_k/∂v_k from the host loss.
+      Vec3s xk, vk, dlx(n, Eigen::Vector3d::Zero()), dlv(n, Eigen::Vector3d::Zero());
+      toHost(st, n, s, &xk);
+      toHost(st + 3 * n, n, s, &vk);
+      loss(k, t0 + k * dt, xk, vk, &dlx, &dlv);
+      for (std::size_t i = 0; i < n; ++i)
+        if (sim->clamped()[i]) dlx[i].setZero(), dlv[i].setZero();
+      toDevice(dlx, dl, s);
+      toDevice(dlv, dl + 3 * n, s);
+      cuda_detail::launchAdd(xb, dl, static_cast<int>(3 * n), s);
+      cuda_detail::launchAdd(vb, dl + 3 * n, static_cast<int>(3 * n), s);
+    }
+    res.peak_states = std::max(res.peak_states, checkpoints.size() + static_cast<std::size_t>(k1 - k0 + 1));
+  }
+  b.R = nullptr;
+  SoftDesignGradient& g = res.gradient;
+  g.mass = scalarsToHost(G, n, s);
+  g.mu = scalarsToHost(G + n, n, s);
+  g.lambda = scalarsToHost(G + 2 * n, n, s);
+  g.chamber = chamber ? scalarsToHost(G + 3 * n, n, s) : std::vector<double>(n, 0.0);
+  toHost(xb, n, s, &g.x0);
+  toHost(vb, n, s, &g.v0);
+  for (std::size_t i = 0; i < n; ++i)
+    if (sim->clamped()[i]) g.x0[i].setZero(), g.v0[i].setZero();
+  res.peak_state_bytes = res.peak_states * n * 9 * sizeof(T);
+  sim->evaluateAt(x_end, t_end);
+  sim->setVelocities(v_end);
+  res.backward_s = since(tb);
+  return res;
+}
+
+}  // namespace
+
+SoftRolloutResult runSoftRolloutCuda(SoftBodySimulator* sim, const SoftRolloutOptions& options,
+                                     const SoftStepLoss& loss, bool with_gradient, CudaPrecision precision) {
+  if (!sim) throw TopoError("CUDA soft rollout", "no simulator", "pass a SoftBodySimulator");
+  const CudaDeviceInfo& info = cudaDeviceInfo();
+  if (!info.available) throw TopoError("CUDA soft rollout", info.reason, "use backend cpu (or auto) on this machine");
+  checkOptions(*sim, options);
+  return precision == CudaPrecision::Float64 ? rollout<double>(sim, options, loss, with_gradient, precision)
+                                             : rollout<float>(sim, options, loss, with_gradient, precision);
+}
+
+#else
+
+SoftRolloutResult runSoftRolloutCuda(SoftBodySimulator* sim, const SoftRolloutOptions& options, const SoftStepLoss&,
+                                     bool, CudaPrecision) {
+  if (sim) checkOptions(*sim, options);
+  (void)since;
+  throw TopoError("CUDA soft rollout", cudaDeviceInfo().reason, "use backend cpu (or auto), or rebuild with nvcc");
+}
+
+#endif
+
+}  // namespace topo_gaussian
