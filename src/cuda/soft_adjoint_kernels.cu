@@ -32,7 +32,8 @@ __global__ void symplecticKickDriftKernel(SoftDeviceBody<T> b, T dt, double dt_c
 #pragma unroll
   for (int d = 0; d < 3; ++d) {
     const T v = b.v[3 * i + d];
-    const T vn = v + dt * (b.f[3 * i + d] / m + b.gravity[d] - b.damping * v);
+    const T f = b.contact.points ? b.f[3 * i + d] + b.contact.pfr[3 * i + d] : b.f[3 * i + d];
+    const T vn = v + dt * (f / m + b.gravity[d] - b.damping * v);
     b.v[3 * i + d] = vn;
     b.x[3 * i + d] += dt * vn;
     finite = finite && isfinite(vn) && isfinite(b.x[3 * i + d]);
@@ -48,19 +49,25 @@ __device__ Mat3<T> firstPiola(bool stvk, const Mat3<T>& F, T mu, T la) {
     eps = mulTn(F, F);
 #pragma unroll
     for (int k = 0; k < 9; ++k) eps.a[k] *= T(0.5);
-    eps(0, 0) -= T(0.5); eps(1, 1) -= T(0.5); eps(2, 2) -= T(0.5);
+    eps(0, 0) -= T(0.5);
+    eps(1, 1) -= T(0.5);
+    eps(2, 2) -= T(0.5);
   } else {
 #pragma unroll
     for (int c = 0; c < 3; ++c)
 #pragma unroll
       for (int r = 0; r < 3; ++r) eps(r, c) = T(0.5) * (F(r, c) + F(c, r));
-    eps(0, 0) -= T(1); eps(1, 1) -= T(1); eps(2, 2) -= T(1);
+    eps(0, 0) -= T(1);
+    eps(1, 1) -= T(1);
+    eps(2, 2) -= T(1);
   }
   const T tr = eps(0, 0) + eps(1, 1) + eps(2, 2);
   Mat3<T> S;
 #pragma unroll
   for (int k = 0; k < 9; ++k) S.a[k] = T(2) * mu * eps.a[k];
-  S(0, 0) += la * tr; S(1, 1) += la * tr; S(2, 2) += la * tr;
+  S(0, 0) += la * tr;
+  S(1, 1) += la * tr;
+  S(2, 2) += la * tr;
   return stvk ? mul(F, S) : S;
 }
 
@@ -73,7 +80,9 @@ __device__ Mat3<T> piolaDifferential(bool stvk, bool exact_rotation, const Mat3<
     Mat3<T> E = mulTn(Ft, Ft), dE;
 #pragma unroll
     for (int k = 0; k < 9; ++k) E.a[k] *= T(0.5);
-    E(0, 0) -= T(0.5); E(1, 1) -= T(0.5); E(2, 2) -= T(0.5);
+    E(0, 0) -= T(0.5);
+    E(1, 1) -= T(0.5);
+    E(2, 2) -= T(0.5);
     const Mat3<T> A = mulTn(dFt, Ft), B = mulTn(Ft, dFt);
 #pragma unroll
     for (int k = 0; k < 9; ++k) dE.a[k] = T(0.5) * (A.a[k] + B.a[k]);
@@ -84,8 +93,12 @@ __device__ Mat3<T> piolaDifferential(bool stvk, bool exact_rotation, const Mat3<
       S1.a[k] = T(2) * mu * E.a[k];
       S2.a[k] = T(2) * mu * dE.a[k];
     }
-    S1(0, 0) += la * trE; S1(1, 1) += la * trE; S1(2, 2) += la * trE;
-    S2(0, 0) += la * trdE; S2(1, 1) += la * trdE; S2(2, 2) += la * trdE;
+    S1(0, 0) += la * trE;
+    S1(1, 1) += la * trE;
+    S1(2, 2) += la * trE;
+    S2(0, 0) += la * trdE;
+    S2(1, 1) += la * trdE;
+    S2(2, 2) += la * trdE;
     const Mat3<T> P1 = mul(dFt, S1), P2 = mul(Ft, S2);
 #pragma unroll
     for (int k = 0; k < 9; ++k) out.a[k] = P1.a[k] + P2.a[k];
@@ -109,9 +122,12 @@ __device__ Mat3<T> piolaDifferential(bool stvk, bool exact_rotation, const Mat3<
     const T w1 = (C(0, 1) * ax0 + C(1, 1) * ax1 + C(2, 1) * ax2) / det;
     const T w2 = (C(0, 2) * ax0 + C(1, 2) * ax1 + C(2, 2) * ax2) / det;
     Mat3<T> Wx = zero3<T>();
-    Wx(0, 1) = -w2; Wx(0, 2) = w1;
-    Wx(1, 0) = w2;  Wx(1, 2) = -w0;
-    Wx(2, 0) = -w1; Wx(2, 1) = w0;
+    Wx(0, 1) = -w2;
+    Wx(0, 2) = w1;
+    Wx(1, 0) = w2;
+    Wx(1, 2) = -w0;
+    Wx(2, 0) = -w1;
+    Wx(2, 1) = w0;
     dR = mul(R, Wx);
   }
   const T trSm = S(0, 0) + S(1, 1) + S(2, 2) - T(3);
@@ -163,16 +179,28 @@ __global__ void __launch_bounds__(kBlock)
     const T v = b.V[j];
     const T d0 = v * (a[3 * j] - ai0), d1 = v * (a[3 * j + 1] - ai1), d2 = v * (a[3 * j + 2] - ai2);
     const T g0 = b.gh[3 * e], g1 = b.gh[3 * e + 1], g2 = b.gh[3 * e + 2];
-    dF(0, 0) += d0 * g0; dF(1, 0) += d1 * g0; dF(2, 0) += d2 * g0;
-    dF(0, 1) += d0 * g1; dF(1, 1) += d1 * g1; dF(2, 1) += d2 * g1;
-    dF(0, 2) += d0 * g2; dF(1, 2) += d1 * g2; dF(2, 2) += d2 * g2;
+    dF(0, 0) += d0 * g0;
+    dF(1, 0) += d1 * g0;
+    dF(2, 0) += d2 * g0;
+    dF(0, 1) += d0 * g1;
+    dF(1, 1) += d1 * g1;
+    dF(2, 1) += d2 * g1;
+    dF(0, 2) += d0 * g2;
+    dF(1, 2) += d1 * g2;
+    dF(2, 2) += d2 * g2;
     if (hg_row) {
       const T w = b.W[e];
       const T b0 = w * d0, b1 = w * d1, b2 = w * d2;
       const T X0 = b.X[3 * j] - Xi0, X1 = b.X[3 * j + 1] - Xi1, X2 = b.X[3 * j + 2] - Xi2;
-      dD(0, 0) += b0 * X0; dD(1, 0) += b1 * X0; dD(2, 0) += b2 * X0;
-      dD(0, 1) += b0 * X1; dD(1, 1) += b1 * X1; dD(2, 1) += b2 * X1;
-      dD(0, 2) += b0 * X2; dD(1, 2) += b1 * X2; dD(2, 2) += b2 * X2;
+      dD(0, 0) += b0 * X0;
+      dD(1, 0) += b1 * X0;
+      dD(2, 0) += b2 * X0;
+      dD(0, 1) += b0 * X1;
+      dD(1, 1) += b1 * X1;
+      dD(2, 1) += b2 * X1;
+      dD(0, 2) += b0 * X2;
+      dD(1, 2) += b1 * X2;
+      dD(2, 2) += b2 * X2;
     }
   }
 #pragma unroll
@@ -319,13 +347,14 @@ void launchHessianRow(const SoftDeviceBody<T>& b, const T* a, T* dFt, T* dM, T* 
 template <class T>
 void launchSymplecticStep(const SoftDeviceBody<T>& b, double dt, void* stream) {
   cudaStream_t s = static_cast<cudaStream_t>(stream);
+  launchContact(b, false, stream);  // friction at (x_k, v_k)
   symplecticKickDriftKernel<T><<<blocks(b.n), kBlock, 0, s>>>(b, static_cast<T>(dt), dt);
   launchEvaluateForces(b, stream);
 }
 
 template <class T>
-void launchAdjointStep(const SoftDeviceBody<T>& b, const T* f, double dt, T* xb, T* vb, T* g_mass, T* g_mu,
-                       T* g_lambda, T* g_chamber, T* work, void* stream) {
+void launchAdjointStep(const SoftDeviceBody<T>& b, const T* f, double dt, T* xb, T* vb, T* g_mass, T* g_mu, T* g_lambda,
+                       T* g_chamber, T* work, void* stream) {
   cudaStream_t s = static_cast<cudaStream_t>(stream);
   const std::size_t n = static_cast<std::size_t>(b.n);
   T* a = work;
@@ -338,12 +367,24 @@ void launchAdjointStep(const SoftDeviceBody<T>& b, const T* f, double dt, T* xb,
   T* d_ch = d_la + n;
   adjointPrepareKernel<T><<<blocks(b.n), kBlock, 0, s>>>(b, f, static_cast<T>(dt), xb, vb, w, a, g_mass);
   switch (b.lanes) {
-    case 1: launchHessianRow<T, 1>(b, a, dFt, dM, d_mu, d_la, d_ch, s); break;
-    case 2: launchHessianRow<T, 2>(b, a, dFt, dM, d_mu, d_la, d_ch, s); break;
-    case 4: launchHessianRow<T, 4>(b, a, dFt, dM, d_mu, d_la, d_ch, s); break;
-    case 16: launchHessianRow<T, 16>(b, a, dFt, dM, d_mu, d_la, d_ch, s); break;
-    case 32: launchHessianRow<T, 32>(b, a, dFt, dM, d_mu, d_la, d_ch, s); break;
-    default: launchHessianRow<T, 8>(b, a, dFt, dM, d_mu, d_la, d_ch, s); break;
+    case 1:
+      launchHessianRow<T, 1>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
+      break;
+    case 2:
+      launchHessianRow<T, 2>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
+      break;
+    case 4:
+      launchHessianRow<T, 4>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
+      break;
+    case 16:
+      launchHessianRow<T, 16>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
+      break;
+    case 32:
+      launchHessianRow<T, 32>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
+      break;
+    default:
+      launchHessianRow<T, 8>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
+      break;
   }
   // −H a: the force gather over (a, dF̃, dM), written to mHa.
   SoftDeviceBody<T> lin = b;
@@ -363,8 +404,8 @@ void launchAdd(T* y, const T* x, int n3, void* stream) {
 
 template void launchSymplecticStep<double>(const SoftDeviceBody<double>&, double, void*);
 template void launchSymplecticStep<float>(const SoftDeviceBody<float>&, double, void*);
-template void launchAdjointStep<double>(const SoftDeviceBody<double>&, const double*, double, double*, double*,
-                                        double*, double*, double*, double*, double*, void*);
+template void launchAdjointStep<double>(const SoftDeviceBody<double>&, const double*, double, double*, double*, double*,
+                                        double*, double*, double*, double*, void*);
 template void launchAdjointStep<float>(const SoftDeviceBody<float>&, const float*, double, float*, float*, float*,
                                        float*, float*, float*, float*, void*);
 template void launchAdd<double>(double*, const double*, int, void*);

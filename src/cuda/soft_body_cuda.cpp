@@ -1,6 +1,7 @@
 // Host side of the GPU explicit soft-body step; see include/topo_gaussian/cuda/soft_body_cuda.h.
 #include "topo_gaussian/cuda/soft_body_cuda.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -21,15 +22,15 @@ using cuda_detail::DeviceBuffer;
 
 SoftBodyCuda::SoftBodyCuda(const SoftBodySimulator& sim, CudaPrecision precision, int lanes)
     : impl_(std::make_unique<Impl>()) {
+  if (lanes == 0) {
+    const double nb = double(sim.sph().neighbors().indices.size()) / double(std::max<std::size_t>(1, sim.size()));
+    lanes = nb < 48.0 ? 4 : 8;
+  }
   if (lanes != 1 && lanes != 2 && lanes != 4 && lanes != 8 && lanes != 16 && lanes != 32)
     throw TopoError("CUDA soft body", "lanes_per_particle " + std::to_string(lanes) + " is not a power of 2 up to 32",
-                    "use 8 (or 1, 2, 4, 16, 32)");
+                    "use 0 (automatic), 1, 2, 4, 8, 16 or 32");
   const CudaDeviceInfo& info = cudaDeviceInfo();
   if (!info.available) throw TopoError("CUDA soft body", info.reason, "use backend cpu (or auto) on this machine");
-  if (!sim.contact().empty())
-    throw TopoError("CUDA soft body", "the simulator has contact, which the GPU step does not model yet",
-                    "use backend cpu for soft bodies with contact (the pear); clamped bodies (beams, the finger) run "
-                    "on the GPU");
   if (sim.size() > static_cast<std::size_t>(std::numeric_limits<int>::max() / 16))
     throw TopoError("CUDA soft body", std::to_string(sim.size()) + " particles is more than the GPU step indexes",
                     "use a coarser spacing");
@@ -53,6 +54,7 @@ SoftBodyCuda::~SoftBodyCuda() = default;
 
 std::size_t SoftBodyCuda::size() const { return impl_->n; }
 CudaPrecision SoftBodyCuda::precision() const { return impl_->precision; }
+int SoftBodyCuda::lanesPerParticle() const { return impl_->body64.lanes; }
 
 void SoftBodyCuda::step(double dt, long steps) {
   if (!std::isfinite(dt) || dt <= 0.0 || steps < 0) {
@@ -187,6 +189,7 @@ SoftBodyCuda::SoftBodyCuda(const SoftBodySimulator&, CudaPrecision, int) {
 SoftBodyCuda::~SoftBodyCuda() = default;
 std::size_t SoftBodyCuda::size() const { return 0; }
 CudaPrecision SoftBodyCuda::precision() const { return CudaPrecision::Float64; }
+int SoftBodyCuda::lanesPerParticle() const { return 0; }
 void SoftBodyCuda::step(double, long) {}
 void SoftBodyCuda::download(std::vector<Eigen::Vector3d>*, std::vector<Eigen::Vector3d>*) const {}
 std::vector<Eigen::Vector3d> SoftBodyCuda::forces() const { return {}; }

@@ -5,6 +5,7 @@
 
 #include <cuda_runtime_api.h>
 
+#include <algorithm>
 #include <array>
 #include <limits>
 #include <memory>
@@ -137,6 +138,7 @@ struct SoftBodyCuda::Impl {
     b->shape_matching = sph.options().rotation == SphRotationSource::ShapeMatchingApq ? 1 : 0;
     for (int d = 0; d < 3; ++d) b->gravity[d] = static_cast<T>(sim.options().gravity(d));
     b->damping = static_cast<T>(sim.options().damping);
+    buildContact(sim, b);
     b->x = upload(flat<T>(sim.positions()));
     b->v = upload(flat<T>(sim.velocities()));
     b->f = upload(flat<T>(sim.conservativeForces()));
@@ -146,6 +148,80 @@ struct SoftBodyCuda::Impl {
     b->step = upload(std::vector<long long>{static_cast<long long>(sim.stepCount())});
     b->status = upload(std::vector<unsigned long long>(cuda_detail::kStatusWords, 0));
     resetStatus(b->status);
+  }
+
+  /// The simulator's contact (obstacles, the embedded samples or the candidate particles, their
+  /// transpose for the scatter to the particles).
+  template <class T>
+  void buildContact(const SoftBodySimulator& sim, cuda_detail::SoftDeviceBody<T>* b) {
+    const SoftContact& sc = sim.contact();
+    if (sc.empty()) return;
+    cuda_detail::ContactDevice<T>& c = b->contact;
+    if (sc.obstacles().size() > static_cast<std::size_t>(cuda_detail::ContactDevice<T>::kMaxObstacles))
+      throw TopoError("CUDA soft body", std::to_string(sc.obstacles().size()) + " contact obstacles",
+                      "use at most " + std::to_string(cuda_detail::ContactDevice<T>::kMaxObstacles));
+    c.obstacles = static_cast<int>(sc.obstacles().size());
+    for (int o = 0; o < c.obstacles; ++o) {
+      const ContactObstacle& ob = sc.obstacles()[o];
+      c.kind[o] = ob.kind == ContactObstacle::Kind::HalfSpace ? 0 : 1;
+      c.offset[o] = static_cast<T>(ob.offset);
+      for (int d = 0; d < 3; ++d) {
+        c.normal[o][d] = static_cast<T>(ob.normal(d));
+        c.lo[o][d] = static_cast<T>(ob.lo(d));
+        c.hi[o][d] = static_cast<T>(ob.hi(d));
+      }
+    }
+    c.stiffness = static_cast<T>(sc.options().stiffness);
+    c.friction = static_cast<T>(sc.options().friction);
+    c.slip_velocity = static_cast<T>(sc.options().slip_velocity);
+    c.margin = static_cast<T>(sc.options().margin);
+    std::vector<int> off{0}, idx, anchor;
+    std::vector<double> phi, omega;
+    if (sc.embedded()) {
+      const ContactEmbedding& E = *sc.embedding();
+      off = E.offsets();
+      idx = E.particles();
+      phi = E.phi();
+      omega = E.weights();
+      for (std::size_t k = 0; k < E.size(); ++k) anchor.push_back(E.anchor(k));
+      c.embedded = 1;
+      c.band = static_cast<T>(E.nearBand());
+    } else {
+      for (std::size_t i = 0; i < n; ++i)
+        if (sc.mask().empty() || sc.mask()[i]) {
+          idx.push_back(static_cast<int>(i));
+          phi.push_back(1.0);
+          omega.push_back(1.0);
+          anchor.push_back(static_cast<int>(i));
+          off.push_back(static_cast<int>(idx.size()));
+        }
+    }
+    const int points = static_cast<int>(off.size()) - 1;
+    // Transpose (particle → its points, in point order).
+    std::vector<int> toff(n + 1, 0), tpt(idx.size());
+    std::vector<double> tphi(idx.size());
+    for (int i : idx) ++toff[i + 1];
+    for (std::size_t i = 0; i < n; ++i) toff[i + 1] += toff[i];
+    std::vector<int> fill(toff.begin(), toff.end() - 1);
+    for (int k = 0; k < points; ++k)
+      for (int q = off[k]; q < off[k + 1]; ++q) {
+        const int e = fill[idx[q]]++;
+        tpt[e] = k;
+        tphi[e] = phi[q];
+      }
+    c.points = points;
+    c.off = upload(off);
+    c.idx = upload(idx);
+    c.phi = upload(cast<T>(phi));
+    c.omega = upload(cast<T>(omega));
+    c.anchor = upload(anchor);
+    c.toff = upload(toff);
+    c.tpt = upload(tpt);
+    c.tphi = upload(cast<T>(tphi));
+    c.fn = upload(std::vector<T>(3 * static_cast<std::size_t>(points), T(0)));
+    c.ffr = upload(std::vector<T>(3 * static_cast<std::size_t>(points), T(0)));
+    c.adj = upload(std::vector<T>(6 * static_cast<std::size_t>(points), T(0)));
+    c.pfr = upload(std::vector<T>(3 * n, T(0)));
   }
 
   void resetStatus(unsigned long long* status) {

@@ -148,9 +148,21 @@ __device__ Mat3<T> polarFallback(const Mat3<T>& A) {
   jacobiEigen(mulTn(A, A), &Vm, w);
   // Order by descending singular value.
   int o[3] = {0, 1, 2};
-  if (w[o[0]] < w[o[1]]) { int t = o[0]; o[0] = o[1]; o[1] = t; }
-  if (w[o[1]] < w[o[2]]) { int t = o[1]; o[1] = o[2]; o[2] = t; }
-  if (w[o[0]] < w[o[1]]) { int t = o[0]; o[0] = o[1]; o[1] = t; }
+  if (w[o[0]] < w[o[1]]) {
+    int t = o[0];
+    o[0] = o[1];
+    o[1] = t;
+  }
+  if (w[o[1]] < w[o[2]]) {
+    int t = o[1];
+    o[1] = o[2];
+    o[2] = t;
+  }
+  if (w[o[0]] < w[o[1]]) {
+    int t = o[0];
+    o[0] = o[1];
+    o[1] = t;
+  }
   Mat3<T> Vs, U;
 #pragma unroll
   for (int c = 0; c < 3; ++c)
@@ -187,8 +199,20 @@ __device__ Mat3<T> polarFallback(const Mat3<T>& A) {
     }
     if (!(nrm > T(0))) {  // rank-deficient: any unit vector orthogonal to the previous column
       const T a0 = c == 0 ? T(1) : U(0, 0), a1 = c == 0 ? T(0) : U(1, 0), a2 = c == 0 ? T(0) : U(2, 0);
-      if (fabs(a0) < T(0.9)) { u[0] = 0; u[1] = a2; u[2] = -a1; } else { u[0] = -a2; u[1] = 0; u[2] = a0; }
-      if (c == 0) { u[0] = 1; u[1] = 0; u[2] = 0; }
+      if (fabs(a0) < T(0.9)) {
+        u[0] = 0;
+        u[1] = a2;
+        u[2] = -a1;
+      } else {
+        u[0] = -a2;
+        u[1] = 0;
+        u[2] = a0;
+      }
+      if (c == 0) {
+        u[0] = 1;
+        u[1] = 0;
+        u[2] = 0;
+      }
       nrm = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
     }
 #pragma unroll

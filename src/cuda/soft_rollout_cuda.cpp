@@ -20,9 +20,6 @@ void checkOptions(const SoftBodySimulator& sim, const SoftRolloutOptions& o) {
   if (o.integrator != SoftIntegrator::SymplecticEuler)
     throw TopoError("CUDA soft rollout", "implicit Euler steps are not on the GPU yet",
                     "use the explicit (symplectic Euler) integrator, or backend cpu");
-  if (!sim.contact().empty())
-    throw TopoError("CUDA soft rollout", "the simulator has contact, which the GPU rollout does not model yet",
-                    "use backend cpu for soft bodies with contact (the pear)");
   if (!std::isfinite(o.dt) || o.dt <= 0.0 || o.steps < 1) {
     std::ostringstream s;
     s << "dt = " << o.dt << " s, steps = " << o.steps;
@@ -192,10 +189,12 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
     for (int k = k1 - 1; k >= k0; --k) {
       const T* st = seg + static_cast<std::size_t>(k - k0) * 9 * n;
       copy(b.x, st);
+      copy(b.v, st + 3 * n);  // v_k: the friction adjoint's velocity
       setClock(b.time, t0 + k * dt, s);
       cuda_detail::launchEvaluateState(b, s);  // F̃, R at x_k (the forces are st + 6n)
       cuda_detail::launchAdjointStep(b, st + 6 * n, dt, xb, vb, G, G + n, G + 2 * n, chamber ? G + 3 * n : nullptr,
                                      work, s);
+      cuda_detail::launchContactAdjoint(b, xb, vb, G, work, s);  // a = work[0, 3n)
       check(cudaGetLastError(), "kernel launch");
       // ∂ℓ_k/∂x_k and ∂ℓ_k/∂v_k from the host loss.
       Vec3s xk, vk, dlx(n, Eigen::Vector3d::Zero()), dlv(n, Eigen::Vector3d::Zero());

@@ -33,10 +33,28 @@ __global__ void kickDriftKernel(SoftDeviceBody<T> b, T h, T dt, double dt_clock)
 #pragma unroll
   for (int d = 0; d < 3; ++d) {
     const T v = b.v[3 * i + d];
-    const T vn = v + h * (b.f[3 * i + d] / m + b.gravity[d] - b.damping * v);
+    const T f = b.contact.points ? b.f[3 * i + d] + b.contact.pfr[3 * i + d] : b.f[3 * i + d];
+    const T vn = v + h * (f / m + b.gravity[d] - b.damping * v);
     b.v[3 * i + d] = vn;
     b.x[3 * i + d] += dt * vn;
   }
+}
+
+/// The second half kick with friction (contact): v ← v + ½dt ((f + f_fr)/m + g − c v), free particles.
+template <class T>
+__global__ void kickKernel(SoftDeviceBody<T> b, T h) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= b.n || b.clamped[i]) return;
+  const T m = b.mass[i];
+  bool finite = true;
+#pragma unroll
+  for (int d = 0; d < 3; ++d) {
+    const T v = b.v[3 * i + d];
+    const T vn = v + h * ((b.f[3 * i + d] + b.contact.pfr[3 * i + d]) / m + b.gravity[d] - b.damping * v);
+    b.v[3 * i + d] = vn;
+    finite = finite && isfinite(vn);
+  }
+  if (!finite) encodeFirst<T>(&b.status[1], *b.step, i);
 }
 
 /// CorotatedSph::evaluate (Forces) at x, plus the pneumatic term in M, at time *time.
@@ -58,16 +76,28 @@ __global__ void __launch_bounds__(kBlock) evaluateKernel(SoftDeviceBody<T> b) {
     const T v = b.V[j];
     const T d0 = v * (b.x[3 * j] - xi0), d1 = v * (b.x[3 * j + 1] - xi1), d2 = v * (b.x[3 * j + 2] - xi2);
     const T g0 = b.gh[3 * e], g1 = b.gh[3 * e + 1], g2 = b.gh[3 * e + 2];
-    Ft(0, 0) += d0 * g0; Ft(1, 0) += d1 * g0; Ft(2, 0) += d2 * g0;
-    Ft(0, 1) += d0 * g1; Ft(1, 1) += d1 * g1; Ft(2, 1) += d2 * g1;
-    Ft(0, 2) += d0 * g2; Ft(1, 2) += d1 * g2; Ft(2, 2) += d2 * g2;
+    Ft(0, 0) += d0 * g0;
+    Ft(1, 0) += d1 * g0;
+    Ft(2, 0) += d2 * g0;
+    Ft(0, 1) += d0 * g1;
+    Ft(1, 1) += d1 * g1;
+    Ft(2, 1) += d2 * g1;
+    Ft(0, 2) += d0 * g2;
+    Ft(1, 2) += d1 * g2;
+    Ft(2, 2) += d2 * g2;
     if (need_D) {
       const T w = b.W[e];
       const T b0 = w * d0, b1 = w * d1, b2 = w * d2;
       const T X0 = b.X[3 * j] - Xi0, X1 = b.X[3 * j + 1] - Xi1, X2 = b.X[3 * j + 2] - Xi2;
-      D(0, 0) += b0 * X0; D(1, 0) += b1 * X0; D(2, 0) += b2 * X0;
-      D(0, 1) += b0 * X1; D(1, 1) += b1 * X1; D(2, 1) += b2 * X1;
-      D(0, 2) += b0 * X2; D(1, 2) += b1 * X2; D(2, 2) += b2 * X2;
+      D(0, 0) += b0 * X0;
+      D(1, 0) += b1 * X0;
+      D(2, 0) += b2 * X0;
+      D(0, 1) += b0 * X1;
+      D(1, 1) += b1 * X1;
+      D(2, 1) += b2 * X1;
+      D(0, 2) += b0 * X2;
+      D(1, 2) += b1 * X2;
+      D(2, 2) += b2 * X2;
     }
   }
 #pragma unroll
@@ -91,19 +121,25 @@ __global__ void __launch_bounds__(kBlock) evaluateKernel(SoftDeviceBody<T> b) {
     eps = mulTn(F, F);
 #pragma unroll
     for (int k = 0; k < 9; ++k) eps.a[k] *= T(0.5);
-    eps(0, 0) -= T(0.5); eps(1, 1) -= T(0.5); eps(2, 2) -= T(0.5);
+    eps(0, 0) -= T(0.5);
+    eps(1, 1) -= T(0.5);
+    eps(2, 2) -= T(0.5);
   } else {
 #pragma unroll
     for (int c = 0; c < 3; ++c)
 #pragma unroll
       for (int r = 0; r < 3; ++r) eps(r, c) = T(0.5) * (F(r, c) + F(c, r));
-    eps(0, 0) -= T(1); eps(1, 1) -= T(1); eps(2, 2) -= T(1);
+    eps(0, 0) -= T(1);
+    eps(1, 1) -= T(1);
+    eps(2, 2) -= T(1);
   }
   const T tr = eps(0, 0) + eps(1, 1) + eps(2, 2);
   Mat3<T> S;
 #pragma unroll
   for (int k = 0; k < 9; ++k) S.a[k] = T(2) * mu * eps.a[k];
-  S(0, 0) += la * tr; S(1, 1) += la * tr; S(2, 2) += la * tr;
+  S(0, 0) += la * tr;
+  S(1, 1) += la * tr;
+  S(2, 2) += la * tr;
   const Mat3<T> P = b.stvk ? mul(F, S) : S;
   // M_i = V_i R_i P_i + c_i H_i, H_i = 2(F̃_i C_i − D_i).
   const Mat3<T> RP = mul(R, P);
@@ -164,8 +200,12 @@ __global__ void __launch_bounds__(kBlock) gatherKickKernel(SoftDeviceBody<T> b, 
       u1 += y[3] * (b.x[3 * j + 1] - xk1);
       u2 += y[3] * (b.x[3 * j + 2] - xk2);
     }
-    t0 = groupSum<L>(t0); t1 = groupSum<L>(t1); t2 = groupSum<L>(t2);
-    u0 = groupSum<L>(u0); u1 = groupSum<L>(u1); u2 = groupSum<L>(u2);
+    t0 = groupSum<L>(t0);
+    t1 = groupSum<L>(t1);
+    t2 = groupSum<L>(t2);
+    u0 = groupSum<L>(u0);
+    u1 = groupSum<L>(u1);
+    u2 = groupSum<L>(u2);
   } else {
     for (int e = e0 + lane; e < e1; e += L) {
       const T* m = b.M + 9 * b.idx[e];
@@ -175,7 +215,9 @@ __global__ void __launch_bounds__(kBlock) gatherKickKernel(SoftDeviceBody<T> b, 
       a2 += m[2] * r0 + m[5] * r1 + m[8] * r2;
     }
   }
-  a0 = groupSum<L>(a0); a1 = groupSum<L>(a1); a2 = groupSum<L>(a2);
+  a0 = groupSum<L>(a0);
+  a1 = groupSum<L>(a1);
+  a2 = groupSum<L>(a2);
   if (!active || lane != 0) return;
   const T Vk = b.V[k];
   Mat3<T> Mk;
@@ -250,12 +292,24 @@ void launchGatherOnly(const SoftDeviceBody<T>& b, cudaStream_t s) {
 template <class T>
 void launchForcesLanes(const SoftDeviceBody<T>& b, T h, bool kick, cudaStream_t s) {
   switch (b.lanes) {
-    case 1: launchForces<T, 1>(b, h, kick, s); break;
-    case 2: launchForces<T, 2>(b, h, kick, s); break;
-    case 4: launchForces<T, 4>(b, h, kick, s); break;
-    case 16: launchForces<T, 16>(b, h, kick, s); break;
-    case 32: launchForces<T, 32>(b, h, kick, s); break;
-    default: launchForces<T, 8>(b, h, kick, s); break;
+    case 1:
+      launchForces<T, 1>(b, h, kick, s);
+      break;
+    case 2:
+      launchForces<T, 2>(b, h, kick, s);
+      break;
+    case 4:
+      launchForces<T, 4>(b, h, kick, s);
+      break;
+    case 16:
+      launchForces<T, 16>(b, h, kick, s);
+      break;
+    case 32:
+      launchForces<T, 32>(b, h, kick, s);
+      break;
+    default:
+      launchForces<T, 8>(b, h, kick, s);
+      break;
   }
 }
 
@@ -265,25 +319,48 @@ template <class T>
 void launchLeapfrogStep(const SoftDeviceBody<T>& b, double dt, void* stream) {
   cudaStream_t s = static_cast<cudaStream_t>(stream);
   const T h = static_cast<T>(0.5 * dt);
+  if (b.contact.points == 0) {
+    kickDriftKernel<T><<<blocks(b.n), kBlock, 0, s>>>(b, h, static_cast<T>(dt), dt);
+    launchForcesLanes(b, h, true, s);  // forces at t + dt, second half kick
+    return;
+  }
+  // With contact: friction at (x_n, v_n) for the first kick; the normal force joins the forces at
+  // x_{n+1}, and the second kick takes friction at (x_{n+1}, v_{n+½}) (SoftBodySimulator::step).
+  launchContact(b, false, stream);
   kickDriftKernel<T><<<blocks(b.n), kBlock, 0, s>>>(b, h, static_cast<T>(dt), dt);
-  launchForcesLanes(b, h, true, s);  // forces at t + dt, second half kick
+  launchForcesLanes(b, T(0), false, s);
+  launchContact(b, true, stream);
+  kickKernel<T><<<blocks(b.n), kBlock, 0, s>>>(b, h);
 }
 
 template <class T>
 void launchEvaluateForces(const SoftDeviceBody<T>& b, void* stream) {
   launchForcesLanes(b, T(0), false, static_cast<cudaStream_t>(stream));
+  launchContact(b, true, stream);  // + the contact's normal force (none without contact)
 }
 
 template <class T>
 void launchEvaluateState(const SoftDeviceBody<T>& b, void* stream) {
   cudaStream_t s = static_cast<cudaStream_t>(stream);
   switch (b.lanes) {
-    case 1: launchEvaluateOnly<T, 1>(b, s); break;
-    case 2: launchEvaluateOnly<T, 2>(b, s); break;
-    case 4: launchEvaluateOnly<T, 4>(b, s); break;
-    case 16: launchEvaluateOnly<T, 16>(b, s); break;
-    case 32: launchEvaluateOnly<T, 32>(b, s); break;
-    default: launchEvaluateOnly<T, 8>(b, s); break;
+    case 1:
+      launchEvaluateOnly<T, 1>(b, s);
+      break;
+    case 2:
+      launchEvaluateOnly<T, 2>(b, s);
+      break;
+    case 4:
+      launchEvaluateOnly<T, 4>(b, s);
+      break;
+    case 16:
+      launchEvaluateOnly<T, 16>(b, s);
+      break;
+    case 32:
+      launchEvaluateOnly<T, 32>(b, s);
+      break;
+    default:
+      launchEvaluateOnly<T, 8>(b, s);
+      break;
   }
 }
 
@@ -291,12 +368,24 @@ template <class T>
 void launchGatherForces(const SoftDeviceBody<T>& b, void* stream) {
   cudaStream_t s = static_cast<cudaStream_t>(stream);
   switch (b.lanes) {
-    case 1: launchGatherOnly<T, 1>(b, s); break;
-    case 2: launchGatherOnly<T, 2>(b, s); break;
-    case 4: launchGatherOnly<T, 4>(b, s); break;
-    case 16: launchGatherOnly<T, 16>(b, s); break;
-    case 32: launchGatherOnly<T, 32>(b, s); break;
-    default: launchGatherOnly<T, 8>(b, s); break;
+    case 1:
+      launchGatherOnly<T, 1>(b, s);
+      break;
+    case 2:
+      launchGatherOnly<T, 2>(b, s);
+      break;
+    case 4:
+      launchGatherOnly<T, 4>(b, s);
+      break;
+    case 16:
+      launchGatherOnly<T, 16>(b, s);
+      break;
+    case 32:
+      launchGatherOnly<T, 32>(b, s);
+      break;
+    default:
+      launchGatherOnly<T, 8>(b, s);
+      break;
   }
 }
 

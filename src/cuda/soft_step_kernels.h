@@ -15,6 +15,35 @@ namespace cuda_detail {
 /// [2] rotations that left the Newton iteration for the Jacobi fallback (count)
 constexpr int kStatusWords = 4;
 
+/// Penalty contact with rigid obstacles (physics/soft_contact.h) on contact points: embedded surface
+/// samples y_k = Σ_i φ_ki x_i with weights ω_k, or the candidate particles themselves (φ = 1, ω = 1).
+/// points == 0: no contact.
+template <class T>
+struct ContactDevice {
+  static constexpr int kMaxObstacles = 8;
+  int points = 0;
+  int obstacles = 0;
+  int kind[kMaxObstacles] = {};  // 0 half-space, 1 box
+  T normal[kMaxObstacles][3] = {};
+  T offset[kMaxObstacles] = {};
+  T lo[kMaxObstacles][3] = {}, hi[kMaxObstacles][3] = {};
+  T stiffness = 0, friction = 0, slip_velocity = 0, margin = 0;
+  T band = 0;  // embedded: skip samples whose anchor is farther (nearBand())
+  int embedded = 0;
+  const int* off = nullptr;  // points + 1: the point's particles off[k] … off[k+1]
+  const int* idx = nullptr;
+  const T* phi = nullptr;
+  const T* omega = nullptr;     // points
+  const int* anchor = nullptr;  // points
+  const int* toff = nullptr;    // n + 1: transpose, particle i's points toff[i] … toff[i+1]
+  const int* tpt = nullptr;     // the point k of each transposed entry
+  const T* tphi = nullptr;      // φ_ki of each transposed entry
+  T* fn = nullptr;              // 3 points: normal force at each point
+  T* ffr = nullptr;             // 3 points: friction force at each point
+  T* pfr = nullptr;             // 3n: friction force at each particle (scattered)
+  T* adj = nullptr;             // 6 points: the adjoint's −h_k + ȳ_k and v̄_k
+};
+
 template <class T>
 struct SoftDeviceBody {
   int n = 0;
@@ -45,6 +74,7 @@ struct SoftDeviceBody {
   T gravity[3] = {0, 0, 0};
   T damping = 0;
   double hg_alpha_over_h2 = 0.0;  // α / h² (the hourglass material derivative)
+  ContactDevice<T> contact;
   int lanes = 8;  // threads per particle in the neighbour sums: 1, 2, 4, 8, 16 or 32
   // state
   T* x = nullptr;                        // 3n
@@ -87,6 +117,16 @@ void launchGatherForces(const SoftDeviceBody<T>& body, void* stream);
 template <class T>
 void launchAdjointStep(const SoftDeviceBody<T>& body, const T* f, double dt, T* xb, T* vb, T* g_mass, T* g_mu,
                        T* g_lambda, T* g_chamber, T* work, void* stream);
+
+/// Contact at x: per point the normal force and the friction force for velocities v (both at x),
+/// scattered to the particles: f += normal (when add_normal), pfr = friction.
+template <class T>
+void launchContact(const SoftDeviceBody<T>& body, bool add_normal, void* stream);
+
+/// The contact's part of one adjoint step at x_k, v_k (after launchAdjointStep, with its a in work):
+/// x̄ −= H_c a, friction adjoint into x̄ and v̄ (free particles), m̄ −= a·f_fr / m.
+template <class T>
+void launchContactAdjoint(const SoftDeviceBody<T>& body, T* xb, T* vb, T* g_mass, const T* work, void* stream);
 
 /// y += x (n3 values).
 template <class T>

@@ -253,42 +253,6 @@ TEST(CudaSoftBody, AnInvertedParticleIsReportedWithItsStep) {
   }
 }
 
-TEST(CudaSoftBody, ContactIsRefusedByName) {
-  SKIP_WITHOUT_GPU();
-  Beam a = makeBeam(SphEnergyModel::StVK, SphRotationSource::ShapeMatchingApq, 1.5, false, 0.0);
-  a.sim->setContact(SoftContact({ContactObstacle::ground(-0.05)}, SoftContactOptions()));
-  try {
-    SoftBodyCuda gpu(*a.sim);
-    FAIL() << "contact accepted";
-  } catch (const TopoError& e) {
-    EXPECT_NE(std::string(e.what()).find("contact"), std::string::npos) << e.what();
-  }
-}
-
-TEST(CudaSoftBody, LaneCountsAgree) {
-  SKIP_WITHOUT_GPU();
-  // The neighbour sums split over 1 … 32 lanes differ only in summation order.
-  Beam a = makeBeam(SphEnergyModel::StVK, SphRotationSource::ShapeMatchingApq, 1.5, true, 0.0);
-  const double dt = 0.5 * a.sim->stableTimeStep();
-  Vec3s x1, v1;
-  {
-    SoftBodyCuda g(*a.sim, CudaPrecision::Float64, 1);
-    g.step(dt, 100);
-    g.download(&x1, &v1);
-  }
-  for (int lanes : {2, 4, 8, 16, 32}) {
-    SoftBodyCuda g(*a.sim, CudaPrecision::Float64, lanes);
-    g.step(dt, 100);
-    Vec3s x, v;
-    g.download(&x, &v);
-    EXPECT_LT(maxDiff(v, v1) / maxNorm(v1), 1e-10) << lanes << " lanes";
-    EXPECT_LT(maxDiff(displacement(x, a.cloud.X), displacement(x1, a.cloud.X)) / maxNorm(displacement(x1, a.cloud.X)),
-              1e-10)
-        << lanes << " lanes";
-  }
-  EXPECT_THROW(SoftBodyCuda(*a.sim, CudaPrecision::Float64, 3), TopoError);
-}
-
 // ------------------------------------------------------------------ the rollout and its adjoint
 
 namespace {
@@ -320,15 +284,154 @@ double relDiff(const std::vector<double>& a, const std::vector<double>& b) {
 
 }  // namespace
 
+namespace {
+
+/// A 6 × 6 × 6-cell cube (5 mm) 1 mm above a ground plane at z = zmin − 1 mm, falling at 0.3 m/s and
+/// sliding at 0.2 m/s, spinning slowly; its contact on the particles or on samples of its faces
+/// (embedded, 4 per cell face, ω = area / h²), with friction 0.5 and a box obstacle beside it.
+struct Block {
+  VolumeCloud cloud;
+  std::unique_ptr<SoftBodySimulator> sim;
+};
+
+Block makeBlock(bool embedded) {
+  Block b;
+  b.cloud = topo_test::boxCloud(6 * kSpacing, 6 * kSpacing, 6 * kSpacing, kSpacing);
+  CorotatedSphOptions o;
+  o.spacing = kSpacing;
+  o.smoothing_factor = 1.0;
+  b.sim = std::make_unique<SoftBodySimulator>(CorotatedSph::fromCloud(b.cloud, lameFromYoung(2e5, 0.3), o));
+  double zmin = 1e300, xmax = -1e300;
+  for (const auto& X : b.cloud.X) zmin = std::min(zmin, X.z()), xmax = std::max(xmax, X.x());
+  const double ground = zmin - 0.5 * kSpacing - 1e-3;  // the cube's true bottom face is half a cell below
+  std::vector<ContactObstacle> obstacles = {
+      ContactObstacle::ground(ground),
+      ContactObstacle::box(Eigen::Vector3d(xmax + 0.5 * kSpacing + 2e-3, -1, -1), Eigen::Vector3d(1, 1, 1))};
+  SoftContactOptions co;
+  co.friction = 0.5;
+  if (embedded) {
+    std::vector<Eigen::Vector3d> Y;
+    std::vector<double> w;
+    const double half = 3 * kSpacing, q = kSpacing / 2;
+    for (int axis = 0; axis < 3; ++axis)
+      for (int side : {-1, 1})
+        for (double u = -half + q / 2; u < half; u += q)
+          for (double v = -half + q / 2; v < half; v += q) {
+            Eigen::Vector3d y;
+            y(axis) = side * half;
+            y((axis + 1) % 3) = u;
+            y((axis + 2) % 3) = v;
+            Y.push_back(y);
+            w.push_back(q * q / (kSpacing * kSpacing));
+          }
+    auto E = std::make_shared<const ContactEmbedding>(b.cloud.X, Y, w, kSpacing);
+    b.sim->setContact(SoftContact(obstacles, co, E));
+  } else {
+    b.sim->setContact(SoftContact(obstacles, co));
+  }
+  Vec3s v(b.cloud.size());
+  for (std::size_t i = 0; i < v.size(); ++i)
+    v[i] = Eigen::Vector3d(0.2, 0.0, -0.3) + Eigen::Vector3d(0, 0, 3.0).cross(b.cloud.X[i]);
+  b.sim->setVelocities(v);
+  return b;
+}
+
+}  // namespace
+
+TEST(CudaSoftBody, ContactMatchesTheCpuInFloat64) {
+  SKIP_WITHOUT_GPU();
+  // Penalty contact makes the motion sensitive to round-off (stiff, with kinks where contacts begin
+  // and end), so the GPU is held to the CPU's own sensitivity: a CPU run from velocities changed by
+  // 1e-13 (relative) departs from the reference by some amount e; the GPU must stay within
+  // max(1e-9, 10 e) of the reference. Both numbers are printed.
+  for (bool embedded : {false, true}) {
+    Block b = makeBlock(embedded), p = makeBlock(embedded);
+    Vec3s vp = p.sim->velocities();
+    for (auto& v : vp) v *= 1.0 + 1e-13;
+    p.sim->setVelocities(vp);
+    SoftBodyCuda gpu(*b.sim);
+    const double dt = 0.5 * b.sim->stableTimeStep();
+    const int steps = 400;  // the block reaches the ground within ~100 steps and stays in contact
+    std::size_t contacts = 0;
+    for (int s = 0; s < steps; ++s) {
+      b.sim->step(dt);
+      p.sim->step(dt);
+      contacts += b.sim->contact().activeCount(b.sim->positions());
+    }
+    gpu.step(dt, steps);
+    Vec3s x, v;
+    gpu.download(&x, &v);
+    EXPECT_GT(contacts, 100u) << "the block must touch the ground";
+    const Vec3s u = displacement(b.sim->positions(), b.cloud.X);
+    const double dx = maxDiff(displacement(x, b.cloud.X), u) / maxNorm(u);
+    const double dv = maxDiff(v, b.sim->velocities()) / maxNorm(b.sim->velocities());
+    const double ex = maxDiff(displacement(p.sim->positions(), b.cloud.X), u) / maxNorm(u);
+    const double ev = maxDiff(p.sim->velocities(), b.sim->velocities()) / maxNorm(b.sim->velocities());
+    EXPECT_LT(dx, std::max(1e-9, 10.0 * ex)) << (embedded ? "embedded" : "particles");
+    EXPECT_LT(dv, std::max(1e-9, 10.0 * ev)) << (embedded ? "embedded" : "particles");
+    std::printf(
+        "[ parity   ] contact on %s, %d steps (%zu point-steps in contact): GPU dx %.2e dv %.2e; CPU from v(1 + 1e-13) "
+        "dx %.2e dv %.2e\n",
+        embedded ? "embedded samples" : "particles", steps, contacts, dx, dv, ex, ev);
+  }
+}
+
+TEST(CudaSoftRollout, GradientWithContactMatchesTheCpuInFloat64) {
+  SKIP_WITHOUT_GPU();
+  for (bool embedded : {false, true}) {
+    Block cpu = makeBlock(embedded), gpu = makeBlock(embedded);
+    SoftRolloutOptions o;
+    o.dt = 0.5 * cpu.sim->stableTimeStep();
+    o.steps = 150;
+    const SoftRolloutResult rc = SoftRollout(cpu.sim.get(), o).run(testLoss(cpu.cloud), true);
+    const SoftRolloutResult rg = runSoftRolloutCuda(gpu.sim.get(), o, testLoss(gpu.cloud), true);
+    const SoftDesignGradient &a = rg.gradient, &c = rc.gradient;
+    const double dm = relDiff(a.mass, c.mass), dmu = relDiff(a.mu, c.mu), dla = relDiff(a.lambda, c.lambda);
+    const double dx0 = maxDiff(a.x0, c.x0) / maxNorm(c.x0), dv0 = maxDiff(a.v0, c.v0) / maxNorm(c.v0);
+    EXPECT_NEAR(rg.loss, rc.loss, 1e-9 * std::abs(rc.loss));
+    EXPECT_LT(dm, 1e-6);
+    EXPECT_LT(dmu, 1e-6);
+    EXPECT_LT(dla, 1e-6);
+    EXPECT_LT(dx0, 1e-6);
+    EXPECT_LT(dv0, 1e-6);
+    std::printf("[ parity   ] rollout gradient with contact on %s: mass %.2e mu %.2e lambda %.2e x0 %.2e v0 %.2e\n",
+                embedded ? "embedded samples" : "particles", dm, dmu, dla, dx0, dv0);
+  }
+}
+
+TEST(CudaSoftBody, LaneCountsAgree) {
+  SKIP_WITHOUT_GPU();
+  // The neighbour sums split over 1 … 32 lanes differ only in summation order.
+  Beam a = makeBeam(SphEnergyModel::StVK, SphRotationSource::ShapeMatchingApq, 1.5, true, 0.0);
+  const double dt = 0.5 * a.sim->stableTimeStep();
+  Vec3s x1, v1;
+  {
+    SoftBodyCuda g(*a.sim, CudaPrecision::Float64, 1);
+    g.step(dt, 100);
+    g.download(&x1, &v1);
+  }
+  for (int lanes : {2, 4, 8, 16, 32}) {
+    SoftBodyCuda g(*a.sim, CudaPrecision::Float64, lanes);
+    g.step(dt, 100);
+    Vec3s x, v;
+    g.download(&x, &v);
+    EXPECT_LT(maxDiff(v, v1) / maxNorm(v1), 1e-10) << lanes << " lanes";
+    EXPECT_LT(maxDiff(displacement(x, a.cloud.X), displacement(x1, a.cloud.X)) / maxNorm(displacement(x1, a.cloud.X)),
+              1e-10)
+        << lanes << " lanes";
+  }
+  EXPECT_THROW(SoftBodyCuda(*a.sim, CudaPrecision::Float64, 3), TopoError);
+}
+
 TEST(CudaSoftRollout, GradientOfA100StepRolloutMatchesTheCpuInFloat64) {
   SKIP_WITHOUT_GPU();
   for (int variant = 0; variant < 2; ++variant) {
     // 0: StVK, A_pq rotations (Hessian with R held, as on the CPU), h = 1.5; 1: corotated linear with
     // corrected-gradient rotations (exact rotation derivative), damping, ramped chamber, h = 1.0.
     auto make = [&] {
-      return variant == 0 ? makeBeam(SphEnergyModel::StVK, SphRotationSource::ShapeMatchingApq, 1.5, false, 0.0)
-                          : makeBeam(SphEnergyModel::CorotatedLinear, SphRotationSource::CorrectedGradient, 1.0, true,
-                                     2.0);
+      return variant == 0
+                 ? makeBeam(SphEnergyModel::StVK, SphRotationSource::ShapeMatchingApq, 1.5, false, 0.0)
+                 : makeBeam(SphEnergyModel::CorotatedLinear, SphRotationSource::CorrectedGradient, 1.0, true, 2.0);
     };
     Beam cpu = make(), gpu = make();
     SoftRolloutOptions o;
@@ -352,9 +455,10 @@ TEST(CudaSoftRollout, GradientOfA100StepRolloutMatchesTheCpuInFloat64) {
       EXPECT_LT(dch, 1e-6);
     }
     // The simulator is left at the final state, as SoftRollout leaves it.
-    EXPECT_LT(maxDiff(displacement(gpu.sim->positions(), gpu.cloud.X), displacement(cpu.sim->positions(), cpu.cloud.X)) /
-                  maxNorm(displacement(cpu.sim->positions(), cpu.cloud.X)),
-              1e-9);
+    EXPECT_LT(
+        maxDiff(displacement(gpu.sim->positions(), gpu.cloud.X), displacement(cpu.sim->positions(), cpu.cloud.X)) /
+            maxNorm(displacement(cpu.sim->positions(), cpu.cloud.X)),
+        1e-9);
     std::printf(
         "[ parity   ] rollout gradient, variant %d: loss %.2e, mass %.2e, mu %.2e, lambda %.2e, chamber %.2e, x0 %.2e, "
         "v0 %.2e; forward %.3f s / backward %.3f s (CPU %.3f / %.3f s)\n",

@@ -18,8 +18,10 @@
 // batch); a batch ends by reading one status word: an inverted particle (det F ≤ 0) or a non-finite
 // velocity throws TopoError naming the particle and the step, as the CPU does.
 //
-// Not on the GPU yet (the constructor refuses them, naming the fix): contact and friction (soft
-// contact on surface samples), the adjoint, implicit steps.
+// With contact (physics/soft_contact.h: obstacles, on embedded surface samples or on the particles)
+// a step is five kernels: friction at (x_n, v_n), kick + drift, evaluate, gather + the normal force
+// at x_{n+1} with friction at (x_{n+1}, v_{n+½}), kick (soft_contact_kernels.cu).
+// Not on the GPU yet: implicit steps and static solves (SoftBodySimulator::stepImplicit, solveStatic).
 #pragma once
 
 #include <Eigen/Core>
@@ -38,11 +40,14 @@ class SoftBodyCuda {
   /// Uploads the simulator's body (rest constants, masses, materials, clamps, chamber and pressure
   /// schedule, gravity, damping) and state (x, v, conservative forces, time). Throws TopoError when
   /// this build or machine has no CUDA device (cudaDeviceInfo().reason), or the simulator uses what
-  /// the GPU step does not have yet (contact).
-  /// lanes_per_particle: threads that share one particle's neighbour sums (1, 2, 4, 8, 16, 32; 8 is
-  /// the default, bench/gpu compares them).
+  /// the GPU step cannot take (more than 8 contact obstacles).
+  /// lanes_per_particle: threads that share one particle's neighbour sums (1, 2, 4, 8, 16, 32), or 0
+  /// to choose by the mean neighbour count: 4 below 48 neighbours, else 8 (the fastest on an H100
+  /// for 26 and 86–94 neighbours, bench/gpu/README.md).
   explicit SoftBodyCuda(const SoftBodySimulator& sim, CudaPrecision precision = CudaPrecision::Float64,
-                        int lanes_per_particle = 8);
+                        int lanes_per_particle = 0);
+  /// The lanes per particle in use.
+  int lanesPerParticle() const;
   ~SoftBodyCuda();
   SoftBodyCuda(const SoftBodyCuda&) = delete;
   SoftBodyCuda& operator=(const SoftBodyCuda&) = delete;

@@ -10,7 +10,9 @@
 // The loss is the same host callback as SoftRollout's: each state is copied to the host for it (2 × 3N
 // values a step, forward and backward).
 //
-// Not on the GPU (refused by name): implicit steps, contact and friction.
+// Contact and friction (embedded samples or particles) are included: their Hessian k ω n nᵀ and the
+// friction adjoint through the embedding weights, as SoftContact's. Not on the GPU (refused by name):
+// implicit steps.
 #pragma once
 
 #include "topo_gaussian/cuda/soft_body_cuda.h"
@@ -21,7 +23,7 @@ namespace topo_gaussian {
 /// As SoftRollout(sim, options).run(loss, with_gradient), on the GPU: the simulator's state is the
 /// initial state and its design is used as is; it is left at the final state (evaluated on the CPU
 /// once at the end). forward_s / backward_s include the host loss calls. Throws TopoError for what
-/// SoftRollout refuses, for options.integrator ImplicitEuler or contact (not on the GPU yet), when no
+/// SoftRollout refuses, for options.integrator ImplicitEuler (not on the GPU yet), when no
 /// device is available, and, naming the step and particle, for a non-finite or inverted state.
 SoftRolloutResult runSoftRolloutCuda(SoftBodySimulator* sim, const SoftRolloutOptions& options,
                                      const SoftStepLoss& loss, bool with_gradient,
