@@ -66,7 +66,7 @@ std::unique_ptr<SoftBodySimulator> makeBody(int nx, int ny, int nz, double hfac)
   return sim;
 }
 
-int g_lanes = 8;
+int g_lanes = 0;  // automatic
 
 void gpuCase(const std::string& base, int nx, int ny, int nz, double hfac, int gpu_steps, int cpu_steps) {
   for (CudaPrecision p : {CudaPrecision::Float64, CudaPrecision::Float32}) {
@@ -132,11 +132,14 @@ void rolloutCase(const std::string& name, int nx, int ny, int nz, int steps) {
   SoftRolloutOptions o;
   o.dt = 0.5 * cpu->stableTimeStep();
   o.steps = steps;
-  runSoftRolloutCuda(makeBody(nx, ny, nz, 1.0).get(), [&] {
-    SoftRolloutOptions w = o;
-    w.steps = 10;
-    return w;
-  }(), loss, true);  // warm-up
+  runSoftRolloutCuda(
+      makeBody(nx, ny, nz, 1.0).get(),
+      [&] {
+        SoftRolloutOptions w = o;
+        w.steps = 10;
+        return w;
+      }(),
+      loss, true);  // warm-up
   const SoftRolloutResult g = runSoftRolloutCuda(gpu.get(), o, loss, true);
   const SoftRolloutResult c = SoftRollout(cpu.get(), o).run(loss, true);
   const double n = double(cpu->size());

@@ -11,6 +11,7 @@
 #include <cmath>
 
 #include "soft_task.h"
+#include "topo_gaussian/cuda/soft_rollout_cuda.h"
 #include "task_factories.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/io/trajectory_csv.h"
@@ -100,8 +101,7 @@ class PearTask : public SoftTask {
     ro.integrator = SoftIntegrator::SymplecticEuler;
     ro.dt = dt;
     ro.steps = N;
-    SoftRollout roll(sim.get(), ro);
-    const SoftRolloutResult res = roll.run(
+    const SoftStepLoss loss =
         [&](int k, double t, const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>&,
             std::vector<Eigen::Vector3d>* gx, std::vector<Eigen::Vector3d>*) {
           if (!gx && k % every == 0) {  // forward pass (the backward pass always asks for gradients)
@@ -118,8 +118,11 @@ class PearTask : public SoftTask {
               if (!gx) sq += e.squaredNorm();
             }
           return l;
-        },
-        dL_dr != nullptr);
+        };
+    // backend cuda (or auto with a GPU): the same rollout and gradient on the device (soft_rollout_cuda.h).
+    const SoftRolloutResult res = backend_ == ComputeBackend::Cuda
+                                      ? runSoftRolloutCuda(sim.get(), ro, loss, dL_dr != nullptr)
+                                      : SoftRollout(sim.get(), ro).run(loss, dL_dr != nullptr);
     for (std::size_t q = 0; q < pivots_.size(); ++q) {
       Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
       for (const auto& s : obs_) {

@@ -1,5 +1,7 @@
 #include "topo_gaussian/inference/pipeline.h"
 
+#include "topo_gaussian/cuda/backend.h"
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -125,6 +127,8 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   problem.requireTargets();
   problem.setShouldStop(should_stop);
   InferenceResult res;
+  resolveBackend(parseComputeBackend(config.text("backend"), "task parameter backend"), "task parameter backend",
+                 &res.backend);
   res.task = config.task();
   res.representation = problem.representation().name();
   res.geometry = problem.task().geometry();

@@ -180,7 +180,7 @@ std::string reportJson(const InferenceResult& r, const TaskConfig& config) {
     << ",\n  \"optimizer_converged\": " << (r.optimizer.converged ? "true" : "false")
     << ",\n  \"targets_reached\": " << (r.targets_reached ? "true" : "false")
     << ",\n  \"cancelled\": " << (r.optimizer.cancelled ? "true" : "false") << ",\n  \"message\": " << quote(r.message)
-    << ",\n  \"warnings\": [";
+    << ",\n  \"backend\": " << quote(r.backend) << ",\n  \"warnings\": [";
   for (std::size_t i = 0; i < r.warnings.size(); ++i) s << (i ? ", " : "") << quote(r.warnings[i]);
   s << "]"
     << ",\n  " << geometryJson(r.final, r.geometry)

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "topo_gaussian/cuda/backend.h"
 #include "topo_gaussian/inference/task.h"
 #include "topo_gaussian/inference/task_registry.h"
 #include "topo_gaussian/physics/soft_rollout.h"
@@ -34,6 +35,9 @@ class SoftTask : public Task {
   /// added to notes_ (the surface particles, the lattice staircase, carry the contact).
   std::shared_ptr<const ContactEmbedding> embedContactSamples(const VolumeCloud& cloud);
 
+  /// The task's `backend`, resolved (cuda/backend.h): Cuda only when a GPU is present; backend cuda
+  /// without one is refused when the task is built.
+  ComputeBackend backend_ = ComputeBackend::Cpu;
   CorotatedSph sph_;  ///< rest discretisation, material replaced per evaluation
   /// The Lamé parameters are interpolated between the two materials' values (from E and ν of each)
   /// with the SIMP power of the stiffness.

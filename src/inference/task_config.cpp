@@ -137,6 +137,11 @@ void declareCommonParameters(TaskParameters& p) {
   p.integer("stall_evaluations", 30, "unitless",
             "stop when the best loss fell by less than 0.01 % over this many evaluations, unitless (0 = never)", 0,
             1e7);
+  p.text("backend", "auto",
+         "where the particle kernels run: auto (a CUDA GPU when this build has the CUDA backend and the driver "
+         "reports one, else the CPU) | cpu | cuda (refused without a GPU, with the reason). On the GPU now: the "
+         "pear's explicit rollout and its gradient (contact included); the other tasks run on the CPU",
+         {"auto", "cpu", "cuda"});
   p.vector3("gravity", &g, "m/s^2", "gravity in the world frame [m/s^2]");
   // how sure is the interior (inference/design_spread.h)
   p.integer("restarts", 2, "unitless",

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/cuda/backend.h"
 #include "topo_gaussian/inference/interior_problem.h"
 #include "topo_gaussian/io/run_folder.h"
 #include "topo_gaussian/io/task_dir.h"
@@ -59,6 +60,12 @@ InteriorInferenceParams loadInteriorInferenceParams(const ::ros::NodeHandle& pnh
   p.max_features_age_s = r.number("max_features_age_s", p.max_features_age_s, "s", Range::atLeast(0));
   p.volume_wait_s = r.number("volume_wait_s", p.volume_wait_s, "s", Range::between(0, 3600));
   p.restore_latest = r.flag("restore_latest", p.restore_latest);
+  p.backend = r.text("backend", p.backend);
+  {
+    std::string line;
+    resolveBackend(parseComputeBackend(p.backend, "~backend"), "~backend", &line);
+    ROS_INFO("interior_inference: %s", line.c_str());
+  }
   if (p.world_frame.empty() || p.object_frame.empty() || p.world_frame == p.object_frame)
     throw TopoError("~world_frame/~object_frame", "must be two different, non-empty frame names",
                     "e.g. world and object_simulated");
@@ -156,6 +163,7 @@ inference::TaskConfig InteriorInferenceNode::configFor(const std::string& task,
         }() + ") or a task YAML file");
   inference::TaskConfig config = inference::TaskConfig::loadWithExperiments(task, experiments, params_.task_dir);
   if (!representation.empty()) config.set("representation", representation, origin + " representation");
+  config.set("backend", params_.backend, "~backend");
   for (const auto& o : overrides) config.setAssignment(o, origin + " overrides");
   return config;
 }

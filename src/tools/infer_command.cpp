@@ -8,6 +8,7 @@
 #include "args.h"
 #include "commands.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/cuda/backend.h"
 #include "topo_gaussian/geometry/ingest.h"
 #include "topo_gaussian/inference/report.h"
 #include "topo_gaussian/io/interior_ply.h"
@@ -43,6 +44,8 @@ const char* kInferHelp =
     "  --count N              particles when filling --surface (default 20000)\n"
     "  --volume FILE          a volume .ply written by `topo fill`\n"
     "  --representation R     point | quadric | neural (same as --set representation=R)\n"
+    "  --backend B            auto | cpu | cuda: where the particle kernels run (same as --set backend=B;\n"
+    "                         auto: a CUDA GPU when present, said on stderr; cuda without one: exit 1)\n"
     "  --features [NAME=]FILE.json  motion features as `topo track --json` writes them (repeatable;\n"
     "                         NAME: the experiment they belong to): the task takes its\n"
     "                         targets from them (tumbler: period, max tilt; hanging/balance/stand: the\n"
@@ -68,6 +71,7 @@ const char* kSimulateHelp =
     "  --task TASK            as for topo infer\n"
     "  --volume FILE          volume .ply (or --surface FILE [--count N] to fill one first)\n"
     "  --interior FILE        interior.ply from topo infer (same volume)\n"
+    "  --backend B            auto | cpu | cuda (same as --set backend=B)\n"
     "  --set KEY=VALUE        task parameter (repeatable); --target NAME=VALUE also accepted\n"
     "  --signal FILE.csv      write the simulated signal (time, value) as CSV\n"
     "  --trajectory FILE.csv  ball: write the tracked points (t, x y z per point), usable as a target\n"
@@ -80,6 +84,7 @@ inference::TaskConfig loadConfig(const Args& a) {
   inference::TaskConfig c =
       inference::TaskConfig::loadWithExperiments(a.str("task"), experiments, io::defaultTaskDir());
   if (a.has("representation")) c.set("representation", a.str("representation"), "--representation");
+  if (a.has("backend")) c.set("backend", a.str("backend"), "--backend");
   for (const auto& s : a.all("set")) c.setAssignment(s, "--set");
   return c;
 }
@@ -114,7 +119,7 @@ VolumeCloud volumeOrDefaultShape(const Args& a, const inference::TaskConfig& con
 
 int inferCommand(const std::vector<std::string>& argv) {
   const Args a(argv, {"help", "json", "quiet", "list-params", "no-export"},
-               {"task", "surface", "volume", "representation", "output", "count"},
+               {"task", "surface", "volume", "representation", "backend", "output", "count"},
                {"target", "set", "experiment", "features"});
   if (a.has("help")) {
     std::cout << kInferHelp;
@@ -157,6 +162,9 @@ int inferCommand(const std::vector<std::string>& argv) {
   std::cerr << "[topo infer] task " << config.task() << " (" << config.source() << "), representation "
             << config.text("representation") << ", optimizer " << config.text("optimizer") << ", at most "
             << config.integer("max_iterations") << " evaluations (max_iterations)\n";
+  std::string backend_line;  // refuses backend cuda without a GPU before anything runs
+  resolveBackend(parseComputeBackend(config.text("backend"), "--backend"), "--backend", &backend_line);
+  std::cerr << "[topo infer] " << backend_line << "\n";
   const workflow::InferenceRunOutcome out = workflow::runInference(rq);
   const inference::InferenceResult& res = out.result;
   for (const auto& w : res.warnings) std::cerr << "[topo infer] warning: " << w << "\n";
@@ -191,7 +199,7 @@ int inferCommand(const std::vector<std::string>& argv) {
 
 int simulateCommand(const std::vector<std::string>& argv) {
   const Args a(argv, {"help", "json", "list-params"},
-               {"task", "surface", "volume", "interior", "representation", "count", "signal", "trajectory"},
+               {"task", "surface", "volume", "interior", "representation", "backend", "count", "signal", "trajectory"},
                {"target", "set"});
   if (a.has("help")) {
     std::cout << kSimulateHelp;
@@ -201,6 +209,11 @@ int simulateCommand(const std::vector<std::string>& argv) {
   if (a.has("list-params")) {
     std::cout << config.help();
     return 0;
+  }
+  {
+    std::string line;  // refuses backend cuda without a GPU before anything runs
+    resolveBackend(parseComputeBackend(config.text("backend"), "--backend"), "--backend", &line);
+    std::cerr << "[topo simulate] " << line << "\n";
   }
   inference::TaskConfig targeted = config;
   for (const auto& s : a.all("target")) {

@@ -37,6 +37,7 @@ struct InferenceResult {
   bool targets_reached = false;
   bool cancelled = false;             ///< by progress or should_stop: the best design evaluated so far
   std::vector<std::string> warnings;  ///< for a person, not errors (e.g. a hanging point outside the object)
+  std::string backend;  ///< where the kernels ran, e.g. "backend auto: CUDA on NVIDIA H100 … (132 SMs, 80 GiB)"
   std::string message;                ///< one paragraph for a person: what happened, how close, what to do
   /// Designs that fit as well as the best (restarts > 0; inference/design_spread.h): per particle the
   /// agreement with the best design's solid/hollow label (empty when not explored), and the spread.

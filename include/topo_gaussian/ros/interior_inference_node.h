@@ -55,6 +55,10 @@ struct InteriorInferenceParams {
   /// ~restore_latest: at start, reload the newest run under output_dir (volume.ply, interior.ply,
   /// report.json) and publish it, so a restarted node restores rviz and ~export / ~simulate
   bool restore_latest = true;
+  /// ~backend: auto | cpu | cuda, where the particle kernels run (the task parameter `backend` of every
+  /// goal unless the goal's overrides set it); auto logs whether a GPU is used, cuda without one is
+  /// refused at start with the reason
+  std::string backend = "auto";
 };
 
 /// Reads and validates the private parameters; throws TopoError naming the parameter and the fix.
