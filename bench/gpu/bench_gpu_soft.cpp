@@ -11,7 +11,8 @@
 //       (copy_GBs, read + write).
 //   rollout_<N>  the explicit rollout with its gradient (runSoftRolloutCuda against SoftRollout, float64,
 //       checkpoints every ⌈√steps⌉, a host loss called every step on both): forward and backward
-//       seconds, backward / forward, and the speed-up of forward + backward over the CPU.
+//       seconds, backward / forward, and the speed-up of forward + backward over the CPU;
+//       *_loss_every_100: the loss counts every 100th step only (SoftRolloutOptions::loss_at).
 // Without a CUDA device it prints one line {"case": "gpu", "skipped": reason} and exits 0.
 // Usage: bench_gpu_soft [--quick] [--lanes L] [CASE_SUBSTRING]    (bench/README.md: building on a GPU machine)
 #include <algorithm>
@@ -108,7 +109,7 @@ void gpuCase(const std::string& base, int nx, int ny, int nz, double hfac, int g
         "\"bandwidth_share\": %.3f, \"bandwidth_bound_particle_steps_per_s\": %.4g, \"setup_s\": %.2f, "
         "\"upload_s\": %.3f, \"device_MiB\": %.1f}\n",
         name.c_str(), cudaDeviceInfo().name.c_str(), n, nb, p == CudaPrecision::Float64 ? "float64" : "float32",
-        g_lanes, dt, gpu_steps, gpu_s, gpu_rate, 1e6 * gpu_s / gpu_steps, threads(), cpu_rate, gpu_rate / cpu_rate,
+        gpu.lanesPerParticle(), dt, gpu_steps, gpu_s, gpu_rate, 1e6 * gpu_s / gpu_steps, threads(), cpu_rate, gpu_rate / cpu_rate,
         bytes, achieved, g_copy_GBs, g_copy_GBs > 0 ? achieved / g_copy_GBs : 0.0, g_copy_GBs * 1e9 / bytes, setup_s,
         upload_s, double(gpu.deviceBytes()) / (1024.0 * 1024.0));
     std::fflush(stdout);
@@ -117,7 +118,7 @@ void gpuCase(const std::string& base, int nx, int ny, int nz, double hfac, int g
 
 /// SoftRollout (explicit, with gradient, checkpoints every ⌈√steps⌉) on the GPU and on the CPU from
 /// the same state; the loss is Σ_k Σ_i (z_i − Z_i) (host callback, called every step on both).
-void rolloutCase(const std::string& name, int nx, int ny, int nz, int steps) {
+void rolloutCase(const std::string& name, int nx, int ny, int nz, int steps, int loss_every = 1) {
   if (g_only && name.find(g_only) == std::string::npos) return;
   auto loss = [](int, double, const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>&,
                  std::vector<Eigen::Vector3d>* dx, std::vector<Eigen::Vector3d>*) {
@@ -132,6 +133,7 @@ void rolloutCase(const std::string& name, int nx, int ny, int nz, int steps) {
   SoftRolloutOptions o;
   o.dt = 0.5 * cpu->stableTimeStep();
   o.steps = steps;
+  if (loss_every > 1) o.loss_at = [loss_every](int k) { return k % loss_every == 0; };
   runSoftRolloutCuda(
       makeBody(nx, ny, nz, 1.0).get(),
       [&] {
@@ -144,11 +146,11 @@ void rolloutCase(const std::string& name, int nx, int ny, int nz, int steps) {
   const SoftRolloutResult c = SoftRollout(cpu.get(), o).run(loss, true);
   const double n = double(cpu->size());
   std::printf(
-      "{\"case\": \"%s\", \"device\": \"%s\", \"particles\": %.0f, \"steps\": %d, \"precision\": \"float64\", "
+      "{\"case\": \"%s\", \"device\": \"%s\", \"particles\": %.0f, \"steps\": %d, \"loss_every\": %d, \"precision\": \"float64\", "
       "\"gpu_forward_s\": %.4f, \"gpu_backward_s\": %.4f, \"gpu_backward_over_forward\": %.2f, "
       "\"baseline\": \"cpu_soft_rollout\", \"cpu_threads\": %d, \"cpu_forward_s\": %.4f, \"cpu_backward_s\": %.4f, "
       "\"gpu_over_cpu_forward_plus_backward\": %.1f, \"loss_relative_difference\": %.2e}\n",
-      name.c_str(), cudaDeviceInfo().name.c_str(), n, steps, g.forward_s, g.backward_s, g.backward_s / g.forward_s,
+      name.c_str(), cudaDeviceInfo().name.c_str(), n, steps, loss_every, g.forward_s, g.backward_s, g.backward_s / g.forward_s,
       threads(), c.forward_s, c.backward_s, (c.forward_s + c.backward_s) / (g.forward_s + g.backward_s),
       std::abs(g.loss - c.loss) / std::abs(c.loss));
   std::fflush(stdout);
@@ -184,6 +186,9 @@ int main(int argc, char** argv) {
     // Rollouts with gradient: 9k and 100k particles.
     rolloutCase("rollout_9k", 30, 18, 16, quick ? 50 : 400);
     rolloutCase("rollout_100k", 80, 50, 25, quick ? 20 : 100);
+    // The loss at every 100th step only (SoftRolloutOptions::loss_at: the other states stay on the GPU).
+    rolloutCase("rollout_9k_loss_every_100", 30, 18, 16, quick ? 100 : 400, 100);
+    rolloutCase("rollout_100k_loss_every_100", 80, 50, 25, quick ? 100 : 200, 100);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "bench_gpu_soft: %s\n", e.what());
     return 1;

@@ -39,5 +39,15 @@ if has ncu; then
   ncu --metrics gpu__time_duration.sum,dram__bytes_read.sum,dram__bytes_write.sum,lts__t_bytes.sum,dram__throughput.avg.pct_of_peak_sustained_elapsed,sm__throughput.avg.pct_of_peak_sustained_elapsed,sm__warps_active.avg.pct_of_peak_sustained_active \
     -k regex:'kickDrift|evaluate|gatherKick' -c 6 --csv "$build/bench_gpu_soft" --quick explicit_100k_h1.0_f64 \
     >"$out/ncu_100k_f64.csv" 2>>"$out/ncu.err" || tail -5 "$out/ncu.err"
-  grep -E "Kernel|gpu__time|dram__bytes|throughput|warps_active" "$out/ncu_100k_f32.csv" | cut -c1-400 | head -40 || true
+  ncu --metrics gpu__time_duration.sum,sm__throughput.avg.pct_of_peak_sustained_elapsed,sm__warps_active.avg.pct_of_peak_sustained_active \
+    -k regex:'kickDrift|evaluate|gatherKick' -c 6 --csv "$build/bench_gpu_soft" --quick explicit_9k_h1.0_f64 \
+    >"$out/ncu_9k_f64.csv" 2>>"$out/ncu.err" || tail -5 "$out/ncu.err"
+  for f in "$out"/ncu_*.csv; do
+    echo "== $f"; python3 - "$f" <<'PY' || true
+import csv, sys
+for row in csv.DictReader(open(sys.argv[1])):
+    if row.get("Metric Name") in ("gpu__time_duration.sum", "dram__bytes_read.sum", "lts__t_bytes.sum", "sm__throughput.avg.pct_of_peak_sustained_elapsed", "dram__throughput.avg.pct_of_peak_sustained_elapsed"):
+        print(row["ID"], row["Kernel Name"][:40], row["Metric Name"], row["Metric Value"])
+PY
+  done
 fi

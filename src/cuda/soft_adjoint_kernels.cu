@@ -336,6 +336,8 @@ __global__ void addKernel(T* y, const T* x, int n3) {
   if (i < n3) y[i] += x[i];
 }
 
+__global__ void setClockKernel(double* time, double t) { *time = t; }
+
 template <class T, int L>
 void launchHessianRow(const SoftDeviceBody<T>& b, const T* a, T* dFt, T* dM, T* d_mu, T* d_la, T* d_ch,
                       cudaStream_t s) {
@@ -395,6 +397,10 @@ void launchAdjointStep(const SoftDeviceBody<T>& b, const T* f, double dt, T* xb,
   launchGatherForces(lin, stream);
   adjointFinishKernel<T><<<blocks(b.n), kBlock, 0, s>>>(b, static_cast<T>(dt), w, mHa, d_mu, d_la, d_ch, xb, vb, g_mu,
                                                         g_lambda, b.chamber ? g_chamber : nullptr);
+}
+
+void launchSetClock(double* time, double t, void* stream) {
+  setClockKernel<<<1, 1, 0, static_cast<cudaStream_t>(stream)>>>(time, t);
 }
 
 template <class T>

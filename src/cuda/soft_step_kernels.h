@@ -128,6 +128,9 @@ void launchContact(const SoftDeviceBody<T>& body, bool add_normal, void* stream)
 template <class T>
 void launchContactAdjoint(const SoftDeviceBody<T>& body, T* xb, T* vb, T* g_mass, const T* work, void* stream);
 
+/// *time = t on the stream (no host synchronisation).
+void launchSetClock(double* time, double t, void* stream);
+
 /// y += x (n3 values).
 template <class T>
 void launchAdd(T* y, const T* x, int n3, void* stream);

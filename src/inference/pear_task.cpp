@@ -11,9 +11,9 @@
 #include <cmath>
 
 #include "soft_task.h"
-#include "topo_gaussian/cuda/soft_rollout_cuda.h"
 #include "task_factories.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/cuda/soft_rollout_cuda.h"
 #include "topo_gaussian/io/trajectory_csv.h"
 
 namespace topo_gaussian::inference {
@@ -101,24 +101,26 @@ class PearTask : public SoftTask {
     ro.integrator = SoftIntegrator::SymplecticEuler;
     ro.dt = dt;
     ro.steps = N;
-    const SoftStepLoss loss =
-        [&](int k, double t, const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>&,
-            std::vector<Eigen::Vector3d>* gx, std::vector<Eigen::Vector3d>*) {
-          if (!gx && k % every == 0) {  // forward pass (the backward pass always asks for gradients)
-            std::vector<double> row{t};
-            for (auto p : pivots_) row.insert(row.end(), {x[p].x(), x[p].y(), x[p].z()});
-            ev.trajectory_rows.push_back(row);
-          }
-          double l = 0.0;
-          for (std::size_t j : at_step[k])
-            for (std::size_t q = 0; q < pivots_.size(); ++q) {
-              const Eigen::Vector3d e = x[pivots_[q]] - obs_[j][q];
-              l += norm * e.squaredNorm();
-              if (gx) (*gx)[pivots_[q]] += 2.0 * norm * e;
-              if (!gx) sq += e.squaredNorm();
-            }
-          return l;
-        };
+    // The loss and the recorded trajectory need only these states (a GPU rollout copies no others).
+    ro.loss_at = [&](int k) { return !at_step[k].empty() || k % every == 0; };
+    const SoftStepLoss loss = [&](int k, double t, const std::vector<Eigen::Vector3d>& x,
+                                  const std::vector<Eigen::Vector3d>&, std::vector<Eigen::Vector3d>* gx,
+                                  std::vector<Eigen::Vector3d>*) {
+      if (!gx && k % every == 0) {  // forward pass (the backward pass always asks for gradients)
+        std::vector<double> row{t};
+        for (auto p : pivots_) row.insert(row.end(), {x[p].x(), x[p].y(), x[p].z()});
+        ev.trajectory_rows.push_back(row);
+      }
+      double l = 0.0;
+      for (std::size_t j : at_step[k])
+        for (std::size_t q = 0; q < pivots_.size(); ++q) {
+          const Eigen::Vector3d e = x[pivots_[q]] - obs_[j][q];
+          l += norm * e.squaredNorm();
+          if (gx) (*gx)[pivots_[q]] += 2.0 * norm * e;
+          if (!gx) sq += e.squaredNorm();
+        }
+      return l;
+    };
     // backend cuda (or auto with a GPU): the same rollout and gradient on the device (soft_rollout_cuda.h).
     const SoftRolloutResult res = backend_ == ComputeBackend::Cuda
                                       ? runSoftRolloutCuda(sim.get(), ro, loss, dL_dr != nullptr)

@@ -123,11 +123,12 @@ SoftRolloutResult SoftRollout::run(const SoftStepLoss& loss, bool with_gradient)
   SoftRolloutResult res;
   auto tf = std::chrono::steady_clock::now();
   std::vector<std::pair<Vec3s, Vec3s>> checkpoints;
-  res.loss = loss(0, t0, s.positions(), s.velocities(), nullptr, nullptr);
+  auto counts = [&](int k) { return !opt_.loss_at || opt_.loss_at(k); };
+  if (counts(0)) res.loss = loss(0, t0, s.positions(), s.velocities(), nullptr, nullptr);
   for (int k = 0; k < N; ++k) {
     if (with_gradient && k % K == 0) checkpoints.emplace_back(s.positions(), s.velocities());
     stepForward(k);
-    res.loss += loss(k + 1, t0 + (k + 1) * dt, s.positions(), s.velocities(), nullptr, nullptr);
+    if (counts(k + 1)) res.loss += loss(k + 1, t0 + (k + 1) * dt, s.positions(), s.velocities(), nullptr, nullptr);
   }
   res.forward_s = since(tf);
   res.peak_states = checkpoints.size();
@@ -145,7 +146,7 @@ SoftRolloutResult SoftRollout::run(const SoftStepLoss& loss, bool with_gradient)
   G.lambda.assign(n, 0.0);
   G.chamber.assign(n, 0.0);
   Vec3s xb(n, Eigen::Vector3d::Zero()), vb(n, Eigen::Vector3d::Zero());
-  loss(N, t_end, x_end, v_end, &xb, &vb);
+  if (counts(N)) loss(N, t_end, x_end, v_end, &xb, &vb);
   const Eigen::Vector3d g = s.options().gravity;
   const double c = s.options().damping;
   const auto& clamped = s.clamped();
@@ -224,7 +225,7 @@ SoftRolloutResult SoftRollout::run(const SoftStepLoss& loss, bool with_gradient)
           xbn[i].setZero();
           vbn[i].setZero();
         }
-      loss(k, t0 + k * dt, xk, vk, &xbn, &vbn);
+      if (counts(k)) loss(k, t0 + k * dt, xk, vk, &xbn, &vbn);
       xb.swap(xbn);
       vb.swap(vbn);
     }

@@ -482,3 +482,40 @@ TEST(CudaSoftRollout, RefusesWhatIsNotOnTheGpu) {
     EXPECT_TRUE(m.find("implicit") != std::string::npos || m.find(cudaDeviceInfo().reason) != std::string::npos) << m;
   }
 }
+
+TEST(CudaSoftRollout, ALossAtSomeStepsOnlyMatchesTheCpu) {
+  SKIP_WITHOUT_GPU();
+  // loss_at: the loss counts every 10th step; the GPU copies only those states to the host. Also
+  // float32 against the CPU's float64 (stated tolerance 1e-3 of each gradient's largest entry).
+  Beam cpu = makeBeam(SphEnergyModel::StVK, SphRotationSource::ShapeMatchingApq, 1.5, true, 1.0);
+  Beam gpu = makeBeam(SphEnergyModel::StVK, SphRotationSource::ShapeMatchingApq, 1.5, true, 1.0);
+  Beam g32 = makeBeam(SphEnergyModel::StVK, SphRotationSource::ShapeMatchingApq, 1.5, true, 1.0);
+  SoftRolloutOptions o;
+  o.dt = 0.5 * cpu.sim->stableTimeStep();
+  o.steps = 100;
+  o.loss_at = [](int k) { return k % 10 == 0; };
+  const SoftStepLoss full = testLoss(cpu.cloud);
+  int calls = 0;
+  const SoftStepLoss counted = [&](int k, double t, const Vec3s& x, const Vec3s& v, Vec3s* dx, Vec3s* dv) {
+    EXPECT_EQ(k % 10, 0) << "the loss was called at a step loss_at excludes";
+    ++calls;
+    return full(k, t, x, v, dx, dv);
+  };
+  const SoftRolloutResult rc = SoftRollout(cpu.sim.get(), o).run(counted, true);
+  const int cpu_calls = calls;
+  calls = 0;
+  const SoftRolloutResult rg = runSoftRolloutCuda(gpu.sim.get(), o, counted, true);
+  EXPECT_EQ(calls, cpu_calls);
+  EXPECT_EQ(cpu_calls, 2 * 11);  // 11 counted states, forward and backward
+  EXPECT_NEAR(rg.loss, rc.loss, 1e-9 * std::abs(rc.loss));
+  EXPECT_LT(relDiff(rg.gradient.mu, rc.gradient.mu), 1e-6);
+  EXPECT_LT(relDiff(rg.gradient.chamber, rc.gradient.chamber), 1e-6);
+  EXPECT_LT(maxDiff(rg.gradient.x0, rc.gradient.x0) / maxNorm(rc.gradient.x0), 1e-6);
+  const SoftRolloutResult r32 = runSoftRolloutCuda(g32.sim.get(), o, full, true, CudaPrecision::Float32);
+  const double e_mass = relDiff(r32.gradient.mass, rc.gradient.mass), e_mu = relDiff(r32.gradient.mu, rc.gradient.mu);
+  const double e_x0 = maxDiff(r32.gradient.x0, rc.gradient.x0) / maxNorm(rc.gradient.x0);
+  EXPECT_LT(e_mass, 1e-3);
+  EXPECT_LT(e_mu, 1e-3);
+  EXPECT_LT(e_x0, 1e-3);
+  std::printf("[ parity   ] float32 rollout gradient: mass %.2e mu %.2e x0 %.2e\n", e_mass, e_mu, e_x0);
+}

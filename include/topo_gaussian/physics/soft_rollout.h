@@ -34,6 +34,10 @@ struct SoftRolloutOptions {
   NewtonOptions newton;      ///< implicit steps
   double adjoint_cg_tolerance = 1e-11;
   int adjoint_cg_max_iterations = 20000;
+  /// The steps k at which the loss may be nonzero (empty: every step). Elsewhere the loss is not
+  /// called (forward or backward): it must be zero there. A GPU rollout then copies only those
+  /// states to the host (cuda/soft_rollout_cuda.h).
+  std::function<bool(int k)> loss_at;
 };
 
 /// ℓ_k for state k (k = 0..steps, t = t0 + k dt). When dl_dx / dl_dv are non-null they are sized
