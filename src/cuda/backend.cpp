@@ -99,6 +99,32 @@ ComputeBackend resolveBackend(ComputeBackend requested, const std::string& what,
   return chosen;
 }
 
+void requireDeviceMemory(const std::string& what, double bytes, double bytes_per_particle) {
+#if TOPO_HAVE_CUDA
+  if (!cudaDeviceInfo().available) return;
+  std::size_t free_b = 0, total_b = 0;
+  if (cudaMemGetInfo(&free_b, &total_b) != cudaSuccess) {
+    cudaGetLastError();
+    return;
+  }
+  const double usable = 0.9 * static_cast<double>(free_b);
+  if (bytes <= usable) return;
+  std::ostringstream s;
+  s << "needs " << static_cast<long long>(bytes / (1024.0 * 1024.0)) << " MiB on " << cudaDeviceInfo().name << " but "
+    << static_cast<long long>(free_b / (1024.0 * 1024.0)) << " MiB are free (of "
+    << static_cast<long long>(total_b / (1024.0 * 1024.0)) << " MiB): about "
+    << static_cast<long long>(usable / std::max(1.0, bytes_per_particle)) << " particles would fit";
+  throw GpuMemoryError(
+      what, s.str(),
+      "use a coarser particle spacing (or fewer steps), free the GPU, or use backend cpu (backend auto "
+      "falls back to the CPU)");
+#else
+  (void)what;
+  (void)bytes;
+  (void)bytes_per_particle;
+#endif
+}
+
 double cudaCopyBandwidthGBs(std::size_t bytes) {
   const CudaDeviceInfo& info = cudaDeviceInfo();
   if (!info.available) throw TopoError("cudaCopyBandwidthGBs", info.reason, "run on a machine with a CUDA GPU");

@@ -34,6 +34,10 @@ SoftBodyCuda::SoftBodyCuda(const SoftBodySimulator& sim, CudaPrecision precision
   if (sim.size() > static_cast<std::size_t>(std::numeric_limits<int>::max() / 16))
     throw TopoError("CUDA soft body", std::to_string(sim.size()) + " particles is more than the GPU step indexes",
                     "use a coarser spacing");
+  {
+    const double bpp = softBodyBytesPerParticle(sim, precision == CudaPrecision::Float64 ? 8.0 : 4.0);
+    requireDeviceMemory("CUDA soft body (" + std::to_string(sim.size()) + " particles)", bpp * double(sim.size()), bpp);
+  }
   impl_->precision = precision;
   impl_->n = sim.size();
   impl_->dt_stable = sim.stableTimeStep();

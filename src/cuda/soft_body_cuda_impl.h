@@ -48,6 +48,13 @@ struct DeviceBuffer {
 using cuda_detail::check;
 using cuda_detail::DeviceBuffer;
 
+/// Device bytes per particle of a body (SoftDeviceBody's arrays: 51 values and 5 bytes per particle,
+/// 11 values and 4 bytes per neighbour entry), T the precision's size.
+inline double softBodyBytesPerParticle(const SoftBodySimulator& sim, double T) {
+  const double nb = double(sim.sph().neighbors().indices.size()) / double(std::max<std::size_t>(1, sim.size()));
+  return 51.0 * T + 5.0 + nb * (4.0 + 11.0 * T);
+}
+
 struct SoftBodyCuda::Impl {
   CudaPrecision precision = CudaPrecision::Float64;
   std::size_t n = 0;

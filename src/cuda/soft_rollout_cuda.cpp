@@ -235,6 +235,18 @@ SoftRolloutResult runSoftRolloutCuda(SoftBodySimulator* sim, const SoftRolloutOp
   const CudaDeviceInfo& info = cudaDeviceInfo();
   if (!info.available) throw TopoError("CUDA soft rollout", info.reason, "use backend cpu (or auto) on this machine");
   checkOptions(*sim, options);
+  {
+    // The body, the checkpoints, one recomputed segment and the adjoint's arrays (55 values a particle).
+    const double T = precision == CudaPrecision::Float64 ? 8.0 : 4.0;
+    const int N = options.steps;
+    const int K =
+        options.checkpoint_every > 0 ? options.checkpoint_every : static_cast<int>(std::ceil(std::sqrt(double(N))));
+    const double states = std::ceil(double(N) / K) + (with_gradient ? K + 1 : 0);
+    const double bpp = softBodyBytesPerParticle(*sim, T) + T * (9.0 * states + (with_gradient ? 55.0 : 0.0));
+    requireDeviceMemory(
+        "CUDA soft rollout (" + std::to_string(sim->size()) + " particles, " + std::to_string(N) + " steps)",
+        bpp * double(sim->size()), bpp);
+  }
   return precision == CudaPrecision::Float64 ? rollout<double>(sim, options, loss, with_gradient, precision)
                                              : rollout<float>(sim, options, loss, with_gradient, precision);
 }

@@ -122,9 +122,19 @@ class PearTask : public SoftTask {
       return l;
     };
     // backend cuda (or auto with a GPU): the same rollout and gradient on the device (soft_rollout_cuda.h).
-    const SoftRolloutResult res = backend_ == ComputeBackend::Cuda
-                                      ? runSoftRolloutCuda(sim.get(), ro, loss, dL_dr != nullptr)
-                                      : SoftRollout(sim.get(), ro).run(loss, dL_dr != nullptr);
+    SoftRolloutResult res;
+    bool on_gpu = backend_ == ComputeBackend::Cuda;
+    if (on_gpu) {
+      try {
+        res = runSoftRolloutCuda(sim.get(), ro, loss, dL_dr != nullptr);
+      } catch (const GpuMemoryError& e) {
+        if (backend_requested_ == ComputeBackend::Cuda) throw;
+        backend_ = ComputeBackend::Cpu;  // auto: the CPU from now on, said once
+        notes_.push_back(std::string("backend auto: the pear's rollout runs on the CPU: ") + e.what());
+        on_gpu = false;
+      }
+    }
+    if (!on_gpu) res = SoftRollout(sim.get(), ro).run(loss, dL_dr != nullptr);
     for (std::size_t q = 0; q < pivots_.size(); ++q) {
       Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
       for (const auto& s : obs_) {

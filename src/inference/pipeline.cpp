@@ -206,6 +206,8 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
 
   // The designs that fit as well (a restart that ends lower becomes the result), before the verdict.
   std::ostringstream spread_message;
+  for (const auto& note : problem.notes())  // notes the evaluations added (e.g. a GPU fallback)
+    if (std::find(res.warnings.begin(), res.warnings.end(), note) == res.warnings.end()) res.warnings.push_back(note);
   exploreSpread(config, cloud, progress, should_stop, &res, &spread_message);
 
   // How close are the features to their targets?

@@ -92,7 +92,8 @@ SoftTask::SoftTask(const TaskConfig& c, const VolumeCloud& cloud)
     : Task(c, cloud, false),
       sph_(cloud.X, cloud.V, lameFromYoung(c.number("youngs_modulus_solid"), c.number("poisson_ratio")),
            sphOptionsFromConfig(c, latticeSpacing(cloud, c.task()))) {
-  backend_ = resolveBackend(parseComputeBackend(c.text("backend"), "task parameter backend"), "task parameter backend");
+  backend_requested_ = parseComputeBackend(c.text("backend"), "task parameter backend");
+  backend_ = resolveBackend(backend_requested_, "task parameter backend");
   const LameParameters solid = lameFromYoung(c.number("youngs_modulus_solid"), c.number("poisson_ratio"));
   const LameParameters hollow = lameFromYoung(c.number("youngs_modulus_hollow"), c.number("poisson_ratio_hollow"));
   E_solid_ = c.number("youngs_modulus_solid");

@@ -37,7 +37,9 @@ class SoftTask : public Task {
 
   /// The task's `backend`, resolved (cuda/backend.h): Cuda only when a GPU is present; backend cuda
   /// without one is refused when the task is built.
-  ComputeBackend backend_ = ComputeBackend::Cpu;
+  /// Mutable: backend auto falls back to the CPU for good when the GPU lacks memory (with a note).
+  mutable ComputeBackend backend_ = ComputeBackend::Cpu;
+  ComputeBackend backend_requested_ = ComputeBackend::Auto;
   CorotatedSph sph_;  ///< rest discretisation, material replaced per evaluation
   /// The Lamé parameters are interpolated between the two materials' values (from E and ν of each)
   /// with the SIMP power of the stiffness.

@@ -519,3 +519,24 @@ TEST(CudaSoftRollout, ALossAtSomeStepsOnlyMatchesTheCpu) {
   EXPECT_LT(e_x0, 1e-3);
   std::printf("[ parity   ] float32 rollout gradient: mass %.2e mu %.2e x0 %.2e\n", e_mass, e_mu, e_x0);
 }
+
+TEST(CudaSoftRollout, TooLittleGpuMemoryIsRefusedBeforeAnythingRuns) {
+  SKIP_WITHOUT_GPU();
+  // 10⁶ steps with a checkpoint at every step: ~600 GB of states for the 768-particle beam.
+  Beam a = makeBeam(SphEnergyModel::StVK, SphRotationSource::ShapeMatchingApq, 1.5, false, 0.0);
+  SoftRolloutOptions o;
+  o.dt = 0.5 * a.sim->stableTimeStep();
+  o.steps = 1000000;
+  o.checkpoint_every = 1;
+  const Vec3s x0 = a.sim->positions();
+  try {
+    runSoftRolloutCuda(a.sim.get(), o, testLoss(a.cloud), true);
+    FAIL() << "accepted";
+  } catch (const GpuMemoryError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("MiB are free"), std::string::npos) << m;
+    EXPECT_NE(m.find("particles would fit"), std::string::npos) << m;
+    EXPECT_NE(m.find("backend cpu"), std::string::npos) << m;
+  }
+  EXPECT_EQ(maxDiff(a.sim->positions(), x0), 0.0);  // nothing ran
+}

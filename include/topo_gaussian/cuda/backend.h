@@ -12,6 +12,8 @@
 #include <cstddef>
 #include <string>
 
+#include "topo_gaussian/common/error.h"
+
 namespace topo_gaussian {
 
 enum class ComputeBackend { Auto, Cpu, Cuda };
@@ -39,6 +41,18 @@ const CudaDeviceInfo& cudaDeviceInfo();
 /// what was chosen and why, e.g. "backend auto: CUDA on NVIDIA H100 80GB HBM3 (132 SMs)".
 ComputeBackend resolveBackend(ComputeBackend requested, const std::string& what = "backend",
                               std::string* log_line = nullptr);
+
+/// The GPU has too little free memory for a job: thrown before anything is allocated, naming what
+/// is needed, what is free and how many particles would fit. Under backend auto a caller may fall
+/// back to the CPU (the pear task does, with a note).
+class GpuMemoryError : public TopoError {
+ public:
+  using TopoError::TopoError;
+};
+
+/// Throws GpuMemoryError naming `what` when `bytes` exceed 90 % of the device's free memory;
+/// `bytes_per_particle` gives the particle count that would fit. No-op without a device.
+void requireDeviceMemory(const std::string& what, double bytes, double bytes_per_particle);
 
 /// Device-to-device copy bandwidth [GB/s], bytes read plus bytes written, of a `bytes` copy (best
 /// of 5 after a warm-up): the memory-bandwidth bound benchmarks compare against. Throws without a

@@ -115,7 +115,9 @@ class Task {
   Eigen::Vector3d lo_, hi_;
   TaskGeometry geometry_;
   StopCheck should_stop_;
-  std::vector<std::string> notes_;
+  /// Mutable: an evaluation may add one (backend auto falling back to the CPU when the GPU lacks
+  /// memory); runInference collects the notes before and after the optimisation.
+  mutable std::vector<std::string> notes_;
 };
 
 /// Fewest particles a task accepts: an interior is inferred from how its particles differ, and the
