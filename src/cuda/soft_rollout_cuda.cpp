@@ -116,6 +116,8 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
   auto tf = std::chrono::steady_clock::now();
   // Checkpoints (x, v, f) in device memory.
   std::vector<T*> checkpoints;
+  // One allocation for every checkpoint (x, v, f: 9n values each).
+  T* checkpoint_store = with_gradient ? I.allocate<T>(static_cast<std::size_t>((N + K - 1) / K) * 9 * n) : nullptr;
   auto counts = [&](int k) { return !opt.loss_at || opt.loss_at(k); };
   Vec3s x, v;
   if (counts(0)) {
@@ -125,7 +127,7 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
   }
   for (int k = 0; k < N; ++k) {
     if (with_gradient && k % K == 0) {
-      T* c = I.allocate<T>(9 * n);
+      T* c = checkpoint_store + checkpoints.size() * 9 * n;
       copy(c, b.x);
       copy(c + 3 * n, b.v);
       copy(c + 6 * n, b.f);

@@ -31,6 +31,7 @@ InteriorProblem::InteriorProblem(const TaskConfig& config, const VolumeCloud& cl
   ro.neural.width = config_.integer("neural_width");
   ro.neural.seed = static_cast<unsigned>(config_.integer("neural_seed"));
   ro.neural.initial_field = ro.initial_field;
+  ro.neural.backend = parseComputeBackend(config_.text("backend"), "task parameter backend");
   representation_ = makeRepresentation(ro, cloud_.X);
   indicator_.epsilon = config_.number("epsilon");
   if (config_.boolean("pin_shell"))

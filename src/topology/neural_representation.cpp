@@ -171,7 +171,30 @@ void NeuralRepresentation::forward(const Eigen::VectorXd& theta, const Eigen::Ma
   }
 }
 
+MlpCuda* NeuralRepresentation::gpu() const {
+  if (!gpu_resolved_) {
+    gpu_resolved_ = true;
+    if (resolveBackend(options_.backend, "neural representation backend") == ComputeBackend::Cuda) {
+      std::vector<int> sizes{layers_.front().in};
+      for (const Layer& L : layers_) sizes.push_back(L.out);
+      gpu_ = std::make_shared<MlpCuda>(sizes, U_, CudaPrecision::Float64);
+    }
+  }
+  return gpu_.get();
+}
+
+std::vector<Eigen::VectorXd> NeuralRepresentation::biases(const Eigen::VectorXd& theta) const {
+  std::vector<Eigen::VectorXd> b;
+  for (const Layer& L : layers_) b.push_back(theta.segment(L.b, L.out));
+  return b;
+}
+
 void NeuralRepresentation::field(const Eigen::VectorXd& theta, std::vector<double>* s) const {
+  if (MlpCuda* g = gpu()) {
+    checkParameters(theta);
+    g->forward(weights(theta), biases(theta), s);
+    return;
+  }
   forward(theta, U_, s, nullptr);
 }
 
@@ -193,6 +216,13 @@ void NeuralRepresentation::fieldBackward(const Eigen::VectorXd& theta, const std
   checkParameters(theta);
   checkFieldGradient(dL_ds);
   const std::vector<Eigen::MatrixXd> W = weights(theta);
+  if (MlpCuda* gpu_mlp = gpu()) {
+    std::vector<Eigen::MatrixXd> G;
+    std::vector<Eigen::VectorXd> gb;
+    gpu_mlp->backward(W, biases(theta), dL_ds, &G, &gb);
+    weightNormBackward(theta, G, gb, dL_dtheta);
+    return;
+  }
   const Eigen::Index n = U_.cols();
   const int threads = maxThreads();
   const Blocks blocks = makeBlocks(n, threads);
@@ -238,16 +268,29 @@ void NeuralRepresentation::fieldBackward(const Eigen::VectorXd& theta, const std
     }
   }
 
-  dL_dtheta->setZero(num_parameters_);
+  std::vector<Eigen::MatrixXd> Gs(depth);
+  std::vector<Eigen::VectorXd> gbs(depth);
   for (int l = 0; l < depth; ++l) {
     const Layer& L = layers_[l];
-    Eigen::MatrixXd G = Eigen::MatrixXd::Zero(L.out, L.in);
-    Eigen::VectorXd gb = Eigen::VectorXd::Zero(L.out);
+    Gs[l] = Eigen::MatrixXd::Zero(L.out, L.in);
+    gbs[l] = Eigen::VectorXd::Zero(L.out);
     for (const Partial& P : partial) {
       if (P.dW.empty()) continue;  // a thread that never ran
-      G += P.dW[l];
-      gb += P.db[l];
+      Gs[l] += P.dW[l];
+      gbs[l] += P.db[l];
     }
+  }
+  weightNormBackward(theta, Gs, gbs, dL_dtheta);
+}
+
+void NeuralRepresentation::weightNormBackward(const Eigen::VectorXd& theta, const std::vector<Eigen::MatrixXd>& Gs,
+                                              const std::vector<Eigen::VectorXd>& gbs,
+                                              Eigen::VectorXd* dL_dtheta) const {
+  dL_dtheta->setZero(num_parameters_);
+  for (std::size_t l = 0; l < layers_.size(); ++l) {
+    const Layer& L = layers_[l];
+    const Eigen::MatrixXd& G = Gs[l];
+    const Eigen::VectorXd& gb = gbs[l];
     // Weight normalisation: W_j = g_j v_j/‖v_j‖ ⇒ dL/dg_j = G_j·v̂_j,
     // dL/dv_j = (g_j/‖v_j‖)(G_j − (G_j·v̂_j) v̂_j).
     const Eigen::Map<const Eigen::MatrixXd> v(theta.data() + L.v, L.out, L.in);

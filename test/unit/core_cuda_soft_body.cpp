@@ -522,11 +522,11 @@ TEST(CudaSoftRollout, ALossAtSomeStepsOnlyMatchesTheCpu) {
 
 TEST(CudaSoftRollout, TooLittleGpuMemoryIsRefusedBeforeAnythingRuns) {
   SKIP_WITHOUT_GPU();
-  // 10⁶ steps with a checkpoint at every step: ~600 GB of states for the 768-particle beam.
+  // 10⁸ steps with a checkpoint at every step: 72 B × 10⁸ per particle, over 20 TB for the beam.
   Beam a = makeBeam(SphEnergyModel::StVK, SphRotationSource::ShapeMatchingApq, 1.5, false, 0.0);
   SoftRolloutOptions o;
   o.dt = 0.5 * a.sim->stableTimeStep();
-  o.steps = 1000000;
+  o.steps = 100000000;
   o.checkpoint_every = 1;
   const Vec3s x0 = a.sim->positions();
   try {

@@ -5,12 +5,18 @@
 // θ layout, layer after layer: v (out × in, column-major, i.e. v(j, k) at j + out·k), then g (out),
 // then b (out). The last parameter is the output bias.
 //
+// With options.backend cuda (or auto and a GPU) field() and fieldBackward() run their matrix
+// products on the GPU through cuBLAS (cuda/mlp_cuda.h, float64: the same results to round-off).
+//
 // The paper trains with dropout; here there is none, because the field must be a deterministic
 // function of θ for the simulator gradients and finite-difference checks.
 #pragma once
 
 #include <Eigen/Core>
 
+#include <memory>
+
+#include "topo_gaussian/cuda/mlp_cuda.h"
 #include "topo_gaussian/topology/representation.h"
 
 namespace topo_gaussian {
@@ -50,7 +56,17 @@ class NeuralRepresentation : public Representation {
   void forward(const Eigen::VectorXd& theta, const Eigen::Matrix3Xd& U, std::vector<double>* s,
                std::vector<double>* margin) const;
 
+  /// The weight-normalisation backward: dL/dθ from dL/dW_l (G) and dL/db_l (gb) of every layer.
+  void weightNormBackward(const Eigen::VectorXd& theta, const std::vector<Eigen::MatrixXd>& G,
+                          const std::vector<Eigen::VectorXd>& gb, Eigen::VectorXd* dL_dtheta) const;
+  /// The biases b_l of θ.
+  std::vector<Eigen::VectorXd> biases(const Eigen::VectorXd& theta) const;
+  /// The GPU MLP when options_.backend resolves to cuda (made at the first evaluation), else null.
+  MlpCuda* gpu() const;
+
   NeuralOptions options_;
+  mutable std::shared_ptr<MlpCuda> gpu_;
+  mutable bool gpu_resolved_ = false;
   NormalisedFrame frame_;
   Eigen::Matrix3Xd U_;  ///< normalised particle coordinates, one column each
   std::vector<Layer> layers_;

@@ -18,6 +18,8 @@
 #include <string>
 #include <vector>
 
+#include "topo_gaussian/cuda/backend.h"
+
 namespace topo_gaussian {
 
 class Representation {
@@ -57,6 +59,9 @@ struct NeuralOptions {
   int width = 512;             ///< hidden width, paper: 512
   unsigned seed = 1;           ///< weight initialisation seed (deterministic)
   double initial_field = 0.3;  ///< the initial output bias: s ≈ +initial_field (solid) everywhere
+  /// Where field() and fieldBackward() run (cuda/mlp_cuda.h: cuBLAS, float64). The task parameter
+  /// `backend` sets it (default auto there); the library default is the CPU.
+  ComputeBackend backend = ComputeBackend::Cpu;
 };
 
 struct RepresentationOptions {
