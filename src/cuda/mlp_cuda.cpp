@@ -109,6 +109,9 @@ struct MlpCuda::Impl {
   void* U = nullptr;                // 3 × n
   std::vector<void*> W, b, dW, db;  // per layer
   std::vector<void*> H;             // per layer input (H[0] = the U block), block columns
+  std::vector<void*> Hall;          // per hidden layer, every point's activations (keep_all)
+  bool keep_all = false;            // the forward keeps every activation for the next backward
+  bool kept = false;                // Hall holds the activations of the last forward's weights
   void *Z = nullptr, *delta = nullptr, *back = nullptr, *ones = nullptr, *s = nullptr, *ds = nullptr;
   long long block = 0;
   int widest = 0;
@@ -149,16 +152,25 @@ struct MlpCuda::Impl {
       if (Wh[l].rows() != sizes[l + 1] || Wh[l].cols() != sizes[l] || bh[l].size() != sizes[l + 1])
         throw TopoError("CUDA MLP", "layer " + std::to_string(l) + " has the wrong shape",
                         "W_l must be sizes[l+1] x sizes[l], b_l sizes[l+1]");
+      kept = false;
       upload<S>(W[l], Wh[l].data(), Wh[l].size());
       upload<S>(b[l], bh[l].data(), bh[l].size());
     }
+  }
+
+  /// The layer inputs of the block starting at point c0 (in Hall when every activation is kept).
+  template <class S>
+  void pointAt(long long c0) {
+    H[0] = static_cast<S*>(U) + 3 * c0;
+    if (keep_all)
+      for (std::size_t l = 1; l < H.size(); ++l) H[l] = static_cast<S*>(Hall[l]) + c0 * sizes[l];
   }
 
   /// Forward over the block [c0, c0 + bs): H[l+1] = relu(W_l H[l] + b_l), the output into s + c0.
   template <class S>
   void forwardBlock(long long c0, int bs) {
     const int depth = static_cast<int>(sizes.size()) - 1;
-    H[0] = static_cast<S*>(U) + 3 * c0;
+    pointAt<S>(c0);
     for (int l = 0; l < depth; ++l) {
       const bool last = l + 1 == depth;
       S* out = last ? static_cast<S*>(s) + c0 : static_cast<S*>(H[l + 1]);
@@ -175,10 +187,12 @@ struct MlpCuda::Impl {
     for (long long c0 = 0; c0 < static_cast<long long>(n); c0 += block)
       forwardBlock<S>(c0, static_cast<int>(std::min<long long>(block, static_cast<long long>(n) - c0)));
     check(cudaGetLastError(), "kernel launch");
+    kept = keep_all;
   }
 
+  /// reuse: the activations of the last forward (kept), no forward here.
   template <class S>
-  void backwardAll() {
+  void backwardAll(bool reuse) {
     const int depth = static_cast<int>(sizes.size()) - 1;
     for (int l = 0; l < depth; ++l) {
       cuda_detail::launchFill<S>(static_cast<S*>(dW[l]), S(0), static_cast<long long>(sizes[l + 1]) * sizes[l], stream);
@@ -186,7 +200,10 @@ struct MlpCuda::Impl {
     }
     for (long long c0 = 0; c0 < static_cast<long long>(n); c0 += block) {
       const int bs = static_cast<int>(std::min<long long>(block, static_cast<long long>(n) - c0));
-      forwardBlock<S>(c0, bs);                      // the block's activations
+      if (reuse)
+        pointAt<S>(c0);
+      else
+        forwardBlock<S>(c0, bs);                    // the block's activations
       const S* d = static_cast<const S*>(ds) + c0;  // dL/dz of the linear output
       for (int l = depth - 1; l >= 0; --l) {
         // dL/dW_l += δ H_lᵀ, dL/db_l += δ 1.
@@ -260,6 +277,19 @@ MlpCuda::MlpCuda(const std::vector<int>& sizes, const Eigen::Matrix3Xd& U, CudaP
   I.delta = I.alloc(std::size_t(I.widest) * I.block * T);
   I.back = I.alloc(std::size_t(I.widest) * I.block * T);
   I.ones = I.alloc(std::size_t(I.block) * T);
+  // Every activation kept (for the backward after a forward at the same weights) when it takes less
+  // than half of the free memory: one GEMM pass per layer fewer.
+  {
+    double hidden = 0.0;
+    for (int l = 1; l < depth; ++l) hidden += sizes[l];
+    const double act = double(T) * double(I.n) * hidden;
+    std::size_t free_b = 0, total_b = 0;
+    if (cudaMemGetInfo(&free_b, &total_b) == cudaSuccess && act < 0.5 * double(free_b)) {
+      I.Hall.assign(depth, nullptr);
+      for (int l = 1; l < depth; ++l) I.Hall[l] = I.alloc(std::size_t(sizes[l]) * I.n * T);
+      I.keep_all = true;
+    }
+  }
   if (precision == CudaPrecision::Float64)
     cuda_detail::launchFill<double>(static_cast<double*>(I.ones), 1.0, I.block, I.stream);
   else
@@ -304,7 +334,7 @@ void MlpCuda::backward(const std::vector<Eigen::MatrixXd>& W, const std::vector<
   if (I.precision == CudaPrecision::Float64) {
     I.setWeights<double>(W, b);
     I.upload<double>(I.ds, dL_ds.data(), I.n);
-    I.backwardAll<double>();
+    I.backwardAll<double>(false);
     for (int l = 0; l < depth; ++l) {
       I.download<double>(I.dW[l], (*dW)[l].data(), (*dW)[l].size());
       I.download<double>(I.db[l], (*db)[l].data(), (*db)[l].size());
@@ -312,12 +342,45 @@ void MlpCuda::backward(const std::vector<Eigen::MatrixXd>& W, const std::vector<
   } else {
     I.setWeights<float>(W, b);
     I.upload<float>(I.ds, dL_ds.data(), I.n);
-    I.backwardAll<float>();
+    I.backwardAll<float>(false);
     for (int l = 0; l < depth; ++l) {
       I.download<float>(I.dW[l], (*dW)[l].data(), (*dW)[l].size());
       I.download<float>(I.db[l], (*db)[l].data(), (*db)[l].size());
     }
   }
+}
+
+bool MlpCuda::backwardAfterForward(const std::vector<double>& dL_ds, std::vector<Eigen::MatrixXd>* dW,
+                                   std::vector<Eigen::VectorXd>* db) {
+  Impl& I = *impl_;
+  if (!I.kept) return false;
+  if (dL_ds.size() != I.n)
+    throw TopoError("CUDA MLP",
+                    std::to_string(dL_ds.size()) + " values of dL/ds for " + std::to_string(I.n) + " points",
+                    "pass one per point");
+  const int depth = static_cast<int>(I.sizes.size()) - 1;
+  dW->resize(depth);
+  db->resize(depth);
+  for (int l = 0; l < depth; ++l) {
+    (*dW)[l].resize(I.sizes[l + 1], I.sizes[l]);
+    (*db)[l].resize(I.sizes[l + 1]);
+  }
+  if (I.precision == CudaPrecision::Float64) {
+    I.upload<double>(I.ds, dL_ds.data(), I.n);
+    I.backwardAll<double>(true);
+    for (int l = 0; l < depth; ++l) {
+      I.download<double>(I.dW[l], (*dW)[l].data(), (*dW)[l].size());
+      I.download<double>(I.db[l], (*db)[l].data(), (*db)[l].size());
+    }
+  } else {
+    I.upload<float>(I.ds, dL_ds.data(), I.n);
+    I.backwardAll<float>(true);
+    for (int l = 0; l < depth; ++l) {
+      I.download<float>(I.dW[l], (*dW)[l].data(), (*dW)[l].size());
+      I.download<float>(I.db[l], (*db)[l].data(), (*db)[l].size());
+    }
+  }
+  return true;
 }
 
 #else  // no CUDA in this build
@@ -332,6 +395,10 @@ CudaPrecision MlpCuda::precision() const { return CudaPrecision::Float64; }
 void MlpCuda::forward(const std::vector<Eigen::MatrixXd>&, const std::vector<Eigen::VectorXd>&, std::vector<double>*) {}
 void MlpCuda::backward(const std::vector<Eigen::MatrixXd>&, const std::vector<Eigen::VectorXd>&,
                        const std::vector<double>&, std::vector<Eigen::MatrixXd>*, std::vector<Eigen::VectorXd>*) {}
+bool MlpCuda::backwardAfterForward(const std::vector<double>&, std::vector<Eigen::MatrixXd>*,
+                                   std::vector<Eigen::VectorXd>*) {
+  return false;
+}
 
 #endif
 

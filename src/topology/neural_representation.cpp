@@ -193,6 +193,7 @@ void NeuralRepresentation::field(const Eigen::VectorXd& theta, std::vector<doubl
   if (MlpCuda* g = gpu()) {
     checkParameters(theta);
     g->forward(weights(theta), biases(theta), s);
+    gpu_theta_ = theta;  // a fieldBackward at this θ reuses the forward's activations
     return;
   }
   forward(theta, U_, s, nullptr);
@@ -219,7 +220,9 @@ void NeuralRepresentation::fieldBackward(const Eigen::VectorXd& theta, const std
   if (MlpCuda* gpu_mlp = gpu()) {
     std::vector<Eigen::MatrixXd> G;
     std::vector<Eigen::VectorXd> gb;
-    gpu_mlp->backward(W, biases(theta), dL_ds, &G, &gb);
+    const bool same = gpu_theta_.size() == theta.size() && gpu_theta_ == theta;
+    if (!same || !gpu_mlp->backwardAfterForward(dL_ds, &G, &gb)) gpu_mlp->backward(W, biases(theta), dL_ds, &G, &gb);
+    gpu_theta_.resize(0);  // backward() uploads the same weights; the kept activations stay valid only after field()
     weightNormBackward(theta, G, gb, dL_dtheta);
     return;
   }

@@ -5,7 +5,9 @@
 //   backward  δ = dL/ds;  for l = depth−1 … 0:  dL/dW_l += δ H_lᵀ,  dL/db_l += δ 1,
 //             δ ← (W_lᵀ δ) ⊙ [H_l > 0]
 // with cuBLAS GEMMs (column-major, the layouts of Eigen's matrices) over blocks of up to 65 536
-// points (each block keeps its activations, width × depth values a point, for the backward).
+// points. The forward keeps every point's activations (width × (depth − 1) values a point) when
+// they fit in half of the free memory, so a backward at the same weights needs no forward
+// (backwardAfterForward); else each block recomputes its own.
 // The weight normalisation W = diag(g/‖v‖) v and its backward stay on the host
 // (topology/neural_representation.cpp: O(parameters), not O(points × parameters)).
 // float64 (agrees with the CPU to round-off) or float32.
@@ -35,6 +37,12 @@ class MlpCuda {
   /// dL/dW and dL/db for dL/ds (N values); overwrites dW and db.
   void backward(const std::vector<Eigen::MatrixXd>& W, const std::vector<Eigen::VectorXd>& b,
                 const std::vector<double>& dL_ds, std::vector<Eigen::MatrixXd>* dW, std::vector<Eigen::VectorXd>* db);
+
+  /// As backward() at the weights of the last forward(), from the activations that forward kept
+  /// (every point's, when they take less than half of the free memory): no forward pass. Returns
+  /// false, computing nothing, when they were not kept.
+  bool backwardAfterForward(const std::vector<double>& dL_ds, std::vector<Eigen::MatrixXd>* dW,
+                            std::vector<Eigen::VectorXd>* db);
 
   struct Impl;
 

@@ -67,6 +67,7 @@ class NeuralRepresentation : public Representation {
   NeuralOptions options_;
   mutable std::shared_ptr<MlpCuda> gpu_;
   mutable bool gpu_resolved_ = false;
+  mutable Eigen::VectorXd gpu_theta_;  ///< θ of the GPU's last field() (its activations are kept)
   NormalisedFrame frame_;
   Eigen::Matrix3Xd U_;  ///< normalised particle coordinates, one column each
   std::vector<Layer> layers_;
