@@ -316,10 +316,11 @@ void MlpCuda::forward(const std::vector<Eigen::MatrixXd>& W, const std::vector<E
   }
 }
 
-void MlpCuda::backward(const std::vector<Eigen::MatrixXd>& W, const std::vector<Eigen::VectorXd>& b,
-                       const std::vector<double>& dL_ds, std::vector<Eigen::MatrixXd>* dW,
-                       std::vector<Eigen::VectorXd>* db) {
-  Impl& I = *impl_;
+namespace {
+/// dL/dW and dL/db for dL/ds: from the kept activations (reuse) or with a forward per block.
+template <class S>
+void gradients(MlpCuda::Impl& I, const std::vector<double>& dL_ds, bool reuse, std::vector<Eigen::MatrixXd>* dW,
+               std::vector<Eigen::VectorXd>* db) {
   if (dL_ds.size() != I.n)
     throw TopoError("CUDA MLP",
                     std::to_string(dL_ds.size()) + " values of dL/ds for " + std::to_string(I.n) + " points",
@@ -327,26 +328,27 @@ void MlpCuda::backward(const std::vector<Eigen::MatrixXd>& W, const std::vector<
   const int depth = static_cast<int>(I.sizes.size()) - 1;
   dW->resize(depth);
   db->resize(depth);
+  I.upload<S>(I.ds, dL_ds.data(), I.n);
+  I.backwardAll<S>(reuse);
   for (int l = 0; l < depth; ++l) {
     (*dW)[l].resize(I.sizes[l + 1], I.sizes[l]);
     (*db)[l].resize(I.sizes[l + 1]);
+    I.download<S>(I.dW[l], (*dW)[l].data(), (*dW)[l].size());
+    I.download<S>(I.db[l], (*db)[l].data(), (*db)[l].size());
   }
+}
+}  // namespace
+
+void MlpCuda::backward(const std::vector<Eigen::MatrixXd>& W, const std::vector<Eigen::VectorXd>& b,
+                       const std::vector<double>& dL_ds, std::vector<Eigen::MatrixXd>* dW,
+                       std::vector<Eigen::VectorXd>* db) {
+  Impl& I = *impl_;
   if (I.precision == CudaPrecision::Float64) {
     I.setWeights<double>(W, b);
-    I.upload<double>(I.ds, dL_ds.data(), I.n);
-    I.backwardAll<double>(false);
-    for (int l = 0; l < depth; ++l) {
-      I.download<double>(I.dW[l], (*dW)[l].data(), (*dW)[l].size());
-      I.download<double>(I.db[l], (*db)[l].data(), (*db)[l].size());
-    }
+    gradients<double>(I, dL_ds, false, dW, db);
   } else {
     I.setWeights<float>(W, b);
-    I.upload<float>(I.ds, dL_ds.data(), I.n);
-    I.backwardAll<float>(false);
-    for (int l = 0; l < depth; ++l) {
-      I.download<float>(I.dW[l], (*dW)[l].data(), (*dW)[l].size());
-      I.download<float>(I.db[l], (*db)[l].data(), (*db)[l].size());
-    }
+    gradients<float>(I, dL_ds, false, dW, db);
   }
 }
 
@@ -354,32 +356,10 @@ bool MlpCuda::backwardAfterForward(const std::vector<double>& dL_ds, std::vector
                                    std::vector<Eigen::VectorXd>* db) {
   Impl& I = *impl_;
   if (!I.kept) return false;
-  if (dL_ds.size() != I.n)
-    throw TopoError("CUDA MLP",
-                    std::to_string(dL_ds.size()) + " values of dL/ds for " + std::to_string(I.n) + " points",
-                    "pass one per point");
-  const int depth = static_cast<int>(I.sizes.size()) - 1;
-  dW->resize(depth);
-  db->resize(depth);
-  for (int l = 0; l < depth; ++l) {
-    (*dW)[l].resize(I.sizes[l + 1], I.sizes[l]);
-    (*db)[l].resize(I.sizes[l + 1]);
-  }
-  if (I.precision == CudaPrecision::Float64) {
-    I.upload<double>(I.ds, dL_ds.data(), I.n);
-    I.backwardAll<double>(true);
-    for (int l = 0; l < depth; ++l) {
-      I.download<double>(I.dW[l], (*dW)[l].data(), (*dW)[l].size());
-      I.download<double>(I.db[l], (*db)[l].data(), (*db)[l].size());
-    }
-  } else {
-    I.upload<float>(I.ds, dL_ds.data(), I.n);
-    I.backwardAll<float>(true);
-    for (int l = 0; l < depth; ++l) {
-      I.download<float>(I.dW[l], (*dW)[l].data(), (*dW)[l].size());
-      I.download<float>(I.db[l], (*db)[l].data(), (*db)[l].size());
-    }
-  }
+  if (I.precision == CudaPrecision::Float64)
+    gradients<double>(I, dL_ds, true, dW, db);
+  else
+    gradients<float>(I, dL_ds, true, dW, db);
   return true;
 }
 
