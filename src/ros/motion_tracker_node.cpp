@@ -62,6 +62,19 @@ MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh) {
   p.options.tracker.method = r.text("method", "marker");
   p.options.kind = r.text("kind", "pendulum");
   p.options.tracker.foreground = r.text("foreground", p.options.tracker.foreground);
+  p.options.tracker.polarity = r.text("polarity", p.options.tracker.polarity);
+  p.options.rotate_deg = int(r.integer("rotate_deg", 0, "deg", Range::between(0, 270)));
+  const std::vector<double> gravity = r.numbers("gravity", {}, 2, "", "[0, 1] (image-down)");
+  if (!gravity.empty()) p.options.gravity = cv::Vec2d(gravity[0], gravity[1]);
+  const std::vector<double> hsv_lower = r.numbers("hsv_lower", {}, 3, "", "[35, 45, 150] (OpenCV H 0..180, S, V)");
+  const std::vector<double> hsv_upper = r.numbers("hsv_upper", {}, 3, "", "[65, 255, 255]");
+  if (hsv_lower.empty() != hsv_upper.empty())
+    throw TopoError(r.displayName("hsv_lower") + "/hsv_upper", "must be given together",
+                    "set both, e.g. _hsv_lower:=[35,45,150] _hsv_upper:=[65,255,255], or neither (red)");
+  if (!hsv_lower.empty())
+    p.options.tracker.hsv = {vision::HsvRange{cv::Scalar(hsv_lower[0], hsv_lower[1], hsv_lower[2]),
+                                              cv::Scalar(hsv_upper[0], hsv_upper[1], hsv_upper[2])}};
+  p.options.tracker.min_area_px = r.number("min_area_px", p.options.tracker.min_area_px, "px", Range::atLeast(0.0));
   const std::vector<double> roi = r.numbers("roi", {}, 4, "px", "[100, 50, 300, 300]");
   if (!roi.empty()) {
     for (double v : roi)
@@ -237,6 +250,8 @@ void MotionTrackerNode::finishLive() {
   try {
     vision::TrackResult r = live_->finish();
     r.source = image_sub_.getTopic();
+    if (r.refused)  // published all the same (confidence 0, the reason in `message`), and logged
+      ROS_WARN_THROTTLE(10.0, "motion_tracker: %s: %s", r.source.c_str(), asciiText(r.message).c_str());
     publish(r, live_frame_id_);
   } catch (const std::exception& e) {
     ROS_ERROR_THROTTLE(5.0, "motion_tracker: %s", asciiText(e.what()).c_str());
@@ -288,8 +303,11 @@ bool MotionTrackerNode::onExtractMotion(topo_gaussian::ExtractMotion::Request& r
     const vision::TrackResult r = vision::trackVideo(req.video_file, o);
     res.features = toMotionFeaturesMsg(vision::toMotionFeatures(r));
     res.features.header.stamp = ::ros::Time::now();
-    res.success = true;
+    // a refusal (not one object, not a pendulum's path, ...) is published too, with confidence 0,
+    // so the inference sees why; the service says it failed
+    res.success = !r.refused;
     res.message = r.message;
+    if (r.refused) ROS_WARN("motion_tracker: %s: %s", req.video_file.c_str(), asciiText(r.message).c_str());
     publish(r, "camera");
   });
 }

@@ -39,20 +39,35 @@ const char* kTrackHelp =
     "  --stride N             use every N-th frame (default 1)\n"
     "  --fps F                frame rate of an image sequence (default 30)\n"
     "  --pivot x,y            pendulum pivot in pixels (default: circle fit to the marker's path)\n"
-    "  --hsv-lower h,s,v --hsv-upper h,s,v   marker colour (OpenCV HSV, H 0..180; default red)\n"
+    "  --hsv-lower h,s,v --hsv-upper h,s,v   marker colour (OpenCV HSV: H 0..180, S and V 0..255,\n"
+    "                         lower <= upper; default red, both sides of H 0)\n"
     "  --foreground F         silhouette foreground: auto (default: otsu for --kind tilt/finger, mog2\n"
     "                         otherwise) | mog2 | otsu\n"
+    "  --polarity P           silhouette by otsu: the object is darker | brighter than its background, or\n"
+    "                         auto (default: the side that touches the frame border less)\n"
+    "  --rotate D             rotate every frame clockwise by 90, 180 or 270 degrees first (a phone video\n"
+    "                         held sideways); --roi and --pivot are in the rotated frame. A rotation in\n"
+    "                         the file's metadata is applied anyway.\n"
+    "  --gravity x,y          image direction of gravity in the (rotated) frame (default 0,1: down)\n"
     "  --min-area PX          smallest blob accepted (default 30)\n"
     "  --json                 print the features as one JSON object (the motion-features document that\n"
-    "                         `topo infer --features FILE` reads; tracker details under \"tracker\")\n"
+    "                         `topo infer --features FILE` reads; tracker details under \"tracker\");\n"
+    "                         a feature that was not measured is null\n"
     "  --series               with --json: include the time series\n"
-    "  --debug-video OUT      write the overlay video (tracked points, axis, angle text)\n"
+    "  --debug-video OUT      write the overlay video: every frame drawn with the final result (the\n"
+    "                         JSON's pivot, signed angle or bend, bounces, or the refusal)\n"
     "  --plot OUT.png         write a plot of the angle signal (crossings and turning points marked)\n"
     "  --camera fx,fy,cx,cy[,k1,k2,p1,p2[,k3]]   intrinsics (and OpenCV distortion) of the camera\n"
     "  --camera-pose x,y,z,qx,qy,qz,qw          camera optical frame in the world (default: identity)\n"
     "  --plane nx,ny,nz,d     with --camera: place the trajectories on the world plane n.x = d [m]\n"
     "                         (JSON points_on_plane), e.g. the wall the pendulum swings along\n"
-    "exit codes: 0 success, 1 bad input (missing file, bad ROI, ...), 2 bad command line\n";
+    "\n"
+    "Before any feature, what was tracked must behave like one object (compact, of steady size and\n"
+    "colour, moving continuously) and its motion like the kind asked for (a pendulum's path is an arc\n"
+    "hanging from its pivot; a bounce has free-flight arcs on both sides). Otherwise the answer is a\n"
+    "refusal (\"refused: ...\" with the reason; confidences 0), never a made-up number.\n"
+    "exit codes: 0 success (also for a refusal), 1 bad input (missing or unreadable file), 2 bad command\n"
+    "line (unknown or contradictory options, --roi outside the frame, HSV out of range)\n";
 
 std::vector<double> numbers(const Args& a, const std::string& name, std::size_t count) {
   std::vector<double> v;
@@ -148,8 +163,9 @@ void writePlot(const vision::TrackResult& r, const std::string& path) {
 
 int trackCommand(const std::vector<std::string>& argv) {
   const Args a(argv, {"help", "json", "series"},
-               {"video", "method", "kind", "roi", "start", "end", "stride", "fps", "pivot", "hsv-lower", "hsv-upper",
-                "foreground", "min-area", "debug-video", "plot", "camera", "camera-pose", "plane"});
+               {"video",   "method",   "kind",        "roi",       "start",      "end",         "stride",
+                "fps",     "pivot",    "hsv-lower",   "hsv-upper", "foreground", "polarity",    "rotate",
+                "gravity", "min-area", "debug-video", "plot",      "camera",     "camera-pose", "plane"});
   if (a.has("help")) {
     std::cout << kTrackHelp;
     return 0;
@@ -159,6 +175,16 @@ int trackCommand(const std::vector<std::string>& argv) {
   o.kind = a.str("kind", "pendulum");
   o.tracker.method = a.str("method", "marker");
   o.tracker.foreground = a.str("foreground", "auto");
+  o.tracker.polarity = a.str("polarity", "auto");
+  o.rotate_deg = static_cast<int>(a.integer("rotate", 0));
+  if (a.has("gravity")) {
+    const auto v = numbers(a, "gravity", 2);
+    o.gravity = cv::Vec2d(v[0], v[1]);
+  }
+  if (a.has("series") && !a.has("json"))
+    throw UsageError("--series needs --json (it adds the time series to the JSON)");
+  if (a.has("polarity") && o.tracker.method != "silhouette")
+    throw UsageError("--polarity applies to --method silhouette (the marker's colour range picks its object)");
   o.tracker.min_area_px = a.num("min-area", 30.0);
   if (a.has("roi")) {
     const auto v = numbers(a, "roi", 4);
@@ -178,6 +204,11 @@ int trackCommand(const std::vector<std::string>& argv) {
     o.pivot = cv::Point2d(v[0], v[1]);
   }
   const std::string video = a.str("video");
+  try {
+    vision::validateTrackOptions(o);
+  } catch (const TopoError& e) {
+    throw UsageError(e.what());
+  }
   cv::VideoWriter writer;
   std::string debug = a.str("debug-video");
   std::function<void(const cv::Mat&)> sink;
@@ -185,6 +216,16 @@ int trackCommand(const std::vector<std::string>& argv) {
   {
     vision::VideoSource probe(video, o.video);  // fails early with the file's name
     fps_out = probe.fps() / std::max(1, o.video.stride);
+    if (a.has("fps") && !probe.isSequence())
+      throw UsageError("--fps is for image sequences; the video file " + video + " carries its own frame rate (" +
+                       std::to_string(probe.fps()) + " fps): leave --fps out");
+    cv::Size size = probe.frameSize();
+    if (o.rotate_deg == 90 || o.rotate_deg == 270) size = cv::Size(size.height, size.width);
+    try {
+      vision::validRoi(o.tracker.roi, size, o.tracker.roi_given);
+    } catch (const TopoError& e) {
+      throw UsageError(e.what());
+    }
   }
   if (!debug.empty()) {
     sink = [&](const cv::Mat& frame) {
@@ -241,14 +282,16 @@ int trackCommand(const std::vector<std::string>& argv) {
                 r.first_frame, r.last_frame, r.frames_total, r.t_start_s, r.t_end_s);
     std::printf("tracking        %s / %s, %d frames used, %d lost, %d dropped\n", r.method.c_str(), r.kind.c_str(),
                 r.frames_used, r.lost_frames, r.dropped_frames);
-    if (r.kind == "pendulum" || r.kind == "tilt") {
+    if (r.refused) {
+      std::printf("refused         no feature: the reason is below\n");
+    } else if (r.kind == "pendulum" || r.kind == "tilt") {
       if (r.signal.oscillation_found) {
         std::printf("period_s        %.5f\n", r.signal.period_s);
         std::printf("amplitude_deg   %.3f\n", r.signal.amplitude_deg);
         std::printf("equilibrium_deg %.3f\n", r.signal.equilibrium_deg);
         std::printf("max_tilt_deg    %.3f\n", r.signal.max_tilt_deg);
         std::printf("damping_ratio   %.5f\n", r.signal.damping_ratio);
-      } else {
+      } else if (std::isfinite(r.static_pose.angle_deg)) {
         std::printf("static_angle_deg %.3f (spread %.3f)\n", r.static_pose.angle_deg, r.static_pose.spread_deg);
       }
       if (r.kind == "pendulum")
@@ -260,8 +303,13 @@ int trackCommand(const std::vector<std::string>& argv) {
       for (std::size_t i = 0; i < r.apex_times_s.size(); ++i)
         std::printf("apex            t %.4f s  height %.1f px\n", r.apex_times_s[i],
                     i < r.apex_heights_px.size() ? r.apex_heights_px[i] : 0.0);
+      if (std::isfinite(r.bounces.restitution_heights_mean))
+        std::printf("restitution     %.3f (heights)\n", r.bounces.restitution_heights_mean);
+      if (std::isfinite(r.bounces.restitution_times_mean))
+        std::printf("restitution     %.3f (flight times)\n", r.bounces.restitution_times_mean);
     } else {
       std::printf("bend_final_deg  %.3f\n", r.bend_final_deg);
+      std::printf("bend_max_deg    %.3f at %.3f s\n", r.bend_max_deg, r.bend_t_max_s);
     }
     for (const auto& kv : r.confidence) std::printf("confidence      %s %.3f\n", kv.first.c_str(), kv.second);
     std::printf("message         %s\n", r.message.c_str());

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <numeric>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
@@ -18,6 +19,50 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = 180.0 / kPi;
+
+/// Lines of text at the top left, on a dark band, scaled with the frame (readable at 1080p, wrapped to
+/// the frame's width at 400 px).
+void drawText(cv::Mat& img, const std::vector<std::string>& lines_in) {
+  const double fs = std::max(0.4, img.rows / 900.0);
+  const int thick = std::max(1, static_cast<int>(std::lround(fs * 1.5)));
+  const int font = cv::FONT_HERSHEY_SIMPLEX;
+  std::vector<std::string> lines;
+  for (const auto& text : lines_in) {
+    std::string line;
+    std::istringstream words(text);
+    std::string w;
+    while (words >> w) {
+      const std::string tryline = line.empty() ? w : line + " " + w;
+      int base = 0;
+      if (!line.empty() && cv::getTextSize(tryline, font, fs, thick, &base).width > img.cols - 20) {
+        lines.push_back(line);
+        line = w;
+      } else {
+        line = tryline;
+      }
+    }
+    if (!line.empty()) lines.push_back(line);
+  }
+  if (lines.size() > 8) lines.resize(8);
+  int base = 0;
+  const int h = cv::getTextSize("Ag", font, fs, thick, &base).height + base + 6;
+  cv::Mat band = img(cv::Rect(0, 0, img.cols, std::min(img.rows, h * static_cast<int>(lines.size()) + 8)));
+  band *= 0.45;
+  for (std::size_t i = 0; i < lines.size(); ++i)
+    cv::putText(img, lines[i], cv::Point(10, 4 + h * static_cast<int>(i + 1) - base), font, fs,
+                cv::Scalar(255, 255, 255), thick, cv::LINE_AA);
+}
+
+/// The frame rotated clockwise by 0/90/180/270 degrees.
+cv::Mat rotated(const cv::Mat& bgr, int deg) {
+  if (deg == 0) return bgr;
+  cv::Mat out;
+  cv::rotate(bgr, out,
+             deg == 90    ? cv::ROTATE_90_CLOCKWISE
+             : deg == 180 ? cv::ROTATE_180
+                          : cv::ROTATE_90_COUNTERCLOCKWISE);
+  return out;
+}
 
 double wrapDeg(double a) {
   while (a > 180.0) a -= 360.0;
@@ -140,40 +185,6 @@ double spread(const std::vector<cv::Point2d>& pts) {
 
 }  // namespace
 
-bool fitCircleKasa(const std::vector<cv::Point2d>& pts, cv::Point2d& centre, double& radius, double& rms) {
-  if (pts.size() < 3) return false;
-  cv::Point2d m(0, 0);
-  for (const auto& p : pts) m += p;
-  m *= 1.0 / pts.size();
-  const double scale = std::max(1e-9, spread(pts));
-  if (scale < 2.0) return false;  // the points barely move: no circle
-  cv::Mat A(static_cast<int>(pts.size()), 3, CV_64F), b(static_cast<int>(pts.size()), 1, CV_64F);
-  for (int i = 0; i < A.rows; ++i) {
-    const cv::Point2d q = (pts[i] - m) * (1.0 / scale);
-    A.at<double>(i, 0) = q.x;
-    A.at<double>(i, 1) = q.y;
-    A.at<double>(i, 2) = 1.0;
-    b.at<double>(i) = -(q.x * q.x + q.y * q.y);
-  }
-  cv::Mat w, u, vt;
-  cv::SVD::compute(A, w, u, vt);
-  if (w.at<double>(2) < 1e-9 * w.at<double>(0)) return false;  // collinear points
-  cv::Mat s;
-  cv::solve(A, b, s, cv::DECOMP_SVD);
-  const double D = s.at<double>(0), E = s.at<double>(1), F = s.at<double>(2);
-  const double cx = -D / 2, cy = -E / 2, r2 = cx * cx + cy * cy - F;
-  if (!(r2 > 0) || !std::isfinite(r2)) return false;
-  centre = m + cv::Point2d(cx, cy) * scale;
-  radius = std::sqrt(r2) * scale;
-  double e = 0;
-  for (const auto& p : pts) {
-    const double d = std::hypot(p.x - centre.x, p.y - centre.y) - radius;
-    e += d * d;
-  }
-  rms = std::sqrt(e / pts.size());
-  return radius < 1e6;
-}
-
 struct MotionTracker::Impl {
   TrackOptions opt;
   std::unique_ptr<Tracker> tracker;
@@ -184,6 +195,7 @@ struct MotionTracker::Impl {
   std::vector<cv::Point2d> centroid;
   std::vector<double> axis_deg;
   std::vector<EndFit> ends;
+  std::vector<Measurement> meas;  ///< per frame, without the mask (object checks, overlays)
   std::map<int, std::vector<TrajectorySample>> klt_tracks;
   cv::Vec2d u_prev{0, 0};
   bool have_tilt_axis = false;  ///< tilt: the axis followed so far (followTiltAxis)
@@ -193,38 +205,63 @@ struct MotionTracker::Impl {
   double last_t = 0;
 
   double currentAngle(const cv::Point2d& c, const cv::Point2d& pivot) const {
-    return std::atan2(c.x - pivot.x, c.y - pivot.y) * kDeg;
+    const cv::Vec2d g = opt.gravity / std::max(1e-12, cv::norm(opt.gravity));
+    const cv::Point2d d = c - pivot;
+    return std::atan2(g[1] * d.x - g[0] * d.y, g[0] * d.x + g[1] * d.y) * kDeg;
   }
 };
 
-MotionTracker::MotionTracker(const TrackOptions& options) : impl_(new Impl) {
-  impl_->opt = options;
-  const std::string& k = options.kind;
-  const std::string& m = options.tracker.method;
+void validateTrackOptions(const TrackOptions& o) {
+  const std::string& k = o.kind;
+  const std::string& m = o.tracker.method;
   if (k != "pendulum" && k != "tilt" && k != "trajectory" && k != "finger")
     throw TopoError("--kind " + k, "is not a motion kind", "use pendulum, tilt, trajectory or finger");
   if (m != "marker" && m != "silhouette" && m != "klt")
     throw TopoError("--method " + m, "is not a tracking method", "use marker, silhouette or klt");
-  if ((k == "tilt" || k == "finger") && m != "silhouette")
-    throw TopoError("--kind " + k + " with --method " + m, "needs the silhouette's principal axis",
-                    "use --method silhouette");
+  if ((k == "tilt" || k == "finger") && m == "klt")
+    throw TopoError("--kind " + k + " with --method " + m, "needs a silhouette (its principal axis and outline)",
+                    "use --method silhouette, or --method marker with the object's colour (--hsv-lower/--hsv-upper)");
+  const std::string& fg = o.tracker.foreground;
+  if (fg != "auto" && fg != "mog2" && fg != "otsu")
+    throw TopoError("--foreground " + fg, "is not a silhouette method", "use auto, mog2 or otsu");
+  const std::string& pol = o.tracker.polarity;
+  if (pol != "auto" && pol != "darker" && pol != "brighter")
+    throw TopoError("--polarity " + pol, "is not an object polarity",
+                    "use darker (object darker than its background), brighter, or auto");
+  if (o.rotate_deg != 0 && o.rotate_deg != 90 && o.rotate_deg != 180 && o.rotate_deg != 270)
+    throw TopoError("--rotate " + std::to_string(o.rotate_deg), "is not a quarter turn",
+                    "use 90, 180 or 270 (degrees clockwise), or leave it out");
+  if (!(std::isfinite(o.gravity[0]) && std::isfinite(o.gravity[1])) || cv::norm(o.gravity) < 1e-9)
+    throw TopoError("--gravity", "is zero or not finite",
+                    "give the image direction of gravity, e.g. --gravity 0,1 (down) or 1,0 (towards image-right)");
+  for (const auto& r : o.tracker.hsv) validateHsvRange(r, "--hsv-lower/--hsv-upper");
+  if (o.pivot_given && !(std::isfinite(o.pivot.x) && std::isfinite(o.pivot.y)))
+    throw TopoError("--pivot", "is not finite", "give the pivot in pixels, e.g. --pivot 320,-150");
+  if (!(o.tracker.min_area_px >= 0))
+    throw TopoError("--min-area " + std::to_string(o.tracker.min_area_px), "is negative", "give an area >= 0 px");
+}
+
+MotionTracker::MotionTracker(const TrackOptions& options) : impl_(new Impl) {
+  validateTrackOptions(options);
+  impl_->opt = options;
 }
 
 MotionTracker::~MotionTracker() = default;
 
 int MotionTracker::framesAdded() const { return static_cast<int>(impl_->t_all.size()); }
 
-void MotionTracker::addFrame(const cv::Mat& bgr, double t_s) {
+void MotionTracker::addFrame(const cv::Mat& frame_in, double t_s) {
   Impl& s = *impl_;
-  if (bgr.empty())
+  if (frame_in.empty())
     throw TopoError("frame at t = " + fixedText(t_s, 3) + " s",
-                    "is empty (" + std::to_string(bgr.cols) + "x" + std::to_string(bgr.rows) + " pixels)",
+                    "is empty (" + std::to_string(frame_in.cols) + "x" + std::to_string(frame_in.rows) + " pixels)",
                     "pass the camera's frames as they are; check the driver or the decoder that produced an empty one");
-  if (bgr.type() != CV_8UC3)
+  if (frame_in.type() != CV_8UC3)
     throw TopoError("frame at t = " + fixedText(t_s, 3) + " s",
-                    "is not an 8-bit BGR image (" + std::to_string(bgr.channels()) + " channels of " +
-                        std::to_string(8 * bgr.elemSize1()) + " bits)",
+                    "is not an 8-bit BGR image (" + std::to_string(frame_in.channels()) + " channels of " +
+                        std::to_string(8 * frame_in.elemSize1()) + " bits)",
                     "pass CV_8UC3 frames");
+  const cv::Mat bgr = rotated(frame_in, s.opt.rotate_deg);
   if (!s.t_all.empty() && !(t_s > s.t_all.back()))
     throw TopoError("frame at t = " + fixedText(t_s, 3) + " s",
                     "timestamps must increase (previous " + fixedText(s.t_all.back(), 3) + " s)",
@@ -232,8 +269,7 @@ void MotionTracker::addFrame(const cv::Mat& bgr, double t_s) {
   if (!s.tracker) {
     s.frame_size = bgr.size();
     TrackerOptions to = s.opt.tracker;
-    if (s.opt.kind == "finger" && to.method == "silhouette") to.foreground = "otsu";
-    if (to.foreground == "auto") to.foreground = s.opt.kind == "tilt" ? "otsu" : "mog2";
+    if (to.foreground == "auto") to.foreground = s.opt.kind == "tilt" || s.opt.kind == "finger" ? "otsu" : "mog2";
     s.tracker = makeTracker(to, s.frame_size);
     s.roi = validRoi(to.roi, s.frame_size, to.roi_given || to.roi != cv::Rect());
   } else if (bgr.size() != s.frame_size) {
@@ -260,6 +296,8 @@ void MotionTracker::addFrame(const cv::Mat& bgr, double t_s) {
       s.klt_tracks[me.point_ids[i]].push_back({t_s, me.points[i].x, me.points[i].y});
   }
   s.last_frame = bgr;
+  s.meas.push_back(me);
+  s.meas.back().mask.release();
   s.last = std::move(me);
   s.last.mask.release();
   s.last_t = t_s;
@@ -316,8 +354,77 @@ cv::Mat MotionTracker::overlay() const {
   } else {
     text += "  (lost)";
   }
-  cv::putText(img, text, cv::Point(10, 25), cv::FONT_HERSHEY_SIMPLEX, 0.7, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
-  cv::putText(img, text, cv::Point(10, 25), cv::FONT_HERSHEY_SIMPLEX, 0.7, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  drawText(img, {text});
+  return img;
+}
+
+cv::Mat MotionTracker::overlayWithResult(const cv::Mat& frame_in, int index, const TrackResult& r) const {
+  const Impl& s = *impl_;
+  if (index < 0 || index >= static_cast<int>(s.t_all.size()) || frame_in.empty()) return cv::Mat();
+  cv::Mat img = rotated(frame_in, s.opt.rotate_deg).clone();
+  const double scale = std::max(1.0, img.rows / 480.0);
+  const int thick = std::max(1, static_cast<int>(std::lround(scale)));
+  cv::rectangle(img, s.roi, cv::Scalar(255, 128, 0), thick);
+  const double t = s.t_all[index];
+  std::vector<std::string> lines{"t " + fixedText(t, 2) + " s  " + r.kind + " / " + r.method};
+  for (int i = std::max(1, index - 60); i <= index; ++i)
+    if (s.found[i] && s.found[i - 1])
+      cv::line(img, s.centroid[i - 1], s.centroid[i], cv::Scalar(0, 200, 255), thick, cv::LINE_AA);
+  const Measurement& m = s.meas[index];
+  // the result's signal at this frame (same time stamp)
+  double value = std::numeric_limits<double>::quiet_NaN();
+  const auto it = std::lower_bound(r.t.begin(), r.t.end(), t - 1e-9);
+  if (it != r.t.end() && std::abs(*it - t) < 1e-9) value = r.angle_deg[it - r.t.begin()];
+  if (m.found) {
+    if (!m.contour.empty())
+      cv::drawContours(img, std::vector<std::vector<cv::Point>>{m.contour}, 0, cv::Scalar(0, 200, 0), thick + 1);
+    for (const auto& p : m.points) cv::circle(img, p, 3 * thick, cv::Scalar(255, 0, 255), cv::FILLED);
+    cv::circle(img, m.centroid, 4 * thick, cv::Scalar(0, 0, 255), cv::FILLED);
+  } else {
+    lines.back() += "  (lost)";
+  }
+  if (r.refused) {
+    lines.push_back(r.message);
+  } else if (r.kind == "pendulum") {
+    cv::circle(img, r.pivot, 5 * thick, cv::Scalar(255, 0, 255), cv::FILLED);
+    if (m.found) cv::line(img, r.pivot, m.centroid, cv::Scalar(255, 0, 255), thick, cv::LINE_AA);
+    if (std::isfinite(value))
+      lines.push_back(
+          (r.angles_known ? "angle " + fixedText(value, 1) + " deg" : "along path " + fixedText(value, 1) + " px") +
+          (r.signal.oscillation_found ? "  period " + fixedText(r.signal.period_s, 3) + " s" : std::string()));
+  } else if (r.kind == "tilt") {
+    if (m.found && std::isfinite(value)) {
+      const double a = m.axis_angle_deg / kDeg;
+      const cv::Point2d d(std::sin(a), -std::cos(a));
+      cv::line(img, m.centroid - 100 * scale * d, m.centroid + 100 * scale * d, cv::Scalar(255, 0, 0), 2 * thick,
+               cv::LINE_AA);
+      lines.push_back("tilt " + fixedText(value, 1) + " deg");
+    }
+  } else if (r.kind == "finger") {
+    if (index < static_cast<int>(s.ends.size()) && s.ends[index].ok) {
+      const EndFit& f = s.ends[index];
+      for (int e = 0; e < 2; ++e) {
+        const cv::Point2d p = e ? f.pb : f.pa;
+        const cv::Vec2d v = e ? f.vb : f.va;
+        cv::line(img, p - 80 * scale * cv::Point2d(v[0], v[1]), p + 80 * scale * cv::Point2d(v[0], v[1]),
+                 cv::Scalar(255, 0, 0), 2 * thick, cv::LINE_AA);
+      }
+    }
+    if (std::isfinite(value)) lines.push_back("bend " + fixedText(value, 1) + " deg (signed)");
+  } else if (r.kind == "trajectory") {
+    if (std::isfinite(r.floor_y_px)) {
+      // the floor line, perpendicular to gravity through the mean bounce
+      const cv::Point2d gd(r.gravity[0], r.gravity[1]), across(-r.gravity[1], r.gravity[0]);
+      const cv::Point2d c = gd * r.floor_y_px + cv::Point2d(img.cols / 2.0, img.rows / 2.0) -
+                            gd * (gd.dot(cv::Point2d(img.cols / 2.0, img.rows / 2.0)));
+      cv::line(img, c - across * 4000.0, c + across * 4000.0, cv::Scalar(0, 160, 0), thick, cv::LINE_AA);
+    }
+    int bounces = 0;
+    for (double tb : r.bounce_times_s)
+      if (tb <= t) ++bounces;
+    lines.push_back("bounces so far " + std::to_string(bounces) + " of " + std::to_string(r.bounce_times_s.size()));
+  }
+  drawText(img, lines);
   return img;
 }
 
@@ -326,13 +433,18 @@ TrackResult MotionTracker::finish() const {
   TrackResult r;
   r.method = s.opt.tracker.method;
   r.kind = s.opt.kind;
+  r.rotate_deg = s.opt.rotate_deg;
+  r.gravity = s.opt.gravity / std::max(1e-12, cv::norm(s.opt.gravity));
+  const cv::Vec2d g = r.gravity;
   const int n = static_cast<int>(s.t_all.size());
   r.frames_used = n;
   r.frames_total = n;
   r.last_frame = n - 1;
   std::vector<std::string> notes;
+  const double kNaN = std::numeric_limits<double>::quiet_NaN();
   if (n == 0) {
     r.message = "no frames were tracked";
+    r.refused = true;
     return r;
   }
   r.t_start_s = s.t_all.front();
@@ -353,7 +465,7 @@ TrackResult MotionTracker::finish() const {
     notes.push_back(std::to_string(r.dropped_frames) + " dropped frame(s) in " + std::to_string(gaps) +
                     " timestamp gap(s) longer than 1.5/fps (features use the true timestamps)");
   // lost frames and where
-  std::vector<double> t, x, y, axis;
+  std::vector<double> t, axis;
   std::vector<cv::Point2d> pts;
   for (int i = 0; i < n; ++i) {
     if (!s.found[i]) {
@@ -365,13 +477,28 @@ TrackResult MotionTracker::finish() const {
     axis.push_back(s.axis_deg[i]);
   }
   r.object_found = !t.empty();
-  r.confidence["tracking"] = n ? 1.0 - double(r.lost_frames) / n : 0.0;
-  if (!r.object_found) {
-    r.message = "object never found in " + std::to_string(n) + " frames (" + fixedText(r.t_start_s, 2) + "–" +
-                fixedText(r.t_end_s, 2) + " s) by the " + r.method +
-                " tracker; check the colour range (--hsv-lower/--hsv-upper), the --roi or try another --method";
+  const double tracking = n ? 1.0 - double(r.lost_frames) / n : 0.0;
+  r.confidence["tracking"] = tracking;
+  // every feature this kind gives, at 0 until measured
+  const std::vector<std::string> keys = r.kind == "trajectory" ? std::vector<std::string>{"bounces", "restitution"}
+                                        : r.kind == "finger"
+                                            ? std::vector<std::string>{"bend_deg"}
+                                            : std::vector<std::string>{"period_s", "amplitude_deg", "static_angle_deg"};
+  for (const auto& k : keys) r.confidence[k] = 0.0;
+  if (r.kind == "pendulum") r.confidence["pivot"] = 0.0;
+  r.signal.period_s = r.signal.amplitude_deg = r.signal.equilibrium_deg = r.signal.max_tilt_deg = kNaN;
+  r.signal.log_decrement = r.signal.damping_ratio = kNaN;
+  r.bend_final_deg = r.bend_max_deg = r.bend_t_max_s = kNaN;
+  auto refuse = [&](const std::string& why) {
+    r.refused = true;
+    notes.insert(notes.begin(), "refused: " + why);
+    for (std::size_t i = 0; i < notes.size(); ++i) r.message += (i ? "; " : "") + notes[i];
     return r;
-  }
+  };
+  if (!r.object_found)
+    return refuse("object never found in " + std::to_string(n) + " frames (" + fixedText(r.t_start_s, 2) + "–" +
+                  fixedText(r.t_end_s, 2) + " s) by the " + r.method +
+                  " tracker; check the colour range (--hsv-lower/--hsv-upper), the --roi or try another --method");
   if (r.lost_frames > s.opt.lost_warn_fraction * n) {
     // runs of lost frames
     std::string runs;
@@ -400,8 +527,12 @@ TrackResult MotionTracker::finish() const {
     for (std::size_t i = 0; i < t.size(); ++i) tr.push_back({t[i], pts[i].x, pts[i].y});
     r.trajectories.push_back(tr);
   }
+  // one rigid object?
+  r.object = checkOneObject(s.meas, r.method, s.opt.checks);
+  if (!r.object.valid) return refuse(r.object.problem);
+  const double base = tracking * r.object.score;
 
-  auto oscillation = [&](const std::vector<double>& tt, const std::vector<double>& a) {
+  auto oscillation = [&](const std::vector<double>& tt, const std::vector<double>& a, bool angles_known) {
     r.t = tt;
     r.angle_deg = a;
     r.static_pose = analyseStatic(a);
@@ -411,115 +542,82 @@ TrackResult MotionTracker::finish() const {
       r.signal = SignalFeatures();
       r.signal.message = e.what();
     }
-    r.confidence["period_s"] = r.signal.oscillation_found ? r.signal.confidence : 0.0;
-    r.confidence["amplitude_deg"] = r.signal.oscillation_found ? r.signal.confidence : 0.0;
-    r.confidence["static_angle_deg"] = r.static_pose.confidence;
+    if (!r.signal.oscillation_found) {
+      r.signal.period_s = r.signal.amplitude_deg = r.signal.log_decrement = r.signal.damping_ratio = kNaN;
+      r.signal.max_tilt_deg = kNaN;
+    }
+    if (!angles_known) {  // a displacement in px: the period only
+      r.signal.amplitude_deg = r.signal.equilibrium_deg = r.signal.max_tilt_deg = kNaN;
+      r.static_pose = StaticPose();
+      r.static_pose.angle_deg = kNaN;
+    }
+    const double pivot_factor = r.kind == "pendulum" ? r.confidence["pivot"] : 1.0;
+    r.confidence["period_s"] = r.signal.oscillation_found ? base * r.signal.confidence : 0.0;
+    r.confidence["amplitude_deg"] =
+        r.signal.oscillation_found && angles_known ? base * r.signal.confidence * pivot_factor : 0.0;
+    r.confidence["static_angle_deg"] = angles_known ? base * r.static_pose.confidence * pivot_factor : 0.0;
     if (r.signal.oscillation_found) {
-      notes.insert(notes.begin(), "period " + fixedText(r.signal.period_s, 4) + " s over " +
-                                      std::to_string(r.signal.cycles) + " cycles, amplitude " +
-                                      fixedText(r.signal.amplitude_deg, 2) + " deg, equilibrium " +
-                                      fixedText(r.signal.equilibrium_deg, 2) + " deg" +
-                                      (r.signal.message.empty() ? "" : " (" + r.signal.message + ")"));
+      notes.insert(notes.begin(),
+                   "period " + fixedText(r.signal.period_s, 4) + " s over " + std::to_string(r.signal.cycles) +
+                       " cycles" +
+                       (angles_known ? ", amplitude " + fixedText(r.signal.amplitude_deg, 2) + " deg, equilibrium " +
+                                           fixedText(r.signal.equilibrium_deg, 2) + " deg"
+                                     : std::string()) +
+                       (r.signal.message.empty() ? "" : " (" + r.signal.message + ")"));
     } else {
       const bool said = r.signal.message.find("no oscillation") != std::string::npos;
       notes.insert(notes.begin(), std::string(said ? "" : "no oscillation found: ") + r.signal.message +
-                                      "; static angle " + fixedText(r.static_pose.angle_deg, 2) + " deg");
+                                      (angles_known ? "; static angle " + fixedText(r.static_pose.angle_deg, 2) + " deg"
+                                                    : std::string()));
     }
   };
 
   if (s.opt.kind == "pendulum") {
-    double radius = 0, rms = 0;
-    if (s.opt.pivot_given) {
-      r.pivot = s.opt.pivot;
-    } else if (fitCircleKasa(pts, r.pivot, radius, rms)) {
-      r.pivot_estimated = true;
-      r.pivot_fit_rms_px = rms;
-      r.confidence["pivot"] = std::max(0.0, 1.0 - rms / 5.0);
-    } else {
-      r.pivot = cv::Point2d(pts[0].x, pts[0].y - s.frame_size.height);
-      r.confidence["pivot"] = 0.0;
-      notes.push_back(
-          "the pivot could not be estimated (the marker barely moves); assumed straight above it, so "
-          "angles are relative: give --pivot x,y");
-    }
-    std::vector<double> a;
-    for (const auto& p : pts) a.push_back(s.currentAngle(p, r.pivot));
-    oscillation(t, a);
+    const PendulumPath path = analysePendulumPath(pts, g, s.opt.pivot_given ? &s.opt.pivot : nullptr);
+    r.pivot = path.pivot;
+    r.pivot_estimated = path.pivot_estimated;
+    r.pivot_fit_rms_px = path.fit_rms_px;
+    r.pivot_radius_rel_uncertainty = path.radius_rel_uncertainty;
+    r.angles_known = path.angles_known;
+    r.confidence["pivot"] = path.pivot_confidence;
+    if (!path.valid) return refuse(path.problem);
+    if (!path.note.empty()) notes.push_back(path.note);
+    oscillation(t, path.signal, path.angles_known);
   } else if (s.opt.kind == "tilt") {
-    oscillation(t, axis);
+    // from −gravity instead of image-up
+    const double up_deg = std::atan2(-g[0], g[1]) * kDeg;
+    for (double& a : axis) a -= up_deg;
+    oscillation(t, axis, true);
   } else if (s.opt.kind == "trajectory") {
-    std::vector<double> ys;
-    for (const auto& p : pts) ys.push_back(p.y);
+    std::vector<double> hs;
+    for (const auto& p : pts) hs.push_back(-(p.x * g[0] + p.y * g[1]));
+    // the frame's extent along −gravity (apexes outside it are not kept)
+    double h_lo = 1e300, h_hi = -1e300;
+    for (const cv::Point2d c :
+         {cv::Point2d(0, 0), cv::Point2d(s.frame_size.width, 0), cv::Point2d(0, s.frame_size.height),
+          cv::Point2d(s.frame_size.width, s.frame_size.height)}) {
+      const double hc = -(c.x * g[0] + c.y * g[1]);
+      h_lo = std::min(h_lo, hc);
+      h_hi = std::max(h_hi, hc);
+    }
     r.t = t;
-    r.angle_deg = ys;
-    const double ymin = *std::min_element(ys.begin(), ys.end()), ymax = *std::max_element(ys.begin(), ys.end());
-    const double h = s.opt.min_prominence_px > 0 ? s.opt.min_prominence_px : std::max(3.0, 0.05 * (ymax - ymin));
-    const int m = static_cast<int>(ys.size());
-    std::vector<std::pair<int, int>> ext;  // index, +1 = max y (bounce), −1 = min y (apex)
-    int dir = 0, cand = 0, lo = 0, hi = 0;
-    for (int i = 1; i < m; ++i) {
-      if (dir == 0) {
-        if (ys[i] > ys[hi]) hi = i;
-        if (ys[i] < ys[lo]) lo = i;
-        if (ys[hi] - ys[lo] >= h) {
-          if (hi > lo) {
-            if (lo > 0) ext.push_back({lo, -1});
-            dir = +1;
-            cand = hi;
-          } else {
-            if (hi > 0) ext.push_back({hi, +1});
-            dir = -1;
-            cand = lo;
-          }
-        }
-      } else if (dir > 0) {
-        if (ys[i] > ys[cand])
-          cand = i;
-        else if (ys[cand] - ys[i] >= h) {
-          ext.push_back({cand, +1});
-          dir = -1;
-          cand = i;
-        }
-      } else {
-        if (ys[i] < ys[cand])
-          cand = i;
-        else if (ys[i] - ys[cand] >= h) {
-          ext.push_back({cand, -1});
-          dir = +1;
-          cand = i;
-        }
-      }
-    }
-    for (const auto& e : ext) {
-      const int i = e.first;
-      double tv = t[i], yv = ys[i];
-      if (i > 0 && i + 1 < m) parabolicVertex(t[i - 1], ys[i - 1], t[i], ys[i], t[i + 1], ys[i + 1], tv, yv);
-      if (e.second > 0) {
-        r.bounce_times_s.push_back(tv);
-        r.bounce_y_px.push_back(yv);
-      } else {
-        r.apex_times_s.push_back(tv);
-        r.apex_y_px.push_back(yv);
-      }
-    }
-    if (!r.bounce_y_px.empty()) {
-      r.floor_y_px = std::accumulate(r.bounce_y_px.begin(), r.bounce_y_px.end(), 0.0) / r.bounce_y_px.size();
-      for (double ay : r.apex_y_px) r.apex_heights_px.push_back(r.floor_y_px - ay);
-    }
-    r.confidence["bounces"] = r.bounce_times_s.empty() ? 0.0 : r.confidence["tracking"];
-    std::string b = std::to_string(r.bounce_times_s.size()) + " bounce(s)";
-    if (!r.bounce_times_s.empty()) {
-      b += " at";
-      for (double v : r.bounce_times_s) b += " " + fixedText(v, 3);
-      b += " s";
-    }
-    b += ", " + std::to_string(r.apex_times_s.size()) + " apex(es)";
-    if (!r.apex_heights_px.empty()) {
-      b += " of height";
-      for (double v : r.apex_heights_px) b += " " + fixedText(v, 1);
-      b += " px above the bounce level";
-    }
-    notes.insert(notes.begin(), b);
+    for (double v : hs) r.angle_deg.push_back(-v);
+    BounceOptions bo;
+    bo.min_prominence_px = s.opt.min_prominence_px;
+    if (r.method != "klt") bo.object_diameter_px = 2.0 * std::sqrt(r.object.median_area_px / kPi);
+    std::vector<double> across;
+    for (const auto& p : pts) across.push_back(-p.x * g[1] + p.y * g[0]);
+    r.bounces = analyseBounces(t, hs, h_lo, h_hi, bo, &across);
+    const BounceFeatures& b = r.bounces;
+    r.bounce_times_s = b.bounce_times_s;
+    for (double v : b.bounce_h_px) r.bounce_y_px.push_back(-v);
+    r.apex_times_s = b.apex_times_s;
+    for (double v : b.apex_h_px) r.apex_y_px.push_back(-v);
+    r.apex_heights_px = b.apex_heights_px;
+    r.floor_y_px = b.bounce_times_s.empty() ? kNaN : -b.floor_h_px;
+    r.confidence["bounces"] = b.bounce_times_s.empty() ? 0.0 : base * b.confidence;
+    r.confidence["restitution"] = std::isfinite(b.restitution_heights_mean) ? base * b.confidence : 0.0;
+    notes.insert(notes.begin(), b.message);
   } else {  // finger
     std::vector<cv::Point2d> ca, cb;
     std::vector<double> tb, bend;
@@ -530,27 +628,37 @@ TrackResult MotionTracker::finish() const {
         tb.push_back(s.t_all[i]);
         bend.push_back(s.ends[i].bend_a);
       }
-    if (bend.empty()) {
-      notes.insert(notes.begin(), "the silhouette was too small or short to fit the base and tip segments");
-      r.confidence["bend_deg"] = 0.0;
-    } else {
-      const bool base_is_a = spread(ca) <= spread(cb);
-      if (!base_is_a)
-        for (double& v : bend) v = -v;
-      r.t = tb;
-      r.angle_deg = bend;
-      const std::size_t k = std::max<std::size_t>(3, bend.size() / 10);
-      const std::vector<double> tail(bend.end() - std::min(k, bend.size()), bend.end());
-      r.bend_final_deg = median(tail);
-      double mad = 0;
-      for (double v : tail) mad += std::abs(v - r.bend_final_deg);
-      mad /= tail.size();
-      r.confidence["bend_deg"] = r.confidence["tracking"] * std::max(0.0, 1.0 - mad / 5.0);
-      notes.insert(notes.begin(), "final bending angle " + fixedText(r.bend_final_deg, 2) +
-                                      " deg (tip minus base direction; base = the " +
-                                      std::string(base_is_a ? "first" : "second") +
-                                      " end along the principal axis, the one that moves least)");
-    }
+    if (bend.size() < 3) return refuse("the silhouette was too small or short to fit the base and tip segments");
+    const bool base_is_a = spread(ca) <= spread(cb);
+    if (!base_is_a)
+      for (double& v : bend) v = -v;
+    r.t = tb;
+    r.angle_deg = bend;
+    const std::size_t k = std::max<std::size_t>(3, bend.size() / 10);
+    const std::vector<double> tail(bend.end() - std::min(k, bend.size()), bend.end());
+    r.bend_final_deg = median(tail);
+    double mad = 0;
+    for (double v : tail) mad += std::abs(v - r.bend_final_deg);
+    mad /= tail.size();
+    // the maximum |bend|: the median of the 3 samples around the largest one (one-frame outliers)
+    std::size_t im = 0;
+    for (std::size_t i = 1; i < bend.size(); ++i)
+      if (std::abs(bend[i]) > std::abs(bend[im])) im = i;
+    const std::size_t lo = im > 0 ? im - 1 : 0, hi = std::min(bend.size() - 1, im + 1);
+    std::vector<double> around(bend.begin() + lo, bend.begin() + hi + 1);
+    r.bend_max_deg = median(around);
+    r.bend_t_max_s = tb[im];
+    // frame-to-frame jitter of the bend (robust): a steady silhouette gives a smooth signal
+    std::vector<double> jumps;
+    for (std::size_t i = 1; i < bend.size(); ++i) jumps.push_back(std::abs(bend[i] - bend[i - 1]));
+    const double jitter = median(jumps);
+    r.confidence["bend_deg"] = base * std::max(0.0, 1.0 - mad / 5.0) / (1.0 + (jitter / 3.0) * (jitter / 3.0));
+    notes.insert(notes.begin(),
+                 "final bending angle " + fixedText(r.bend_final_deg, 2) + " deg, maximum " +
+                     fixedText(r.bend_max_deg, 2) + " deg at " + fixedText(r.bend_t_max_s, 2) +
+                     " s (tip minus base direction, + clockwise on screen (image y points down); base = the " +
+                     std::string(base_is_a ? "first" : "second") +
+                     " end along the principal axis, the one that moves least)");
   }
   for (std::size_t i = 0; i < notes.size(); ++i) r.message += (i ? "; " : "") + notes[i];
   return r;
@@ -564,10 +672,7 @@ TrackResult trackVideo(const std::string& path, const TrackOptions& options,
   MotionTracker mt(o);
   cv::Mat frame;
   double t = 0;
-  while (src.read(frame, t)) {
-    mt.addFrame(frame, t);
-    if (overlay_sink) overlay_sink(mt.overlay());
-  }
+  while (src.read(frame, t)) mt.addFrame(frame, t);
   // A file that stops decoding well before its announced length is truncated or damaged: say so,
   // instead of the analysis's "too few frames" advice about the recording.
   const std::string truncated =
@@ -592,6 +697,14 @@ TrackResult trackVideo(const std::string& path, const TrackOptions& options,
     throw TopoError(path, truncated + ", so the motion cannot be analysed (" + e.what() + ")", repair);
   }
   if (!truncated.empty()) r.message = "warning: " + truncated + "; " + r.message;
+  if (src.orientationDeg() != 0)
+    r.message += "; the container's rotation (" + std::to_string(src.orientationDeg()) + " deg) was applied";
+  if (overlay_sink) {
+    // the debug video: a second pass, every frame drawn with the final result (the JSON's pivot and values)
+    VideoSource again(path, options.video);
+    int index = 0;
+    while (again.read(frame, t) && index < mt.framesAdded()) overlay_sink(mt.overlayWithResult(frame, index++, r));
+  }
   r.source = path;
   r.fps = src.fps();
   r.frames_total = std::max(src.frameCount(), src.framesDecoded());
@@ -610,19 +723,40 @@ std::string trackerJson(const TrackResult& r) {
   };
   std::ostringstream o;
   o << "{\"fps\":" << num(r.fps) << ",\"frames_total\":" << r.frames_total
-    << ",\"object_found\":" << (r.object_found ? "true" : "false") << ",\"lost_frames\":" << r.lost_frames
-    << ",\"dropped_frames\":" << r.dropped_frames;
+    << ",\"object_found\":" << (r.object_found ? "true" : "false") << ",\"refused\":" << (r.refused ? "true" : "false")
+    << ",\"lost_frames\":" << r.lost_frames << ",\"dropped_frames\":" << r.dropped_frames
+    << ",\"rotate_deg\":" << r.rotate_deg << ",\"gravity_image\":[" << num(r.gravity[0]) << "," << num(r.gravity[1])
+    << "]";
+  o << ",\"object\":{\"valid\":" << (r.object.valid ? "true" : "false") << ",\"score\":" << num(r.object.score)
+    << ",\"frames\":" << r.object.frames << ",\"median_area_px\":" << num(r.object.median_area_px)
+    << ",\"area_spread\":" << num(r.object.area_spread) << ",\"jump_fraction\":" << num(r.object.jump_fraction)
+    << ",\"median_mask_fraction\":" << num(r.object.median_mask_fraction)
+    << ",\"median_solidity\":" << num(r.object.median_solidity) << ",\"colour_spread\":" << num(r.object.colour_spread)
+    << ",\"problem\":" << quote(r.object.problem) << "}";
   if (r.kind == "pendulum" || r.kind == "tilt") {
-    o << ",\"cycles\":" << r.signal.cycles << ",\"static_angle_deg\":" << num(r.static_pose.angle_deg)
-      << ",\"static_spread_deg\":" << num(r.static_pose.spread_deg);
+    o << ",\"cycles\":" << r.signal.cycles << ",\"static_angle_deg\":" << num(r.refused ? NAN : r.static_pose.angle_deg)
+      << ",\"static_spread_deg\":" << num(r.refused ? NAN : r.static_pose.spread_deg);
     if (r.kind == "pendulum")
       o << ",\"pivot_px\":[" << num(r.pivot.x) << "," << num(r.pivot.y)
         << "],\"pivot_estimated\":" << (r.pivot_estimated ? "true" : "false")
-        << ",\"pivot_fit_rms_px\":" << num(r.pivot_fit_rms_px);
+        << ",\"pivot_fit_rms_px\":" << num(r.pivot_fit_rms_px)
+        << ",\"pivot_radius_rel_uncertainty\":" << num(r.pivot_radius_rel_uncertainty)
+        << ",\"angles_known\":" << (r.angles_known ? "true" : "false");
   } else if (r.kind == "trajectory") {
+    const BounceFeatures& b = r.bounces;
     o << ",\"bounce_times_s\":" << array(r.bounce_times_s) << ",\"bounce_y_px\":" << array(r.bounce_y_px)
       << ",\"apex_times_s\":" << array(r.apex_times_s) << ",\"apex_heights_px\":" << array(r.apex_heights_px)
-      << ",\"floor_y_px\":" << num(r.floor_y_px);
+      << ",\"floor_y_px\":" << num(r.floor_y_px)
+      << ",\"release_height_px\":" << num(r.bounce_times_s.empty() ? NAN : b.release_height_px)
+      << ",\"restitution_from_heights\":" << array(b.restitution_from_heights)
+      << ",\"restitution_from_flight_times\":" << array(b.restitution_from_times)
+      << ",\"restitution_heights_mean\":" << num(b.restitution_heights_mean)
+      << ",\"restitution_flight_times_mean\":" << num(b.restitution_times_mean)
+      << ",\"gravity_px_s2\":" << num(r.bounce_times_s.empty() ? NAN : b.gravity_px_s2)
+      << ",\"end_time_s\":" << num(b.end_time_s) << ",\"end_reason\":" << quote(b.end_reason);
+  } else if (r.kind == "finger") {
+    o << ",\"bend_final_deg\":" << num(r.bend_final_deg) << ",\"bend_max_deg\":" << num(r.bend_max_deg)
+      << ",\"bend_t_max_s\":" << num(r.bend_t_max_s);
   }
   o << ",\"confidence\":{";
   bool first = true;

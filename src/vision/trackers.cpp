@@ -46,6 +46,39 @@ void fillAxis(const cv::Moments& m, Measurement& out) {
   out.elongation = l2 > 1e-12 ? std::sqrt(l1 / l2) : 1e6;
 }
 
+/// Fills `out` from the chosen blob `best` of `mask` (ROI-sized): centroid, area, axis, contour, mask,
+/// and the mask statistics the object checks use. Returns false when the blob is empty.
+bool describeBlob(const cv::Mat& mask, const std::vector<std::vector<cv::Point>>& contours, int best,
+                  const cv::Mat& view, const cv::Rect& roi, double min_area, Measurement& out) {
+  cv::Mat blob = cv::Mat::zeros(mask.size(), CV_8U);
+  cv::drawContours(blob, contours, best, cv::Scalar(255), cv::FILLED);
+  cv::bitwise_and(blob, mask, blob);
+  const cv::Moments m = cv::moments(blob, true);
+  if (m.m00 <= 0) return false;
+  out.found = true;
+  out.area_px = m.m00;
+  out.centroid = cv::Point2d(m.m10 / m.m00 + roi.x, m.m01 / m.m00 + roi.y);
+  fillAxis(m, out);
+  const double all = cv::countNonZero(mask);
+  out.mask_fraction = all / static_cast<double>(mask.total());
+  out.largest_share = all > 0 ? m.m00 / all : 1.0;
+  out.pieces = 0;
+  for (const auto& c : contours)
+    if (cv::contourArea(c) >= min_area) ++out.pieces;
+  std::vector<cv::Point> hull;
+  cv::convexHull(contours[best], hull);
+  const double hull_area = cv::contourArea(hull);
+  out.solidity = hull_area > 0 ? std::min(1.0, m.m00 / hull_area) : 1.0;
+  const cv::Rect br = cv::boundingRect(contours[best]);
+  out.touches_border = br.x <= 0 || br.y <= 0 || br.br().x >= mask.cols || br.br().y >= mask.rows;
+  const cv::Scalar c = cv::mean(view, blob);
+  out.mean_bgr = cv::Vec3d(c[0], c[1], c[2]);
+  out.contour = contours[best];
+  for (auto& p : out.contour) p += roi.tl();
+  out.mask = blob;
+  return true;
+}
+
 class MarkerTracker : public Tracker {
  public:
   MarkerTracker(const TrackerOptions& o, const cv::Rect& roi) : o_(o), roi_(roi) {
@@ -56,7 +89,8 @@ class MarkerTracker : public Tracker {
   std::string name() const override { return "marker"; }
   Measurement track(const cv::Mat& bgr) override {
     Measurement out;
-    cv::cvtColor(bgr(roi_), hsv_, cv::COLOR_BGR2HSV);
+    const cv::Mat view = bgr(roi_);
+    cv::cvtColor(view, hsv_, cv::COLOR_BGR2HSV);
     mask_.create(hsv_.size(), CV_8U);
     mask_.setTo(0);
     for (const auto& r : o_.hsv) {
@@ -69,18 +103,7 @@ class MarkerTracker : public Tracker {
     double area = 0;
     const int best = largestContour(contours, o_.min_area_px, area);
     if (best < 0) return out;
-    // centroid of the blob's pixels (not just its outline): moments of the filled blob
-    const cv::Rect br = cv::boundingRect(contours[best]);
-    cv::Mat blob = cv::Mat::zeros(br.size(), CV_8U);
-    cv::drawContours(blob, contours, best, cv::Scalar(255), cv::FILLED, cv::LINE_8, cv::noArray(), 0, -br.tl());
-    cv::bitwise_and(blob, mask_(br), blob);
-    const cv::Moments m = cv::moments(blob, true);
-    if (m.m00 <= 0) return out;
-    out.found = true;
-    out.area_px = m.m00;
-    out.centroid = cv::Point2d(m.m10 / m.m00 + br.x + roi_.x, m.m01 / m.m00 + br.y + roi_.y);
-    out.contour = contours[best];
-    for (auto& p : out.contour) p += roi_.tl();
+    if (!describeBlob(mask_, contours, best, view, roi_, o_.min_area_px, out)) return Measurement();
     return out;
   }
 
@@ -95,7 +118,10 @@ class SilhouetteTracker : public Tracker {
   SilhouetteTracker(const TrackerOptions& o, const cv::Rect& roi) : o_(o), roi_(roi) {
     if (o_.foreground == "auto") o_.foreground = "mog2";  // MotionTracker resolves auto per kind first
     if (o_.foreground != "mog2" && o_.foreground != "otsu")
-      throw TopoError("foreground '" + o_.foreground + "'", "is not a silhouette method", "use mog2, otsu or auto");
+      throw TopoError("--foreground " + o_.foreground, "is not a silhouette method", "use mog2, otsu or auto");
+    if (o_.polarity != "auto" && o_.polarity != "darker" && o_.polarity != "brighter")
+      throw TopoError("--polarity " + o_.polarity, "is not an object polarity",
+                      "use darker (object darker than its background), brighter, or auto");
     if (o_.foreground == "mog2") mog_ = cv::createBackgroundSubtractorMOG2(200, 16.0, false);
     if (o_.morph_kernel_px > 0)
       kernel_ = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(o_.morph_kernel_px, o_.morph_kernel_px));
@@ -118,9 +144,24 @@ class SilhouetteTracker : public Tracker {
     } else {
       cv::cvtColor(view, grey_, cv::COLOR_BGR2GRAY);
       cv::GaussianBlur(grey_, grey_, cv::Size(5, 5), 0);
-      cv::threshold(grey_, fg_, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
-      // the object is the minority class
-      if (static_cast<std::size_t>(cv::countNonZero(fg_)) > fg_.total() / 2) cv::bitwise_not(fg_, fg_);
+      cv::threshold(grey_, fg_, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);  // 255 = the brighter side
+      bool object_is_bright = true;
+      if (o_.polarity == "darker") {
+        object_is_bright = false;
+      } else if (o_.polarity == "auto") {
+        // the background is the side that touches the region's border more (the object sits inside)
+        const int W = fg_.cols, H = fg_.rows;
+        double bright_border = 0, border = 0;
+        for (int x = 0; x < W; ++x) bright_border += (fg_.at<uchar>(0, x) > 0) + (fg_.at<uchar>(H - 1, x) > 0);
+        for (int y = 1; y + 1 < H; ++y) bright_border += (fg_.at<uchar>(y, 0) > 0) + (fg_.at<uchar>(y, W - 1) > 0);
+        border = 2.0 * W + 2.0 * std::max(0, H - 2);
+        const double share = bright_border / std::max(1.0, border);
+        if (std::abs(share - 0.5) > 0.1)
+          object_is_bright = share < 0.5;
+        else  // ambiguous border: the smaller side is the object
+          object_is_bright = static_cast<std::size_t>(cv::countNonZero(fg_)) <= fg_.total() / 2;
+      }
+      if (!object_is_bright) cv::bitwise_not(fg_, fg_);
     }
     if (!kernel_.empty()) cv::morphologyEx(fg_, fg_, cv::MORPH_OPEN, kernel_);
     std::vector<std::vector<cv::Point>> contours;
@@ -128,18 +169,7 @@ class SilhouetteTracker : public Tracker {
     double area = 0;
     const int best = largestContour(contours, o_.min_area_px, area);
     if (best < 0) return out;
-    cv::Mat blob = cv::Mat::zeros(fg_.size(), CV_8U);
-    cv::drawContours(blob, contours, best, cv::Scalar(255), cv::FILLED);
-    cv::bitwise_and(blob, fg_, blob);
-    const cv::Moments m = cv::moments(blob, true);
-    if (m.m00 <= 0) return out;
-    out.found = true;
-    out.area_px = m.m00;
-    out.centroid = cv::Point2d(m.m10 / m.m00 + roi_.x, m.m01 / m.m00 + roi_.y);
-    fillAxis(m, out);
-    out.contour = contours[best];
-    for (auto& p : out.contour) p += roi_.tl();
-    out.mask = blob;
+    if (!describeBlob(fg_, contours, best, view, roi_, o_.min_area_px, out)) return Measurement();
     return out;
   }
 
@@ -231,6 +261,25 @@ std::vector<HsvRange> defaultRedRanges() {
           HsvRange{cv::Scalar(170, 90, 60), cv::Scalar(180, 255, 255)}};
 }
 
+void validateHsvRange(const HsvRange& r, const std::string& option) {
+  const char* names[3] = {"H", "S", "V"};
+  const double top[3] = {180, 255, 255};
+  for (int i = 0; i < 3; ++i) {
+    for (double v : {r.lower[i], r.upper[i]})
+      if (!(v >= 0 && v <= top[i]))
+        throw TopoError(option + " " + names[i] + " " + std::to_string(static_cast<int>(v)),
+                        std::string("is outside OpenCV's HSV range (H 0..180, S and V 0..255)"),
+                        std::string("give ") + names[i] + " in 0.." + std::to_string(static_cast<int>(top[i])) +
+                            " (OpenCV halves the hue: a hue of 350 degrees is H 175)");
+    if (r.lower[i] > r.upper[i])
+      throw TopoError(option + " " + names[i] + " " + std::to_string(static_cast<int>(r.lower[i])) + ".." +
+                          std::to_string(static_cast<int>(r.upper[i])),
+                      "has its lower bound above the upper one",
+                      std::string("give lower <= upper; a red hue that wraps around 180 is the default colour "
+                                  "(leave --hsv-lower/--hsv-upper out), or track one side of it (H 170..180)"));
+  }
+}
+
 cv::Rect validRoi(const cv::Rect& roi, const cv::Size& frame_size, bool roi_given) {
   const cv::Rect frame(0, 0, frame_size.width, frame_size.height);
   const std::string size = std::to_string(frame_size.width) + "x" + std::to_string(frame_size.height);
@@ -238,11 +287,16 @@ cv::Rect validRoi(const cv::Rect& roi, const cv::Size& frame_size, bool roi_give
   if (roi.width <= 0 || roi.height <= 0)
     throw TopoError("--roi " + rectText(roi), "is empty (width and height must be positive; the frame is " + size + ")",
                     "give --roi x,y,w,h inside the " + size + " frame, or leave --roi out for the whole frame");
-  const cv::Rect clipped = roi & frame;
-  if (clipped.area() < 16)
-    throw TopoError("--roi " + rectText(roi), "lies outside the " + size + " frame",
-                    "give --roi x,y,w,h inside the " + size + " frame");
-  return clipped;
+  if ((roi & frame) != roi)
+    throw TopoError(
+        "--roi " + rectText(roi),
+        (roi & frame).area() == 0 ? "lies outside the " + size + " frame" : "reaches outside the " + size + " frame",
+        "give --roi x,y,w,h with x + w <= " + std::to_string(frame_size.width) +
+            " and y + h <= " + std::to_string(frame_size.height) + " (x, y >= 0)");
+  if (roi.area() < 16)
+    throw TopoError("--roi " + rectText(roi), "is smaller than 16 pixels",
+                    "give a region that holds the object's whole motion");
+  return roi;
 }
 
 std::unique_ptr<Tracker> makeTracker(const TrackerOptions& options, const cv::Size& frame_size) {

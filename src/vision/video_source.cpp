@@ -107,6 +107,10 @@ VideoSource::VideoSource(const std::string& path, const VideoOptions& options) :
                     "index (an .mp4/.mov copied or recorded only in part has no 'moov' index and cannot be read)",
                     "copy or record the file again; for an unknown format convert it, e.g. `ffmpeg -i IN -c:v "
                     "libx264 OUT.mp4`, or give an image sequence");
+  // a phone's portrait video is stored landscape with a rotation in its metadata: frames come upright
+  cap_.set(cv::CAP_PROP_ORIENTATION_AUTO, 1);
+  const double meta = cap_.get(cv::CAP_PROP_ORIENTATION_META);
+  orientation_deg_ = std::isfinite(meta) ? ((static_cast<int>(std::lround(meta)) % 360) + 360) % 360 : 0;
   const double fps = cap_.get(cv::CAP_PROP_FPS);
   fps_ = (std::isfinite(fps) && fps > 0.5 && fps < 10000) ? fps : opt_.sequence_fps;
   frame_count_ = static_cast<int>(std::max(0.0, cap_.get(cv::CAP_PROP_FRAME_COUNT)));

@@ -324,7 +324,7 @@ TEST(VisionTracking, CliTrackJson) {
   EXPECT_GT(read.period_confidence, 0.5);
   EXPECT_EQ(read.time_s.size(), direct.t.size());
   EXPECT_EQ(track("--video /nonexistent/none.mp4 --json").code, 1);
-  EXPECT_EQ(track("--video " + path + " --roi 0,0,0,0").code, 1);
+  EXPECT_EQ(track("--video " + path + " --roi 0,0,0,0").code, 2);  // a bad option: exit 2 with the fix
   EXPECT_EQ(track("").code, 2);
   const std::string plot = testing::TempDir() + "/cli_plot.png";
   const std::string dbg = testing::TempDir() + "/cli_debug.avi";

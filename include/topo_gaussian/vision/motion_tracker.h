@@ -1,20 +1,25 @@
 // The tracking pipeline (paper §7): frames → tracker (marker / silhouette / klt) → per-frame
 // measurements → an angle signal or point trajectories → features (analyseSignal / analyseStatic):
 //  - kind "pendulum":   angle of the marker/centroid about a pivot (given, or a Kåsa least-squares
-//                       circle fit to the trajectory); angle = atan2(dx, dy) in image coordinates,
-//                       0 = hanging straight down, + towards image-right, degrees;
+//                       circle fit to the trajectory), from gravity, unwrapped (vision/pendulum_path.h):
+//                       0 = hanging along gravity, + towards image-right for gravity image-down,
+//                       degrees; a path that is not a hanging arc is refused;
 //  - kind "tilt":       silhouette principal axis from image vertical (tumbler / standing object):
 //                       of the two principal axes, the one nearest image vertical in the first frame,
 //                       then followed continuously frame to frame (an object wider than tall, like
 //                       the default tumbler, is followed by its upright minor axis); + towards
 //                       image-right, degrees;
-//  - kind "trajectory": point trajectories in pixels; bounces (local maxima of image y) and apexes
-//                       (local minima) with sub-frame parabolic refinement; apex height = floor_y − apex_y
-//                       with floor_y the mean y of the bounces;
+//  - kind "trajectory": point trajectories in pixels; bounces between free-flight arcs, apexes, the
+//                       floor line and restitution (vision/bounce_analysis.h), heights along −gravity;
 //  - kind "finger":     bending angle = direction of the tip segment − direction of the base segment
 //                       (image angles, atan2(dy, dx)), from lines fitted to the silhouette's medial band
 //                       in the base third and the tip third of its principal-axis extent; the base is
-//                       the end that moves least.
+//                       the end that moves least; signed, with its maximum |bend| and when it happened.
+// Before any feature, what was tracked must behave like one rigid object (vision/object_checks.h);
+// otherwise the result is a refusal (refused = true, every feature confidence 0, the reason in
+// `message`). Every confidence = tracking share × object score × the feature's own fit confidence.
+// Orientation: frames are rotated clockwise by `rotate_deg` first (ROI and pivot are in the rotated
+// frame); `gravity` is the image direction of gravity in the (rotated) frame, default image-down.
 // Use trackVideo() for a file, or MotionTracker (addFrame / overlay / finish) for live frames.
 #pragma once
 
@@ -25,6 +30,9 @@
 #include <string>
 #include <vector>
 
+#include "topo_gaussian/vision/bounce_analysis.h"
+#include "topo_gaussian/vision/object_checks.h"
+#include "topo_gaussian/vision/pendulum_path.h"
 #include "topo_gaussian/vision/signal_analysis.h"
 #include "topo_gaussian/vision/trackers.h"
 #include "topo_gaussian/vision/video_source.h"
@@ -41,7 +49,15 @@ struct TrackOptions {
   double fps = 0.0;                  ///< nominal frame rate for MotionTracker (0: from the timestamps)
   double lost_warn_fraction = 0.05;  ///< more lost frames than this → the message says where
   double min_prominence_px = 0.0;    ///< trajectory: extremum prominence (0 = max(3 px, 5 % of the y range))
+  int rotate_deg = 0;                ///< 0 | 90 | 180 | 270: rotate every frame clockwise first
+  cv::Vec2d gravity{0.0, 1.0};       ///< image direction of gravity in the (rotated) frame
+  ObjectCheckOptions checks;
 };
+
+/// Throws TopoError naming the option for an unknown kind/method/foreground/polarity, a rotation other
+/// than 0/90/180/270, a zero gravity vector, a bad HSV range, a pivot that is not finite, or a kind
+/// the method cannot serve.
+void validateTrackOptions(const TrackOptions& options);
 
 struct TrajectorySample {
   double t, x, y;
@@ -55,6 +71,10 @@ struct TrackResult {
   int first_frame = 0, last_frame = -1;  ///< source frame indices of the range used
   double t_start_s = 0.0, t_end_s = 0.0;
   bool object_found = false;
+  ObjectCheck object;    ///< is it one rigid object (vision/object_checks.h)
+  bool refused = false;  ///< no feature is given: `message` says why (confidence 0)
+  int rotate_deg = 0;    ///< rotation applied to the frames (the option plus the container's)
+  cv::Vec2d gravity{0.0, 1.0};
   int lost_frames = 0;
   int dropped_frames = 0;            ///< frames missing according to timestamp gaps > 1.5 / fps
   std::vector<double> t, angle_deg;  ///< the angle (pendulum/tilt) or bend (finger) signal; trajectory: image y
@@ -63,23 +83,25 @@ struct TrackResult {
   cv::Point2d pivot;
   bool pivot_estimated = false;
   double pivot_fit_rms_px = 0.0;
+  double pivot_radius_rel_uncertainty = 0.0;  ///< relative standard error of the pendulum length (angles scale with it)
+  bool angles_known = true;  ///< false: the path is too straight for a pivot, angle_deg holds px along it
   // pendulum / tilt
   SignalFeatures signal;
   StaticPose static_pose;
   // finger
   double bend_final_deg = 0.0;
-  // trajectory
+  double bend_max_deg = 0.0;  ///< the signed bend of largest magnitude
+  double bend_t_max_s = 0.0;  ///< when it happened
+  // trajectory (y: image coordinate along gravity; heights along −gravity)
   std::vector<double> bounce_times_s, bounce_y_px, apex_times_s, apex_y_px, apex_heights_px;
   double floor_y_px = 0.0;
+  BounceFeatures bounces;  ///< the full analysis: arcs, restitution, release height, end of trajectory
   /// trajectories placed on a known plane through a camera model (placeOnPlane), world frame [m];
   /// NaN where a ray misses the plane. Empty unless placeOnPlane was called.
   std::vector<std::vector<cv::Vec3d>> points_on_plane;
   std::map<std::string, double> confidence;  ///< per feature, 0..1
   std::string message;                       ///< for a person: what was found and what limited it
 };
-
-/// Kåsa algebraic circle fit; returns false when the points do not define a circle.
-bool fitCircleKasa(const std::vector<cv::Point2d>& pts, cv::Point2d& centre, double& radius, double& rms);
 
 class MotionTracker {
  public:
@@ -88,8 +110,13 @@ class MotionTracker {
   ~MotionTracker();
   /// Tracks one BGR frame taken at t_s (increasing). The first frame validates the ROI (TopoError).
   void addFrame(const cv::Mat& bgr, double t_s);
-  /// The last frame with the tracked points, contour, axis/pivot and angle text (empty before a frame).
+  /// The last frame with the tracked points, contour, axis/pivot and angle text (empty before a frame):
+  /// the live view, with the pivot as fitted so far.
   cv::Mat overlay() const;
+  /// Frame `index` (0-based, in the order added; `bgr` is that frame as given to addFrame) drawn with
+  /// the final result `result` = finish(): the same pivot, signed angle/bend, bounces and refusal as
+  /// the JSON. Text scales with the frame.
+  cv::Mat overlayWithResult(const cv::Mat& bgr, int index, const TrackResult& result) const;
   int framesAdded() const;
   /// Features of everything added so far (may be called repeatedly).
   TrackResult finish() const;
@@ -99,7 +126,8 @@ class MotionTracker {
   std::unique_ptr<Impl> impl_;
 };
 
-/// Whole-video entry point; `overlay_sink` (optional) receives every overlay frame (debug video).
+/// Whole-video entry point; `overlay_sink` (optional) receives every frame drawn with the final result
+/// (overlayWithResult; a second pass over the file, after the analysis).
 /// Throws TopoError for unreadable videos, bad ROIs and bad options.
 TrackResult trackVideo(const std::string& path, const TrackOptions& options,
                        const std::function<void(const cv::Mat&)>& overlay_sink = nullptr);

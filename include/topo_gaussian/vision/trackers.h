@@ -1,11 +1,16 @@
 // Per-frame object trackers on BGR frames inside a region of interest:
 //  - marker:     HSV colour range(s) (default red, two hue bands for the wrap-around), morphological
-//                opening, largest blob above a minimum area → centroid;
-//  - silhouette: foreground by background subtraction (MOG2) or an Otsu threshold, largest contour →
-//                image moments → centroid and principal-axis angle;
+//                opening, largest blob above a minimum area → centroid, and the blob as a colour-mask
+//                silhouette (principal axis, mask) for the finger kind;
+//  - silhouette: foreground by background subtraction (MOG2) or an Otsu threshold whose object side is
+//                chosen by `polarity` (darker / brighter than the background, or auto: the side that
+//                touches the frame border less), largest contour → image moments → centroid and
+//                principal-axis angle;
 //  - klt:        Shi–Tomasi corners in the ROI of the first frame, pyramidal Lucas–Kanade flow with a
 //                forward–backward check, re-seeded when too few points survive.
-// Coordinates in a Measurement are full-frame pixels.
+// Coordinates in a Measurement are full-frame pixels. Every measurement also describes the mask it
+// came from (how much of the region it covers, in how many pieces, how convex the chosen blob is,
+// its colour), so the object checks (vision/object_checks.h) can tell one object from a texture.
 #pragma once
 
 #include <memory>
@@ -22,6 +27,10 @@ struct HsvRange {
 /// Red in two hue bands (0..10 and 170..180), saturation ≥ 90, value ≥ 60.
 std::vector<HsvRange> defaultRedRanges();
 
+/// Throws TopoError naming `option` (e.g. "--hsv-lower/--hsv-upper") for a range outside OpenCV's HSV
+/// (H 0..180, S and V 0..255) or with a lower bound above the upper one.
+void validateHsvRange(const HsvRange& range, const std::string& option);
+
 struct TrackerOptions {
   std::string method = "marker";  ///< marker | silhouette | klt
   cv::Rect roi;                   ///< empty and not roi_given: the whole frame
@@ -33,6 +42,9 @@ struct TrackerOptions {
   /// that rocks or bends in place stays where it was, so a background model would absorb it), mog2
   /// otherwise; finger always uses otsu.
   std::string foreground = "auto";
+  /// silhouette by Otsu: the object is darker | brighter than its background, or auto (the side that
+  /// touches the frame border less is the object; the smaller side when both touch it as much).
+  std::string polarity = "auto";
   int klt_max_points = 40;
   int klt_min_points = 8;      ///< re-seed below this
   double klt_fb_max_px = 1.0;  ///< forward–backward error limit
@@ -44,8 +56,15 @@ struct Measurement {
   double area_px = 0.0;
   double axis_angle_deg = 0.0;  ///< silhouette: principal axis (pointing image-up) from image-up, + towards image-right
   double elongation = 0.0;      ///< silhouette: sqrt(λmax/λmin) of the moments (1 = round)
-  std::vector<cv::Point> contour;   ///< marker blob / silhouette outline (full-frame pixels)
-  cv::Mat mask;                     ///< silhouette: foreground of the largest contour (ROI-sized, CV_8U), else empty
+  std::vector<cv::Point> contour;  ///< marker blob / silhouette outline (full-frame pixels)
+  cv::Mat mask;                    ///< marker / silhouette: the chosen blob (ROI-sized, CV_8U), else empty
+  // what the mask looked like (marker / silhouette; klt leaves the defaults)
+  double mask_fraction = 0.0;       ///< all mask pixels / region pixels (after the opening)
+  double largest_share = 1.0;       ///< the chosen blob's pixels / all mask pixels
+  int pieces = 1;                   ///< blobs of at least min_area_px in the mask
+  double solidity = 1.0;            ///< chosen blob area / its convex hull's area
+  bool touches_border = false;      ///< the chosen blob touches the region's border
+  cv::Vec3d mean_bgr;               ///< mean colour of the chosen blob
   std::vector<cv::Point2f> points;  ///< klt: current points
   std::vector<int> point_ids;       ///< klt: stable id of each point (re-seeded points get new ids)
 };

@@ -37,6 +37,9 @@ class VideoSource {
   /// an estimate for some containers.
   int frameCount() const { return frame_count_; }
   cv::Size frameSize() const { return size_; }
+  /// Rotation stored in the container's metadata (degrees; a phone's portrait video), already applied
+  /// to the frames (OpenCV's CAP_PROP_ORIENTATION_AUTO); 0 for image sequences.
+  int orientationDeg() const { return orientation_deg_; }
   /// Frames decoded so far (including skipped ones) and the index of the last returned frame.
   int framesDecoded() const { return decoded_; }
   /// True once decoding stopped (end of data, or a frame that does not decode) clearly before the
@@ -62,6 +65,7 @@ class VideoSource {
   bool has_pending_ = false;
   double pending_t_ = 0.0;
   double fps_ = 30.0;
+  int orientation_deg_ = 0;
   int frame_count_ = 0;
   cv::Size size_;
   int decoded_ = 0;
