@@ -77,13 +77,16 @@ BounceFeatures analyseBounces(const std::vector<double>& t_in, const std::vector
     f.message = "no bounce: too few samples (" + std::to_string(t_in.size()) + ")";
     return f;
   }
-  // the longest run without a gap > max_gap_s
+  // the first run without a gap > max_gap_s that holds at least max(8, 10 %) of the samples: a lost
+  // object ends the trajectory (a short run before it, e.g. a hand in view, is skipped)
   std::size_t best0 = 0, best1 = 0, s0 = 0;
+  const std::size_t need = std::max<std::size_t>(8, t_in.size() / 10);
   for (std::size_t i = 1; i <= t_in.size(); ++i)
     if (i == t_in.size() || t_in[i] - t_in[i - 1] > o.max_gap_s) {
-      if (i - s0 > best1 - best0) best0 = s0, best1 = i;
+      if (best1 == 0 && i - s0 >= need) best0 = s0, best1 = i;
       s0 = i;
     }
+  if (best1 == 0) best1 = t_in.size();
   std::vector<std::string> notes;
   const std::vector<double> t(t_in.begin() + best0, t_in.begin() + best1),
       h(h_in.begin() + best0, h_in.begin() + best1);
@@ -112,7 +115,8 @@ BounceFeatures analyseBounces(const std::vector<double>& t_in, const std::vector
   const int nc = static_cast<int>(contact.size());
   std::vector<Parabola> fit(nc + 1);
   f.arcs.resize(nc + 1);
-  std::vector<int> arc_end(nc + 1, -1);  ///< last sample of a free-flight prefix (arcs that end in a pick-up)
+  std::vector<int> arc_end(nc + 1, -1);
+  std::vector<std::pair<int, int>> span(nc + 1, {0, -1});  ///< last sample of a free-flight prefix (arcs that end in a pick-up)
   auto fitArc = [&](int i0, int i1, FlightArc& a, Parabola& p) {
     a = FlightArc();
     if (i1 - i0 + 1 < o.min_arc_samples) return;
@@ -136,7 +140,7 @@ BounceFeatures analyseBounces(const std::vector<double>& t_in, const std::vector
       a.apex_inside =
           a.apex_t >= a.t0 - 0.5 * dt && a.apex_t <= a.t1 + 0.5 * dt && a.apex_h >= h_min && a.apex_h <= h_max;
     }
-    const double tol = std::max(2.0, 0.05 * (hi - lo));
+    const double tol = std::max(2.0, 0.025 * (hi - lo));
     a.flight = c[2] < 0 && a.rms_px <= tol;
     if (a.flight && !x.empty()) {  // no force across gravity in flight: a straight line
       double cx[3];
@@ -155,13 +159,24 @@ BounceFeatures analyseBounces(const std::vector<double>& t_in, const std::vector
     const int i1 = k == nc ? n - 1 : contact[k] - 1;
     if (k == 0 && nc > 0) i0 = static_cast<int>(std::max_element(h.begin(), h.begin() + contact[0]) - h.begin());
     fitArc(i0, i1, f.arcs[k], fit[k]);
-    if (!f.arcs[k].flight && k > 0) {
-      // an arc that ends in a pick-up or a roll: the longest free-flight start of it
+    span[k] = {i0, i1};
+  }
+  {
+    // an arc that ends in a pick-up or a roll: the longest start of it in free flight at the whole
+    // arcs' g (within 25 %; a long stretch of hand motion can fit a flatter parabola)
+    std::vector<double> full;
+    for (const auto& a : f.arcs)
+      if (a.flight) full.push_back(-a.accel_px_s2);
+    const double g0 = full.empty() ? 0.0 : median(full);
+    for (int k = 1; k <= nc && g0 > 0; ++k) {
+      const double gk = -f.arcs[k].accel_px_s2;
+      if (f.arcs[k].flight && gk >= 0.5 * g0 && gk <= 2.0 * g0) continue;
+      const int i0 = span[k].first, i1 = span[k].second;
       for (int j = i1 - 1; j >= i0 + o.min_arc_samples - 1; --j) {
         FlightArc a;
         Parabola p;
         fitArc(i0, j, a, p);
-        if (a.flight) {
+        if (a.flight && std::abs(-a.accel_px_s2 - g0) <= 0.25 * g0) {
           f.arcs[k] = a;
           fit[k] = p;
           arc_end[k] = j;
@@ -267,7 +282,7 @@ BounceFeatures analyseBounces(const std::vector<double>& t_in, const std::vector
   for (int k = first; k <= last + 1; ++k) {
     const FlightArc& a = f.arcs[k];
     const double rise = std::max(1.0, a.apex_h - f.floor_h_px);
-    quality.push_back(std::max(0.0, 1.0 - 0.5 * a.rms_px / std::max(2.0, 0.05 * rise)));
+    quality.push_back(std::max(0.0, 1.0 - 0.5 * a.rms_px / std::max(2.0, 0.025 * rise)));
     chain_acc.push_back(-a.accel_px_s2);
   }
   double spread = 0;

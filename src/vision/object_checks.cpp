@@ -38,7 +38,6 @@ ObjectCheck checkOneObject(const std::vector<Measurement>& ms, const std::string
     b.push_back(m.mean_bgr[0]);
     g.push_back(m.mean_bgr[1]);
     r.push_back(m.mean_bgr[2]);
-    if (!path.empty()) steps.push_back(cv::norm(m.centroid - path.back()));
     path.push_back(m.centroid);
   }
   c.frames = static_cast<int>(area.size());
@@ -66,8 +65,11 @@ ObjectCheck checkOneObject(const std::vector<Measurement>& ms, const std::string
   for (std::size_t i = 0; i < pieces.size(); ++i)
     if (pieces[i] >= o.texture_min_pieces && share[i] < o.texture_max_share) ++texture_frames;
   const double size_px = klt ? 10.0 : std::sqrt(std::max(1.0, c.median_area_px));
-  const double median_step = steps.empty() ? 0.0 : median(steps);
-  const double jump_px = std::max({o.jump_sizes * size_px, o.jump_factor * median_step, 20.0});
+  // jumps: the second difference of the position (a change of velocity within one frame); a fast
+  // object in flight keeps its velocity, a bounce reverses it once, a tracker that switches between
+  // regions jumps there and back
+  for (std::size_t i = 1; i + 1 < path.size(); ++i) steps.push_back(cv::norm(path[i + 1] - 2.0 * path[i] + path[i - 1]));
+  const double jump_px = std::max(o.jump_sizes * size_px, 20.0);
   int jumps = 0;
   for (double s : steps)
     if (s > jump_px) ++jumps;

@@ -3,9 +3,9 @@
 //  - flight arcs: between candidate contacts (local minima of h with prominence ≥ max(3 px, 5 % of
 //    the range)), a least-squares parabola h = a t² + b t + c over the samples of the arc (at least
 //    min_arc_samples, the two next to each contact left out); a flight arc has a < 0, rms ≤
-//    max(2 px, 5 % of its rise), an acceleration within a factor 2 of the median arc's (one g), and
+//    max(2 px, 2.5 % of its rise), an acceleration within a factor 2 of the median arc's (one g), and
 //    (when the across-gravity coordinate is given) a straight line across gravity: rms ≤ max(2 px,
-//    5 % of its rise) — no horizontal force in flight (a swinging bob fails this);
+//    2.5 % of its rise) — no horizontal force in flight (a swinging bob fails this);
 //  - a bounce is a contact with a flight arc on both sides; its time is where the two parabolas meet
 //    (h_before(t) = h_after(t), the root nearest the sample minimum), its height that common value;
 //  - apexes are the vertices of the flight arcs, kept only inside the arc's time range and inside the
@@ -17,7 +17,8 @@
 //    diameters/s² falls outside [min_g_diameters, max_g_diameters] are not flight (a swinging bob's "arcs" fall far too
 //    slowly);
 //  - the trajectory ends at the first arc after a bounce that is not free flight (the object was picked
-//    up, rolls or stopped) or at a gap of lost frames longer than max_gap_s; the message says which.
+//    up, rolls or stopped) or at a gap of lost frames longer than max_gap_s (the first run of at least
+//    max(8, 10 %) of the samples is analysed); the message says which.
 #pragma once
 
 #include <string>

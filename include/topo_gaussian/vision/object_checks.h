@@ -6,9 +6,10 @@
 //  - texture:        the mask falls into ≥ texture_min_pieces blobs and the chosen one holds less than
 //                    texture_max_share of it, in most frames (bricks, parquet, foliage);
 //  - size:           robust spread of the area, s_A = 1.4826·MAD(A)/median(A), above max_area_spread;
-//  - jumps:          a frame whose centroid moves more than max(jump_sizes · √median(A), jump_factor ·
-//                    median step, 20 px) from the previous one is a jump (the tracker switched to
-//                    another region); more than max_jump_fraction of the steps are jumps;
+//  - jumps:          a frame whose velocity changes by more than max(jump_sizes · √median(A), 20 px)
+//                    per frame, |c₊ − 2c + c₋|, is a jump (a fast object keeps its velocity, a bounce
+//                    reverses it once; a tracker switching between regions jumps there and back);
+//                    more than max_jump_fraction of the frames are jumps;
 //  - colour:         robust spread of the blob's mean colour above max_colour_spread (0..255 units).
 // Each failing check is a reason to refuse; the score (0..1) multiplies every feature's confidence:
 //   score = 1/(1 + (s_A/0.3)²) · (1 − 3·jump_fraction)₊ · min(1, solidity/0.6) · 1/(1 + (s_c/30)²).
@@ -29,7 +30,6 @@ struct ObjectCheckOptions {
   double texture_max_share = 0.5;
   double max_area_spread = 0.6;
   double jump_sizes = 4.0;
-  double jump_factor = 8.0;
   double max_jump_fraction = 0.12;
   double max_colour_spread = 45.0;
 };
