@@ -116,7 +116,8 @@ BounceFeatures analyseBounces(const std::vector<double>& t_in, const std::vector
   std::vector<Parabola> fit(nc + 1);
   f.arcs.resize(nc + 1);
   std::vector<int> arc_end(nc + 1, -1);
-  std::vector<std::pair<int, int>> span(nc + 1, {0, -1});  ///< last sample of a free-flight prefix (arcs that end in a pick-up)
+  std::vector<std::pair<int, int>> span(nc + 1,
+                                        {0, -1});  ///< last sample of a free-flight prefix (arcs that end in a pick-up)
   auto fitArc = [&](int i0, int i1, FlightArc& a, Parabola& p) {
     a = FlightArc();
     if (i1 - i0 + 1 < o.min_arc_samples) return;
@@ -254,18 +255,25 @@ BounceFeatures analyseBounces(const std::vector<double>& t_in, const std::vector
     if (k == first) continue;  // the release arc's top is the release height, below
     f.apex_times_s.push_back(a.apex_t);
     f.apex_h_px.push_back(a.apex_h);
-    f.apex_heights_px.push_back(a.apex_h - f.floor_h_px);
+    f.apex_heights_px.push_back(a.apex_h - f.bounce_h_px[k - 1 - first]);  // above the bounce it rose from
   }
   const FlightArc& rel = f.arcs[first];
-  const double release_h = rel.apex_inside ? rel.apex_h : fit[first].at(rel.t0);
-  f.release_height_px = release_h - f.floor_h_px;
+  // the release: the arc's vertex when it lies inside it, else its highest sample (a ball let go from
+  // rest in a hand; the arc starts at its highest sample)
+  double highest = -1e300;
+  for (int i = 0; i < n; ++i)
+    if (t[i] >= rel.t0 && t[i] <= rel.t1) highest = std::max(highest, h[i]);
+  const double release_h = rel.apex_inside ? rel.apex_h : highest;
+  f.release_height_px = release_h - f.bounce_h_px.front();
   // restitution per bounce
   std::vector<double> eh, et;
   for (int k = first; k <= last; ++k) {
     const FlightArc &before = f.arcs[k], &after = f.arcs[k + 1];
     const double tb = f.bounce_times_s[k - first];
-    const double Hb = (k == first ? release_h : (before.apex_inside ? before.apex_h : kNaN)) - f.floor_h_px;
-    const double Ha = (after.apex_inside ? after.apex_h : kNaN) - f.floor_h_px;
+    // both heights above this bounce's contact point (the floor line can drift: a ball coming nearer)
+    const double hb = f.bounce_h_px[k - first];
+    const double Hb = (k == first ? release_h : (before.apex_inside ? before.apex_h : kNaN)) - hb;
+    const double Ha = (after.apex_inside ? after.apex_h : kNaN) - hb;
     const double e_h = Hb > 0 && Ha > 0 ? std::sqrt(Ha / Hb) : kNaN;
     const double fall = before.apex_inside ? tb - before.apex_t : kNaN;
     const double rise = after.apex_inside ? after.apex_t - tb : kNaN;
@@ -299,9 +307,9 @@ BounceFeatures analyseBounces(const std::vector<double>& t_in, const std::vector
   if (!f.apex_heights_px.empty()) {
     b += " of height";
     for (double v : f.apex_heights_px) b += " " + fixedText(v, 1);
-    b += " px above the floor line";
+    b += " px above the bounce each rose from";
   }
-  b += ", released " + fixedText(f.release_height_px, 1) + " px above it";
+  b += ", released " + fixedText(f.release_height_px, 1) + " px above the first bounce";
   if (std::isfinite(f.restitution_heights_mean))
     b += "; restitution " + fixedText(f.restitution_heights_mean, 3) + " from heights";
   if (std::isfinite(f.restitution_times_mean))

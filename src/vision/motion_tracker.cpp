@@ -754,6 +754,14 @@ std::string trackerJson(const TrackResult& r) {
       << ",\"restitution_flight_times_mean\":" << num(b.restitution_times_mean)
       << ",\"gravity_px_s2\":" << num(r.bounce_times_s.empty() ? NAN : b.gravity_px_s2)
       << ",\"end_time_s\":" << num(b.end_time_s) << ",\"end_reason\":" << quote(b.end_reason);
+    o << ",\"arcs\":[";
+    for (std::size_t k = 0; k < b.arcs.size(); ++k) {
+      const FlightArc& a = b.arcs[k];
+      o << (k ? "," : "") << "{\"t0_s\":" << num(a.t0) << ",\"t1_s\":" << num(a.t1)
+        << ",\"accel_px_s2\":" << num(a.accel_px_s2) << ",\"rms_px\":" << num(a.rms_px)
+        << ",\"free_flight\":" << (a.flight ? "true" : "false") << "}";
+    }
+    o << "]";
   } else if (r.kind == "finger") {
     o << ",\"bend_final_deg\":" << num(r.bend_final_deg) << ",\"bend_max_deg\":" << num(r.bend_max_deg)
       << ",\"bend_t_max_s\":" << num(r.bend_t_max_s);

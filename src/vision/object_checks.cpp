@@ -68,7 +68,8 @@ ObjectCheck checkOneObject(const std::vector<Measurement>& ms, const std::string
   // jumps: the second difference of the position (a change of velocity within one frame); a fast
   // object in flight keeps its velocity, a bounce reverses it once, a tracker that switches between
   // regions jumps there and back
-  for (std::size_t i = 1; i + 1 < path.size(); ++i) steps.push_back(cv::norm(path[i + 1] - 2.0 * path[i] + path[i - 1]));
+  for (std::size_t i = 1; i + 1 < path.size(); ++i)
+    steps.push_back(cv::norm(path[i + 1] - 2.0 * path[i] + path[i - 1]));
   const double jump_px = std::max(o.jump_sizes * size_px, 20.0);
   int jumps = 0;
   for (double s : steps)
@@ -93,10 +94,10 @@ ObjectCheck checkOneObject(const std::vector<Measurement>& ms, const std::string
   if (c.colour_spread > o.max_colour_spread)
     problems.push_back("its colour changes by " + fixedText(c.colour_spread, 0) +
                        " (0..255, robust spread) between frames: different things are being followed");
-  c.score = 1.0 / (1.0 + (c.area_spread / 0.3) * (c.area_spread / 0.3));
+  c.score = 1.0 / (1.0 + (c.area_spread / 0.5) * (c.area_spread / 0.5));
   c.score *= std::max(0.0, 1.0 - 3.0 * c.jump_fraction);
   c.score *= std::min(1.0, c.median_solidity / 0.6);
-  c.score *= 1.0 / (1.0 + (c.colour_spread / 30.0) * (c.colour_spread / 30.0));
+  c.score *= 1.0 / (1.0 + (c.colour_spread / 40.0) * (c.colour_spread / 40.0));
   c.valid = problems.empty();
   if (!c.valid) {
     c.score = 0.0;

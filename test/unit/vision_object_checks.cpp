@@ -321,10 +321,10 @@ TEST(VisionObjectChecks, TrackOptionsAreCheckedWithTheFix) {
   const std::string path = testing::TempDir() + "/options_pendulum.avi";
   writeVideo(renderPendulum(s), s.fps, path);
   auto track = [&](const std::string& args) { return topo_test::runTopo("track --video " + path + " " + args); };
-  for (const std::string bad : {"--roi 600,0,100,100", "--roi 700,500,10,10", "--hsv-lower 0,0,0 --hsv-upper 200,255,255",
-                                "--hsv-lower 20,200,0 --hsv-upper 30,100,255", "--series", "--fps 25", "--rotate 45",
-                                "--gravity 0,0", "--polarity darker", "--method silhouette --polarity sideways",
-                                "--kind finger --method klt"}) {
+  for (const std::string bad :
+       {"--roi 600,0,100,100", "--roi 700,500,10,10", "--hsv-lower 0,0,0 --hsv-upper 200,255,255",
+        "--hsv-lower 20,200,0 --hsv-upper 30,100,255", "--series", "--fps 25", "--rotate 45", "--gravity 0,0",
+        "--polarity darker", "--method silhouette --polarity sideways", "--kind finger --method klt"}) {
     const topo_test::ToolRun run = track(bad);
     EXPECT_EQ(run.code, 2) << bad << "\n" << run.out;
     EXPECT_EQ(run.out.find("period_s"), std::string::npos) << bad;  // nothing was tracked

@@ -9,7 +9,8 @@
 //  - a bounce is a contact with a flight arc on both sides; its time is where the two parabolas meet
 //    (h_before(t) = h_after(t), the root nearest the sample minimum), its height that common value;
 //  - apexes are the vertices of the flight arcs, kept only inside the arc's time range and inside the
-//    frame; apex height = apex h − floor h (the mean bounce height);
+//    frame; apex height = apex h − the height of the bounce the arc rose from (the floor line may drift
+//    when the ball comes nearer the camera); floor_h_px is the mean bounce height;
 //  - restitution at bounce k, from heights e_h = √(H_after / H_before) and from flight times
 //    e_t = (rise time after) / (fall time before) (free flight: t_fall = √(2H/g));
 //  - free fall has a scale: g / D = 9.81 m/s² / D is 10 … 1000 object diameters per s² for objects
@@ -45,9 +46,9 @@ struct FlightArc {
 
 struct BounceFeatures {
   std::vector<double> bounce_times_s, bounce_h_px;
-  std::vector<double> apex_times_s, apex_h_px, apex_heights_px;  ///< apex_heights_px above the floor
+  std::vector<double> apex_times_s, apex_h_px, apex_heights_px;  ///< apex_heights_px above the preceding bounce
   double floor_h_px = 0.0;
-  double release_height_px = 0.0;  ///< highest point of the first arc above the floor (0 if none)
+  double release_height_px = 0.0;  ///< highest point of the first arc above the first bounce (0 if none)
   std::vector<double> restitution_from_heights, restitution_from_times;  ///< per bounce (NaN if not measurable)
   double restitution_heights_mean = 0.0, restitution_times_mean = 0.0;   ///< NaN if none
   double gravity_px_s2 = 0.0;                                            ///< median |2a| of the flight arcs

@@ -12,7 +12,7 @@
 //                    more than max_jump_fraction of the frames are jumps;
 //  - colour:         robust spread of the blob's mean colour above max_colour_spread (0..255 units).
 // Each failing check is a reason to refuse; the score (0..1) multiplies every feature's confidence:
-//   score = 1/(1 + (s_A/0.3)²) · (1 − 3·jump_fraction)₊ · min(1, solidity/0.6) · 1/(1 + (s_c/30)²).
+//   score = 1/(1 + (s_A/0.5)²) · (1 − 3·jump_fraction)₊ · min(1, solidity/0.6) · 1/(1 + (s_c/40)²).
 #pragma once
 
 #include <opencv2/core.hpp>
