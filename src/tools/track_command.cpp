@@ -286,6 +286,9 @@ int trackCommand(const std::vector<std::string>& argv) {
       std::printf("refused         no feature: the reason is below\n");
     } else if (r.kind == "pendulum" || r.kind == "tilt") {
       if (r.signal.oscillation_found) {
+        const auto c = r.confidence.find("period_s");
+        if (c != r.confidence.end() && c->second < 0.3)
+          std::printf("unreliable      confidence %.2f < 0.3: the numbers below are not a measurement\n", c->second);
         std::printf("period_s        %.5f\n", r.signal.period_s);
         std::printf("amplitude_deg   %.3f\n", r.signal.amplitude_deg);
         std::printf("equilibrium_deg %.3f\n", r.signal.equilibrium_deg);

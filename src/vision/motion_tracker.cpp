@@ -564,6 +564,11 @@ TrackResult MotionTracker::finish() const {
                                            fixedText(r.signal.equilibrium_deg, 2) + " deg"
                                      : std::string()) +
                        (r.signal.message.empty() ? "" : " (" + r.signal.message + ")"));
+      if (r.confidence["period_s"] < 0.3)
+        notes.insert(notes.begin(), "unreliable: an oscillation was fitted, but with confidence " +
+                                        fixedText(r.confidence["period_s"], 2) +
+                                        " (< 0.3: irregular, noisy or few swings, or a doubtful object); do not use "
+                                        "these numbers");
     } else {
       const bool said = r.signal.message.find("no oscillation") != std::string::npos;
       notes.insert(notes.begin(), std::string(said ? "" : "no oscillation found: ") + r.signal.message +
