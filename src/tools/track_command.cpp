@@ -127,8 +127,10 @@ void writePlot(const vision::TrackResult& r, const std::string& path) {
     }
     cv::putText(img, "time [s]", cv::Point(W / 2 - 30, H - 10), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1,
                 cv::LINE_AA);
-    const std::string ylabel =
-        r.kind == "trajectory" ? "image y [px]" : (r.kind == "finger" ? "bend [deg]" : "angle [deg]");
+    const std::string ylabel = r.kind == "trajectory" ? "image y along gravity [px]"
+                               : r.kind == "finger"   ? "signed bend [deg]"
+                               : r.angles_known       ? "angle from gravity [deg]"
+                                                      : "displacement along the path [px]";
     cv::putText(img, ylabel + "   " + r.source, cv::Point(L, T - 12), cv::FONT_HERSHEY_SIMPLEX, 0.5,
                 cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
     if (r.signal.oscillation_found) {
@@ -153,8 +155,21 @@ void writePlot(const vision::TrackResult& r, const std::string& path) {
                   cv::LINE_AA);
     }
   } else {
-    cv::putText(img, "no signal: " + r.message.substr(0, 90), cv::Point(20, H / 2), cv::FONT_HERSHEY_SIMPLEX, 0.5,
-                cv::Scalar(0, 0, 200), 1, cv::LINE_AA);
+    // the whole reason, wrapped (a refusal names what was seen and the fix)
+    const std::string text = (r.refused ? "" : "no signal: ") + r.message;
+    std::istringstream words(text);
+    std::string w, line;
+    int y = 60;
+    while (words >> w && y < H - 20) {
+      if (line.size() + w.size() + 1 > 110) {
+        cv::putText(img, line, cv::Point(20, y), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 200), 1, cv::LINE_AA);
+        y += 22;
+        line.clear();
+      }
+      line += (line.empty() ? "" : " ") + w;
+    }
+    if (!line.empty() && y < H - 20)
+      cv::putText(img, line, cv::Point(20, y), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 200), 1, cv::LINE_AA);
   }
   vision::writePng(img, path);
 }

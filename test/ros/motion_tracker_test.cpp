@@ -1,7 +1,7 @@
 // rostest node for motion_tracker (test/ros/motion_tracker.test): a pendulum video generated here
 // goes through ~extract_motion; the same pendulum replayed as an image stream (stamped at 30 fps,
 // sent faster than real time) must give the same period on `motion_features`; a 32FC1 image is
-// refused while the node keeps serving.
+// refused while the node keeps serving; a red texture is refused as "not one object".
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <ros/topic.h>
@@ -63,6 +63,37 @@ TEST(MotionTrackerNode, ExtractMotionFromAGeneratedVideo) {
   ASSERT_TRUE(callExtract("/tmp/no_such_video.mp4", bad));
   EXPECT_FALSE(bad.response.success);
   EXPECT_NE(bad.response.message.find("/tmp/no_such_video.mp4"), std::string::npos) << bad.response.message;
+}
+
+// A red texture (bricks flickering between frames, no object): the node refuses with the reason,
+// publishes the refusal (confidence 0) and keeps serving.
+TEST(MotionTrackerNode, RefusesATextureAndSaysWhy) {
+  std::vector<cv::Mat> frames;
+  cv::RNG rng(3);
+  for (int i = 0; i < 60; ++i) {
+    cv::Mat f(240, 320, CV_8UC3, cv::Scalar(180, 180, 180));
+    for (int y = 0; y < 240; y += 20)
+      for (int x = (y / 20) % 2 * 20; x < 320; x += 40)
+        if (rng.uniform(0.0, 1.0) < 0.6) cv::rectangle(f, cv::Rect(x, y, 17, 17), cv::Scalar(30, 30, 200), cv::FILLED);
+    frames.push_back(f);
+  }
+  const std::string file = "/tmp/topo_rostest_texture.avi";
+  vis::writeVideo(frames, 30.0, file);
+  topo_gaussian::ExtractMotion srv;
+  ASSERT_TRUE(callExtract(file, srv));
+  EXPECT_FALSE(srv.response.success);
+  EXPECT_NE(srv.response.message.find("refused"), std::string::npos) << srv.response.message;
+  EXPECT_NE(srv.response.message.find("not one object"), std::string::npos) << srv.response.message;
+  EXPECT_FALSE(srv.response.features.oscillation_found);
+  EXPECT_EQ(srv.response.features.period_confidence, 0.0);
+  EXPECT_EQ(srv.response.features.amplitude_confidence, 0.0);
+  // still serving
+  topo_gaussian::ExtractMotion good;
+  const vis::PendulumScene s = scene();
+  const std::string ok = "/tmp/topo_rostest_pendulum2.avi";
+  vis::writeVideo(vis::renderPendulum(s), s.fps, ok);
+  ASSERT_TRUE(callExtract(ok, good));
+  EXPECT_TRUE(good.response.success) << good.response.message;
 }
 
 /// The latest features once they use at least `frames` frames (the callback fills `last` and `got`
