@@ -46,6 +46,49 @@ void fillAxis(const cv::Moments& m, Measurement& out) {
   out.elongation = l2 > 1e-12 ? std::sqrt(l1 / l2) : 1e6;
 }
 
+/// Follows one blob from frame to frame: the first time (or after a loss) the largest blob; then the blob
+/// nearest the constant-velocity prediction whose area is within a factor 4 of the last one, inside a
+/// gate of max(4 sizes, 3 × the last step + 20 px); the largest again when none qualifies. So a small
+/// moving bob is not traded for a bigger static mark beside its path.
+class BlobFollower {
+ public:
+  int choose(const std::vector<std::vector<cv::Point>>& contours, double min_area, const cv::Point& offset) {
+    double area = 0;
+    const int largest = largestContour(contours, min_area, area);
+    if (!have_ || largest < 0) return largest;
+    const cv::Point2d pred = c_ + v_;
+    const double gate = std::max(4.0 * std::sqrt(area_), 3.0 * cv::norm(v_) + 20.0);
+    int best = -1;
+    double best_score = 1e300;
+    for (int i = 0; i < static_cast<int>(contours.size()); ++i) {
+      const cv::Moments m = cv::moments(contours[i]);
+      const double a = std::abs(m.m00);
+      if (a < min_area || !(a > 0)) continue;
+      const cv::Point2d c(m.m10 / m.m00 + offset.x, m.m01 / m.m00 + offset.y);
+      const double ratio = std::max(a / area_, area_ / a), d = cv::norm(c - pred);
+      if (ratio > 4.0 || d > gate) continue;
+      const double score = (d + 1.0) * ratio;
+      if (score < best_score) best_score = score, best = i;
+    }
+    return best >= 0 ? best : largest;
+  }
+  void update(const Measurement& m) {
+    if (!m.found) {
+      have_ = false;
+      return;
+    }
+    v_ = have_ ? m.centroid - c_ : cv::Point2d(0, 0);
+    c_ = m.centroid;
+    area_ = std::max(1.0, m.area_px);
+    have_ = true;
+  }
+
+ private:
+  bool have_ = false;
+  cv::Point2d c_, v_;
+  double area_ = 1.0;
+};
+
 /// Fills `out` from the chosen blob `best` of `mask` (ROI-sized): centroid, area, axis, contour, mask,
 /// and the mask statistics the object checks use. Returns false when the blob is empty.
 bool describeBlob(const cv::Mat& mask, const std::vector<std::vector<cv::Point>>& contours, int best,
@@ -100,10 +143,9 @@ class MarkerTracker : public Tracker {
     if (!kernel_.empty()) cv::morphologyEx(mask_, mask_, cv::MORPH_OPEN, kernel_);
     std::vector<std::vector<cv::Point>> contours;
     cv::findContours(mask_, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
-    double area = 0;
-    const int best = largestContour(contours, o_.min_area_px, area);
-    if (best < 0) return out;
-    if (!describeBlob(mask_, contours, best, view, roi_, o_.min_area_px, out)) return Measurement();
+    const int best = follow_.choose(contours, o_.min_area_px, roi_.tl());
+    if (best < 0 || !describeBlob(mask_, contours, best, view, roi_, o_.min_area_px, out)) out = Measurement();
+    follow_.update(out);
     return out;
   }
 
@@ -111,6 +153,7 @@ class MarkerTracker : public Tracker {
   TrackerOptions o_;
   cv::Rect roi_;
   cv::Mat kernel_, hsv_, mask_, part_;
+  BlobFollower follow_;
 };
 
 class SilhouetteTracker : public Tracker {
@@ -166,10 +209,9 @@ class SilhouetteTracker : public Tracker {
     if (!kernel_.empty()) cv::morphologyEx(fg_, fg_, cv::MORPH_OPEN, kernel_);
     std::vector<std::vector<cv::Point>> contours;
     cv::findContours(fg_, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
-    double area = 0;
-    const int best = largestContour(contours, o_.min_area_px, area);
-    if (best < 0) return out;
-    if (!describeBlob(fg_, contours, best, view, roi_, o_.min_area_px, out)) return Measurement();
+    const int best = follow_.choose(contours, o_.min_area_px, roi_.tl());
+    if (best < 0 || !describeBlob(fg_, contours, best, view, roi_, o_.min_area_px, out)) out = Measurement();
+    follow_.update(out);
     return out;
   }
 
@@ -178,6 +220,7 @@ class SilhouetteTracker : public Tracker {
   cv::Rect roi_;
   cv::Ptr<cv::BackgroundSubtractorMOG2> mog_;
   cv::Mat kernel_, grey_, fg_, small_, small_fg_;
+  BlobFollower follow_;
 };
 
 class KltTracker : public Tracker {

@@ -79,7 +79,7 @@ std::vector<double> truthOf(const YAML::Node& truth, const std::string& name) {
                                                       {"bend_t_max_s", "finger_t_max_s"}};
   std::vector<double> v;
   const auto it = key.find(name);
-  if (it == key.end() || !truth[it->second]) return v;
+  if (it == key.end() || !truth[it->second] || !truth[it->second].IsMap()) return v;  // null: no such feature
   const YAML::Node value = truth[it->second]["value"];
   if (value.IsSequence())
     for (const auto& x : value) v.push_back(x.as<double>());

@@ -1,11 +1,12 @@
 // Per-frame object trackers on BGR frames inside a region of interest:
 //  - marker:     HSV colour range(s) (default red, two hue bands for the wrap-around), morphological
-//                opening, largest blob above a minimum area → centroid, and the blob as a colour-mask
-//                silhouette (principal axis, mask) for the finger kind;
+//                opening, the blob above a minimum area that continues the last one (nearest the
+//                constant-velocity prediction, similar area; the largest at the start or after a loss) → centroid, and
+//                the blob as a colour-mask silhouette (principal axis, mask) for the finger kind;
 //  - silhouette: foreground by background subtraction (MOG2) or an Otsu threshold whose object side is
 //                chosen by `polarity` (darker / brighter than the background, or auto: the side that
-//                touches the frame border less), largest contour → image moments → centroid and
-//                principal-axis angle;
+//                touches the frame border less), the contour chosen as for the marker → image moments →
+//                centroid and principal-axis angle;
 //  - klt:        Shi–Tomasi corners in the ROI of the first frame, pyramidal Lucas–Kanade flow with a
 //                forward–backward check, re-seeded when too few points survive.
 // Coordinates in a Measurement are full-frame pixels. Every measurement also describes the mask it
