@@ -16,6 +16,7 @@ ap.add_argument("--roi", default=None); ap.add_argument("--hsv", default=None); 
 ap.add_argument("--bgrange", default=None); ap.add_argument("--step", type=int, default=1); ap.add_argument("--min", type=int, default=30)
 ap.add_argument("--frames", default=None, help="i0,i1 range to track")
 ap.add_argument("--out", default="track_bgsub.txt")
+ap.add_argument("--predict", action="store_true", help="centre the window on previous + last velocity")
 a = ap.parse_args()
 N = n_frames(a.clip)
 b0, b1 = (int(v) for v in a.bgrange.split(",")) if a.bgrange else (0, N)
@@ -25,12 +26,14 @@ roi = [int(v) for v in a.roi.split(",")] if a.roi else None
 ranges = json.loads(a.hsv) if a.hsv else None
 f0, f1 = (int(v) for v in a.frames.split(",")) if a.frames else (0, N)
 x, y = a.x, a.y
+vx = vy = 0.0
 out = open(f"{ROOT}/{a.clip}/{a.out}", "w")
 for i in range(f0, f1, a.step):
     img = frame(a.clip, i)
     H, W = img.shape[:2]
-    x0, x1 = max(0, int(x) - a.win), min(W, int(x) + a.win + 1)
-    y0, y1 = max(0, int(y) - a.win), min(H, int(y) + a.win + 1)
+    cx, cy = (x + vx, y + vy) if a.predict else (x, y)
+    x0, x1 = max(0, int(cx) - a.win), min(W, int(cx) + a.win + 1)
+    y0, y1 = max(0, int(cy) - a.win), min(H, int(cy) + a.win + 1)
     if roi:
         x0, y0 = max(x0, roi[0]), max(y0, roi[1]); x1, y1 = min(x1, roi[0] + roi[2]), min(y1, roi[1] + roi[3])
     sub = img[y0:y1, x0:x1]
@@ -40,6 +43,7 @@ for i in range(f0, f1, a.step):
     ys, xs = np.nonzero(m)
     if len(xs) < a.min:
         out.write(f"{i} {i / a.fps:.4f} nan nan {len(xs)} 0 0 nan nan 0 0\n"); continue
+    vx, vy = xs.mean() + x0 - x, ys.mean() + y0 - y
     x, y = xs.mean() + x0, ys.mean() + y0
     # extent from the row/column profiles: rows (columns) holding >= 25 % of the fullest row's (column's) pixels;
     # the middle of that extent is the geometric centre, insensitive to shading that thins one side of the mask
