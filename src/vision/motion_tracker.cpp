@@ -552,7 +552,10 @@ TrackResult MotionTracker::finish() const {
       r.static_pose.angle_deg = kNaN;
     }
     const double pivot_factor = r.kind == "pendulum" ? r.confidence["pivot"] : 1.0;
-    r.confidence["period_s"] = r.signal.oscillation_found ? base * r.signal.confidence : 0.0;
+    // the period rests on the timing of the crossings, which a biased centroid (a blob whose size
+    // varies with blur or highlights) hardly shifts: it takes the object score's square root
+    r.confidence["period_s"] =
+        r.signal.oscillation_found ? tracking * std::sqrt(r.object.score) * r.signal.confidence : 0.0;
     r.confidence["amplitude_deg"] =
         r.signal.oscillation_found && angles_known ? base * r.signal.confidence * pivot_factor : 0.0;
     r.confidence["static_angle_deg"] = angles_known ? base * r.static_pose.confidence * pivot_factor : 0.0;
@@ -682,8 +685,8 @@ TrackResult trackVideo(const std::string& path, const TrackOptions& options,
   // instead of the analysis's "too few frames" advice about the recording.
   const std::string truncated =
       src.endedEarly() ? "the file is truncated or unreadable after frame " + std::to_string(src.framesDecoded()) +
-                             " (" + fixedText(src.framesDecoded() / src.fps(), 2) + " s; the container announces " +
-                             std::to_string(src.frameCount()) + " frames)"
+                             " (" + fixedText(src.framesDecoded() / src.timestampFps(), 2) +
+                             " s; the container announces " + std::to_string(src.frameCount()) + " frames)"
                        : std::string();
   const std::string repair =
       "copy the complete file again or re-encode what is left, e.g. `ffmpeg -err_detect ignore_err -i IN -c:v libx264 "
@@ -712,6 +715,13 @@ TrackResult trackVideo(const std::string& path, const TrackOptions& options,
   }
   r.source = path;
   r.fps = src.fps();
+  const double stamped = src.timestampFps();
+  if (!src.isSequence() && std::abs(stamped - src.fps()) > 0.02 * src.fps()) {
+    r.fps = stamped;
+    r.message += "; the container announces " + fixedText(src.fps(), 2) + " fps but the frames are stamped " +
+                 fixedText(1000.0 / stamped, 1) + " ms apart (" + fixedText(stamped, 2) +
+                 " fps): the timestamps are used";
+  }
   r.frames_total = std::max(src.frameCount(), src.framesDecoded());
   r.first_frame = src.indices().front();
   r.last_frame = src.indices().back();

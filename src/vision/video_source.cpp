@@ -121,10 +121,31 @@ VideoSource::VideoSource(const std::string& path, const VideoOptions& options) :
     throw TopoError(path, "the first frame cannot be decoded (unsupported codec or damaged file)",
                     "convert it, e.g. `ffmpeg -i IN -c:v libx264 -pix_fmt yuv420p OUT.mp4`");
   size_ = first.size();
-  next_index_ = 0;  // the first frame is handed out again by read()
-  pending_ = first;
-  pending_t_ = t;
-  has_pending_ = true;
+  pending_.push_back({first, t});
+  // Two more frames: some files stamp their first frame wrongly (e.g. 600 ms, then 40, 80, ... ms);
+  // such a stamp is replaced by the extrapolation of the next two, t0 = 2 t1 − t2.
+  for (int k = 0; k < 2; ++k) {
+    cv::Mat f;
+    double tk = 0;
+    int ik = 0;
+    if (!decodeNext(f, tk, ik)) break;
+    pending_.push_back({f, tk});
+  }
+  if (first_stamp_bogus_ && pending_.size() == 3)
+    pending_[0].second = std::max(0.0, 2 * pending_[1].second - pending_[2].second);
+  else if (first_stamp_bogus_ && pending_.size() == 2)
+    pending_[0].second = std::max(0.0, pending_[1].second - 1.0 / fps_);
+  next_index_ = 0;  // the frames are handed out again by read()
+  opening_ = false;
+}
+
+double VideoSource::timestampFps() const {
+  if (times_.size() < 3) return fps_;
+  std::vector<double> d;
+  for (std::size_t i = 1; i < times_.size(); ++i) d.push_back(times_[i] - times_[i - 1]);
+  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+  const double step = d[d.size() / 2] / std::max(1, opt_.stride);
+  return step > 0 ? 1.0 / step : fps_;
 }
 
 bool VideoSource::decodeNext(cv::Mat& bgr, double& t_s, int& index) {
@@ -138,12 +159,16 @@ bool VideoSource::decodeNext(cv::Mat& bgr, double& t_s, int& index) {
     ++decoded_;
     return true;
   }
-  if (has_pending_) {
-    has_pending_ = false;
-    bgr = pending_;
-    pending_.release();
-    t_s = pending_t_;
-    index = next_index_++;
+  if (!opening_ && !pending_.empty() && handed_ < static_cast<int>(pending_.size())) {
+    bgr = pending_[handed_].first;
+    t_s = pending_[handed_].second;
+    index = handed_++;
+    next_index_ = handed_;
+    if (handed_ == static_cast<int>(pending_.size())) {
+      next_index_ = decoded_;
+      pending_.clear();
+      handed_ = 0;
+    }
     return true;
   }
   cv::Mat raw;
@@ -155,6 +180,10 @@ bool VideoSource::decodeNext(cv::Mat& bgr, double& t_s, int& index) {
   index = next_index_++;
   ++decoded_;
   const double msec = cap_.get(cv::CAP_PROP_POS_MSEC);
+  if (index == 1 && msec_ok_ && std::isfinite(msec) && msec > 0 && msec < last_msec_) {
+    first_stamp_bogus_ = true;  // frame 0 was stamped after frame 1: its stamp is replaced (constructor)
+    last_msec_ = -1.0;
+  }
   // The container timestamp is used while it is valid: finite and increasing (0 allowed first).
   // The FFMPEG backend reports 0 for the frames flushed from the decoder at the end of the stream;
   // from the first invalid value on, time continues from the last valid stamp at 1/fps per frame.

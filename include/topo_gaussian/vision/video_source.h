@@ -40,6 +40,10 @@ class VideoSource {
   /// Rotation stored in the container's metadata (degrees; a phone's portrait video), already applied
   /// to the frames (OpenCV's CAP_PROP_ORIENTATION_AUTO); 0 for image sequences.
   int orientationDeg() const { return orientation_deg_; }
+  /// The frame rate the timestamps of the frames returned so far show (1 / median step, per source
+  /// frame); fps() when fewer than 3 were returned. A container may announce a wrong rate (a file
+  /// that says 31.47 fps whose frames are 40 ms apart).
+  double timestampFps() const;
   /// Frames decoded so far (including skipped ones) and the index of the last returned frame.
   int framesDecoded() const { return decoded_; }
   /// True once decoding stopped (end of data, or a frame that does not decode) clearly before the
@@ -61,9 +65,10 @@ class VideoSource {
   bool sequence_ = false;
   std::vector<std::string> files_;
   cv::VideoCapture cap_;
-  cv::Mat pending_;  // first frame decoded while opening
-  bool has_pending_ = false;
-  double pending_t_ = 0.0;
+  std::vector<std::pair<cv::Mat, double>> pending_;  // the first frames, decoded while opening
+  int handed_ = 0;                                   // pending frames handed out so far
+  bool first_stamp_bogus_ = false;
+  bool opening_ = true;  // the constructor decodes; read() hands out pending_ first
   double fps_ = 30.0;
   int orientation_deg_ = 0;
   int frame_count_ = 0;
