@@ -637,6 +637,24 @@ TrackResult MotionTracker::finish() const {
         bend.push_back(s.ends[i].bend_a);
       }
     if (bend.size() < 3) return refuse("the silhouette was too small or short to fit the base and tip segments");
+    // a finger is long and thin: a compact blob (a servo, a hand, the background) is not one
+    std::vector<double> elong;
+    int at_border = 0, found_n = 0;
+    for (const auto& m : s.meas)
+      if (m.found) {
+        elong.push_back(m.elongation);
+        at_border += m.touches_border ? 1 : 0;
+        ++found_n;
+      }
+    const double elongation = median(elong);
+    if (elongation < 2.0)
+      return refuse("the silhouette is not finger-like: its length is only " + fixedText(elongation, 1) +
+                    " times its width (a finger's is at least 2); the tracker sees another object (set --roi around "
+                    "the finger alone, --polarity, or --method marker with the finger's colour)");
+    const bool cut = at_border > found_n / 2;
+    if (cut)
+      notes.push_back("the silhouette touches the edge of the region in most frames: part of the finger (or of "
+                      "something else) is cut off; widen --roi if the finger is not clamped there");
     const bool base_is_a = spread(ca) <= spread(cb);
     if (!base_is_a)
       for (double& v : bend) v = -v;
@@ -660,7 +678,8 @@ TrackResult MotionTracker::finish() const {
     std::vector<double> jumps;
     for (std::size_t i = 1; i < bend.size(); ++i) jumps.push_back(std::abs(bend[i] - bend[i - 1]));
     const double jitter = median(jumps);
-    r.confidence["bend_deg"] = base * std::max(0.0, 1.0 - mad / 5.0) / (1.0 + (jitter / 3.0) * (jitter / 3.0));
+    r.confidence["bend_deg"] =
+        base * (cut ? 0.5 : 1.0) * std::max(0.0, 1.0 - mad / 5.0) / (1.0 + (jitter / 3.0) * (jitter / 3.0));
     notes.insert(notes.begin(),
                  "final bending angle " + fixedText(r.bend_final_deg, 2) + " deg, maximum " +
                      fixedText(r.bend_max_deg, 2) + " deg at " + fixedText(r.bend_t_max_s, 2) +
