@@ -22,6 +22,7 @@
 //    max(8, 10 %) of the samples is analysed); the message says which.
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -50,7 +51,8 @@ struct BounceFeatures {
   double floor_h_px = 0.0;
   double release_height_px = 0.0;  ///< highest point of the first arc above the first bounce (0 if none)
   std::vector<double> restitution_from_heights, restitution_from_times;  ///< per bounce (NaN if not measurable)
-  double restitution_heights_mean = 0.0, restitution_times_mean = 0.0;   ///< NaN if none
+  double restitution_heights_mean = std::numeric_limits<double>::quiet_NaN();  ///< NaN if none
+  double restitution_times_mean = std::numeric_limits<double>::quiet_NaN();
   double gravity_px_s2 = 0.0;                                            ///< median |2a| of the flight arcs
   std::vector<FlightArc> arcs;
   double end_time_s = 0.0;  ///< where the analysed trajectory ends
