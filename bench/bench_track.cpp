@@ -10,6 +10,7 @@
 #include <string>
 
 #include "topo_gaussian/vision/motion_tracker.h"
+#include "topo_gaussian/common/json.h"
 #include "topo_gaussian/vision/synthetic_video.h"
 
 using namespace topo_gaussian::vision;
@@ -55,11 +56,12 @@ int main(int argc, char** argv) {
     std::printf(
         "{\"bench\":\"track\",\"method\":\"%s\",\"foreground\":\"%s\",\"kind\":\"%s\",\"width\":%d,\"height\":%d,"
         "\"frames\":%zu,\"video_fps\":%.1f,\"threads\":1,\"fps_tracking\":%.1f,\"realtime_tracking\":%.2f,"
-        "\"fps_with_decode\":%.1f,\"realtime_with_decode\":%.2f,\"period_s\":%.5f,\"period_true_s\":%.5f,"
-        "\"oscillation_found\":%s}\n",
+        "\"fps_with_decode\":%.1f,\"realtime_with_decode\":%.2f,\"period_s\":%s,\"period_true_s\":%.5f,"
+        "\"oscillation_found\":%s,\"refused\":%s}\n",
         c.method, std::strcmp(c.method, "silhouette") == 0 ? c.foreground : "", c.kind, scene.width, scene.height,
-        frames.size(), scene.fps, fps_mem, fps_mem / scene.fps, fps_file, fps_file / scene.fps, rv.signal.period_s,
-        scene.period_s, r.signal.oscillation_found ? "true" : "false");
+        frames.size(), scene.fps, fps_mem, fps_mem / scene.fps, fps_file, fps_file / scene.fps,
+        topo_gaussian::json::num(rv.signal.period_s).c_str(), scene.period_s, r.signal.oscillation_found ? "true" : "false",
+        r.refused ? "true" : "false");
   }
   std::remove(path.c_str());
   return 0;

@@ -270,6 +270,7 @@ void MotionTracker::addFrame(const cv::Mat& frame_in, double t_s) {
     s.frame_size = bgr.size();
     TrackerOptions to = s.opt.tracker;
     if (to.foreground == "auto") to.foreground = s.opt.kind == "tilt" || s.opt.kind == "finger" ? "otsu" : "mog2";
+    to.keep_mask = s.opt.kind == "finger";
     s.tracker = makeTracker(to, s.frame_size);
     s.roi = validRoi(to.roi, s.frame_size, to.roi_given || to.roi != cv::Rect());
   } else if (bgr.size() != s.frame_size) {

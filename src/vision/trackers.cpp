@@ -92,15 +92,17 @@ class BlobFollower {
 /// Fills `out` from the chosen blob `best` of `mask` (ROI-sized): centroid, area, axis, contour, mask,
 /// and the mask statistics the object checks use. Returns false when the blob is empty.
 bool describeBlob(const cv::Mat& mask, const std::vector<std::vector<cv::Point>>& contours, int best,
-                  const cv::Mat& view, const cv::Rect& roi, double min_area, Measurement& out) {
-  cv::Mat blob = cv::Mat::zeros(mask.size(), CV_8U);
-  cv::drawContours(blob, contours, best, cv::Scalar(255), cv::FILLED);
-  cv::bitwise_and(blob, mask, blob);
+                  const cv::Mat& view, const cv::Rect& roi, double min_area, bool keep_mask, Measurement& out) {
+  // everything on the blob's bounding box (a full-frame mask per frame would cost a third of the speed)
+  const cv::Rect br = cv::boundingRect(contours[best]);
+  cv::Mat blob = cv::Mat::zeros(br.size(), CV_8U);
+  cv::drawContours(blob, contours, best, cv::Scalar(255), cv::FILLED, cv::LINE_8, cv::noArray(), 0, -br.tl());
+  cv::bitwise_and(blob, mask(br), blob);
   const cv::Moments m = cv::moments(blob, true);
   if (m.m00 <= 0) return false;
   out.found = true;
   out.area_px = m.m00;
-  out.centroid = cv::Point2d(m.m10 / m.m00 + roi.x, m.m01 / m.m00 + roi.y);
+  out.centroid = cv::Point2d(m.m10 / m.m00 + br.x + roi.x, m.m01 / m.m00 + br.y + roi.y);
   fillAxis(m, out);
   const double all = cv::countNonZero(mask);
   out.mask_fraction = all / static_cast<double>(mask.total());
@@ -112,13 +114,15 @@ bool describeBlob(const cv::Mat& mask, const std::vector<std::vector<cv::Point>>
   cv::convexHull(contours[best], hull);
   const double hull_area = cv::contourArea(hull);
   out.solidity = hull_area > 0 ? std::min(1.0, m.m00 / hull_area) : 1.0;
-  const cv::Rect br = cv::boundingRect(contours[best]);
   out.touches_border = br.x <= 0 || br.y <= 0 || br.br().x >= mask.cols || br.br().y >= mask.rows;
-  const cv::Scalar c = cv::mean(view, blob);
+  const cv::Scalar c = cv::mean(view(br), blob);
   out.mean_bgr = cv::Vec3d(c[0], c[1], c[2]);
   out.contour = contours[best];
   for (auto& p : out.contour) p += roi.tl();
-  out.mask = blob;
+  if (keep_mask) {
+    out.mask = cv::Mat::zeros(mask.size(), CV_8U);
+    blob.copyTo(out.mask(br));
+  }
   return true;
 }
 
@@ -144,7 +148,7 @@ class MarkerTracker : public Tracker {
     std::vector<std::vector<cv::Point>> contours;
     cv::findContours(mask_, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
     const int best = follow_.choose(contours, o_.min_area_px, roi_.tl());
-    if (best < 0 || !describeBlob(mask_, contours, best, view, roi_, o_.min_area_px, out)) out = Measurement();
+    if (best < 0 || !describeBlob(mask_, contours, best, view, roi_, o_.min_area_px, o_.keep_mask, out)) out = Measurement();
     follow_.update(out);
     return out;
   }
@@ -210,7 +214,7 @@ class SilhouetteTracker : public Tracker {
     std::vector<std::vector<cv::Point>> contours;
     cv::findContours(fg_, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
     const int best = follow_.choose(contours, o_.min_area_px, roi_.tl());
-    if (best < 0 || !describeBlob(fg_, contours, best, view, roi_, o_.min_area_px, out)) out = Measurement();
+    if (best < 0 || !describeBlob(fg_, contours, best, view, roi_, o_.min_area_px, o_.keep_mask, out)) out = Measurement();
     follow_.update(out);
     return out;
   }

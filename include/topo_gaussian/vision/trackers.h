@@ -46,6 +46,7 @@ struct TrackerOptions {
   /// silhouette by Otsu: the object is darker | brighter than its background, or auto (the side that
   /// touches the frame border less is the object; the smaller side when both touch it as much).
   std::string polarity = "auto";
+  bool keep_mask = false;  ///< fill Measurement::mask (the finger kind needs it; MotionTracker sets it)
   int klt_max_points = 40;
   int klt_min_points = 8;      ///< re-seed below this
   double klt_fb_max_px = 1.0;  ///< forward–backward error limit
