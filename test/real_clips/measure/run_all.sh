@@ -17,6 +17,8 @@ cd "$M"
 echo "== pendulum_bauble"
 $PY track_color.py pendulum_bauble 29.75 '[[[0,120,70],[10,255,255]],[[170,120,70],[180,255,255]]]' 522 248 80
 $PY pendulum.py /tmp/clips/pendulum_bauble/track_color.txt 0 20
+$PY track_bgsub.py pendulum_bauble 29.75 522 248 --thr 40 --win 70 --min 200 --predict --bgk 2
+$PY pendulum.py /tmp/clips/pendulum_bauble/track_bgsub.txt 0 20
 echo "== tennis_ball_drop"
 $PY dupframes.py tennis_ball_drop | tail -2
 $PY track_bgsub.py tennis_ball_drop 30 557 144 --thr 40 --win 110 --hsv '[[[40,40,180],[62,120,255]]]' --out track_bgcol.txt
