@@ -9,8 +9,8 @@
 #include <opencv2/core.hpp>
 #include <string>
 
-#include "topo_gaussian/vision/motion_tracker.h"
 #include "topo_gaussian/common/json.h"
+#include "topo_gaussian/vision/motion_tracker.h"
 #include "topo_gaussian/vision/synthetic_video.h"
 
 using namespace topo_gaussian::vision;
@@ -60,8 +60,8 @@ int main(int argc, char** argv) {
         "\"oscillation_found\":%s,\"refused\":%s}\n",
         c.method, std::strcmp(c.method, "silhouette") == 0 ? c.foreground : "", c.kind, scene.width, scene.height,
         frames.size(), scene.fps, fps_mem, fps_mem / scene.fps, fps_file, fps_file / scene.fps,
-        topo_gaussian::json::num(rv.signal.period_s).c_str(), scene.period_s, r.signal.oscillation_found ? "true" : "false",
-        r.refused ? "true" : "false");
+        topo_gaussian::json::num(rv.signal.period_s).c_str(), scene.period_s,
+        r.signal.oscillation_found ? "true" : "false", r.refused ? "true" : "false");
   }
   std::remove(path.c_str());
   return 0;

@@ -196,7 +196,8 @@ BounceFeatures analyseBounces(const std::vector<double>& t_in, const std::vector
       scale_problem = "the arcs accelerate at " + fixedText(median(acc), 0) + " px/s² = " + fixedText(per_d, 1) +
                       " object diameters/s² (the object is " + fixedText(o.object_diameter_px, 0) +
                       " px across); free fall of an object 1 cm – 1 m across is 10–1000 diameters/s² (a clip slowed k "
-                      "times: divided by k²), and below " + fixedText(o.min_g_diameters, 0) +
+                      "times: divided by k²), and below " +
+                      fixedText(o.min_g_diameters, 0) +
                       " these are not flights (a swinging, sliding or carried object)";
       for (auto& a : f.arcs) a.flight = false;
       acc.clear();

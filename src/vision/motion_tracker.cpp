@@ -654,8 +654,9 @@ TrackResult MotionTracker::finish() const {
                     "the finger alone, --polarity, or --method marker with the finger's colour)");
     const bool cut = at_border > found_n / 2;
     if (cut)
-      notes.push_back("the silhouette touches the edge of the region in most frames: part of the finger (or of "
-                      "something else) is cut off; widen --roi if the finger is not clamped there");
+      notes.push_back(
+          "the silhouette touches the edge of the region in most frames: part of the finger (or of "
+          "something else) is cut off; widen --roi if the finger is not clamped there");
     const bool base_is_a = spread(ca) <= spread(cb);
     if (!base_is_a)
       for (double& v : bend) v = -v;

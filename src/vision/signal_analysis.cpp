@@ -221,10 +221,13 @@ SignalFeatures analyseSignal(const std::vector<double>& t_in, const std::vector<
     return f;
   };
 
-  if (half_range < min_amp || half_range < 3.0 * sigma)
-    return notFoundStatic("the signal swings only ±" + numberText(half_range, 3) + " deg (noise " +
-                          numberText(sigma, 3) + " deg), below min_amplitude_deg = " + numberText(min_amp, 3) +
-                          " or the noise level");
+  if (half_range < min_amp)
+    return notFoundStatic("the signal swings only ±" + numberText(half_range, 3) +
+                          " deg, below min_amplitude_deg = " + numberText(min_amp, 3));
+  if (half_range < 3.0 * sigma)
+    return notFoundStatic("the signal is mostly noise: it swings ±" + numberText(half_range, 3) + " deg but jumps by " +
+                          numberText(sigma, 3) +
+                          " deg from sample to sample (the object or its angle is not followed smoothly)");
 
   // Hysteresis segmentation about the median.
   const double H = std::max({4.0 * sigma, 0.5 * min_amp, 0.1 * half_range});
@@ -452,9 +455,15 @@ SignalFeatures analyseSignal(const std::vector<double>& t_in, const std::vector<
     f.oscillation_found = false;
     f.period_s = 0.0;
     f.cycles = cycles;
-    f.message = "oscillation too short: fewer than " + std::to_string(min_cycles) + " full periods in the clip (" +
-                numberText(periods_seen, 2) + " periods of about " + numberText(period, 3) +
-                " s seen); record a longer clip";
+    if (periods_seen < min_cycles - 0.1)
+      f.message = "oscillation too short: fewer than " + std::to_string(min_cycles) + " full periods in the clip (" +
+                  numberText(periods_seen, 2) + " periods of about " + numberText(period, 3) +
+                  " s seen); record a longer clip";
+    else
+      f.message = "no oscillation found: the clip is long enough for " + numberText(periods_seen, 2) +
+                  " periods of about " + numberText(period, 3) +
+                  " s, but its centre crossings do not form one full regular cycle (irregular or one-sided "
+                  "motion)";
     f.confidence = 0.1;
     return f;
   }

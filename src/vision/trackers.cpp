@@ -148,7 +148,8 @@ class MarkerTracker : public Tracker {
     std::vector<std::vector<cv::Point>> contours;
     cv::findContours(mask_, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
     const int best = follow_.choose(contours, o_.min_area_px, roi_.tl());
-    if (best < 0 || !describeBlob(mask_, contours, best, view, roi_, o_.min_area_px, o_.keep_mask, out)) out = Measurement();
+    if (best < 0 || !describeBlob(mask_, contours, best, view, roi_, o_.min_area_px, o_.keep_mask, out))
+      out = Measurement();
     follow_.update(out);
     return out;
   }
@@ -214,7 +215,8 @@ class SilhouetteTracker : public Tracker {
     std::vector<std::vector<cv::Point>> contours;
     cv::findContours(fg_, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
     const int best = follow_.choose(contours, o_.min_area_px, roi_.tl());
-    if (best < 0 || !describeBlob(fg_, contours, best, view, roi_, o_.min_area_px, o_.keep_mask, out)) out = Measurement();
+    if (best < 0 || !describeBlob(fg_, contours, best, view, roi_, o_.min_area_px, o_.keep_mask, out))
+      out = Measurement();
     follow_.update(out);
     return out;
   }

@@ -298,3 +298,23 @@ TEST(VisionSignal, RenderFingerAndWriteVideo) {
   std::vector<cv::Mat> mixed = {frames[0], cv::Mat(10, 10, CV_8UC3, cv::Scalar::all(0))};
   EXPECT_THROW(writeVideo(mixed, 20.0, dir + "mixed.avi"), TopoError);
 }
+
+// The messages say what was wrong: a signal of jumps is "mostly noise" (not "below min_amplitude_deg");
+// a small swing is below min_amplitude_deg; neither has a period.
+TEST(SignalAnalysis, NoiseAndSmallSwingsAreToldApart) {
+  std::vector<double> t, jumps, small;
+  unsigned x = 12345;
+  for (int i = 0; i < 300; ++i) {
+    t.push_back(i / 30.0);
+    x = x * 1103515245u + 12345u;
+    jumps.push_back(((x >> 8) % 360) - 180.0);  // an angle that jumps anywhere from frame to frame
+    small.push_back(0.3 * std::sin(2 * M_PI * i / 30.0));
+  }
+  const SignalFeatures n = analyseSignal(t, jumps);
+  EXPECT_FALSE(n.oscillation_found);
+  EXPECT_NE(n.message.find("mostly noise"), std::string::npos) << n.message;
+  EXPECT_EQ(n.message.find("min_amplitude_deg"), std::string::npos) << n.message;
+  const SignalFeatures s = analyseSignal(t, small);
+  EXPECT_FALSE(s.oscillation_found);
+  EXPECT_NE(s.message.find("below min_amplitude_deg"), std::string::npos) << s.message;
+}

@@ -50,10 +50,10 @@ struct BounceFeatures {
   std::vector<double> apex_times_s, apex_h_px, apex_heights_px;  ///< apex_heights_px above the preceding bounce
   double floor_h_px = 0.0;
   double release_height_px = 0.0;  ///< highest point of the first arc above the first bounce (0 if none)
-  std::vector<double> restitution_from_heights, restitution_from_times;  ///< per bounce (NaN if not measurable)
+  std::vector<double> restitution_from_heights, restitution_from_times;        ///< per bounce (NaN if not measurable)
   double restitution_heights_mean = std::numeric_limits<double>::quiet_NaN();  ///< NaN if none
   double restitution_times_mean = std::numeric_limits<double>::quiet_NaN();
-  double gravity_px_s2 = 0.0;                                            ///< median |2a| of the flight arcs
+  double gravity_px_s2 = 0.0;  ///< median |2a| of the flight arcs
   std::vector<FlightArc> arcs;
   double end_time_s = 0.0;  ///< where the analysed trajectory ends
   std::string end_reason;   ///< empty when it ran to the end of the data
