@@ -61,6 +61,15 @@ InteriorInferenceParams loadInteriorInferenceParams(const ::ros::NodeHandle& pnh
   p.volume_wait_s = r.number("volume_wait_s", p.volume_wait_s, "s", Range::between(0, 3600));
   p.restore_latest = r.flag("restore_latest", p.restore_latest);
   p.backend = r.text("backend", p.backend);
+  p.cut_away = r.flag("cut_away", p.cut_away);
+  p.cut_normal = r.numbers("cut_normal", p.cut_normal, 3, "", "[1, 0, 0] (the +x half is cut away)");
+  if (std::sqrt(p.cut_normal[0] * p.cut_normal[0] + p.cut_normal[1] * p.cut_normal[1] +
+                p.cut_normal[2] * p.cut_normal[2]) == 0)
+    throw TopoError(r.displayName("cut_normal"), "is zero", "give the direction of the half to cut away, e.g. [1, 0, 0]");
+  p.colour_by = r.text("colour_by", p.colour_by);
+  if (p.colour_by != "indicator" && p.colour_by != "confidence")
+    throw TopoError(r.displayName("colour_by"), "is '" + p.colour_by + "'",
+                    "use indicator (solid red, hollow blue) or confidence (faded to grey where uncertain)");
   {
     std::string line;
     resolveBackend(parseComputeBackend(p.backend, "~backend"), "~backend", &line);
@@ -329,6 +338,10 @@ sensor_msgs::PointCloud2 InteriorInferenceNode::show(const VolumeCloud& cloud, c
   mi.features = ev.task.features;
   mi.object_frame = params_.object_frame;
   mi.world_frame = params_.world_frame;
+  mi.cut_away = params_.cut_away;
+  mi.cut_normal = Eigen::Vector3d(params_.cut_normal[0], params_.cut_normal[1], params_.cut_normal[2]);
+  mi.colour_by = params_.colour_by;
+  mi.confidence = &confidence;
   std::vector<inference::BodyPose> motion = ev.task.motion;
   if (motion.empty())
     motion.push_back(inference::BodyPose{});  // no rigid motion: the object frame sits at the world origin

@@ -7,12 +7,17 @@
 #include <sstream>
 
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/geometry/solid_mesh.h"
 #include "topo_gaussian/ros/conversions.h"
 
 namespace topo_gaussian::topo_ros {
 namespace {
 
 using visualization_msgs::Marker;
+
+/// The cavity's highlight: cyan, a colour nothing else in the view has (the principal axes are red,
+/// green and blue, the solid red, the grid grey), so a screenshot can find it.
+constexpr std::uint32_t kHollowHighlightRgb = 0x20DCE6;
 
 geometry_msgs::Point point(const Eigen::Vector3d& p) {
   geometry_msgs::Point q;
@@ -123,13 +128,56 @@ visualization_msgs::MarkerArray makeInteriorMarkers(const InteriorMarkerInput& i
           arrow(in.object_frame, stamp, 4 + k, c, c + 0.35 * size * axes.col(k), 0.6 * shaft, rgb[k]));
   }
 
-  Marker solid = base(in.object_frame, stamp, 7, Marker::CUBE_LIST);
+  if (in.colour_by != "indicator" && in.colour_by != "confidence")
+    throw TopoError("~colour_by " + in.colour_by, "is not a marker colouring", "use indicator or confidence");
+  const bool by_confidence =
+      in.colour_by == "confidence" && in.confidence && in.confidence->size() == cloud.size();
   const double h = cloud.spacing > 0 ? cloud.spacing : 0.01 * size;
+  // the cut: the viewer's half (beyond the plane through the centre) is left out
+  const Eigen::Vector3d centre = 0.5 * (lo + hi);
+  const Eigen::Vector3d n = in.cut_normal.norm() > 0 ? in.cut_normal.normalized() : Eigen::Vector3d::UnitX();
+  auto kept = [&](const Eigen::Vector3d& x) { return !in.cut_away || (x - centre).dot(n) <= 0.5 * h * (1 + 1e-6); };
+  auto cubeColour = [&](std::size_t i, std::uint32_t rgb, double alpha) {
+    std_msgs::ColorRGBA c = colour(rgb, alpha);
+    if (!by_confidence) return c;
+    const float w = float(std::clamp((*in.confidence)[i], 0.0, 1.0)), grey = 0.6f;
+    c.r = w * c.r + (1 - w) * grey;
+    c.g = w * c.g + (1 - w) * grey;
+    c.b = w * c.b + (1 - w) * grey;
+    return c;
+  };
+  Marker solid = base(in.object_frame, stamp, 7, Marker::CUBE_LIST);
   solid.scale.x = solid.scale.y = solid.scale.z = h;
-  solid.color = colour(kSolidRgb, 0.55);
-  for (std::size_t i = 0; i < cloud.size(); ++i)
-    if (r[i] >= 0.5) solid.points.push_back(point(cloud.X[i]));
+  solid.color = colour(kSolidRgb, 0.35);
+  Marker hollow = base(in.object_frame, stamp, 9, Marker::CUBE_LIST);
+  hollow.scale.x = hollow.scale.y = hollow.scale.z = h;
+  hollow.color = colour(kHollowHighlightRgb, 1.0);
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (!kept(cloud.X[i])) continue;
+    Marker& m = r[i] >= 0.5 ? solid : hollow;
+    m.points.push_back(point(cloud.X[i]));
+    if (by_confidence) m.colors.push_back(cubeColour(i, r[i] >= 0.5 ? kSolidRgb : kHollowHighlightRgb, m.color.a));
+  }
   if (!solid.points.empty()) out.markers.push_back(solid);
+  if (!hollow.points.empty()) out.markers.push_back(hollow);
+
+  // the solid region's surface, cut like the particles (a cloud that is not a lattice has none)
+  try {
+    const geometry::SurfaceData mesh = geometry::solidRegionMesh(cloud, r);
+    Marker surf = base(in.object_frame, stamp, 10, Marker::TRIANGLE_LIST);
+    surf.scale.x = surf.scale.y = surf.scale.z = 1.0;
+    surf.color = colour(kSolidRgb, 0.3);
+    for (const auto& t : mesh.triangles) {
+      const Eigen::Vector3d a = mesh.points[t[0]], b = mesh.points[t[1]], c = mesh.points[t[2]];
+      if (!kept((a + b + c) / 3.0)) continue;
+      surf.points.push_back(point(a));
+      surf.points.push_back(point(b));
+      surf.points.push_back(point(c));
+    }
+    if (!surf.points.empty()) out.markers.push_back(surf);
+  } catch (const TopoError&) {
+    // not a lattice or nothing solid: the cubes show the interior
+  }
 
   Marker text = base(in.object_frame, stamp, 8, Marker::TEXT_VIEW_FACING);
   text.pose.position = point(Eigen::Vector3d(0.5 * (lo.x() + hi.x()), 0.5 * (lo.y() + hi.y()), hi.z() + 0.3 * size));

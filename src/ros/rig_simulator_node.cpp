@@ -18,6 +18,7 @@
 #include "topo_gaussian/ros/ascii_text.h"
 #include "topo_gaussian/ros/body_pose_msg.h"
 #include "topo_gaussian/ros/conversions.h"
+#include "topo_gaussian/ros/interior_markers.h"
 #include "topo_gaussian/ros/param_reader.h"
 
 namespace topo_gaussian::topo_ros {
@@ -334,6 +335,16 @@ RigSimulatorNode::RigSimulatorNode(const ::ros::NodeHandle& nh, const ::ros::Nod
       tw.cloud(), tw.indicator(), tw.density(), inference::particleStiffness(tw.config(), tw.indicator()),
       params_.truth_view_frame, ::ros::Time(0));
   true_interior_pub_.publish(truth_cloud);
+  // ... and drawn as interior_inference draws the recovered one: the viewer's half cut away, the
+  // cavity in the hollow colour (ros/interior_markers.h)
+  true_markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("true_interior_markers", 1, true);
+  InteriorMarkerInput mi;
+  mi.cloud = &tw.cloud();
+  mi.r = &tw.indicator();
+  mi.mass = tw.truth().task.mass;
+  mi.object_frame = params_.truth_view_frame;
+  mi.world_frame = params_.world_frame;
+  true_markers_pub_.publish(makeInteriorMarkers(mi, ::ros::Time(0)));
   start_ = now;
   timer_ = nh_.createTimer(::ros::Duration(1.0 / params_.fps), &RigSimulatorNode::onTimer, this);
 }

@@ -80,6 +80,7 @@ TEST(InteriorMarkers, CentreOfMassSolidCubesGravityAndText) {
   in.geometry.point = Eigen::Vector3d(0, 0, 0.05);
   in.features = {inference::Feature{"period_s", 0.3, "s", true, 0.31}};
   in.object_in_world = Eigen::Translation3d(0, 0, 1.0) * Eigen::Quaterniond::Identity();
+  in.cut_away = false;  // every particle (the cut-away has its own test)
   const auto arr = topo_ros::makeInteriorMarkers(in, ros::Time(1.0));
   ASSERT_GE(arr.markers.size(), 8u);
   EXPECT_EQ(arr.markers[0].action, visualization_msgs::Marker::DELETEALL);
@@ -87,7 +88,7 @@ TEST(InteriorMarkers, CentreOfMassSolidCubesGravityAndText) {
   const visualization_msgs::Marker* gravity = nullptr;
   const visualization_msgs::Marker* text = nullptr;
   for (const auto& m : arr.markers) {
-    if (m.type == visualization_msgs::Marker::CUBE_LIST) cubes = &m;
+    if (m.type == visualization_msgs::Marker::CUBE_LIST && m.id == 7) cubes = &m;
     if (m.type == visualization_msgs::Marker::ARROW && m.header.frame_id == "world") gravity = &m;
     if (m.type == visualization_msgs::Marker::TEXT_VIEW_FACING) text = &m;
     if (m.id == 1) EXPECT_NEAR(m.pose.position.z, -0.02, 1e-12);  // com sphere
@@ -171,4 +172,65 @@ TEST(ContactCloud, LayoutRoundTripAndMissingFields) {
   } catch (const TopoError& e) {
     EXPECT_NE(std::string(e.what()).find("normal_x"), std::string::npos) << e.what();
   }
+}
+
+// The cut-away: of a box with a spherical cavity, the markers keep the half away from the viewer
+// (x·n ≤ c·n + h/2), so the cavity's section shows as hollow-coloured cubes, and the solid region's
+// surface is cut the same way; colour_by confidence fades uncertain cubes to grey.
+TEST(InteriorMarkers, CutAwayShowsTheCavity) {
+  const VolumeCloud cloud = topo_test::boxCloud(0.1, 0.1, 0.1, 0.01);
+  std::vector<double> r(cloud.size()), confidence(cloud.size());
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    r[i] = cloud.X[i].norm() < 0.03 ? 0.0 : 1.0;  // a cavity of radius 3 cm in the middle
+    confidence[i] = cloud.X[i].y() > 0 ? 1.0 : 0.0;
+  }
+  topo_ros::InteriorMarkerInput in;
+  in.cloud = &cloud;
+  in.r = &r;
+  in.mass.mass = 1.0;
+  in.cut_normal = Eigen::Vector3d(1, 0, 0);  // the +x half is cut away
+  auto find = [](const visualization_msgs::MarkerArray& a, int id) -> const visualization_msgs::Marker* {
+    for (const auto& m : a.markers)
+      if (m.id == id && m.action == visualization_msgs::Marker::ADD) return &m;
+    return nullptr;
+  };
+  const auto arr = topo_ros::makeInteriorMarkers(in, ros::Time(1.0));
+  const visualization_msgs::Marker* solid = find(arr, 7);
+  const visualization_msgs::Marker* hollow = find(arr, 9);
+  const visualization_msgs::Marker* surface = find(arr, 10);
+  ASSERT_TRUE(solid && hollow && surface);
+  std::size_t kept_hollow = 0, kept_solid = 0;
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (cloud.X[i].x() <= 0.005 + 1e-12) (r[i] < 0.5 ? kept_hollow : kept_solid)++;
+  EXPECT_GT(kept_hollow, 40u);
+  EXPECT_EQ(hollow->points.size(), kept_hollow);
+  EXPECT_EQ(solid->points.size(), kept_solid);
+  for (const auto& p : hollow->points) EXPECT_LE(p.x, 0.005 + 1e-12);
+  EXPECT_EQ(hollow->color.a, 1.0f);  // the cavity opaque, the solid translucent
+  EXPECT_LT(solid->color.a, 0.5f);
+  EXPECT_GT(hollow->color.b, hollow->color.r);  // hollow blue
+  ASSERT_EQ(surface->type, visualization_msgs::Marker::TRIANGLE_LIST);
+  ASSERT_EQ(surface->points.size() % 3, 0u);
+  for (std::size_t k = 0; k < surface->points.size(); k += 3)
+    EXPECT_LE((surface->points[k].x + surface->points[k + 1].x + surface->points[k + 2].x) / 3.0, 0.005 + 1e-9);
+  // without the cut every hollow particle is drawn
+  in.cut_away = false;
+  const auto all = topo_ros::makeInteriorMarkers(in, ros::Time(1.0));
+  std::size_t hollow_all = 0;
+  for (double v : r) hollow_all += v < 0.5;
+  ASSERT_TRUE(find(all, 9));
+  EXPECT_EQ(find(all, 9)->points.size(), hollow_all);
+  // colour by confidence: a cube with confidence 0 is grey, one with confidence 1 keeps its colour
+  in.colour_by = "confidence";
+  in.confidence = &confidence;
+  const auto faded = topo_ros::makeInteriorMarkers(in, ros::Time(1.0));
+  const visualization_msgs::Marker* fs = find(faded, 7);
+  ASSERT_TRUE(fs);
+  ASSERT_EQ(fs->colors.size(), fs->points.size());
+  for (std::size_t k = 0; k < fs->points.size(); ++k) {
+    if (fs->points[k].y > 0) EXPECT_NEAR(fs->colors[k].r, 0xDC / 255.0, 1e-6);
+    if (fs->points[k].y < 0) EXPECT_NEAR(fs->colors[k].r, 0.6, 1e-6);
+  }
+  in.colour_by = "rainbow";
+  EXPECT_NE(errorOf([&] { topo_ros::makeInteriorMarkers(in, ros::Time()); }).find("colour_by"), std::string::npos);
 }

@@ -59,6 +59,12 @@ struct InteriorInferenceParams {
   /// goal unless the goal's overrides set it); auto logs whether a GPU is used, cuda without one is
   /// refused at start with the reason
   std::string backend = "auto";
+  /// ~cut_away, ~cut_normal [x, y, z] (object frame), ~colour_by (indicator | confidence): how
+  /// interior_markers draws the interior (ros/interior_markers.h): the viewer's half cut away so the
+  /// hollow shows, cubes faded to grey where the interior is uncertain
+  bool cut_away = true;
+  std::vector<double> cut_normal{0.955, 0.296, 0.0};
+  std::string colour_by = "indicator";
 };
 
 /// Reads and validates the private parameters; throws TopoError naming the parameter and the fix.

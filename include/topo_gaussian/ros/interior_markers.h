@@ -4,8 +4,17 @@
 //   point          sphere at the hanging / support / pivot point     (object frame, when the task has one)
 //   gravity        arrow from the centre of mass along gravity       (world frame, at the replay's first pose)
 //   principal_axes three arrows along the principal axes of inertia, length ∝ the object size
-//   solid          cube list of the solid particles (r ≥ 0.5), one spacing wide, in the solid colour
+//   solid          cube list of the solid particles (r ≥ 0.5), one spacing wide, in the solid colour,
+//                  translucent
+//   hollow         cube list of the hollow particles (r < 0.5), highlighted in cyan, opaque: the cavity
+//   solid_surface  triangle list of the solid region's surface (the export's marching-tetrahedra mesh,
+//                  geometry::solidRegionMesh), translucent solid colour; left out for a cloud that is
+//                  not a lattice
 //   features       text above the object: the achieved features and their targets
+// Cut-away (cut_away, default on): particles and triangles on the viewer's side of the plane through
+// the cloud's centre with normal cut_normal (x·n > c·n + h/2) are left out, so the section through
+// the object shows its hollow and its solid. colour_by "confidence" (with per-particle confidence,
+// inference/design_spread.h) fades each cube towards grey by (1 − confidence).
 // Markers in the object frame are frame_locked, so rviz moves them with the tf replay.
 #pragma once
 
@@ -29,6 +38,11 @@ struct InteriorMarkerInput {
   /// Where the object frame sits in the world for the gravity arrow (the replay's first pose).
   Eigen::Isometry3d object_in_world = Eigen::Isometry3d::Identity();
   std::string object_frame = "object_simulated", world_frame = "world";
+  bool cut_away = true;
+  /// object frame; default: towards the camera of rviz/topo_gaussian.rviz (Orbit yaw 0.3 rad)
+  Eigen::Vector3d cut_normal = Eigen::Vector3d(0.955, 0.296, 0.0);
+  std::string colour_by = "indicator";                ///< indicator | confidence
+  const std::vector<double>* confidence = nullptr;  ///< per particle, 0..1 (colour_by confidence)
 };
 
 /// Text of the features marker: one line per feature, "name = value unit (target T)".

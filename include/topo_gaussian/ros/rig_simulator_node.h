@@ -10,11 +10,14 @@
 //        ~ground_truth (RigGroundTruth latched: the true interior and its features, for tests only);
 //        ~true_interior (PointCloud2 latched, the true interior in ~truth_view_frame, a static frame
 //        beside the object, so rviz shows the true and the recovered interior side by side);
+//        ~true_interior_markers (MarkerArray latched: the same, drawn like interior_markers, with the
+//        viewer's half cut away so its cavity shows);
 //        `experiment` (std_msgs/String latched: the experiment on camera, with ~experiments).
 // The node owns handles and parameters; the library renders and simulates.
 #pragma once
 
 #include <ros/ros.h>
+#include <visualization_msgs/MarkerArray.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <std_msgs/String.h>
@@ -110,7 +113,7 @@ class RigSimulatorNode {
   std::vector<std::unique_ptr<workflow::RigTwin>> twins_;  ///< one per experiment
   std::vector<std::string> names_;                         ///< the experiments' names ("" for one)
   int playing_ = -1;                                       ///< the experiment on camera
-  ::ros::Publisher experiment_pub_, true_interior_pub_;
+  ::ros::Publisher experiment_pub_, true_interior_pub_, true_markers_pub_;
   tf2_ros::StaticTransformBroadcaster static_broadcaster_;
   vision::SplatCamera camera_;
   vision::SplatShading shading_;
