@@ -166,7 +166,7 @@ visualization_msgs::MarkerArray makeInteriorMarkers(const InteriorMarkerInput& i
     const geometry::SurfaceData mesh = geometry::solidRegionMesh(cloud, r);
     Marker surf = base(in.object_frame, stamp, 10, Marker::TRIANGLE_LIST);
     surf.scale.x = surf.scale.y = surf.scale.z = 1.0;
-    surf.color = colour(kSolidRgb, 0.3);
+    surf.color = colour(kSolidRgb, 0.4);
     for (const auto& t : mesh.triangles) {
       const Eigen::Vector3d a = mesh.points[t[0]], b = mesh.points[t[1]], c = mesh.points[t[2]];
       if (!kept((a + b + c) / 3.0)) continue;
