@@ -201,6 +201,8 @@ class FingerTask : public SoftTask {
     std::vector<double> m;
     masses(r, &m, nullptr);
     ev.mass = massPropertiesFromMoments(computeMassMoments(cloud_.X, m));
+    ev.shape_time_s = {0.0, implicit_ ? duration_ : 1.0};
+    ev.shapes = {X, sim->positions()};
     if (dL_dr) chain(mat, g, true, dL_dr);
     return ev;
   }

@@ -87,6 +87,7 @@ InteriorInferenceNode::InteriorInferenceNode(const ::ros::NodeHandle& nh, const 
     : nh_(nh), pnh_(pnh), params_(loadInteriorInferenceParams(pnh)) {
   interior_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("interior", 1, true);
   markers_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("interior_markers", 1, true);
+  deformed_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("interior_deformed", 1);
   volume_sub_ = nh_.subscribe("volume", 1, &InteriorInferenceNode::onVolume, this);
   contact_sub_ = nh_.subscribe("contact_samples", 1, &InteriorInferenceNode::onContactSamples, this);
   features_sub_ = nh_.subscribe("motion_features", 1, &InteriorInferenceNode::onFeatures, this);
@@ -351,6 +352,19 @@ sensor_msgs::PointCloud2 InteriorInferenceNode::show(const VolumeCloud& cloud, c
     std::lock_guard<std::mutex> lock(state_mutex_);
     replay_ = std::move(motion);
     replay_start_ = ::ros::WallTime::now();
+    shape_t_.clear();
+    shapes_.clear();
+    bool shapes_fit = ev.task.shapes.size() >= 2 && ev.task.shape_time_s.size() == ev.task.shapes.size();
+    for (const auto& sh : ev.task.shapes) shapes_fit = shapes_fit && sh.size() == cloud.size();
+    if (shapes_fit) {  // a soft result: its simulated shapes move on `interior_deformed`
+      shape_t_ = ev.task.shape_time_s;
+      shapes_ = ev.task.shapes;
+      shape_cloud_ = cloud;
+      shape_r_ = r;
+      shape_density_ = density;
+      shape_stiffness_ = inference::particleStiffness(config, r);
+      shape_confidence_ = confidence;
+    }
   }
   interior_pub_.publish(interior);
   markers_pub_.publish(markers);
@@ -370,6 +384,20 @@ void InteriorInferenceNode::onReplay(const ::ros::WallTimerEvent&) {
   inference::BodyPose p;
   {
     std::lock_guard<std::mutex> lock(state_mutex_);
+    if (!shapes_.empty() && deformed_pub_.getNumSubscribers() > 0) {
+      // rest → deformed over the shapes' span, hold 0.5 s, back, hold 0.5 s (replay_speed scales it)
+      const double span = std::max(1e-6, shape_t_.back() - shape_t_.front()), period = 2 * span + 1.0;
+      double u = std::fmod((::ros::WallTime::now() - replay_start_).toSec() * params_.replay_speed, period);
+      double t = u < span ? u : (u < span + 0.5 ? span : (u < 2 * span + 0.5 ? 2 * span + 0.5 - u : 0.0));
+      t += shape_t_.front();
+      std::size_t k = 0;
+      while (k + 2 < shape_t_.size() && shape_t_[k + 1] < t) ++k;
+      const double w = std::clamp((t - shape_t_[k]) / std::max(1e-12, shape_t_[k + 1] - shape_t_[k]), 0.0, 1.0);
+      VolumeCloud moved = shape_cloud_;
+      for (std::size_t i = 0; i < moved.X.size(); ++i) moved.X[i] = (1 - w) * shapes_[k][i] + w * shapes_[k + 1][i];
+      deformed_pub_.publish(toInteriorCloud(moved, shape_r_, shape_density_, shape_stiffness_, params_.object_frame,
+                                            ::ros::Time(0), shape_confidence_));
+    }
     if (replay_.empty()) return;
     const double span = replay_.back().t - replay_.front().t;
     double t = (::ros::WallTime::now() - replay_start_).toSec() * params_.replay_speed;

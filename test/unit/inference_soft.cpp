@@ -73,6 +73,32 @@ TEST(SoftTasks, ChamberOffsetToOneSideBendsTowardsTheOther) {
   EXPECT_NEAR(down, -up, 0.05 * std::abs(down));  // mirror-symmetric shape
 }
 
+// The shapes a replay shows (TaskEvaluation::shapes): the rest shape is the cloud, the deformed one
+// is the solved equilibrium, whose tip moved by the tip_displacement_m feature and whose clamped base
+// stayed put.
+TEST(SoftTasks, FingerShapesForTheReplay) {
+  const VolumeCloud cloud = defaultShapeCloud("finger", 0.004);
+  const auto task = makeTask(fingerConfig(), cloud);
+  const TaskEvaluation ev = task->evaluate(chamber(cloud, 0.02, 0.085, -0.006, -0.0005), nullptr);
+  ASSERT_EQ(ev.shapes.size(), 2u);
+  ASSERT_EQ(ev.shape_time_s.size(), 2u);
+  EXPECT_LT(ev.shape_time_s[0], ev.shape_time_s[1]);
+  ASSERT_EQ(ev.shapes[0].size(), cloud.size());
+  ASSERT_EQ(ev.shapes[1].size(), cloud.size());
+  double rest = 0, moved_max = 0, base_max = 0, xmin = 1e300;
+  for (const auto& x : cloud.X) xmin = std::min(xmin, x.x());
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    rest = std::max(rest, (ev.shapes[0][i] - cloud.X[i]).norm());
+    const double d = (ev.shapes[1][i] - cloud.X[i]).norm();
+    moved_max = std::max(moved_max, d);
+    if (cloud.X[i].x() < xmin + 0.5 * cloud.spacing) base_max = std::max(base_max, d);
+  }
+  EXPECT_EQ(rest, 0.0);
+  EXPECT_GE(moved_max, 0.9 * feature(ev, "tip_displacement_m"));
+  EXPECT_GT(feature(ev, "tip_displacement_m"), 1e-4);
+  EXPECT_LT(base_max, 0.01 * moved_max);  // the clamped end stays
+}
+
 // dL/dr of the whole task (materials, chamber weights, equilibrium or rollout) vs central differences.
 void taskGradientCheck(TaskConfig c, const VolumeCloud& cloud, const std::vector<double>& r0, const char* name) {
   const auto task = makeTask(c, cloud);

@@ -66,6 +66,12 @@ struct TaskEvaluation {
   /// Rigid motion of the object (tumbler, ball, hanging swing), sampled like the signal; empty for
   /// tasks without one (static poses, soft bodies).
   std::vector<BodyPose> motion;
+  /// Soft tasks: particle positions (object frame, the cloud's order) at a few instants, for a replay:
+  /// shapes[k] at shape_time_s[k]. The finger: the rest shape at 0 and the solved shape at the full
+  /// pressure at 1 s (static mode; a replay blends them linearly) or at the ramp's end (implicit).
+  /// Empty for rigid tasks.
+  std::vector<double> shape_time_s;
+  std::vector<std::vector<Eigen::Vector3d>> shapes;
   /// Rigid tasks (hanging, balance, tumbler, ball): the observed quantities with dy/dp. Empty for tasks
   /// whose observations depend on more than (m, c, I) or that only bound them (stand, qiqi, soft tasks).
   std::vector<Observation> observations;

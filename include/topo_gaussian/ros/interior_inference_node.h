@@ -138,7 +138,7 @@ class InteriorInferenceNode {
 
   ::ros::NodeHandle nh_, pnh_;
   InteriorInferenceParams params_;
-  ::ros::Publisher interior_pub_, markers_pub_;
+  ::ros::Publisher interior_pub_, markers_pub_, deformed_pub_;
   ::ros::Subscriber volume_sub_, features_sub_, contact_sub_;
   /// The latest contact samples and their stamp; attached to the volume of the same stamp.
   std::shared_ptr<const ContactSamples> contact_;
@@ -166,6 +166,12 @@ class InteriorInferenceNode {
   // the replayed motion
   std::vector<inference::BodyPose> replay_;
   ::ros::WallTime replay_start_;
+  /// Soft results: the simulated shapes (TaskEvaluation::shapes) replayed on `interior_deformed`
+  /// (rest → deformed, hold, back, hold), with the interior's fields of the cloud they belong to.
+  std::vector<double> shape_t_;
+  std::vector<std::vector<Eigen::Vector3d>> shapes_;
+  VolumeCloud shape_cloud_;
+  std::vector<double> shape_r_, shape_density_, shape_stiffness_, shape_confidence_;
 };
 
 }  // namespace topo_gaussian::topo_ros
