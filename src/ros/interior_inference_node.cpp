@@ -65,7 +65,8 @@ InteriorInferenceParams loadInteriorInferenceParams(const ::ros::NodeHandle& pnh
   p.cut_normal = r.numbers("cut_normal", p.cut_normal, 3, "", "[1, 0, 0] (the +x half is cut away)");
   if (std::sqrt(p.cut_normal[0] * p.cut_normal[0] + p.cut_normal[1] * p.cut_normal[1] +
                 p.cut_normal[2] * p.cut_normal[2]) == 0)
-    throw TopoError(r.displayName("cut_normal"), "is zero", "give the direction of the half to cut away, e.g. [1, 0, 0]");
+    throw TopoError(r.displayName("cut_normal"), "is zero",
+                    "give the direction of the half to cut away, e.g. [1, 0, 0]");
   p.colour_by = r.text("colour_by", p.colour_by);
   if (p.colour_by != "indicator" && p.colour_by != "confidence")
     throw TopoError(r.displayName("colour_by"), "is '" + p.colour_by + "'",

@@ -130,8 +130,7 @@ visualization_msgs::MarkerArray makeInteriorMarkers(const InteriorMarkerInput& i
 
   if (in.colour_by != "indicator" && in.colour_by != "confidence")
     throw TopoError("~colour_by " + in.colour_by, "is not a marker colouring", "use indicator or confidence");
-  const bool by_confidence =
-      in.colour_by == "confidence" && in.confidence && in.confidence->size() == cloud.size();
+  const bool by_confidence = in.colour_by == "confidence" && in.confidence && in.confidence->size() == cloud.size();
   const double h = cloud.spacing > 0 ? cloud.spacing : 0.01 * size;
   // the cut: the viewer's half (beyond the plane through the centre) is left out
   const Eigen::Vector3d centre = 0.5 * (lo + hi);

@@ -331,9 +331,9 @@ RigSimulatorNode::RigSimulatorNode(const ::ros::NodeHandle& nh, const ::ros::Nod
   view.transform.rotation.w = 1.0;
   static_broadcaster_.sendTransform(view);
   true_interior_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("true_interior", 1, true);
-  sensor_msgs::PointCloud2 truth_cloud = toInteriorCloud(
-      tw.cloud(), tw.indicator(), tw.density(), inference::particleStiffness(tw.config(), tw.indicator()),
-      params_.truth_view_frame, ::ros::Time(0));
+  sensor_msgs::PointCloud2 truth_cloud = toInteriorCloud(tw.cloud(), tw.indicator(), tw.density(),
+                                                         inference::particleStiffness(tw.config(), tw.indicator()),
+                                                         params_.truth_view_frame, ::ros::Time(0));
   true_interior_pub_.publish(truth_cloud);
   // ... and drawn as interior_inference draws the recovered one: the viewer's half cut away, the
   // cavity in the hollow colour (ros/interior_markers.h)

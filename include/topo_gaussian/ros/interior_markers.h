@@ -41,7 +41,7 @@ struct InteriorMarkerInput {
   bool cut_away = true;
   /// object frame; default: towards the camera of rviz/topo_gaussian.rviz (Orbit yaw 0.3 rad)
   Eigen::Vector3d cut_normal = Eigen::Vector3d(0.955, 0.296, 0.0);
-  std::string colour_by = "indicator";                ///< indicator | confidence
+  std::string colour_by = "indicator";              ///< indicator | confidence
   const std::vector<double>* confidence = nullptr;  ///< per particle, 0..1 (colour_by confidence)
 };
 

@@ -17,7 +17,6 @@
 #pragma once
 
 #include <ros/ros.h>
-#include <visualization_msgs/MarkerArray.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <std_msgs/String.h>
@@ -25,6 +24,7 @@
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include <Eigen/Core>
 #include <memory>
