@@ -81,7 +81,8 @@ ObjectCheck checkOneObject(const std::vector<Measurement>& ms, const std::string
     problems.push_back("the tracked region fills " + percent(std::max(median_blob_fraction, c.median_mask_fraction)) +
                        " of the frame (or --roi): the background or a wall/floor, not an object in view");
   if (texture_frames > 0.5 * c.frames)
-    problems.push_back("the mask falls into many pieces (median " + std::to_string(pieces[pieces.size() / 2]) +
+    problems.push_back("the mask falls into many pieces (median " +
+                       fixedText(median(std::vector<double>(pieces.begin(), pieces.end())), 0) +
                        ", the largest holds " + percent(median(share)) + " of it) in " +
                        percent(double(texture_frames) / c.frames) +
                        " of the frames: a texture of that colour (floor, wall, bricks), not one object");
@@ -89,8 +90,9 @@ ObjectCheck checkOneObject(const std::vector<Measurement>& ms, const std::string
     problems.push_back("its size changes from frame to frame by " + percent(c.area_spread) +
                        " (robust spread of the area): not one rigid object");
   if (c.jump_fraction > o.max_jump_fraction)
-    problems.push_back("it jumps more than " + fixedText(jump_px, 0) + " px between frames in " +
-                       percent(c.jump_fraction) + " of the steps: the tracker switches between regions");
+    problems.push_back("it jumps: its velocity changes by more than " + fixedText(jump_px, 0) +
+                       " px within one frame in " + percent(c.jump_fraction) +
+                       " of the frames (the tracker switches between regions)");
   if (c.colour_spread > o.max_colour_spread)
     problems.push_back("its colour changes by " + fixedText(c.colour_spread, 0) +
                        " (0..255, robust spread) between frames: different things are being followed");
