@@ -173,16 +173,6 @@ double followTiltAxis(double major_deg, bool have_prev, double prev_deg) {
   return best;
 }
 
-double spread(const std::vector<cv::Point2d>& pts) {
-  if (pts.empty()) return 0.0;
-  cv::Point2d m(0, 0);
-  for (const auto& p : pts) m += p;
-  m *= 1.0 / pts.size();
-  double s = 0;
-  for (const auto& p : pts) s += (p - m).dot(p - m);
-  return std::sqrt(s / pts.size());
-}
-
 }  // namespace
 
 struct MotionTracker::Impl {
@@ -657,7 +647,7 @@ TrackResult MotionTracker::finish() const {
       notes.push_back(
           "the silhouette touches the edge of the region in most frames: part of the finger (or of "
           "something else) is cut off; widen --roi if the finger is not clamped there");
-    const bool base_is_a = spread(ca) <= spread(cb);
+    const bool base_is_a = pointSpreadPx(ca) <= pointSpreadPx(cb);
     if (!base_is_a)
       for (double& v : bend) v = -v;
     r.t = tb;

@@ -12,16 +12,6 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = 180.0 / kPi;
 
-double spread(const std::vector<cv::Point2d>& pts) {
-  if (pts.empty()) return 0.0;
-  cv::Point2d m(0, 0);
-  for (const auto& p : pts) m += p;
-  m *= 1.0 / pts.size();
-  double s = 0;
-  for (const auto& p : pts) s += (p - m).dot(p - m);
-  return std::sqrt(s / pts.size());
-}
-
 /// Angles about `pivot` from gravity, unwrapped (successive differences brought into ±180°).
 std::vector<double> unwrappedAngles(const std::vector<cv::Point2d>& pts, const cv::Point2d& pivot, const cv::Vec2d& g) {
   std::vector<double> a;
@@ -36,12 +26,22 @@ std::vector<double> unwrappedAngles(const std::vector<cv::Point2d>& pts, const c
 
 }  // namespace
 
+double pointSpreadPx(const std::vector<cv::Point2d>& pts) {
+  if (pts.empty()) return 0.0;
+  cv::Point2d m(0, 0);
+  for (const auto& p : pts) m += p;
+  m *= 1.0 / pts.size();
+  double s = 0;
+  for (const auto& p : pts) s += (p - m).dot(p - m);
+  return std::sqrt(s / pts.size());
+}
+
 bool fitCircleKasa(const std::vector<cv::Point2d>& pts, cv::Point2d& centre, double& radius, double& rms) {
   if (pts.size() < 3) return false;
   cv::Point2d m(0, 0);
   for (const auto& p : pts) m += p;
   m *= 1.0 / pts.size();
-  const double scale = std::max(1e-9, spread(pts));
+  const double scale = std::max(1e-9, pointSpreadPx(pts));
   if (scale < 2.0) return false;  // the points barely move: no circle
   cv::Mat A(static_cast<int>(pts.size()), 3, CV_64F), b(static_cast<int>(pts.size()), 1, CV_64F);
   for (int i = 0; i < A.rows; ++i) {
@@ -82,7 +82,7 @@ PendulumPath analysePendulumPath(const std::vector<cv::Point2d>& pts, const cv::
   cv::Point2d mean(0, 0);
   for (const auto& p : pts) mean += p;
   mean *= 1.0 / pts.size();
-  const double sd = spread(pts);
+  const double sd = pointSpreadPx(pts);
   // principal direction of the path
   double sxx = 0, syy = 0, sxy = 0;
   for (const auto& p : pts) {

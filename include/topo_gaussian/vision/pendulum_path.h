@@ -40,6 +40,9 @@ struct PendulumPath {
 PendulumPath analysePendulumPath(const std::vector<cv::Point2d>& pts, const cv::Vec2d& gravity,
                                  const cv::Point2d* pivot_given);
 
+/// RMS distance of the points from their mean [px] (0 for none): how far a path spreads.
+double pointSpreadPx(const std::vector<cv::Point2d>& pts);
+
 /// Kåsa algebraic circle fit; returns false when the points do not define a circle.
 bool fitCircleKasa(const std::vector<cv::Point2d>& pts, cv::Point2d& centre, double& radius, double& rms);
 
