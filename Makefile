@@ -1,4 +1,4 @@
-# topo_gaussian: `make demo` runs the full lab loop headless on the digital twin (demo.launch),
+# topo_gaussian: `make demo` runs the full lab loop headless on the digital twins (RIG=tumbler|finger|all),
 # `make test` runs every test.
 # Both install the Debian packages they need (scripts/install_deps.sh) and build into build/.
 SHELL := /bin/bash
@@ -6,6 +6,7 @@ export PATH := /usr/bin:$(PATH)
 BUILD ?= build
 JOBS ?= $(shell nproc)
 DEMO_DIR ?= $(BUILD)/demo
+RIG ?= all  # make demo RIG=tumbler|finger|all
 
 .PHONY: all deps configure build test demo bench core clean
 
@@ -25,7 +26,7 @@ test: build
 	@./scripts/run_tests.sh $(BUILD)
 
 demo: build
-	@./scripts/demo.sh $(BUILD) $(DEMO_DIR)
+	@RIG=$(RIG) ./scripts/demo.sh $(BUILD) $(DEMO_DIR)
 
 bench: build
 	@./bench/fill $(BUILD)

@@ -7,6 +7,7 @@ PACKAGES=(
   build-essential cmake pkg-config
   ros-core-dev catkin python3-catkin-pkg python3-rostest ros-message-generation
   rosbash  # rosrun and roscd: the README's `rosrun topo_gaussian topo ...`
+  python3-rosbag  # rosbag record/play: the finger rig's bag played back through the rig (test/ros/finger_rig)
   libroscpp-dev libactionlib-dev libactionlib-msgs-dev libtf2-ros-dev tf2-tools
   rviz xvfb x11-apps imagemagick
   libsensor-msgs-dev libvisualization-msgs-dev libgeometry-msgs-dev

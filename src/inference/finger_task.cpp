@@ -224,13 +224,16 @@ class FingerTask : public SoftTask {
 
 namespace {
 
-/// bend_angle_deg from the observed bending angle of the tip.
+/// bend_angle_deg from the observed bending angle of the tip: its magnitude. The tracker's sign is
+/// the turn on screen (clockwise +), which depends on the side the camera watches from; the task's
+/// sign is the turn towards bend_normal, the direction the user states the finger bends.
 MotionTargets bendingTargets(const TaskConfig&, const motion::MotionFeatures& f) {
   MotionTargets out;
   if (f.bending_confidence > 0)
-    out.targets.emplace_back("bend_angle_deg", f.bending_angle_deg);
+    out.targets.emplace_back("bend_angle_deg", std::abs(f.bending_angle_deg));
   else
-    out.note = motionFeaturesOrigin(f) + " hold no measured bending angle";
+    out.note = motionFeaturesOrigin(f) + " hold no measured bending angle" +
+               (f.message.empty() ? std::string() : " (the tracker: " + f.message + ")");
   return out;
 }
 

@@ -449,6 +449,24 @@ IdentifiabilityAnalysis analyseIdentifiability(const InteriorProblem& problem, c
     a.summary =
         "No experiment reports observations of the mass moments (only rigid tasks do: hanging, balance, "
         "tumbler, ball), so what they determine is not analysed.";
+    // Fewer observed numbers than the design has parameters: the interior is not determined (a
+    // trajectory target stands for all its samples: not counted as one).
+    std::vector<std::string> observed;
+    bool trajectory = false;
+    for (const auto& f : at.task.features)
+      if (f.has_target) {
+        observed.push_back(f.name);
+        trajectory = trajectory || f.name.rfind("trajectory", 0) == 0;
+      }
+    if (!trajectory && static_cast<long>(observed.size()) < theta.size()) {
+      std::string names;
+      for (const auto& n : observed) names += (names.empty() ? "" : ", ") + n;
+      a.summary += " " + std::to_string(observed.size()) + " observed number" + (observed.size() == 1 ? "" : "s") +
+                   (names.empty() ? "" : " (" + names + ")") + " cannot determine the " + std::to_string(theta.size()) +
+                   " parameters of the design: other interiors reproduce " + (observed.size() == 1 ? "it" : "them") +
+                   " as well, and this one is one of them, not the interior; observe more (other experiments, e.g. "
+                   "another pressure or load, or more features of each).";
+    }
     a.seconds = secondsSince(t0);
     return a;
   }

@@ -48,7 +48,11 @@ namespace {
 void exploreSpread(const TaskConfig& config, const VolumeCloud& cloud, const ProgressCallback& progress,
                    const StopCheck& should_stop, InferenceResult* res, std::ostringstream* message) {
   const int restarts = config.integer("restarts");
-  if (restarts <= 0) return;
+  if (restarts <= 0) {
+    *message << " Other designs that fit as well were not searched (restarts = 0): the interior's confidence is "
+                "not measured (1 everywhere); set restarts=2 to measure it.";
+    return;
+  }
   if (res->cancelled) {
     *message << " The design spread (restarts = " << restarts << ") was skipped: the run was cancelled.";
     return;

@@ -168,6 +168,9 @@ int main(int argc, char** argv) {
     }
     std::printf("[demo] tracker (%s, %s): period %.4f s, max tilt %.3f deg, bend %.3f deg\n", f->source.c_str(),
                 f->kind.c_str(), f->period_s, f->max_tilt_deg, f->bending_angle_deg);
+    // the goal carries the very window it waited for: a later, partial window (the tracker publishes
+    // its growing window every second) may not hold the motion yet
+    if (goal.features.kind.empty()) goal.features = *f;
   }
   actionlib::SimpleActionClient<topo_gaussian::InferInteriorAction> client("infer_interior", false);
   if (!client.waitForServer(ros::Duration(60.0))) {
@@ -247,7 +250,9 @@ int main(int argc, char** argv) {
   {  // how sure: the share of particles whose solid/hollow label the designs that fit as well disagree on
     bool has = false;
     for (const auto& f : res->interior.fields) has = has || f.name == "confidence";
-    if (has && res->interior.width * res->interior.height > 0) {
+    if (res->message.find("(restarts = 0)") != std::string::npos) {
+      std::printf("[demo] uncertainty not measured: no other designs were searched (restarts = 0; set restarts=2)\n");
+    } else if (has && res->interior.width * res->interior.height > 0) {
       sensor_msgs::PointCloud2ConstIterator<float> c(res->interior, "confidence");
       std::size_t n = 0, unsure = 0;
       for (; c != c.end(); ++c, ++n) unsure += *c < 0.999f;

@@ -8,6 +8,7 @@
 #include <cstdio>
 
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/ros/ascii_text.h"
 #include "topo_gaussian/ros/motion_features_msg.h"
 #include "topo_gaussian/ros/param_reader.h"
@@ -64,6 +65,7 @@ MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh) {
   p.options.tracker.foreground = r.text("foreground", p.options.tracker.foreground);
   p.options.tracker.polarity = r.text("polarity", p.options.tracker.polarity);
   p.options.rotate_deg = int(r.integer("rotate_deg", 0, "deg", Range::between(0, 270)));
+  p.options.tip_fraction = r.number("tip_fraction", p.options.tip_fraction, "unitless");
   const std::vector<double> gravity = r.numbers("gravity", {}, 2, "", "[0, 1] (image-down)");
   if (!gravity.empty()) p.options.gravity = cv::Vec2d(gravity[0], gravity[1]);
   const std::vector<double> hsv_lower = r.numbers("hsv_lower", {}, 3, "", "[35, 45, 150] (OpenCV H 0..180, S, V)");
@@ -151,6 +153,7 @@ MotionTrackerNode::MotionTrackerNode(const ::ros::NodeHandle& nh, const ::ros::N
   experiment_ = live_experiment_ = params_.experiment;
   experiment_sub_ = nh_.subscribe("experiment", 1, &MotionTrackerNode::onExperiment, this);
   service_ = pnh_.advertiseService("extract_motion", &MotionTrackerNode::onExtractMotion, this);
+  started_wall_ = ::ros::WallTime::now();
   timer_ = nh_.createTimer(::ros::Duration(params_.publish_period_s), &MotionTrackerNode::onTimer, this);
   ROS_INFO("motion_tracker: method %s, kind %s; listening on %s, service %s", params_.options.tracker.method.c_str(),
            params_.options.kind.c_str(), image_sub_.getTopic().c_str(), service_.getService().c_str());
@@ -259,6 +262,27 @@ void MotionTrackerNode::finishLive() {
 }
 
 void MotionTrackerNode::onTimer(const ::ros::TimerEvent&) {
+  // A camera that never sent: say so (log every ~stale_after_s × 6, and once a features message whose
+  // message the inference quotes when it refuses a goal for want of a measurement).
+  if (params_.stale_after_s > 0 && last_image_wall_.isZero() && params_.video_file.empty()) {
+    const double waited = (::ros::WallTime::now() - started_wall_).toSec();
+    if (waited > params_.stale_after_s) {
+      const std::string text = "stale: no image on " + image_sub_.getTopic() + " since the start (" +
+                               fixedText(waited, 0) + " s, " + std::to_string(image_sub_.getNumPublishers()) +
+                               " publishers): is the camera driver running, and is `image` remapped to its topic?";
+      ROS_WARN_THROTTLE(6.0 * params_.stale_after_s, "motion_tracker: %s", text.c_str());
+      if (!never_reported_) {
+        never_reported_ = true;
+        topo_gaussian::MotionFeatures m;
+        m.header.stamp = ::ros::Time::now();
+        m.source = image_sub_.getTopic();
+        m.kind = params_.options.kind;
+        m.method = params_.options.tracker.method;
+        m.message = text;
+        features_pub_.publish(m);
+      }
+    }
+  }
   // A camera that stopped: say so once (log and a features message), keep the last features latched.
   if (params_.stale_after_s > 0 && !last_image_wall_.isZero() && !stale_reported_) {
     const double silent = (::ros::WallTime::now() - last_image_wall_).toSec();

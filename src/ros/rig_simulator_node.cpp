@@ -40,6 +40,12 @@ void requireColour(const std::string& name, const std::vector<double>& bgr) {
 
 }  // namespace
 
+namespace {
+void loadFingerParams(const ParamReader& r, RigSimulatorParams* params);
+void loadRigidTwinParams(const ParamReader& r, RigSimulatorParams* params);
+void loadCameraParams(const ParamReader& r, RigSimulatorParams* params);
+}  // namespace
+
 RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
   // Types are checked by the reader (a wrong type stops the node naming the parameter); the ranges
   // below keep the node's own advice.
@@ -52,6 +58,78 @@ RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
   } catch (const TopoError& e) {
     throw TopoError(std::string("~object: ") + e.what());
   }
+  // the finger shape with the finger task (or none named): the pneumatic finger twin; with another
+  // task (e.g. hanging) the finger is a rigid body like any other shape
+  bool finger = false;
+  if (t.shape == "finger") {
+    const std::string task = r.text("task", "");
+    try {
+      finger = task.empty() ||
+               inference::TaskConfig::load(task, r.text("task_dir", io::defaultTaskDir())).task() == "finger";
+    } catch (const TopoError& e) {
+      throw TopoError(std::string("~task: ") + e.what());
+    }
+  }
+  if (finger) {
+    loadFingerParams(r, &p);
+  } else {
+    loadRigidTwinParams(r, &p);
+  }
+  loadCameraParams(r, &p);
+  return p;
+}
+
+namespace {
+
+void loadFingerParams(const ParamReader& r, RigSimulatorParams* params) {
+  RigSimulatorParams& p = *params;
+  workflow::FingerTwinOptions& f = p.finger_twin;
+  p.finger = true;
+  f.spacing_m = r.number("spacing_m", f.spacing_m, "m");
+  const DefaultShape shape = defaultShape("finger");
+  requireRange("spacing_m", f.spacing_m, 5e-4, shape.thickness_m / 3.0,
+               "use e.g. 0.002 (at most a third of the finger's thickness, " + numberText(shape.thickness_m) + " m)");
+  f.task = r.text("task", f.task);
+  f.task_dir = r.text("task_dir", io::defaultTaskDir());
+  f.overrides = r.texts("set", f.overrides, "['youngs_modulus_solid=2e6']", "; \t");
+  if (!r.texts("experiments", {}, "[]", "; \t").empty())
+    throw TopoError("~experiments", "is not available for the finger twin",
+                    "drive several pressures with ~pressure_profile instead; leave ~experiments unset");
+  try {
+    inference::TaskConfig c = inference::TaskConfig::load(f.task, f.task_dir);
+    if (c.task() != "finger")
+      throw TopoError("~task '" + f.task + "'", "is the " + c.task() + " task",
+                      "use the finger task (or leave it unset)");
+    for (const auto& a : f.overrides) c.setAssignment(a, "~set");
+  } catch (const TopoError& e) {
+    throw TopoError(std::string("~task/~set: ") + e.what());
+  }
+  const std::vector<double> theta =
+      r.numbers("interior_quadric", {}, 10, "", "[0.01, 0.174, 1, 0, 0, 0, 0.004, 0, 0.08, -0.0005]");
+  if (!theta.empty()) f.interior_quadric = Eigen::Map<const Eigen::VectorXd>(theta.data(), 10);
+  f.max_pressure_pa = r.number("pressure_max_pa", f.max_pressure_pa, "Pa");
+  requireRange("pressure_max_pa", f.max_pressure_pa, 0, 1e7, "a gauge pressure, e.g. 5e5, or 0 for the task's");
+  f.pressure_levels = int(r.integer("pressure_levels", f.pressure_levels));
+  requireRange("pressure_levels", f.pressure_levels, 2, 100, "about 6 (the shape is interpolated between them)");
+  p.pressure_profile = r.text("pressure_profile", p.pressure_profile);
+  if (p.pressure_profile != "step" && p.pressure_profile != "ramp" && p.pressure_profile != "command")
+    throw TopoError("~pressure_profile '" + p.pressure_profile + "'", "is not a profile",
+                    "use step, ramp or command (follow the pressure_command topic)");
+  p.pressure_period_s = r.number("pressure_period_s", p.pressure_period_s, "s");
+  requireRange("pressure_period_s", p.pressure_period_s, 0.1, 3600, "seconds per cycle, e.g. 8");
+  p.pressure_rest_s = r.number("pressure_rest_s", p.pressure_rest_s, "s");
+  requireRange("pressure_rest_s", p.pressure_rest_s, 0, p.pressure_period_s,
+               "seconds at 0 Pa at the start of each cycle, less than ~pressure_period_s, e.g. 2");
+  p.pressure_timeout_s = r.number("pressure_timeout_s", p.pressure_timeout_s, "s");
+  requireRange("pressure_timeout_s", p.pressure_timeout_s, 0.1, 3600, "seconds, e.g. 5");
+  // a side view of the finger's bending plane (x-z), 0.5 m away on −y: image right = +x, up = +z
+  p.default_camera_pose = {0.05, -0.5, 0.0, -0.7071068, 0.0, 0.0, 0.7071068};
+  p.horizontal_fov_deg = 16.0;
+}
+
+void loadRigidTwinParams(const ParamReader& r, RigSimulatorParams* params) {
+  RigSimulatorParams& p = *params;
+  workflow::RigTwinOptions& t = p.twin;
   t.spacing_m = r.number("spacing_m", t.spacing_m, "m");
   const DefaultShape shape = defaultShape(t.shape);
   requireRange("spacing_m", t.spacing_m, 1e-4, shape.thickness_m / 3.0,
@@ -112,6 +190,10 @@ RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
   if (t.scan_spacing_m != 0)
     requireRange("scan_spacing_m", t.scan_spacing_m, 2e-4, shape.thickness_m / 3.0,
                  "use e.g. 0.001 (a finer scan fills closer to the true volume), or 0 for the surface particles");
+}
+
+void loadCameraParams(const ParamReader& r, RigSimulatorParams* params) {
+  RigSimulatorParams& p = *params;
 
   p.width = int(r.integer("width", p.width, "px"));
   p.height = int(r.integer("height", p.height, "px"));
@@ -164,7 +246,16 @@ RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
                     "e.g. object_true_view");
   p.splat_radius_m = r.number("splat_radius_m", p.splat_radius_m, "m");
   requireRange("splat_radius_m", p.splat_radius_m, 0, 0.1, "use 0 for 0.8 particle spacings");
-  return p;
+}
+
+}  // namespace
+
+double profilePressurePa(const RigSimulatorParams& p, double max_pa, double t_s) {
+  if (p.pressure_profile == "command") return NAN;
+  const double tau = std::fmod(std::max(0.0, t_s), p.pressure_period_s);
+  if (tau < p.pressure_rest_s) return 0.0;
+  if (p.pressure_profile == "step") return max_pa;
+  return max_pa * (tau - p.pressure_rest_s) / std::max(1e-9, p.pressure_period_s - p.pressure_rest_s);
 }
 
 vision::SplatCamera cameraFor(const RigSimulatorParams& p) {
@@ -219,6 +310,23 @@ sensor_msgs::PointCloud2 toSurfaceCloud(const std::vector<Eigen::Vector3d>& poin
   return msg;
 }
 
+namespace {
+/// The true interior, its solid fraction and mass properties into a ground truth (header set).
+void setTrueInterior(const VolumeCloud& cloud, const std::vector<double>& r, const std::vector<double>& density,
+                     const inference::TaskConfig& config, const MassProperties& mass,
+                     topo_gaussian::RigGroundTruth* m) {
+  double solid = 0, total = 0;
+  for (std::size_t i = 0; i < r.size(); ++i) solid += r[i] * cloud.V[i], total += cloud.V[i];
+  m->solid_fraction = total > 0 ? solid / total : 0.0;
+  m->mass_kg = mass.mass;
+  m->center_of_mass = {mass.com.x(), mass.com.y(), mass.com.z()};
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) m->inertia.push_back(mass.inertia(a, b));
+  m->interior =
+      toInteriorCloud(cloud, r, density, inference::particleStiffness(config, r), m->header.frame_id, m->header.stamp);
+}
+}  // namespace
+
 topo_gaussian::RigGroundTruth toGroundTruthMsg(const std::vector<const workflow::RigTwin*>& twins,
                                                const std::vector<std::string>& names, const std::string& object_frame,
                                                const ::ros::Time& stamp) {
@@ -239,20 +347,37 @@ topo_gaussian::RigGroundTruth toGroundTruthMsg(const std::vector<const workflow:
       m.units.push_back(f.unit);
     }
   }
-  m.solid_fraction = twin.solidFraction();
-  const MassProperties& mass = twin.truth().task.mass;
-  m.mass_kg = mass.mass;
-  m.center_of_mass = {mass.com.x(), mass.com.y(), mass.com.z()};
-  for (int a = 0; a < 3; ++a)
-    for (int b = 0; b < 3; ++b) m.inertia.push_back(mass.inertia(a, b));
   m.loop_s = twin.loopSeconds();
-  m.interior = toInteriorCloud(twin.cloud(), twin.indicator(), twin.density(),
-                               inference::particleStiffness(twin.config(), twin.indicator()), object_frame, stamp);
+  setTrueInterior(twin.cloud(), twin.indicator(), twin.density(), twin.config(), twin.truth().task.mass, &m);
+  return m;
+}
+
+topo_gaussian::RigGroundTruth toGroundTruthMsg(const workflow::FingerTwin& twin, double loop_s,
+                                               const std::string& object_frame, const ::ros::Time& stamp) {
+  topo_gaussian::RigGroundTruth m;
+  m.header.frame_id = object_frame;
+  m.header.stamp = stamp;
+  m.object = twin.shape().name;
+  m.task = twin.config().task();
+  for (const auto& f : twin.truth().task.features) {
+    m.feature_names.push_back(f.name);
+    m.feature_values.push_back(f.value);
+    m.units.push_back(f.unit);
+  }
+  m.feature_names.push_back("chamber_volume_m3");
+  m.feature_values.push_back(twin.chamberVolumeM3());
+  m.units.push_back("m3");
+  m.loop_s = loop_s;
+  setTrueInterior(twin.cloud(), twin.indicator(), twin.density(), twin.config(), twin.truth().task.mass, &m);
   return m;
 }
 
 RigSimulatorNode::RigSimulatorNode(const ::ros::NodeHandle& nh, const ::ros::NodeHandle& pnh)
     : nh_(nh), pnh_(pnh), params_(loadRigSimulatorParams(pnh)), tf_listener_(tf_buffer_) {
+  if (params_.finger) {
+    setUpFinger(::ros::Time::now());
+    return;
+  }
   const workflow::RigTwinOptions& o = params_.twin;
   ROS_INFO("rig_simulator: simulating the %s twin (spacing %s m, task '%s') ...", o.shape.c_str(),
            numberText(o.spacing_m).c_str(),
@@ -293,16 +418,7 @@ RigSimulatorNode::RigSimulatorNode(const ::ros::NodeHandle& nh, const ::ros::Nod
       tw.loopSeconds(), tw.loopCycles(), tw.seamRotationDeg(), 1e3 * tw.seamTranslationM(),
       100 * tw.amplitudeDecayPerCycle(), o.undamped ? ", contact damping off" : "", tw.simulationSeconds());
 
-  camera_ = cameraFor(params_);
-  shading_.background_bgr = cv::Scalar(params_.background_bgr[0], params_.background_bgr[1], params_.background_bgr[2]);
-  shading_.light_dir_world =
-      Eigen::Vector3d(params_.light_direction[0], params_.light_direction[1], params_.light_direction[2]);
-  shading_.noise_sigma = params_.noise_sigma;
-  body_.positions = tw.surfacePoints();
-  body_.normals = tw.surfaceNormals();
-  body_.colours.assign(1, cv::Vec3b::all(0));
-  for (int k = 0; k < 3; ++k) body_.colours[0][k] = cv::saturate_cast<uchar>(params_.object_bgr[k]);
-  body_.radius_m = params_.splat_radius_m > 0 ? params_.splat_radius_m : 0.8 * tw.cloud().spacing;
+  setUpCamera(tw.surfacePoints(), tw.surfaceNormals(), tw.cloud().spacing);
   ROS_INFO(
       "rig_simulator: camera %dx%d at %.1f fps, fx %.1f fy %.1f cx %.1f cy %.1f px (%.2f deg horizontal FOV), noise "
       "%.1f; pose from tf %s -> %s (default %s after %.1f s)",
@@ -330,23 +446,124 @@ RigSimulatorNode::RigSimulatorNode(const ::ros::NodeHandle& nh, const ::ros::Nod
   view.transform.translation.z = params_.truth_view_offset_m[2];
   view.transform.rotation.w = 1.0;
   static_broadcaster_.sendTransform(view);
+  publishTrueInterior(tw.cloud(), tw.indicator(), tw.density(), tw.config(), tw.truth().task.mass);
+  start_ = now;
+  timer_ = nh_.createTimer(::ros::Duration(1.0 / params_.fps), &RigSimulatorNode::onTimer, this);
+}
+
+void RigSimulatorNode::publishTrueInterior(const VolumeCloud& cloud, const std::vector<double>& r,
+                                           const std::vector<double>& density, const inference::TaskConfig& config,
+                                           const MassProperties& mass) {
   true_interior_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("true_interior", 1, true);
-  sensor_msgs::PointCloud2 truth_cloud = toInteriorCloud(tw.cloud(), tw.indicator(), tw.density(),
-                                                         inference::particleStiffness(tw.config(), tw.indicator()),
-                                                         params_.truth_view_frame, ::ros::Time(0));
-  true_interior_pub_.publish(truth_cloud);
+  true_interior_pub_.publish(toInteriorCloud(cloud, r, density, inference::particleStiffness(config, r),
+                                             params_.truth_view_frame, ::ros::Time(0)));
   // ... and drawn as interior_inference draws the recovered one: the viewer's half cut away, the
   // cavity in the hollow colour (ros/interior_markers.h)
   true_markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("true_interior_markers", 1, true);
   InteriorMarkerInput mi;
-  mi.cloud = &tw.cloud();
-  mi.r = &tw.indicator();
-  mi.mass = tw.truth().task.mass;
+  mi.cloud = &cloud;
+  mi.r = &r;
+  mi.mass = mass;
   mi.object_frame = params_.truth_view_frame;
   mi.world_frame = params_.world_frame;
   true_markers_pub_.publish(makeInteriorMarkers(mi, ::ros::Time(0)));
-  start_ = now;
+}
+
+void RigSimulatorNode::setUpCamera(const std::vector<Eigen::Vector3d>& surface,
+                                   const std::vector<Eigen::Vector3d>& normals, double spacing_m) {
+  camera_ = cameraFor(params_);
+  shading_.background_bgr = cv::Scalar(params_.background_bgr[0], params_.background_bgr[1], params_.background_bgr[2]);
+  shading_.light_dir_world =
+      Eigen::Vector3d(params_.light_direction[0], params_.light_direction[1], params_.light_direction[2]);
+  shading_.noise_sigma = params_.noise_sigma;
+  body_.positions = surface;
+  body_.normals = normals;
+  body_.colours.assign(1, cv::Vec3b::all(0));
+  for (int k = 0; k < 3; ++k) body_.colours[0][k] = cv::saturate_cast<uchar>(params_.object_bgr[k]);
+  body_.radius_m = params_.splat_radius_m > 0 ? params_.splat_radius_m : 0.8 * spacing_m;
+}
+
+void RigSimulatorNode::setUpFinger(const ::ros::Time& now) {
+  const workflow::FingerTwinOptions& o = params_.finger_twin;
+  ROS_INFO("rig_simulator: solving the finger twin (spacing %s m, task '%s', %d pressure levels) ...",
+           numberText(o.spacing_m).c_str(), o.task.c_str(), o.pressure_levels);
+  finger_ = std::make_unique<workflow::FingerTwin>(o);  // TopoError: main reports it
+  const workflow::FingerTwin& f = *finger_;
+  std::string bends;
+  for (double p : f.pressureLevelsPa()) bends += (bends.empty() ? "" : ", ") + numberText(f.bendDeg(p), 4);
+  std::vector<double> theta(f.options().interior_quadric.data(), f.options().interior_quadric.data() + 10);
+  ROS_INFO(
+      "rig_simulator: finger twin: %zu particles (%zu on the surface), chamber %.3f cm3 (solid fraction %.3f), "
+      "chamber quadric %s%s; bend %s deg at %s Pa; set up in %.1f s",
+      f.cloud().size(), f.surfaceIndex().size(), 1e6 * f.chamberVolumeM3(), f.solidFraction(), listText(theta).c_str(),
+      o.interior_quadric.size() ? "" : " (default chamber)", bends.c_str(), listText(f.pressureLevelsPa()).c_str(),
+      f.setupSeconds());
+  const std::string profile =
+      params_.pressure_profile == "command"
+          ? "set point on " + nh_.resolveName("pressure_command") + ", 0.." + numberText(f.maxPressurePa()) + " Pa"
+          : "0 Pa for " + numberText(params_.pressure_rest_s) + " s, then " +
+                (params_.pressure_profile == "step" ? std::string("") : std::string("a ramp to ")) +
+                numberText(f.maxPressurePa()) + " Pa, every " + numberText(params_.pressure_period_s) + " s";
+  ROS_INFO("rig_simulator: pressure profile %s (%s)", params_.pressure_profile.c_str(), profile.c_str());
+  setUpCamera({}, f.surfaceNormals(), f.cloud().spacing);  // the positions follow the pressure
+
+  image_pub_ = nh_.advertise<sensor_msgs::Image>("image", 2);
+  info_pub_ = nh_.advertise<sensor_msgs::CameraInfo>("camera_info", 2);
+  pressure_pub_ = nh_.advertise<std_msgs::Float64>("pressure_pa", 10);
+  true_bend_pub_ = pnh_.advertise<std_msgs::Float64>("true_bend_deg", 10);
+  surface_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("surface_cloud", 1, true);
+  truth_pub_ = pnh_.advertise<topo_gaussian::RigGroundTruth>("ground_truth", 1, true);
+  std::vector<Eigen::Vector3d> surface;
+  for (auto i : f.surfaceIndex()) surface.push_back(f.cloud().X[i]);
+  surface_pub_.publish(toSurfaceCloud(surface, f.surfaceNormals(), params_.object_frame, now));
+  truth_pub_.publish(toGroundTruthMsg(f, params_.pressure_period_s, params_.object_frame, now));
+  // the finger stays where it is clamped: its body frame is the world's
+  std::vector<geometry_msgs::TransformStamped> frames(2);
+  frames[0].header.stamp = frames[1].header.stamp = now;
+  frames[0].header.frame_id = frames[1].header.frame_id = params_.world_frame;
+  frames[0].child_frame_id = params_.object_frame;
+  frames[0].transform.rotation.w = 1.0;
+  frames[1].child_frame_id = params_.truth_view_frame;
+  frames[1].transform.translation.x = params_.truth_view_offset_m[0];
+  frames[1].transform.translation.y = params_.truth_view_offset_m[1];
+  frames[1].transform.translation.z = params_.truth_view_offset_m[2];
+  frames[1].transform.rotation.w = 1.0;
+  static_broadcaster_.sendTransform(frames);
+  publishTrueInterior(f.cloud(), f.indicator(), f.density(), f.config(), f.truth().task.mass);
+  pressure_sub_ = nh_.subscribe("pressure_command", 10, &RigSimulatorNode::onPressureCommand, this);
+  start_ = last_command_ = now;
   timer_ = nh_.createTimer(::ros::Duration(1.0 / params_.fps), &RigSimulatorNode::onTimer, this);
+}
+
+void RigSimulatorNode::onPressureCommand(const std_msgs::Float64& msg) {
+  const double max_pa = finger_->maxPressurePa();
+  if (!(std::isfinite(msg.data) && msg.data >= 0.0 && msg.data <= max_pa)) {
+    ROS_ERROR_THROTTLE(2.0,
+                       "rig_simulator: pressure command %s Pa on %s is outside [0, %s] Pa, the range the twin solved: "
+                       "ignored, holding %s Pa. Fix: command a gauge pressure in range, or raise ~pressure_max_pa",
+                       numberText(msg.data, 6).c_str(), pressure_sub_.getTopic().c_str(), numberText(max_pa).c_str(),
+                       numberText(commanded_pa_).c_str());
+    return;
+  }
+  if (params_.pressure_profile != "command")
+    ROS_WARN_THROTTLE(10.0,
+                      "rig_simulator: pressure command on %s ignored: ~pressure_profile is %s (set it to command to "
+                      "follow the topic)",
+                      pressure_sub_.getTopic().c_str(), params_.pressure_profile.c_str());
+  commanded_pa_ = msg.data;
+  last_command_ = ::ros::Time::now();
+}
+
+double RigSimulatorNode::fingerPressurePa(const ::ros::Time& now) {
+  const double p = profilePressurePa(params_, finger_->maxPressurePa(), (now - start_).toSec());
+  if (std::isfinite(p)) return p;
+  if ((now - last_command_).toSec() > params_.pressure_timeout_s)
+    ROS_WARN_THROTTLE(params_.pressure_timeout_s,
+                      "rig_simulator: no pressure command on %s for %.1f s: holding %s Pa. Fix: publish the set point "
+                      "[Pa], e.g. `rostopic pub %s std_msgs/Float64 300000`",
+                      pressure_sub_.getTopic().c_str(), (now - last_command_).toSec(),
+                      numberText(commanded_pa_).c_str(), pressure_sub_.getTopic().c_str());
+  return commanded_pa_;
 }
 
 bool RigSimulatorNode::cameraPose(const ::ros::Time& now, vision::SplatCamera* camera) {
@@ -393,6 +610,20 @@ void RigSimulatorNode::onTimer(const ::ros::TimerEvent&) {
                       params_.camera_frame.c_str(), params_.camera_pose_timeout_s);
     return;
   }
+  vision::Splats world = body_;
+  if (finger_) {
+    const double p = fingerPressurePa(now);
+    const std::vector<Eigen::Vector3d> x = finger_->positionsAt(p);
+    world.positions.clear();
+    for (auto i : finger_->surfaceIndex()) world.positions.push_back(x[i]);
+    std_msgs::Float64 m;
+    m.data = p;
+    pressure_pub_.publish(m);
+    m.data = finger_->bendDeg(p);
+    true_bend_pub_.publish(m);
+    publishFrame(now, world);
+    return;
+  }
   // The experiment on camera: each plays ~experiment_s in turn (a person releasing the doll again).
   const double t = (now - start_).toSec();
   const int n = static_cast<int>(twins_.size());
@@ -410,12 +641,15 @@ void RigSimulatorNode::onTimer(const ::ros::TimerEvent&) {
   const inference::BodyPose pose = twins_[k]->poseAt(t - slot * params_.experiment_s);
   tf_broadcaster_.sendTransform(toTransformStamped(pose, params_.world_frame, params_.object_frame, now));
 
-  const auto t0 = std::chrono::steady_clock::now();
-  vision::Splats world = body_;
   for (std::size_t i = 0; i < world.positions.size(); ++i) {
     world.positions[i] = pose.rotation * body_.positions[i] + pose.translation;
     world.normals[i] = pose.rotation * body_.normals[i];
   }
+  publishFrame(now, world);
+}
+
+void RigSimulatorNode::publishFrame(const ::ros::Time& now, const vision::Splats& world) {
+  const auto t0 = std::chrono::steady_clock::now();
   shading_.noise_seed = static_cast<unsigned>(params_.seed) + static_cast<unsigned>(frames_);
   cv::Mat img;
   try {
@@ -439,7 +673,7 @@ void RigSimulatorNode::onTimer(const ::ros::TimerEvent&) {
           ms, params_.fps);
     else
       ROS_INFO("rig_simulator: %zu frames published; rendering %.1f ms per frame (%zu splats)", frames_, ms,
-               body_.positions.size());
+               world.positions.size());
   }
 }
 

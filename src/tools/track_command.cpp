@@ -49,6 +49,8 @@ const char* kTrackHelp =
     "                         held sideways); --roi and --pivot are in the rotated frame. A rotation in\n"
     "                         the file's metadata is applied anyway.\n"
     "  --gravity x,y          image direction of gravity in the (rotated) frame (default 0,1: down)\n"
+    "  --tip-fraction F       finger: tip segment and the one before it, each F of the length (default\n"
+    "                         0.15, the finger task's tip_fraction; the bend is that task's angle)\n"
     "  --min-area PX          smallest blob accepted (default 30)\n"
     "  --json                 print the features as one JSON object (the motion-features document that\n"
     "                         `topo infer --features FILE` reads; tracker details under \"tracker\");\n"
@@ -177,10 +179,11 @@ void writePlot(const vision::TrackResult& r, const std::string& path) {
 }  // namespace
 
 int trackCommand(const std::vector<std::string>& argv) {
-  const Args a(argv, {"help", "json", "series"},
-               {"video",   "method",   "kind",        "roi",       "start",      "end",         "stride",
-                "fps",     "pivot",    "hsv-lower",   "hsv-upper", "foreground", "polarity",    "rotate",
-                "gravity", "min-area", "debug-video", "plot",      "camera",     "camera-pose", "plane"});
+  const Args a(
+      argv, {"help", "json", "series"},
+      {"video",       "method",    "kind",      "roi",         "start",    "end",         "stride",  "fps",
+       "pivot",       "hsv-lower", "hsv-upper", "foreground",  "polarity", "rotate",      "gravity", "min-area",
+       "debug-video", "plot",      "camera",    "camera-pose", "plane",    "tip-fraction"});
   if (a.has("help")) {
     std::cout << kTrackHelp;
     return 0;
@@ -192,6 +195,7 @@ int trackCommand(const std::vector<std::string>& argv) {
   o.tracker.foreground = a.str("foreground", "auto");
   o.tracker.polarity = a.str("polarity", "auto");
   o.rotate_deg = static_cast<int>(a.integer("rotate", 0));
+  o.tip_fraction = a.num("tip-fraction", o.tip_fraction);
   if (a.has("gravity")) {
     const auto v = numbers(a, "gravity", 2);
     o.gravity = cv::Vec2d(v[0], v[1]);
@@ -326,6 +330,8 @@ int trackCommand(const std::vector<std::string>& argv) {
       if (std::isfinite(r.bounces.restitution_times_mean))
         std::printf("restitution     %.3f (flight times)\n", r.bounces.restitution_times_mean);
     } else {
+      std::printf("bend_held_deg   %.3f (the bend at the full pressure: %d held frames)\n", r.bend_held_deg,
+                  r.bend_held_frames);
       std::printf("bend_final_deg  %.3f\n", r.bend_final_deg);
       std::printf("bend_max_deg    %.3f at %.3f s\n", r.bend_max_deg, r.bend_t_max_s);
     }

@@ -16,7 +16,7 @@ motion::MotionFeatures toMotionFeatures(const TrackResult& r) {
   m.equilibrium_deg = r.signal.oscillation_found ? r.signal.equilibrium_deg : r.static_pose.angle_deg;
   m.log_decrement = r.signal.log_decrement;
   m.damping_ratio = r.signal.damping_ratio;
-  m.bending_angle_deg = r.bend_final_deg;
+  m.bending_angle_deg = r.bend_held_deg;  // the bend at the full pressure (the held plateau)
   auto conf = [&](const char* k) {
     const auto it = r.confidence.find(k);
     return it == r.confidence.end() ? 0.0 : it->second;

@@ -91,10 +91,42 @@ struct EndFit {
   cv::Point2d ca, cb;   ///< centroids of the end regions
   cv::Point2d pa, pb;   ///< line points, for the overlay
   cv::Vec2d va, vb;     ///< line directions (along +u)
+  /// Chords from the centroid of the segment before the tip to the tip segment's (each tip_fraction of
+  /// the length), for the tip at end B (along +u) and at end A (along −u): the finger task's bend.
+  cv::Vec2d chord_b, chord_a;
 };
 
+/// The chord from the centroid of the segment before the tip to the tip segment's centroid, each
+/// `segment_px` long, the tip being the far end along `towards`. The task cuts its segments across
+/// the rest axis, i.e. across the bent finger's own centreline at the cuts; here the cuts are across
+/// the chord itself, found by iterating from `towards` (a cut across the principal axis of a finger
+/// bent by θ is θ/2 oblique, which moves the end segment's centroid and the chord by ~10 %).
+bool tipChord(const std::vector<cv::Point>& px, cv::Vec2d towards, double segment_px, cv::Vec2d* chord) {
+  cv::Vec2d d = towards;
+  for (int iteration = 0; iteration < 4; ++iteration) {
+    double smax = -1e300;
+    for (const auto& p : px) smax = std::max(smax, p.x * d[0] + p.y * d[1]);
+    cv::Point2d tip(0, 0), pre(0, 0);
+    int nt = 0, np = 0;
+    for (const auto& p : px) {
+      const double s = p.x * d[0] + p.y * d[1];
+      if (s > smax - segment_px)
+        tip += cv::Point2d(p), ++nt;
+      else if (s > smax - 2 * segment_px)
+        pre += cv::Point2d(p), ++np;
+    }
+    if (nt < 5 || np < 5) return false;
+    const cv::Point2d c = tip * (1.0 / nt) - pre * (1.0 / np);
+    const double norm = std::hypot(c.x, c.y);
+    if (!(norm > 0)) return false;
+    d = cv::Vec2d(c.x / norm, c.y / norm);
+    *chord = cv::Vec2d(c.x, c.y);
+  }
+  return true;
+}
+
 /// Lines through the medial band of the silhouette in the two end thirds of its principal axis.
-EndFit fitEnds(const cv::Mat& mask, const cv::Point& offset, cv::Vec2d& u_prev) {
+EndFit fitEnds(const cv::Mat& mask, const cv::Point& offset, double tip_fraction, cv::Vec2d& u_prev) {
   EndFit f;
   const cv::Moments m = cv::moments(mask, true);
   if (m.m00 < 50) return f;
@@ -142,6 +174,7 @@ EndFit fitEnds(const cv::Mat& mask, const cv::Point& offset, cv::Vec2d& u_prev) 
     }
   }
   if (ra.size() < 5 || rb.size() < 5 || na == 0 || nb == 0) return f;
+  if (!tipChord(px, u, tip_fraction * L, &f.chord_b) || !tipChord(px, -u, tip_fraction * L, &f.chord_a)) return f;
   cv::Vec4f la, lb;
   cv::fitLine(ra, la, cv::DIST_L2, 0, 0.01, 0.01);
   cv::fitLine(rb, lb, cv::DIST_L2, 0, 0.01, 0.01);
@@ -218,6 +251,9 @@ void validateTrackOptions(const TrackOptions& o) {
   if (pol != "auto" && pol != "darker" && pol != "brighter")
     throw TopoError("--polarity " + pol, "is not an object polarity",
                     "use darker (object darker than its background), brighter, or auto");
+  if (!(o.tip_fraction > 0.0 && o.tip_fraction <= 0.25))
+    throw TopoError("--tip_fraction " + numberText(o.tip_fraction), "must be in (0, 0.25]",
+                    "use the finger task's tip_fraction (default 0.15)");
   if (o.rotate_deg != 0 && o.rotate_deg != 90 && o.rotate_deg != 180 && o.rotate_deg != 270)
     throw TopoError("--rotate " + std::to_string(o.rotate_deg), "is not a quarter turn",
                     "use 90, 180 or 270 (degrees clockwise), or leave it out");
@@ -280,7 +316,7 @@ void MotionTracker::addFrame(const cv::Mat& frame_in, double t_s) {
   s.centroid.push_back(me.centroid);
   s.axis_deg.push_back(me.axis_angle_deg);
   if (s.opt.kind == "finger") {
-    s.ends.push_back(me.found ? fitEnds(me.mask, s.roi.tl(), s.u_prev) : EndFit());
+    s.ends.push_back(me.found ? fitEnds(me.mask, s.roi.tl(), s.opt.tip_fraction, s.u_prev) : EndFit());
   }
   if (me.found && s.opt.tracker.method == "klt") {
     for (std::size_t i = 0; i < me.points.size(); ++i)
@@ -479,7 +515,7 @@ TrackResult MotionTracker::finish() const {
   if (r.kind == "pendulum") r.confidence["pivot"] = 0.0;
   r.signal.period_s = r.signal.amplitude_deg = r.signal.equilibrium_deg = r.signal.max_tilt_deg = kNaN;
   r.signal.log_decrement = r.signal.damping_ratio = kNaN;
-  r.bend_final_deg = r.bend_max_deg = r.bend_t_max_s = kNaN;
+  r.bend_final_deg = r.bend_max_deg = r.bend_t_max_s = r.bend_held_deg = kNaN;
   auto refuse = [&](const std::string& why) {
     r.refused = true;
     notes.insert(notes.begin(), "refused: " + why);
@@ -650,14 +686,34 @@ TrackResult MotionTracker::finish() const {
     const bool base_is_a = pointSpreadPx(ca) <= pointSpreadPx(cb);
     if (!base_is_a)
       for (double& v : bend) v = -v;
+    // The finger task's bend (finger_task.cpp): the chord from the segment before the tip to the tip
+    // segment, against the rest axis. The clamp holds the base still in a fixed camera, so the rest
+    // axis is the base line of the straightest frames (smallest tip-minus-base line angle, within
+    // 0.15 deg of the least); the base line of a bent frame has turned with the free part of its third.
+    double least = INFINITY;
+    for (double v : bend) least = std::min(least, std::abs(v));
+    std::vector<double> rest_dirs;
+    std::vector<double> chord_dirs;
+    for (std::size_t j = 0, i = 0; i < static_cast<std::size_t>(n); ++i) {
+      if (!(s.found[i] && s.ends[i].ok)) continue;
+      const EndFit& e = s.ends[i];
+      const cv::Vec2d base = base_is_a ? e.va : -e.vb, chord = base_is_a ? e.chord_b : e.chord_a;
+      const double base_dir = std::atan2(base[1], base[0]) * kDeg;
+      chord_dirs.push_back(std::atan2(chord[1], chord[0]) * kDeg);
+      if (std::abs(bend[j]) <= least + 0.15) rest_dirs.push_back(base_dir);
+      ++j;
+    }
+    // the median of angles near one another (unwrapped about the first)
+    for (double& v : rest_dirs) v = rest_dirs.front() + wrapDeg(v - rest_dirs.front());
+    const double rest_dir = median(rest_dirs);
+    for (std::size_t j = 0; j < bend.size(); ++j) bend[j] = wrapDeg(chord_dirs[j] - rest_dir);
+    r.bend_rest_axis_deg = rest_dir;
+    r.bend_straightest_deg = least;
     r.t = tb;
     r.angle_deg = bend;
     const std::size_t k = std::max<std::size_t>(3, bend.size() / 10);
     const std::vector<double> tail(bend.end() - std::min(k, bend.size()), bend.end());
     r.bend_final_deg = median(tail);
-    double mad = 0;
-    for (double v : tail) mad += std::abs(v - r.bend_final_deg);
-    mad /= tail.size();
     // the maximum |bend|: the median of the 3 samples around the largest one (one-frame outliers)
     std::size_t im = 0;
     for (std::size_t i = 1; i < bend.size(); ++i)
@@ -666,18 +722,50 @@ TrackResult MotionTracker::finish() const {
     std::vector<double> around(bend.begin() + lo, bend.begin() + hi + 1);
     r.bend_max_deg = median(around);
     r.bend_t_max_s = tb[im];
+    // the bend at the full pressure: the median of the held frames, those within max(0.2 deg, 10 %)
+    // of the largest |bend| on its side (a step or ramp to the full pressure and back: the plateau,
+    // whatever part of the cycle the window ends in)
+    std::vector<double> held;
+    const double held_tol = std::max(0.2, 0.1 * std::abs(r.bend_max_deg));
+    for (double v : bend)
+      if (v * r.bend_max_deg >= 0 && std::abs(v) >= std::abs(r.bend_max_deg) - held_tol) held.push_back(v);
+    r.bend_held_deg = median(held);
+    r.bend_held_frames = static_cast<int>(held.size());
+    double mad = 0;  // spread of the held frames about their median
+    for (double v : held) mad += std::abs(v - r.bend_held_deg);
+    mad /= static_cast<double>(held.size());
     // frame-to-frame jitter of the bend (robust): a steady silhouette gives a smooth signal
     std::vector<double> jumps;
     for (std::size_t i = 1; i < bend.size(); ++i) jumps.push_back(std::abs(bend[i] - bend[i - 1]));
     const double jitter = median(jumps);
-    r.confidence["bend_deg"] =
-        base * (cut ? 0.5 : 1.0) * std::max(0.0, 1.0 - mad / 5.0) / (1.0 + (jitter / 3.0) * (jitter / 3.0));
-    notes.insert(notes.begin(),
-                 "final bending angle " + fixedText(r.bend_final_deg, 2) + " deg, maximum " +
-                     fixedText(r.bend_max_deg, 2) + " deg at " + fixedText(r.bend_t_max_s, 2) +
-                     " s (tip minus base direction, + clockwise on screen (image y points down); base = the " +
-                     std::string(base_is_a ? "first" : "second") +
-                     " end along the principal axis, the one that moves least)");
+    // A window in which the finger never leaves its rest shape holds no bend at the full pressure (a
+    // partial window before the pressure step, a stuck valve): refused as a feature, not a bend of 0.
+    // One without straight frames measures from a bent base line (see the note below): halved.
+    const bool bent = std::abs(r.bend_max_deg) >= std::max(0.5, 3.0 * jitter);
+    r.confidence["bend_deg"] = bent ? base * (cut ? 0.5 : 1.0) * (least > 2.0 ? 0.5 : 1.0) *
+                                          std::max(0.0, 1.0 - mad / 5.0) / (1.0 + (jitter / 3.0) * (jitter / 3.0))
+                                    : 0.0;
+    if (!bent)
+      notes.push_back("the finger did not bend in this window (largest |bend| " +
+                      fixedText(std::abs(r.bend_max_deg), 2) + " deg, frame-to-frame jitter " + fixedText(jitter, 2) +
+                      " deg): no bend at the full pressure was seen (confidence 0); record the pressure step");
+    notes.insert(
+        notes.begin(),
+        "bending angle at the full pressure " + fixedText(r.bend_held_deg, 2) + " deg (median of " +
+            std::to_string(held.size()) + " held frames), final " + fixedText(r.bend_final_deg, 2) + " deg, maximum " +
+            fixedText(r.bend_max_deg, 2) + " deg at " + fixedText(r.bend_t_max_s, 2) +
+            " s (direction of the tip chord, from the centroid of the segment before the tip to the tip segment's, "
+            "each " +
+            fixedText(100.0 * s.opt.tip_fraction, 0) +
+            " % of the length, minus the rest axis, + clockwise on screen (image y points down); base = the " +
+            std::string(base_is_a ? "first" : "second") +
+            " end along the principal axis, the one that moves least; rest axis = its base line in the "
+            "straightest frames, " +
+            fixedText(least, 1) + " deg from straight)");
+    if (least > 2.0)
+      notes.push_back("the finger is never straight in this clip (its least curl is " + fixedText(least, 1) +
+                      " deg): the bend is measured from the straightest frame's base line, not from rest; record "
+                      "the finger at zero pressure first");
   }
   for (std::size_t i = 0; i < notes.size(); ++i) r.message += (i ? "; " : "") + notes[i];
   return r;
@@ -789,8 +877,8 @@ std::string trackerJson(const TrackResult& r) {
     }
     o << "]";
   } else if (r.kind == "finger") {
-    o << ",\"bend_final_deg\":" << num(r.bend_final_deg) << ",\"bend_max_deg\":" << num(r.bend_max_deg)
-      << ",\"bend_t_max_s\":" << num(r.bend_t_max_s);
+    o << ",\"bend_held_deg\":" << num(r.bend_held_deg) << ",\"bend_final_deg\":" << num(r.bend_final_deg)
+      << ",\"bend_max_deg\":" << num(r.bend_max_deg) << ",\"bend_t_max_s\":" << num(r.bend_t_max_s);
   }
   o << ",\"confidence\":{";
   bool first = true;

@@ -173,7 +173,10 @@ InferenceRunOutcome runUnguarded(const InferenceRunRequest& rq) {
     }
     for (const auto& name : skipped) config.removeExperiment(name);
   } catch (const TopoError& e) {
-    throw TopoError(std::string(e.what()) + rq.missing_targets_hint);
+    // what the observed windows said (e.g. the tracker's reason for measuring nothing)
+    std::string seen;
+    for (const auto& n : out.notes) seen += (seen.empty() ? " [" : "] [") + n;
+    throw TopoError(std::string(e.what()) + rq.missing_targets_hint + (seen.empty() ? "" : seen + "]"));
   }
   // The folder before the work, so a bad one fails early.
   if (!rq.output_dir.empty()) {

@@ -12,6 +12,7 @@
 #include "topo_gaussian/inference/body_motion.h"
 #include "topo_gaussian/inference/task_registry.h"
 #include "topo_gaussian/vision/particle_normals.h"
+#include "topo_gaussian/workflow/shape_surface.h"
 
 namespace topo_gaussian::workflow {
 
@@ -45,29 +46,6 @@ const Feature* findFeature(const ProblemEvaluation& ev, const std::string& name)
 
 double rotationDeg(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b) {
   return 2.0 * std::acos(std::min(1.0, std::abs(a.dot(b)))) * kDeg;
-}
-
-/// Moves the surface particles of `cloud` along their estimated outward normal onto the shape's
-/// boundary (bisection on its inside test) and returns their positions and normals.
-void projectSurface(const DefaultShape& shape, VolumeCloud* cloud, std::vector<Eigen::Vector3d>* points,
-                    std::vector<Eigen::Vector3d>* normals) {
-  std::vector<std::size_t> index;
-  for (std::size_t i = 0; i < cloud->size(); ++i)
-    if (cloud->surface[i]) index.push_back(i);
-  const double h = cloud->spacing;
-  points->resize(index.size());
-  for (std::size_t k = 0; k < index.size(); ++k) (*points)[k] = cloud->X[index[k]];
-  *normals = vision::estimateOutwardNormals(cloud->X, *points, 2.5 * h);
-  for (std::size_t k = 0; k < index.size(); ++k) {
-    const Eigen::Vector3d p = (*points)[k], n = (*normals)[k];
-    if (n.squaredNorm() == 0 || !shape.inside(p) || shape.inside(p + 2.0 * h * n)) continue;
-    double lo = 0, hi = 2.0 * h;  // inside at lo, outside at hi
-    for (int it = 0; it < 30; ++it) {
-      const double mid = 0.5 * (lo + hi);
-      (shape.inside(p + mid * n) ? lo : hi) = mid;
-    }
-    (*points)[k] = cloud->X[index[k]] = p + lo * n;
-  }
 }
 
 }  // namespace
@@ -252,7 +230,7 @@ void RigTwin::buildLoop(const TaskEvaluation& run, double period_s) {
 }
 
 void RigTwin::buildSurface() {
-  projectSurface(shape_, &cloud_, &surface_points_, &surface_normals_);
+  projectSurfaceOntoShape(shape_, &cloud_, &surface_points_, &surface_normals_);
   if (options_.scan_spacing_m > 0 && options_.scan_spacing_m != cloud_.spacing) {
     VolumeCloud scan;
     try {
@@ -260,7 +238,7 @@ void RigTwin::buildSurface() {
     } catch (const TopoError& e) {
       throw TopoError(std::string("rig twin scan spacing: ") + e.what());
     }
-    projectSurface(shape_, &scan, &scan_points_, &scan_normals_);
+    projectSurfaceOntoShape(shape_, &scan, &scan_points_, &scan_normals_);
   } else {
     scan_points_ = surface_points_;
     scan_normals_ = surface_normals_;

@@ -181,7 +181,19 @@ TEST(MotionTrackerNode, ImageStreamGivesTheSamePeriod) {
     }
     ros::Duration(0.1).sleep();
   }
-  EXPECT_NE(why.find("no image on /image"), std::string::npos) << "no stale-camera report: '" << why << "'";
+  EXPECT_NE(why.find("no image on /image for"), std::string::npos) << "no stale-camera report: '" << why << "'";
+}
+
+// A camera that never sends (the tracker in /dead listens to /dead/image, which nobody publishes):
+// after ~stale_after_s the tracker says so, once on motion_features (latched) with the fix.
+TEST(MotionTrackerNode, ACameraThatNeverSendsIsReported) {
+  const auto m =
+      ros::topic::waitForMessage<topo_gaussian::MotionFeatures>("/dead/motion_features", ros::Duration(30.0));
+  ASSERT_TRUE(m) << "no report from the tracker whose camera never sent";
+  EXPECT_EQ(m->message.rfind("stale: no image on /dead/image since the start", 0), 0u) << m->message;
+  EXPECT_NE(m->message.find("remapped"), std::string::npos) << m->message;
+  EXPECT_EQ(m->bending_confidence, 0.0);
+  EXPECT_EQ(m->period_confidence, 0.0);
 }
 
 // Three frames stamped 1e6 s in the future, then a normal 30 Hz stream: the stream used to be dropped

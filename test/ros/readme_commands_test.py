@@ -39,12 +39,14 @@ README = os.path.join(SOURCE, "README.md")
 
 # Commands not run here, by prefix, with the reason (and where the same thing is tested).
 SKIP = {
-    "make demo": "builds and runs the whole lab loop for minutes; the same launch and client run in "
-                 "test/ros/demo_tumbler.test.in",
+    "make demo": "builds and runs the whole lab loop for minutes; the same launches and client run in "
+                 "test/ros/demo_tumbler.test.in and test/ros/finger_rig.test.in",
     "make test": "runs every test, this one included (recursion)",
     "roslaunch topo_gaussian demo.launch gui:=true": "opens rviz (needs a display); demo.launch runs headless in "
                                                      "test/ros/demo_tumbler.test.in and rviz in rviz_screenshot.test.in",
     "roslaunch topo_gaussian tumbler_rig.launch twin:=false": "needs the lab's camera and /data/doll.ply",
+    "roslaunch topo_gaussian soft_finger_rig.launch gui:=true": "opens rviz (needs a display); the launch runs "
+                                                                "headless in test/ros/finger_rig.test.in",
     "rosservice call /interior_inference/infer": "needs interior_inference running with a volume; the same "
                                                  "~infer call succeeds in test/ros/rviz_screenshot.test.in",
     "rosrun topo_gaussian infer_client": "needs the lab loop running (demo.launch); it runs in "

@@ -88,7 +88,7 @@ TEST(MotionTargets, TumblerSignalGetsTheTasksOwnAnalysis) {
   EXPECT_NE(none.note.find("stale: no image"), std::string::npos) << none.note;
   // other tasks
   motion::MotionFeatures bend;
-  bend.bending_angle_deg = 12.5;
+  bend.bending_angle_deg = -12.5;  // counter-clockwise on screen: the magnitude is the target
   bend.bending_confidence = 0.9;
   const auto finger = inference::targetsFromMotion(inference::TaskConfig::defaults("finger"), bend);
   ASSERT_EQ(finger.targets.size(), 1u);

@@ -188,7 +188,8 @@ TEST(MotionFeaturesJson, TrackResultMapping) {
   EXPECT_EQ(f.trajectories[0].points_on_plane[1], (std::array<double, 3>{4, 5, 6}));
 
   r.kind = "finger";
-  r.bend_final_deg = 40.25;
+  r.bend_held_deg = 40.25;  // the bend at the full pressure is the feature
+  r.bend_final_deg = 39.0;
   r.confidence = {{"bend_deg", 0.7}};
   const motion::MotionFeatures b = vision::toMotionFeatures(r);
   EXPECT_EQ(b.bending_angle_deg, 40.25);

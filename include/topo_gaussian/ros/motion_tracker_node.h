@@ -4,6 +4,9 @@
 //        topic `camera_info` (kept for the trajectory rays), parameter ~video_file (tracked once at
 //        start), service ~extract_motion (ExtractMotion.srv: a file + options → features)
 //   out: topic `motion_features` (MotionFeatures, latched), topic ~debug_image (the tracker overlay)
+// A camera that stops for ~stale_after_s, or never sends in that long after the start, is logged
+// (throttled) and reported once as a features message whose `message` starts "stale:" (nothing
+// measured), which the inference quotes when it refuses a goal for want of a measurement.
 // The node owns handles and parameters; vision::MotionTracker / vision::trackVideo do the work.
 #pragma once
 
@@ -101,6 +104,8 @@ class MotionTrackerNode {
   StampWindow window_;
   ::ros::WallTime last_image_wall_;  ///< for the stale-camera check
   bool stale_reported_ = false;
+  ::ros::WallTime started_wall_;  ///< for the never-sending-camera check
+  bool never_reported_ = false;
   void finishLive();
   std::string live_frame_id_;
   std::string experiment_;       ///< the current experiment (~experiment, then the `experiment` topic)

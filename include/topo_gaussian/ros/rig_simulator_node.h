@@ -13,12 +13,21 @@
 //        ~true_interior_markers (MarkerArray latched: the same, drawn like interior_markers, with the
 //        viewer's half cut away so its cavity shows);
 //        `experiment` (std_msgs/String latched: the experiment on camera, with ~experiments).
+// ~object finger: the pneumatic finger twin (workflow/finger_twin.h) instead of a moving rigid body:
+//   in : `pressure_command` (std_msgs/Float64 [Pa], ~pressure_profile command: the regulator's set
+//        point; outside [0, ~pressure_max_pa] or not finite: ignored with a throttled error naming it;
+//        none for ~pressure_timeout_s: a throttled warning, the last pressure is held)
+//   out: the bending finger rendered on `image`/`camera_info`; `pressure_pa` (std_msgs/Float64, the
+//        chamber pressure, as a regulator's sensor) and ~true_bend_deg (std_msgs/Float64, the twin's
+//        bend at that pressure, for tests) per frame; ~ground_truth, ~true_interior(_markers),
+//        `surface_cloud` as above (features at ~pressure_max_pa); tf world_frame → object_frame static.
 // The node owns handles and parameters; the library renders and simulates.
 #pragma once
 
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/PointCloud2.h>
+#include <std_msgs/Float64.h>
 #include <std_msgs/String.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/static_transform_broadcaster.h>
@@ -33,6 +42,7 @@
 
 #include "topo_gaussian/RigGroundTruth.h"
 #include "topo_gaussian/vision/splat_renderer.h"
+#include "topo_gaussian/workflow/finger_twin.h"
 #include "topo_gaussian/workflow/rig_twin.h"
 
 namespace topo_gaussian::topo_ros {
@@ -71,7 +81,23 @@ struct RigSimulatorParams {
   /// recovered one (a static frame in world_frame; `~true_interior` is published in it).
   std::string truth_view_frame = "object_true_view";
   std::vector<double> truth_view_offset_m = {0.0, 0.15, 0.05};
+  /// ~object finger: ~spacing_m (0.002), ~task (finger), ~set, ~interior_quadric (the chamber; unset =
+  /// FingerTwin::defaultChamberQuadric()), ~pressure_max_pa (0 = the task's pressure_pa),
+  /// ~pressure_levels (6). Camera defaults for the finger: ~default_camera_pose a side view 0.5 m away
+  /// on −y, ~horizontal_fov_deg 16.
+  bool finger = false;
+  workflow::FingerTwinOptions finger_twin;
+  /// ~pressure_profile: step (0 Pa for ~pressure_rest_s, then ~pressure_max_pa until the end of each
+  /// ~pressure_period_s), ramp (0 → max linearly over the period minus the rest, after the rest), or
+  /// command (follow `pressure_command`).
+  std::string pressure_profile = "step";
+  double pressure_period_s = 8.0;   ///< ~pressure_period_s [s]
+  double pressure_rest_s = 2.0;     ///< ~pressure_rest_s [s]: at 0 Pa at the start of each period
+  double pressure_timeout_s = 5.0;  ///< ~pressure_timeout_s [s]: warn when no command came for this long
 };
+
+/// The chamber pressure of the step/ramp profiles at time t [Pa] (command: NaN).
+double profilePressurePa(const RigSimulatorParams& params, double max_pressure_pa, double t_s);
 
 /// Reads and validates the private parameters (the ~set entries against the task, ~object against
 /// the shapes); throws TopoError naming the parameter, its value and the fix.
@@ -94,17 +120,33 @@ topo_gaussian::RigGroundTruth toGroundTruthMsg(const std::vector<const workflow:
                                                const std::vector<std::string>& names, const std::string& object_frame,
                                                const ::ros::Time& stamp);
 
+/// The finger twin's ground truth: features at the highest pressure, chamber as the interior.
+topo_gaussian::RigGroundTruth toGroundTruthMsg(const workflow::FingerTwin& twin, double loop_s,
+                                               const std::string& object_frame, const ::ros::Time& stamp);
+
 class RigSimulatorNode {
  public:
   /// Loads the parameters and builds the twin (both throw TopoError: bad parameters, a failed
   /// simulation), publishes the latched topics and starts the camera timer.
   RigSimulatorNode(const ::ros::NodeHandle& nh, const ::ros::NodeHandle& pnh);
 
-  const workflow::RigTwin& twin() const { return *twins_.front(); }
+  const workflow::RigTwin& twin() const { return *twins_.front(); }  ///< not with ~object finger
   std::size_t framesPublished() const { return frames_; }
 
  private:
   void onTimer(const ::ros::TimerEvent& event);
+  void setUpFinger(const ::ros::Time& now);
+  /// Camera intrinsics, shading and the splats of the body-frame surface.
+  void setUpCamera(const std::vector<Eigen::Vector3d>& surface, const std::vector<Eigen::Vector3d>& normals,
+                   double spacing_m);
+  /// ~true_interior and ~true_interior_markers (latched, in ~truth_view_frame).
+  void publishTrueInterior(const VolumeCloud& cloud, const std::vector<double>& r, const std::vector<double>& density,
+                           const inference::TaskConfig& config, const MassProperties& mass);
+  /// Renders the posed surface and publishes image and camera_info.
+  void publishFrame(const ::ros::Time& now, const vision::Splats& world);
+  void onPressureCommand(const std_msgs::Float64& msg);
+  /// The finger's pressure now (profile or command) and its rendered surface.
+  double fingerPressurePa(const ::ros::Time& now);
   /// The camera pose from tf, or the default after the timeout; false while still waiting.
   bool cameraPose(const ::ros::Time& now, vision::SplatCamera* camera);
 
@@ -123,6 +165,11 @@ class RigSimulatorNode {
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
+  std::unique_ptr<workflow::FingerTwin> finger_;
+  ::ros::Subscriber pressure_sub_;
+  ::ros::Publisher pressure_pub_, true_bend_pub_;
+  double commanded_pa_ = 0.0;
+  ::ros::Time last_command_;
   ::ros::Time start_;
   bool pose_from_tf_ = false, fallback_warned_ = false;
   std::size_t frames_ = 0;

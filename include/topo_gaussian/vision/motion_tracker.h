@@ -11,10 +11,16 @@
 //                       image-right, degrees;
 //  - kind "trajectory": point trajectories in pixels; bounces between free-flight arcs, apexes, the
 //                       floor line and restitution (vision/bounce_analysis.h), heights along −gravity;
-//  - kind "finger":     bending angle = direction of the tip segment − direction of the base segment
-//                       (image angles, atan2(dy, dx)), from lines fitted to the silhouette's medial band
-//                       in the base third and the tip third of its principal-axis extent; the base is
-//                       the end that moves least; signed, with its maximum |bend| and when it happened.
+//  - kind "finger":     the finger task's bending angle (finger_task.cpp), seen from the side:
+//                       direction of the chord from the centroid of the segment before the tip to the
+//                       tip segment's (each tip_fraction of the silhouette's principal-axis extent)
+//                       minus the rest axis (image angles, atan2(dy, dx), + clockwise on screen). The
+//                       rest axis is the base line (fitted to the medial band of the base third) in the
+//                       straightest frames (smallest tip-third minus base-third line angle): the base
+//                       is clamped and the camera fixed, while a bent finger's base third turns with
+//                       its free part. The base is the end that moves least; signed, with its maximum
+//                       |bend| and when it happened. On a rendered side view of the simulated finger
+//                       (test/unit/vision_finger_bend.cpp) it is the task's angle within 0.3 deg.
 // Before any feature, what was tracked must behave like one rigid object (vision/object_checks.h);
 // otherwise the result is a refusal (refused = true, every feature confidence 0, the reason in
 // `message`). Every confidence = tracking share × object score × the feature's own fit confidence.
@@ -51,6 +57,9 @@ struct TrackOptions {
   double min_prominence_px = 0.0;    ///< trajectory: extremum prominence (0 = max(3 px, 5 % of the y range))
   int rotate_deg = 0;                ///< 0 | 90 | 180 | 270: rotate every frame clockwise first
   cv::Vec2d gravity{0.0, 1.0};       ///< image direction of gravity in the (rotated) frame
+  /// finger: the tip segment and the one before it are each this fraction of the silhouette's
+  /// length (the finger task's tip_fraction, whose bend the tracker measures)
+  double tip_fraction = 0.15;
   ObjectCheckOptions checks;
 };
 
@@ -92,6 +101,12 @@ struct TrackResult {
   double bend_final_deg = 0.0;
   double bend_max_deg = 0.0;  ///< the signed bend of largest magnitude
   double bend_t_max_s = 0.0;  ///< when it happened
+  /// the bend at the full pressure: median of the frames within max(0.2 deg, 10 %) of the maximum
+  /// |bend| (the held plateau of a pressure step or the top of a ramp); the finger's feature
+  double bend_held_deg = 0.0;
+  int bend_held_frames = 0;
+  double bend_rest_axis_deg = 0.0;    ///< image direction of the rest axis (the straightest frames' base line)
+  double bend_straightest_deg = 0.0;  ///< tip-minus-base line angle of the straightest frame (0: a straight finger)
   // trajectory (y: image coordinate along gravity; heights along −gravity)
   std::vector<double> bounce_times_s, bounce_y_px, apex_times_s, apex_y_px, apex_heights_px;
   double floor_y_px = 0.0;
