@@ -3,11 +3,15 @@
 // per loss + gradient (field + fieldBackward), the CPU path (NeuralRepresentation on all host threads,
 // one evaluation) on the same points in the same run, and the achieved TFLOP/s (2·N·in·out per layer
 // and GEMM: one GEMM a layer forward, three for forward + backward).
-// float64 through NeuralRepresentation with backend cuda (what a task runs); float32 through
-// MlpCuda with the representation's effective weights (the weight normalisation stays on the host).
+// float64 through NeuralRepresentation with backend cuda (what a task runs); float32 (exact, and
+// TF32 on the tensor cores) through MlpCuda with the representation's effective weights (the weight
+// normalisation stays on the host), each with its field's largest error against float64 over the
+// largest |s|. backward_ms = loss_gradient_ms − field_ms (the backward after a forward).
 // Without a CUDA device it prints {"case": "gpu_neural", "skipped": reason} and exits 0.
-// Usage: bench_gpu_neural [--quick]
+// Usage: bench_gpu_neural [--quick] [--case DEPTHxWIDTH]
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <random>
@@ -40,9 +44,7 @@ void neuralCase(int depth, int width, int n, int reps) {
   const Eigen::VectorXd t = cpu.initialParameters();
   std::vector<double> w(n, 1.0 / n), s;
   Eigen::VectorXd g;
-  std::vector<int> sizes{3};
-  for (int l = 0; l + 1 < depth; ++l) sizes.push_back(width);
-  sizes.push_back(1);
+  const std::vector<int> sizes = cpu.layerSizes();
   double flops_fwd = 0.0;
   for (std::size_t l = 0; l + 1 < sizes.size(); ++l) flops_fwd += 2.0 * n * sizes[l] * sizes[l + 1];
   // CPU: one evaluation of each.
@@ -65,48 +67,50 @@ void neuralCase(int depth, int width, int n, int reps) {
   }
   const double f64_lg = since(t0) / reps;
   // GPU float32 through MlpCuda with the same effective weights.
-  std::vector<Eigen::MatrixXd> W;
-  std::vector<Eigen::VectorXd> b;
-  int off = 0;
-  for (std::size_t l = 0; l + 1 < sizes.size(); ++l) {
-    const int in = sizes[l], out = sizes[l + 1];
-    const Eigen::Map<const Eigen::MatrixXd> v(t.data() + off, out, in);
-    const Eigen::Map<const Eigen::VectorXd> gg(t.data() + off + out * in, out);
-    W.push_back((gg.array() / v.rowwise().norm().array()).matrix().asDiagonal() * v);
-    b.push_back(t.segment(off + out * in + out, out));
-    off += out * in + 2 * out;
-  }
+  const std::vector<Eigen::MatrixXd> W = cpu.weights(t);
+  const std::vector<Eigen::VectorXd> b = cpu.biases(t);
   Eigen::Matrix3Xd U(3, n);
   for (int i = 0; i < n; ++i) U.col(i) = (X[i] - cpu.frame().centre) / cpu.frame().scale;
-  MlpCuda mlp(sizes, U, CudaPrecision::Float32);
-  std::vector<Eigen::MatrixXd> dW;
-  std::vector<Eigen::VectorXd> db;
-  mlp.forward(W, b, &s);
-  mlp.backward(W, b, w, &dW, &db);
-  t0 = Clock::now();
-  for (int r = 0; r < reps; ++r) mlp.forward(W, b, &s);
-  const double f32_field = since(t0) / reps;
-  t0 = Clock::now();
-  for (int r = 0; r < reps; ++r) {
+  std::vector<double> s64;
+  gpu.field(t, &s64);
+  struct Row {
+    const char* name;
+    double field, lg, goal, err;
+  };
+  std::vector<Row> rows{{"f64", f64_field, f64_lg, (depth == 8 && width == 512) ? 0.050 : 0.0, 0.0}};
+  for (const MlpMath math : {MlpMath::Exact, MlpMath::Tf32}) {
+    MlpCuda mlp(sizes, U, CudaPrecision::Float32, math);
+    std::vector<Eigen::MatrixXd> dW;
+    std::vector<Eigen::VectorXd> db;
     mlp.forward(W, b, &s);
-    if (!mlp.backwardAfterForward(w, &dW, &db)) mlp.backward(W, b, w, &dW, &db);
+    mlp.backward(W, b, w, &dW, &db);
+    double err = 0.0, scale = 0.0;  // largest |s32 − s64| over the largest |s64|
+    for (int i = 0; i < n; ++i) err = std::max(err, std::abs(s[i] - s64[i])), scale = std::max(scale, std::abs(s64[i]));
+    t0 = Clock::now();
+    for (int r = 0; r < reps; ++r) mlp.forward(W, b, &s);
+    const double field = since(t0) / reps;
+    t0 = Clock::now();
+    for (int r = 0; r < reps; ++r) {
+      mlp.forward(W, b, &s);
+      if (!mlp.backwardAfterForward(w, &dW, &db)) mlp.backward(W, b, w, &dW, &db);
+    }
+    rows.push_back({math == MlpMath::Tf32 ? "f32_tf32" : "f32", field, since(t0) / reps,
+                    (depth == 8 && width == 512) ? 0.040 : 0.0, err / scale});
   }
-  const double f32_lg = since(t0) / reps;
   // forward + backward: 3 GEMMs per layer (the backward reuses the forward's kept activations).
   const double flops_lg = 3.0 * flops_fwd;
-  const double goal32 = (depth == 8 && width == 512) ? 0.040 : 0.0, goal64 = (depth == 8 && width == 512) ? 0.050 : 0.0;
-  for (int p = 0; p < 2; ++p) {
-    const bool f64 = p == 0;
-    const double field = f64 ? f64_field : f32_field, lg = f64 ? f64_lg : f32_lg, goal = f64 ? goal64 : goal32;
+  for (const Row& r : rows) {
     std::printf(
         "{\"case\": \"neural_%dx%d_%s\", \"device\": \"%s\", \"points\": %d, \"parameters\": %d, \"field_ms\": %.2f, "
-        "\"loss_gradient_ms\": %.2f, \"field_TFLOPs\": %.1f, \"loss_gradient_TFLOPs\": %.1f, \"baseline\": "
-        "\"cpu_neural_representation\", \"cpu_field_ms\": %.1f, \"cpu_loss_gradient_ms\": %.1f, "
-        "\"gpu_over_cpu_loss_gradient\": %.0f, \"goal_loss_gradient_ms\": %s, \"goal_met\": %s}\n",
-        depth, width, f64 ? "f64" : "f32", cudaDeviceInfo().name.c_str(), n, cpu.numParameters(), 1e3 * field, 1e3 * lg,
-        flops_fwd / field / 1e12, flops_lg / lg / 1e12, 1e3 * cpu_field, 1e3 * (cpu_field + cpu_backward),
-        (cpu_field + cpu_backward) / lg, goal > 0 ? std::to_string(1e3 * goal).c_str() : "null",
-        goal > 0 ? (lg <= goal ? "true" : "false") : "null");
+        "\"backward_ms\": %.2f, \"loss_gradient_ms\": %.2f, \"field_TFLOPs\": %.1f, \"loss_gradient_TFLOPs\": %.1f, "
+        "\"field_error_vs_f64\": %.1e, \"baseline\": \"cpu_neural_representation\", \"cpu_field_ms\": %.1f, "
+        "\"cpu_loss_gradient_ms\": %.1f, \"gpu_over_cpu_loss_gradient\": %.0f, \"goal_loss_gradient_ms\": %s, "
+        "\"goal_met\": %s}\n",
+        depth, width, r.name, cudaDeviceInfo().name.c_str(), n, cpu.numParameters(), 1e3 * r.field,
+        1e3 * (r.lg - r.field), 1e3 * r.lg, flops_fwd / r.field / 1e12, flops_lg / r.lg / 1e12, r.err, 1e3 * cpu_field,
+        1e3 * (cpu_field + cpu_backward), (cpu_field + cpu_backward) / r.lg,
+        r.goal > 0 ? std::to_string(1e3 * r.goal).c_str() : "null",
+        r.goal > 0 ? (r.lg <= r.goal ? "true" : "false") : "null");
     std::fflush(stdout);
   }
 }
@@ -114,14 +118,25 @@ void neuralCase(int depth, int width, int n, int reps) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
+  bool quick = false;
+  std::string only;  // --case DEPTHxWIDTH: that network only (for a profiler)
+  for (int a = 1; a < argc; ++a) {
+    if (std::strcmp(argv[a], "--quick") == 0)
+      quick = true;
+    else if (std::strcmp(argv[a], "--case") == 0 && a + 1 < argc)
+      only = argv[++a];
+    else {
+      std::fprintf(stderr, "usage: bench_gpu_neural [--quick] [--case DEPTHxWIDTH]\n");
+      return 2;
+    }
+  }
   if (!cudaDeviceInfo().available) {
     std::printf("{\"case\": \"gpu_neural\", \"skipped\": \"%s\"}\n", cudaDeviceInfo().reason.c_str());
     return 0;
   }
   try {
-    neuralCase(4, 32, 150000, quick ? 3 : 20);
-    neuralCase(8, 512, 150000, quick ? 2 : 10);
+    if (only.empty() || only == "4x32") neuralCase(4, 32, 150000, quick ? 3 : 20);
+    if (only.empty() || only == "8x512") neuralCase(8, 512, 150000, quick ? 2 : 10);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "bench_gpu_neural: %s\n", e.what());
     return 1;

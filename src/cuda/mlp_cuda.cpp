@@ -31,6 +31,7 @@ struct Cublas {
   cublasStatus_t (*create)(cublasHandle_t*) = nullptr;
   cublasStatus_t (*destroy)(cublasHandle_t) = nullptr;
   cublasStatus_t (*setStream)(cublasHandle_t, cudaStream_t) = nullptr;
+  cublasStatus_t (*setMathMode)(cublasHandle_t, cublasMath_t) = nullptr;
   cublasStatus_t (*dgemm)(cublasHandle_t, cublasOperation_t, cublasOperation_t, int, int, int, const double*,
                           const double*, int, const double*, int, const double*, double*, int) = nullptr;
   cublasStatus_t (*sgemm)(cublasHandle_t, cublasOperation_t, cublasOperation_t, int, int, int, const float*,
@@ -65,7 +66,7 @@ const Cublas& cublas() {
     const bool ok = resolve(lib, "cublasCreate", &c.create) && resolve(lib, "cublasDestroy", &c.destroy) &&
                     resolve(lib, "cublasSetStream", &c.setStream) && resolve(lib, "cublasDgemm", &c.dgemm) &&
                     resolve(lib, "cublasSgemm", &c.sgemm) && resolve(lib, "cublasDgemv", &c.dgemv) &&
-                    resolve(lib, "cublasSgemv", &c.sgemv);
+                    resolve(lib, "cublasSgemv", &c.sgemv) && resolve(lib, "cublasSetMathMode", &c.setMathMode);
     if (!ok) c.error = "libcublas lacks a function the MLP needs (a cuBLAS older than CUDA 11?)";
     return c;
   }();
@@ -103,6 +104,7 @@ struct MlpCuda::Impl {
   std::vector<int> sizes;
   std::size_t n = 0;
   CudaPrecision precision = CudaPrecision::Float64;
+  MlpMath math = MlpMath::Exact;
   cudaStream_t stream = nullptr;
   cublasHandle_t handle = nullptr;
   std::vector<std::unique_ptr<DeviceBuffer>> buffers;
@@ -115,10 +117,13 @@ struct MlpCuda::Impl {
   void *Z = nullptr, *delta = nullptr, *back = nullptr, *ones = nullptr, *s = nullptr, *ds = nullptr;
   long long block = 0;
   int widest = 0;
+  void* pinned = nullptr;  // host staging (page-locked): every W and b, or every dW and db, or s
+  std::size_t pinned_bytes = 0;
 
   ~Impl() {
     if (handle) cublas().destroy(handle);
     if (stream) cudaStreamDestroy(stream);
+    if (pinned) cudaFreeHost(pinned);
   }
   void* alloc(std::size_t bytes) {
     buffers.push_back(std::make_unique<DeviceBuffer>());
@@ -133,13 +138,6 @@ struct MlpCuda::Impl {
     check(cudaMemcpyAsync(dev, h.data(), count * sizeof(S), cudaMemcpyHostToDevice, stream), "upload");
     check(cudaStreamSynchronize(stream), "upload");
   }
-  template <class S>
-  void download(const void* dev, double* host, std::size_t count) {
-    std::vector<S> h(count);
-    check(cudaMemcpyAsync(h.data(), dev, count * sizeof(S), cudaMemcpyDeviceToHost, stream), "download");
-    check(cudaStreamSynchronize(stream), "download");
-    std::copy(h.begin(), h.end(), host);
-  }
 
   template <class S>
   void setWeights(const std::vector<Eigen::MatrixXd>& Wh, const std::vector<Eigen::VectorXd>& bh) {
@@ -152,10 +150,61 @@ struct MlpCuda::Impl {
       if (Wh[l].rows() != sizes[l + 1] || Wh[l].cols() != sizes[l] || bh[l].size() != sizes[l + 1])
         throw TopoError("CUDA MLP", "layer " + std::to_string(l) + " has the wrong shape",
                         "W_l must be sizes[l+1] x sizes[l], b_l sizes[l+1]");
-      kept = false;
-      upload<S>(W[l], Wh[l].data(), Wh[l].size());
-      upload<S>(b[l], bh[l].data(), bh[l].size());
     }
+    kept = false;
+    // Every layer's W and b converted into the pinned buffer, copied asynchronously; the stream
+    // orders the copies before the GEMMs that read them, and one synchronisation at the end of the
+    // call (downloadPoints, downloadGradients) keeps the buffer alive until they are done.
+    S* h = static_cast<S*>(pinned);
+    for (std::size_t l = 0; l < layers; ++l) {
+      S* hw = h;
+      h = std::copy(Wh[l].data(), Wh[l].data() + Wh[l].size(), h);
+      check(cudaMemcpyAsync(W[l], hw, Wh[l].size() * sizeof(S), cudaMemcpyHostToDevice, stream), "weight upload");
+      S* hb = h;
+      h = std::copy(bh[l].data(), bh[l].data() + bh[l].size(), h);
+      check(cudaMemcpyAsync(b[l], hb, bh[l].size() * sizeof(S), cudaMemcpyHostToDevice, stream), "bias upload");
+    }
+  }
+
+  /// Every layer's dW and db into Eigen matrices: asynchronous copies into the pinned buffer, one
+  /// synchronisation, then the conversion.
+  template <class S>
+  void downloadGradients(std::vector<Eigen::MatrixXd>* dWh, std::vector<Eigen::VectorXd>* dbh) {
+    const std::size_t layers = sizes.size() - 1;
+    dWh->resize(layers);
+    dbh->resize(layers);
+    S* h = static_cast<S*>(pinned);
+    for (std::size_t l = 0; l < layers; ++l) {
+      const std::size_t nw = std::size_t(sizes[l + 1]) * sizes[l], nb = sizes[l + 1];
+      check(cudaMemcpyAsync(h, dW[l], nw * sizeof(S), cudaMemcpyDeviceToHost, stream), "gradient download");
+      check(cudaMemcpyAsync(h + nw, db[l], nb * sizeof(S), cudaMemcpyDeviceToHost, stream), "gradient download");
+      h += nw + nb;
+    }
+    check(cudaStreamSynchronize(stream), "gradient download");
+    h = static_cast<S*>(pinned);
+    for (std::size_t l = 0; l < layers; ++l) {
+      (*dWh)[l].resize(sizes[l + 1], sizes[l]);
+      (*dbh)[l].resize(sizes[l + 1]);
+      std::copy(h, h + (*dWh)[l].size(), (*dWh)[l].data());
+      h += (*dWh)[l].size();
+      std::copy(h, h + (*dbh)[l].size(), (*dbh)[l].data());
+      h += (*dbh)[l].size();
+    }
+  }
+
+  /// Values per point (s) or per point's dL/ds through the pinned buffer.
+  template <class S>
+  void uploadPoints(void* dev, const double* host) {
+    S* h = static_cast<S*>(pinned);
+    std::copy(host, host + n, h);
+    check(cudaMemcpyAsync(dev, h, n * sizeof(S), cudaMemcpyHostToDevice, stream), "upload");
+  }
+  template <class S>
+  void downloadPoints(const void* dev, double* host) {
+    S* h = static_cast<S*>(pinned);
+    check(cudaMemcpyAsync(h, dev, n * sizeof(S), cudaMemcpyDeviceToHost, stream), "download");
+    check(cudaStreamSynchronize(stream), "download");
+    std::copy(h, h + n, host);
   }
 
   /// The layer inputs of the block starting at point c0 (in Hall when every activation is kept).
@@ -229,8 +278,10 @@ struct MlpCuda::Impl {
   }
 };
 
-MlpCuda::MlpCuda(const std::vector<int>& sizes, const Eigen::Matrix3Xd& U, CudaPrecision precision)
+MlpCuda::MlpCuda(const std::vector<int>& sizes, const Eigen::Matrix3Xd& U, CudaPrecision precision, MlpMath math)
     : impl_(std::make_unique<Impl>()) {
+  if (math == MlpMath::Tf32 && precision == CudaPrecision::Float64)
+    throw TopoError("CUDA MLP", "TF32 tensor-core math asked for with float64", "use Float32 with MlpMath::Tf32");
   const CudaDeviceInfo& info = cudaDeviceInfo();
   if (!info.available) throw TopoError("CUDA MLP", info.reason, "use backend cpu (or auto) on this machine");
   if (!cublas().error.empty())
@@ -243,6 +294,7 @@ MlpCuda::MlpCuda(const std::vector<int>& sizes, const Eigen::Matrix3Xd& U, CudaP
   I.sizes = sizes;
   I.n = static_cast<std::size_t>(U.cols());
   I.precision = precision;
+  I.math = math;
   I.widest = *std::max_element(sizes.begin(), sizes.end());
   I.block = std::min<long long>(kBlockPoints, static_cast<long long>(I.n));
   const int depth = static_cast<int>(sizes.size()) - 1;
@@ -257,6 +309,8 @@ MlpCuda::MlpCuda(const std::vector<int>& sizes, const Eigen::Matrix3Xd& U, CudaP
   check(cudaStreamCreateWithFlags(&I.stream, cudaStreamNonBlocking), "stream creation");
   checkBlas(cublas().create(&I.handle), "cublasCreate");
   checkBlas(cublas().setStream(I.handle, I.stream), "cublasSetStream");
+  checkBlas(cublas().setMathMode(I.handle, math == MlpMath::Tf32 ? CUBLAS_TF32_TENSOR_OP_MATH : CUBLAS_DEFAULT_MATH),
+            "cublasSetMathMode");
   const std::size_t T = I.T();
   I.U = I.alloc(3 * I.n * T);
   if (precision == CudaPrecision::Float64)
@@ -277,6 +331,8 @@ MlpCuda::MlpCuda(const std::vector<int>& sizes, const Eigen::Matrix3Xd& U, CudaP
   I.delta = I.alloc(std::size_t(I.widest) * I.block * T);
   I.back = I.alloc(std::size_t(I.widest) * I.block * T);
   I.ones = I.alloc(std::size_t(I.block) * T);
+  I.pinned_bytes = T * std::max<std::size_t>(I.n, static_cast<std::size_t>(params));
+  check(cudaMallocHost(&I.pinned, I.pinned_bytes), "cudaMallocHost (pinned staging)");
   // Every activation kept (for the backward after a forward at the same weights) when it takes less
   // than half of the free memory: one GEMM pass per layer fewer.
   {
@@ -300,6 +356,7 @@ MlpCuda::MlpCuda(const std::vector<int>& sizes, const Eigen::Matrix3Xd& U, CudaP
 MlpCuda::~MlpCuda() = default;
 std::size_t MlpCuda::points() const { return impl_->n; }
 CudaPrecision MlpCuda::precision() const { return impl_->precision; }
+MlpMath MlpCuda::math() const { return impl_->math; }
 
 void MlpCuda::forward(const std::vector<Eigen::MatrixXd>& W, const std::vector<Eigen::VectorXd>& b,
                       std::vector<double>* s) {
@@ -308,11 +365,11 @@ void MlpCuda::forward(const std::vector<Eigen::MatrixXd>& W, const std::vector<E
   if (I.precision == CudaPrecision::Float64) {
     I.setWeights<double>(W, b);
     I.forwardAll<double>();
-    I.download<double>(I.s, s->data(), I.n);
+    I.downloadPoints<double>(I.s, s->data());
   } else {
     I.setWeights<float>(W, b);
     I.forwardAll<float>();
-    I.download<float>(I.s, s->data(), I.n);
+    I.downloadPoints<float>(I.s, s->data());
   }
 }
 
@@ -325,17 +382,10 @@ void gradients(MlpCuda::Impl& I, const std::vector<double>& dL_ds, bool reuse, s
     throw TopoError("CUDA MLP",
                     std::to_string(dL_ds.size()) + " values of dL/ds for " + std::to_string(I.n) + " points",
                     "pass one per point");
-  const int depth = static_cast<int>(I.sizes.size()) - 1;
-  dW->resize(depth);
-  db->resize(depth);
-  I.upload<S>(I.ds, dL_ds.data(), I.n);
+  if (!reuse) check(cudaStreamSynchronize(I.stream), "weight upload");  // the pinned buffer is free again
+  I.uploadPoints<S>(I.ds, dL_ds.data());
   I.backwardAll<S>(reuse);
-  for (int l = 0; l < depth; ++l) {
-    (*dW)[l].resize(I.sizes[l + 1], I.sizes[l]);
-    (*db)[l].resize(I.sizes[l + 1]);
-    I.download<S>(I.dW[l], (*dW)[l].data(), (*dW)[l].size());
-    I.download<S>(I.db[l], (*db)[l].data(), (*db)[l].size());
-  }
+  I.downloadGradients<S>(dW, db);
 }
 }  // namespace
 
@@ -366,12 +416,13 @@ bool MlpCuda::backwardAfterForward(const std::vector<double>& dL_ds, std::vector
 #else  // no CUDA in this build
 
 struct MlpCuda::Impl {};
-MlpCuda::MlpCuda(const std::vector<int>&, const Eigen::Matrix3Xd&, CudaPrecision) {
+MlpCuda::MlpCuda(const std::vector<int>&, const Eigen::Matrix3Xd&, CudaPrecision, MlpMath) {
   throw TopoError("CUDA MLP", cudaDeviceInfo().reason, "use backend cpu (or auto), or rebuild with nvcc");
 }
 MlpCuda::~MlpCuda() = default;
 std::size_t MlpCuda::points() const { return 0; }
 CudaPrecision MlpCuda::precision() const { return CudaPrecision::Float64; }
+MlpMath MlpCuda::math() const { return MlpMath::Exact; }
 void MlpCuda::forward(const std::vector<Eigen::MatrixXd>&, const std::vector<Eigen::VectorXd>&, std::vector<double>*) {}
 void MlpCuda::backward(const std::vector<Eigen::MatrixXd>&, const std::vector<Eigen::VectorXd>&,
                        const std::vector<double>&, std::vector<Eigen::MatrixXd>*, std::vector<Eigen::VectorXd>*) {}

@@ -16,6 +16,15 @@ namespace topo_gaussian {
 
 namespace {
 
+/// Σ_c A(j, c) B(j, c) for every row j, walking the column-major storage in order (a row at a time
+/// strides by the row count: with 512 × 512 layers that made the host's weight-norm backward most
+/// of a GPU gradient's time).
+Eigen::VectorXd rowDots(const Eigen::Ref<const Eigen::MatrixXd>& A, const Eigen::Ref<const Eigen::MatrixXd>& B) {
+  Eigen::VectorXd d = Eigen::VectorXd::Zero(A.rows());
+  for (Eigen::Index c = 0; c < A.cols(); ++c) d.array() += A.col(c).array() * B.col(c).array();
+  return d;
+}
+
 // Particles are processed in column blocks: big enough for efficient GEMM, small enough that the
 // stored activations of a block (depth × width × block doubles) stay modest per thread.
 constexpr Eigen::Index kMaxBlock = 2048;
@@ -109,7 +118,7 @@ Eigen::VectorXd NeuralRepresentation::initialParameters() const {
     const double stddev = std::sqrt((last ? 1.0 : 2.0) / L.in);
     Eigen::Map<Eigen::MatrixXd> v(theta.data() + L.v, L.out, L.in);
     for (Eigen::Index k = 0; k < v.size(); ++k) v.data()[k] = stddev * normal(rng);
-    const Eigen::VectorXd norms = v.rowwise().norm();
+    const Eigen::VectorXd norms = rowDots(v, v).cwiseSqrt();
     std::uniform_real_distribution<double> bias(-1.0 / std::sqrt(L.in), 1.0 / std::sqrt(L.in));
     for (int j = 0; j < L.out; ++j) {
       // Hidden: g = ‖v_j‖ so W = v (He-scaled, activations O(1)). Output: small gain, bias = s₀.
@@ -126,7 +135,7 @@ std::vector<Eigen::MatrixXd> NeuralRepresentation::weights(const Eigen::VectorXd
     const Layer& L = layers_[l];
     const Eigen::Map<const Eigen::MatrixXd> v(theta.data() + L.v, L.out, L.in);
     const Eigen::Map<const Eigen::VectorXd> g(theta.data() + L.g, L.out);
-    const Eigen::VectorXd norms = v.rowwise().norm();
+    const Eigen::VectorXd norms = rowDots(v, v).cwiseSqrt();
     for (int j = 0; j < L.out; ++j)
       if (!(norms[j] > 0.0))
         throw TopoError("neural representation parameters θ",
@@ -175,12 +184,16 @@ MlpCuda* NeuralRepresentation::gpu() const {
   if (!gpu_resolved_) {
     gpu_resolved_ = true;
     if (resolveBackend(options_.backend, "neural representation backend") == ComputeBackend::Cuda) {
-      std::vector<int> sizes{layers_.front().in};
-      for (const Layer& L : layers_) sizes.push_back(L.out);
-      gpu_ = std::make_shared<MlpCuda>(sizes, U_, CudaPrecision::Float64);
+      gpu_ = std::make_shared<MlpCuda>(layerSizes(), U_, CudaPrecision::Float64);
     }
   }
   return gpu_.get();
+}
+
+std::vector<int> NeuralRepresentation::layerSizes() const {
+  std::vector<int> sizes{layers_.front().in};
+  for (const Layer& L : layers_) sizes.push_back(L.out);
+  return sizes;
 }
 
 std::vector<Eigen::VectorXd> NeuralRepresentation::biases(const Eigen::VectorXd& theta) const {
@@ -216,16 +229,17 @@ void NeuralRepresentation::fieldBackward(const Eigen::VectorXd& theta, const std
                                          Eigen::VectorXd* dL_dtheta) const {
   checkParameters(theta);
   checkFieldGradient(dL_ds);
-  const std::vector<Eigen::MatrixXd> W = weights(theta);
   if (MlpCuda* gpu_mlp = gpu()) {
     std::vector<Eigen::MatrixXd> G;
     std::vector<Eigen::VectorXd> gb;
     const bool same = gpu_theta_.size() == theta.size() && gpu_theta_ == theta;
-    if (!same || !gpu_mlp->backwardAfterForward(dL_ds, &G, &gb)) gpu_mlp->backward(W, biases(theta), dL_ds, &G, &gb);
+    if (!same || !gpu_mlp->backwardAfterForward(dL_ds, &G, &gb))
+      gpu_mlp->backward(weights(theta), biases(theta), dL_ds, &G, &gb);
     gpu_theta_.resize(0);  // backward() uploads the same weights; the kept activations stay valid only after field()
     weightNormBackward(theta, G, gb, dL_dtheta);
     return;
   }
+  const std::vector<Eigen::MatrixXd> W = weights(theta);
   const Eigen::Index n = U_.cols();
   const int threads = maxThreads();
   const Blocks blocks = makeBlocks(n, threads);
@@ -298,12 +312,13 @@ void NeuralRepresentation::weightNormBackward(const Eigen::VectorXd& theta, cons
     // dL/dv_j = (g_j/‖v_j‖)(G_j − (G_j·v̂_j) v̂_j).
     const Eigen::Map<const Eigen::MatrixXd> v(theta.data() + L.v, L.out, L.in);
     Eigen::Map<Eigen::MatrixXd> dv(dL_dtheta->data() + L.v, L.out, L.in);
-    for (int j = 0; j < L.out; ++j) {
-      const double norm = v.row(j).norm();
-      const double gdotvhat = G.row(j).dot(v.row(j)) / norm;
-      (*dL_dtheta)[L.g + j] = gdotvhat;
-      dv.row(j) = (theta[L.g + j] / norm) * (G.row(j) - (gdotvhat / norm) * v.row(j));
-    }
+    const Eigen::ArrayXd norm = rowDots(v, v).cwiseSqrt().array();
+    const Eigen::ArrayXd gdotvhat = rowDots(G, v).array() / norm;
+    const Eigen::Map<const Eigen::ArrayXd> g(theta.data() + L.g, L.out);
+    dL_dtheta->segment(L.g, L.out) = gdotvhat.matrix();
+    // column by column (storage order): dv = diag(g/‖v‖) (G − diag(G·v̂/‖v‖) v)
+    const Eigen::ArrayXd a = g / norm, c = gdotvhat / norm;
+    for (Eigen::Index k = 0; k < L.in; ++k) dv.col(k) = (a * (G.col(k).array() - c * v.col(k).array())).matrix();
     dL_dtheta->segment(L.b, L.out) = gb;
   }
 }

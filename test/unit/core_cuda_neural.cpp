@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <string>
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/cuda/backend.h"
@@ -152,25 +153,78 @@ TEST(CudaNeural, Float32StaysWithinItsStatedTolerance) {
   cpu.field(t, &sc);
   Eigen::Matrix3Xd U(3, X.size());
   for (std::size_t i = 0; i < X.size(); ++i) U.col(i) = (X[i] - cpu.frame().centre) / cpu.frame().scale;
-  std::vector<int> sizes{3};
-  for (int l = 0; l < 7; ++l) sizes.push_back(128);
-  sizes.push_back(1);
   // Effective weights: the representation's own (weight normalisation on the host).
-  std::vector<Eigen::MatrixXd> W;
-  std::vector<Eigen::VectorXd> b;
-  int off = 0;
-  for (std::size_t l = 0; l + 1 < sizes.size(); ++l) {
-    const int in = sizes[l], out = sizes[l + 1];
-    const Eigen::Map<const Eigen::MatrixXd> v(t.data() + off, out, in);
-    const Eigen::Map<const Eigen::VectorXd> g(t.data() + off + out * in, out);
-    W.push_back((g.array() / v.rowwise().norm().array()).matrix().asDiagonal() * v);
-    b.push_back(t.segment(off + out * in + out, out));
-    off += out * in + 2 * out;
-  }
+  const std::vector<int> sizes = cpu.layerSizes();
+  const std::vector<Eigen::MatrixXd> W = cpu.weights(t);
+  const std::vector<Eigen::VectorXd> b = cpu.biases(t);
   MlpCuda mlp(sizes, U, CudaPrecision::Float32);
   std::vector<double> s32;
   mlp.forward(W, b, &s32);
   const double e = relMax(s32, sc);
   EXPECT_LT(e, 1e-4);
   std::printf("[ parity   ] neural 8x128 on 20000 points, float32: field %.2e\n", e);
+}
+
+TEST(CudaNeural, Tf32IsRefusedWithFloat64) {
+  // Checked before the device is asked for: the same message on every machine.
+  Eigen::Matrix3Xd U = Eigen::Matrix3Xd::Zero(3, 4);
+  try {
+    MlpCuda mlp({3, 8, 1}, U, CudaPrecision::Float64, MlpMath::Tf32);
+    FAIL() << "TF32 with float64 was accepted";
+  } catch (const TopoError& e) {
+    EXPECT_NE(std::string(e.what()).find("TF32"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("Float32"), std::string::npos) << e.what();
+  }
+}
+
+TEST(CudaNeural, Tf32TensorCoresStayWithinTheirStatedTolerance) {
+  SKIP_WITHOUT_GPU();
+  // TF32 (10-bit mantissa products, float32 sums) against float64 on the GPU, the paper's width,
+  // dL/ds of random sign (so the gradient's sums over points cancel: the hard case). Measured on an
+  // H200: field 5.7e-5 of the largest |s| (float32 1.2e-7), the worst layer's dL/dW or dL/db 5.1e-2
+  // (Frobenius, relative; float32 1.2e-3). Bounds: 2e-4 and 0.1 (float32 1e-6 and 3e-3).
+  const int n = 20000;
+  const auto X = randomPoints(n, 41);
+  const NeuralRepresentation cpu(net(8, 512, ComputeBackend::Cpu), X);
+  const Eigen::VectorXd t = perturbed(cpu, 43);
+  Eigen::Matrix3Xd U(3, n);
+  for (int i = 0; i < n; ++i) U.col(i) = (X[i] - cpu.frame().centre) / cpu.frame().scale;
+  const std::vector<int> sizes = cpu.layerSizes();
+  const std::vector<Eigen::MatrixXd> W = cpu.weights(t);
+  const std::vector<Eigen::VectorXd> b = cpu.biases(t);
+  const std::vector<double> w = weightsOf(n, 47);
+  struct Out {
+    std::vector<double> s;
+    std::vector<Eigen::MatrixXd> dW;
+    std::vector<Eigen::VectorXd> db;
+  };
+  auto run = [&](CudaPrecision p, MlpMath m) {
+    MlpCuda mlp(sizes, U, p, m);
+    EXPECT_EQ(mlp.math(), m);
+    Out o;
+    mlp.forward(W, b, &o.s);
+    EXPECT_TRUE(mlp.backwardAfterForward(w, &o.dW, &o.db));
+    return o;
+  };
+  const Out r64 = run(CudaPrecision::Float64, MlpMath::Exact);
+  const Out r32 = run(CudaPrecision::Float32, MlpMath::Exact);
+  const Out rtf = run(CudaPrecision::Float32, MlpMath::Tf32);
+  auto gradErr = [&](const Out& o) {
+    double e = 0.0;
+    for (std::size_t l = 0; l < r64.dW.size(); ++l) {
+      e = std::max(e, (o.dW[l] - r64.dW[l]).norm() / r64.dW[l].norm());
+      e = std::max(e, (o.db[l] - r64.db[l]).norm() / r64.db[l].norm());
+    }
+    return e;
+  };
+  const double f32 = relMax(r32.s, r64.s), ftf = relMax(rtf.s, r64.s);
+  const double g32 = gradErr(r32), gtf = gradErr(rtf);
+  std::printf(
+      "[ parity   ] neural 8x512 on %d points: float32 field %.2e gradient %.2e | TF32 field %.2e gradient %.2e\n", n,
+      f32, g32, ftf, gtf);
+  EXPECT_LT(f32, 1e-6);
+  EXPECT_LT(g32, 3e-3);
+  EXPECT_LT(ftf, 2e-4);
+  EXPECT_LT(gtf, 0.1);
+  EXPECT_GT(ftf, f32) << "TF32 did not change the products: were the tensor cores used?";
 }

@@ -10,7 +10,11 @@
 // (backwardAfterForward); else each block recomputes its own.
 // The weight normalisation W = diag(g/‖v‖) v and its backward stay on the host
 // (topology/neural_representation.cpp: O(parameters), not O(points × parameters)).
-// float64 (agrees with the CPU to round-off) or float32.
+// float64 (agrees with the CPU to round-off) or float32; float32 may run its GEMMs on the tensor
+// cores in TF32 (MlpMath::Tf32: 10-bit mantissas in the products, float32 sums; about 5x the
+// float32 GEMM rate on an H100, at ~1e-3 relative error: the stated tolerance is in
+// test/unit/core_cuda_neural.cpp). Weights go up and gradients come down through pinned host
+// memory, one synchronisation per call.
 #pragma once
 
 #include <Eigen/Core>
@@ -21,17 +25,23 @@
 
 namespace topo_gaussian {
 
+/// How float32 GEMMs multiply: Exact (IEEE float32 FMA) or Tf32 (tensor cores, inputs rounded to
+/// TF32). float64 is always exact.
+enum class MlpMath { Exact, Tf32 };
+
 class MlpCuda {
  public:
   /// sizes: layer widths, e.g. {3, 512, …, 512, 1}. Uploads U. Throws TopoError without a device,
-  /// for bad sizes, or (GpuMemoryError) when a block's activations do not fit.
-  MlpCuda(const std::vector<int>& sizes, const Eigen::Matrix3Xd& U, CudaPrecision precision = CudaPrecision::Float64);
+  /// for bad sizes, for Tf32 with Float64, or (GpuMemoryError) when a block's activations do not fit.
+  MlpCuda(const std::vector<int>& sizes, const Eigen::Matrix3Xd& U, CudaPrecision precision = CudaPrecision::Float64,
+          MlpMath math = MlpMath::Exact);
   ~MlpCuda();
   MlpCuda(const MlpCuda&) = delete;
   MlpCuda& operator=(const MlpCuda&) = delete;
 
   std::size_t points() const;
   CudaPrecision precision() const;
+  MlpMath math() const;
   /// s (N values) for the weights W[l] (sizes[l+1] × sizes[l]) and biases b[l] (sizes[l+1]).
   void forward(const std::vector<Eigen::MatrixXd>& W, const std::vector<Eigen::VectorXd>& b, std::vector<double>* s);
   /// dL/dW and dL/db for dL/ds (N values); overwrites dW and db.

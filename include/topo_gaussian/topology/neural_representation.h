@@ -41,6 +41,13 @@ class NeuralRepresentation : public Representation {
   /// from a ReLU kink (finite differences with steps below this margin are exact to O(h²)).
   void kinkMargin(const Eigen::VectorXd& theta, std::vector<double>* margin) const;
 
+  /// Effective weights W_l = diag(g / ‖v_j‖) v of every layer (what MlpCuda multiplies by).
+  std::vector<Eigen::MatrixXd> weights(const Eigen::VectorXd& theta) const;
+  /// The biases b_l of θ.
+  std::vector<Eigen::VectorXd> biases(const Eigen::VectorXd& theta) const;
+  /// The layer widths {3, width, …, width, 1}.
+  std::vector<int> layerSizes() const;
+
   const NormalisedFrame& frame() const { return frame_; }
   const NeuralOptions& options() const { return options_; }
   /// Parameter count of a net: Σ over layers of in·out (v) + out (g) + out (b).
@@ -51,16 +58,12 @@ class NeuralRepresentation : public Representation {
     int in = 0, out = 0;
     int v = 0, g = 0, b = 0;  ///< offsets into θ
   };
-  // Effective weights W_l = diag(g / ‖v_j‖) v of every layer.
-  std::vector<Eigen::MatrixXd> weights(const Eigen::VectorXd& theta) const;
   void forward(const Eigen::VectorXd& theta, const Eigen::Matrix3Xd& U, std::vector<double>* s,
                std::vector<double>* margin) const;
 
   /// The weight-normalisation backward: dL/dθ from dL/dW_l (G) and dL/db_l (gb) of every layer.
   void weightNormBackward(const Eigen::VectorXd& theta, const std::vector<Eigen::MatrixXd>& G,
                           const std::vector<Eigen::VectorXd>& gb, Eigen::VectorXd* dL_dtheta) const;
-  /// The biases b_l of θ.
-  std::vector<Eigen::VectorXd> biases(const Eigen::VectorXd& theta) const;
   /// The GPU MLP when options_.backend resolves to cuda (made at the first evaluation), else null.
   MlpCuda* gpu() const;
 
