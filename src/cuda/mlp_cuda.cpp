@@ -155,15 +155,26 @@ struct MlpCuda::Impl {
     // Every layer's W and b converted into the pinned buffer, copied asynchronously; the stream
     // orders the copies before the GEMMs that read them, and one synchronisation at the end of the
     // call (downloadPoints, downloadGradients) keeps the buffer alive until they are done.
+    const std::vector<std::size_t> at = layerOffsets();
     S* h = static_cast<S*>(pinned);
-    for (std::size_t l = 0; l < layers; ++l) {
-      S* hw = h;
-      h = std::copy(Wh[l].data(), Wh[l].data() + Wh[l].size(), h);
-      check(cudaMemcpyAsync(W[l], hw, Wh[l].size() * sizeof(S), cudaMemcpyHostToDevice, stream), "weight upload");
-      S* hb = h;
-      h = std::copy(bh[l].data(), bh[l].data() + bh[l].size(), h);
-      check(cudaMemcpyAsync(b[l], hb, bh[l].size() * sizeof(S), cudaMemcpyHostToDevice, stream), "bias upload");
+#pragma omp parallel for schedule(dynamic)
+    for (int l = 0; l < static_cast<int>(layers); ++l) {
+      std::copy(Wh[l].data(), Wh[l].data() + Wh[l].size(), h + at[l]);
+      std::copy(bh[l].data(), bh[l].data() + bh[l].size(), h + at[l] + Wh[l].size());
     }
+    for (std::size_t l = 0; l < layers; ++l) {
+      check(cudaMemcpyAsync(W[l], h + at[l], Wh[l].size() * sizeof(S), cudaMemcpyHostToDevice, stream),
+            "weight upload");
+      check(cudaMemcpyAsync(b[l], h + at[l] + Wh[l].size(), bh[l].size() * sizeof(S), cudaMemcpyHostToDevice, stream),
+            "bias upload");
+    }
+  }
+
+  /// Where layer l's W (then its b) starts in the pinned buffer, in values.
+  std::vector<std::size_t> layerOffsets() const {
+    std::vector<std::size_t> at(sizes.size(), 0);
+    for (std::size_t l = 0; l + 1 < sizes.size(); ++l) at[l + 1] = at[l] + std::size_t(sizes[l + 1]) * (sizes[l] + 1);
+    return at;
   }
 
   /// Every layer's dW and db into Eigen matrices: asynchronous copies into the pinned buffer, one
@@ -173,22 +184,22 @@ struct MlpCuda::Impl {
     const std::size_t layers = sizes.size() - 1;
     dWh->resize(layers);
     dbh->resize(layers);
+    const std::vector<std::size_t> at = layerOffsets();
     S* h = static_cast<S*>(pinned);
     for (std::size_t l = 0; l < layers; ++l) {
       const std::size_t nw = std::size_t(sizes[l + 1]) * sizes[l], nb = sizes[l + 1];
-      check(cudaMemcpyAsync(h, dW[l], nw * sizeof(S), cudaMemcpyDeviceToHost, stream), "gradient download");
-      check(cudaMemcpyAsync(h + nw, db[l], nb * sizeof(S), cudaMemcpyDeviceToHost, stream), "gradient download");
-      h += nw + nb;
+      check(cudaMemcpyAsync(h + at[l], dW[l], nw * sizeof(S), cudaMemcpyDeviceToHost, stream), "gradient download");
+      check(cudaMemcpyAsync(h + at[l] + nw, db[l], nb * sizeof(S), cudaMemcpyDeviceToHost, stream),
+            "gradient download");
     }
     check(cudaStreamSynchronize(stream), "gradient download");
-    h = static_cast<S*>(pinned);
-    for (std::size_t l = 0; l < layers; ++l) {
+#pragma omp parallel for schedule(dynamic)
+    for (int l = 0; l < static_cast<int>(layers); ++l) {
       (*dWh)[l].resize(sizes[l + 1], sizes[l]);
       (*dbh)[l].resize(sizes[l + 1]);
-      std::copy(h, h + (*dWh)[l].size(), (*dWh)[l].data());
-      h += (*dWh)[l].size();
-      std::copy(h, h + (*dbh)[l].size(), (*dbh)[l].data());
-      h += (*dbh)[l].size();
+      const S* hl = h + at[l];
+      std::copy(hl, hl + (*dWh)[l].size(), (*dWh)[l].data());
+      std::copy(hl + (*dWh)[l].size(), hl + (*dWh)[l].size() + (*dbh)[l].size(), (*dbh)[l].data());
     }
   }
 

@@ -130,20 +130,26 @@ Eigen::VectorXd NeuralRepresentation::initialParameters() const {
 }
 
 std::vector<Eigen::MatrixXd> NeuralRepresentation::weights(const Eigen::VectorXd& theta) const {
-  std::vector<Eigen::MatrixXd> W(layers_.size());
-  for (std::size_t l = 0; l < layers_.size(); ++l) {
+  const int depth = static_cast<int>(layers_.size());
+  std::vector<Eigen::MatrixXd> W(depth);
+  std::vector<int> zero_row(depth, -1);  // a row with ‖v_j‖ = 0, per layer (thrown after the loop)
+  // One layer a thread (O(parameters) work: a few ms for the paper's net, beside a GPU's GEMMs).
+#pragma omp parallel for schedule(dynamic) num_threads(std::min(depth, maxThreads()))
+  for (int l = 0; l < depth; ++l) {
     const Layer& L = layers_[l];
     const Eigen::Map<const Eigen::MatrixXd> v(theta.data() + L.v, L.out, L.in);
     const Eigen::Map<const Eigen::VectorXd> g(theta.data() + L.g, L.out);
     const Eigen::VectorXd norms = rowDots(v, v).cwiseSqrt();
-    for (int j = 0; j < L.out; ++j)
-      if (!(norms[j] > 0.0))
-        throw TopoError("neural representation parameters θ",
-                        "row " + std::to_string(j) + " of layer " + std::to_string(l) +
-                            " has a zero weight vector v (weight normalisation divides by ‖v‖)",
-                        "restart from initialParameters()");
-    W[l] = (g.array() / norms.array()).matrix().asDiagonal() * v;
+    for (int j = 0; j < L.out && zero_row[l] < 0; ++j)
+      if (!(norms[j] > 0.0)) zero_row[l] = j;
+    if (zero_row[l] < 0) W[l] = (g.array() / norms.array()).matrix().asDiagonal() * v;
   }
+  for (int l = 0; l < depth; ++l)
+    if (zero_row[l] >= 0)
+      throw TopoError("neural representation parameters θ",
+                      "row " + std::to_string(zero_row[l]) + " of layer " + std::to_string(l) +
+                          " has a zero weight vector v (weight normalisation divides by ‖v‖)",
+                      "restart from initialParameters()");
   return W;
 }
 
@@ -304,7 +310,10 @@ void NeuralRepresentation::weightNormBackward(const Eigen::VectorXd& theta, cons
                                               const std::vector<Eigen::VectorXd>& gbs,
                                               Eigen::VectorXd* dL_dtheta) const {
   dL_dtheta->setZero(num_parameters_);
-  for (std::size_t l = 0; l < layers_.size(); ++l) {
+  const int depth = static_cast<int>(layers_.size());
+  // One layer a thread; each writes its own segments of dL/dθ.
+#pragma omp parallel for schedule(dynamic) num_threads(std::min(depth, maxThreads()))
+  for (int l = 0; l < depth; ++l) {
     const Layer& L = layers_[l];
     const Eigen::MatrixXd& G = Gs[l];
     const Eigen::VectorXd& gb = gbs[l];
