@@ -17,8 +17,11 @@
 // Measured (2 particles through the 5 mm wall at the task's default 2.5 mm spacing; CalculiX 2.5 mm
 // cells): soft solid ours 0.483 deg vs CalculiX 0.688 (−30 %), void 0.277 vs 0.571 (−52 %); the
 // CalculiX void at 1.25 mm cells gives 0.588 deg (+3.1 %: the peer mesh is converged to about 3 %;
-// 31 min on the shared 2 cores, so not in the test). Ours at 1.25 mm (4 particles through the wall,
-// 20 480 particles) did not finish in 27 min there: not measured. Linear CalculiX gives 0.163 deg for the
+// 31 min on the shared 2 cores, so not in the test). Refined (BendAngleConvergesWithRefinement,
+// TOPO_SLOW_PEERS=1, 2026-11-26): soft solid −29.8 / −20.9 / −18.7 % at 2 / 3 / 4 particles through the
+// wall (ours at 1.25 mm: 20 480 particles, 603 s), void −51.5 / −37.2 % at 2 / 3: the error levels off
+// (e∞ + a h³ fits the soft solid with e∞ ≈ −17 %), so resolution alone does not reach the 5 % goal;
+// the task warns with these numbers. Linear CalculiX gives 0.163 deg for the
 // void: the bend at 5e5 Pa is strongly nonlinear (at 5e3 Pa NLGEOM and linear agree within 3 %).
 // Tests skip (with the reason) only when ccx is not installed.
 #include <gtest/gtest.h>
@@ -141,7 +144,7 @@ double calculix(const Finger& f, double h, bool void_chamber, double cell, bool 
   } while (0)
 
 // Both chamber models at the finger task's default spacing (2.5 mm: 2 particles through the 5 mm
-// thinnest wall, below the 4 the goal names; the task warns and names --spacing 0.00125). Measured
+// thinnest wall; the task warns with the bias measured below and in the convergence test). Measured
 // (see the file header): ours is too stiff by about a third (soft-solid chamber) and a half (void);
 // the tolerances below are what these numbers support, not the 5 % goal.
 TEST(FingerPeer, BendAngleAgainstCalculixBothChamberModels) {
@@ -166,17 +169,19 @@ TEST(FingerPeer, BendAngleAgainstCalculixBothChamberModels) {
         k.name, h, o.n, o.angle, p, 100 * e, o.seconds, seconds);
     EXPECT_GT(o.angle, 0.0) << k.name << ": the finger must bend towards the thick wall (+z)";
     EXPECT_LT(std::abs(e), k.tolerance) << k.name;
-    // Below 4 particles through the thinnest wall the task says so and names the spacing that would be.
+    // The task says what this model's bend is worth (the measured bias), naming the wall resolution.
     EXPECT_NE(err.find("[finger] warning"), std::string::npos) << err;
-    EXPECT_NE(err.find("--spacing 0.00125"), std::string::npos) << err;
+    EXPECT_NE(err.find("gives 2 particles"), std::string::npos) << err;
+    EXPECT_NE(err.find("more so below 4"), std::string::npos) << err;
   }
 }
 
-// The warning counts particles through the design's thinnest chamber wall: a 0.1 x 0.025 x 0.025 m
-// finger with 10 mm walls around its chamber has 4 at 2.5 mm (silent) and 3 at 3.125 mm (warns,
-// naming 9.375 mm / 4 = 0.002344 m: the lattice wall is 3 spacings). No pressure: only the start of the evaluation
-// matters here.
-TEST(FingerPeer, WarnsOnlyBelowFourParticlesThroughTheThinnestWall) {
+// The warning (the bias BendAngleConvergesWithRefinement measured) names the design's wall
+// resolution: a 0.1 x 0.025 x 0.025 m finger with 10 mm walls around its chamber has 4 particles
+// through them at 2.5 mm and 3 at 3.125 mm (the lattice wall is 3 spacings: "more so below 4"). A
+// design without a chamber has no wall to resolve: silent. No pressure: only the start of the
+// evaluation matters here.
+TEST(FingerPeer, WarnsOfTheMeasuredBiasWithTheWallResolution) {
   geometry::SurfaceData box = geometry::makeBox(Eigen::Vector3d(0.1, 0.025, 0.025));
   for (auto& q : box.points) q.x() += 0.05;
   for (const double h : {0.0025, 0.003125}) {
@@ -190,15 +195,52 @@ TEST(FingerPeer, WarnsOnlyBelowFourParticlesThroughTheThinnestWall) {
     }
     TaskConfig c = TaskConfig::defaults("finger");
     c.setNumber("pressure_pa", 0.0);
-    const auto task = makeTask(c, cloud);
-    testing::internal::CaptureStderr();
-    task->evaluate(r, nullptr);
-    const std::string err = testing::internal::GetCapturedStderr();
-    if (h > 0.003) {
+    for (const bool chamber : {true, false}) {
+      const auto task = makeTask(c, cloud);
+      testing::internal::CaptureStderr();
+      task->evaluate(chamber ? r : std::vector<double>(cloud.size(), 1.0), nullptr);
+      const std::string err = testing::internal::GetCapturedStderr();
+      if (!chamber) {
+        EXPECT_EQ(err.find("[finger] warning"), std::string::npos) << err;
+        continue;
+      }
       EXPECT_NE(err.find("[finger] warning"), std::string::npos) << err;
-      EXPECT_NE(err.find("--spacing 0.002344"), std::string::npos) << err;
-    } else {
-      EXPECT_EQ(err.find("[finger] warning"), std::string::npos) << err;
+      EXPECT_NE(err.find("-30 / -21 / -19 %"), std::string::npos) << err;
+      EXPECT_NE(err.find("larger or softer"), std::string::npos) << err;
+      EXPECT_NE(err.find(h > 0.003 ? "gives 3 particles" : "gives 4 particles"), std::string::npos) << err;
+      EXPECT_EQ(err.find("more so below 4") != std::string::npos, h > 0.003) << err;
+    }
+  }
+}
+
+// The convergence curve the issue asks for (issue 15 §3: "converging with refinement: show the
+// curve"): both chamber models at 2, 3 and 4 particles through the 5 mm wall, each against CalculiX
+// with its segments on that lattice (2.5 mm C3D10 cells: the peer itself is converged to ~3 %, see
+// the file header). Ours at 1.25 mm is 20 480 particles: tens of minutes on 2 cores, so the test runs
+// only with TOPO_SLOW_PEERS=1 (the curve is in the README's accuracy table and the file header). It
+// asserts what the numbers show: the error shrinks with every refinement (it does, but levels off
+// near −17 % for the soft solid: not within 5 %).
+TEST(FingerPeer, BendAngleConvergesWithRefinement) {
+  REQUIRE_CALCULIX();
+  if (!std::getenv("TOPO_SLOW_PEERS"))
+    GTEST_SKIP() << "tens of minutes on 2 cores: set TOPO_SLOW_PEERS=1 to run (the measured curve is in the README)";
+  const Finger f;
+  double last[2] = {INFINITY, INFINITY};  // soft-solid, void
+  for (const double h : {0.0025, 0.0025 / 1.5, 0.00125}) {
+    for (const bool void_chamber : {false, true}) {
+      testing::internal::CaptureStderr();
+      const Ours o = ours(f, h, void_chamber, kVoidYoungsModulus);
+      testing::internal::GetCapturedStderr();
+      double seconds = 0;
+      const double p = calculix(f, h, void_chamber, 0.0025, true, &seconds);
+      const double e = o.angle / p - 1.0;
+      std::printf(
+          "[convergence] finger %s at %.4g m (%.0f particles through the 5 mm wall, %zu particles) | ours %.4f deg | "
+          "CalculiX %.4f deg | error %+.1f %% | %.0f s\n",
+          void_chamber ? "void chamber" : "soft-solid chamber", h, 0.005 / h, o.n, o.angle, p, 100 * e, o.seconds);
+      std::fflush(stdout);
+      EXPECT_LT(std::abs(e), last[void_chamber]) << "the error must shrink with refinement (h " << h << ")";
+      last[void_chamber] = std::abs(e);
     }
   }
 }
