@@ -12,8 +12,8 @@
 // clamp_stiffness_factor × their Lamé parameters, so their kernel fit over the free particles beyond
 // the clamp's edge does not strain. Measured against CalculiX (test/unit/inference_finger_peer.cpp,
 // 2.5 mm spacing): factor 1 → 100 moves the bend angle from 0.465 to 0.483 deg (soft-solid chamber)
-// and 0.258 to 0.277 deg (void), towards CalculiX's 0.688 / 0.571 deg; the rest of the gap is the
-// resolution of the 5 mm walls (2 particles).
+// and 0.258 to 0.277 deg (void), towards CalculiX's 0.688 / 0.571 deg; refining the 5 mm walls
+// closes only part of the rest (below).
 // Held to CalculiX (inference_finger_peer, BendAngleConvergesWithRefinement; paper materials, 5e5 Pa):
 // the bend angle comes out too small, by −29.8 / −20.9 / −18.7 % at 2 / 3 / 4 particles through the
 // 5 mm wall (soft-solid chamber; void chamber −51.5 / −37.2 % at 2 / 3), and the error levels off
