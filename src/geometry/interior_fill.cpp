@@ -288,6 +288,15 @@ class Filler {
     // Kernel radius: the sampling spacing (the field is exact for a plane whatever the sampling, so a
     // small radius only costs smoothing of noise; on a curved surface it offsets f by ≈ r²/2R).
     const double radius = std::max(point_spacing_, 0.25 * L.h);
+    // A scan much denser than the kernel (on average 3 or more points per cube of radius / 2) is
+    // binned first: the field then costs per cube, not per point (a 2M-point sphere R 5 cm at the
+    // default 50 000 particles: 3.9 points a cube, the field changes by 7e-6 of the volume).
+    {
+      OrientedPoints binned = binnedPoints(p, 0.5 * radius);
+      std::size_t kept = 0;
+      for (double w : p.weights) kept += w > 0.0;
+      if (kept >= 3 * binned.points.size()) p = std::move(binned);
+    }
     std::size_t inner = 0;
     const auto field = outerSurfaceDistance(p, L, radius, 2.5 * L.h, radius, 4, &inner);
     occ->fraction = cellInsideFractions(L, field, occ->solid);

@@ -9,6 +9,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <unordered_map>
 
 namespace topo_gaussian::geometry {
 
@@ -227,6 +228,36 @@ std::vector<double> nodeSignedDistance(const OrientedPoints& p, const Lattice& L
         }
   }
   return f;
+}
+
+OrientedPoints binnedPoints(const OrientedPoints& p, double cell) {
+  struct Bin {
+    Eigen::Vector3d x = Eigen::Vector3d::Zero(), n = Eigen::Vector3d::Zero();
+    double w = 0.0;
+  };
+  std::unordered_map<std::int64_t, Bin> bins;
+  std::vector<std::int64_t> order;  // first-seen order: the result does not depend on the hash
+  for (std::size_t i = 0; i < p.points.size(); ++i) {
+    const double a = p.weights[i];
+    if (!(a > 0.0)) continue;
+    const Eigen::Array3d q = (p.points[i] / cell).array().floor();
+    const std::int64_t key =
+        (std::int64_t(q[0]) & 0x1FFFFF) | (std::int64_t(q[1]) & 0x1FFFFF) << 21 | (std::int64_t(q[2]) & 0x1FFFFF) << 42;
+    auto [it, fresh] = bins.try_emplace(key);
+    if (fresh) order.push_back(key);
+    it->second.x += a * p.points[i];
+    it->second.n += a * p.normals[i];
+    it->second.w += a;
+  }
+  OrientedPoints out;
+  out.points.reserve(order.size());
+  for (std::int64_t key : order) {
+    const Bin& b = bins[key];
+    out.points.push_back(b.x / b.w);
+    out.normals.push_back(b.n.norm() > 0.0 ? Eigen::Vector3d(b.n.normalized()) : Eigen::Vector3d::Zero());
+    out.weights.push_back(b.n.norm() > 0.0 ? b.w : 0.0);
+  }
+  return out;
 }
 
 double interpolateNodes(const Lattice& L, const std::vector<double>& f, const Eigen::Vector3d& x) {

@@ -263,3 +263,50 @@ TEST(SurfaceField, EuclideanDistanceMatchesBruteForce) {
   EXPECT_NEAR(interpolateCells(L, lin, x, 0.0), x.dot(Eigen::Vector3d(1, -2, 3)), 1e-6);
   EXPECT_EQ(interpolateCells(L, lin, L.origin - Eigen::Vector3d::Constant(1.0), -7.0), -7.0);
 }
+
+// A scan much denser than the field's kernel is binned (cubes of r/2) before the signed distance:
+// the field at the nodes near the surface must stay what the raw points give. A 600k-point sphere
+// (R 5 cm, 0.23 mm apart, exact normals) and a 1 mm kernel (the fill's 0.25 h at h 4 mm): the
+// binned field's worst difference at the nodes within 2 r of the surface is held to 0.2 % of r (6e-4 r measured; a
+// cube's points are replaced by their mean: the error is O((cube / r)²) of r, and mostly cancels
+// between the weighted sums). Weights add up, and points of weight 0 are left out.
+TEST(SurfaceField, BinnedDenseScanKeepsTheField) {
+  const double R = 0.05, r = 0.001;
+  const int n = 600000;
+  OrientedPoints p;
+  for (int i = 0; i < n; ++i) {
+    const double z = 1.0 - 2.0 * (i + 0.5) / n, rho = std::sqrt(1.0 - z * z), phi = M_PI * (3.0 - std::sqrt(5.0)) * i;
+    const Eigen::Vector3d d(rho * std::cos(phi), rho * std::sin(phi), z);
+    p.points.push_back(R * d);
+    p.normals.push_back(d);
+    p.weights.push_back(i % 50 == 0 ? 0.0 : 1.0);
+  }
+  const OrientedPoints b = binnedPoints(p, 0.5 * r);
+  double w_raw = 0.0, w_binned = 0.0;
+  for (double w : p.weights) w_raw += w;
+  for (double w : b.weights) w_binned += w;
+  EXPECT_NEAR(w_binned, w_raw, 1e-6 * w_raw);
+  EXPECT_GT(double(n) / double(b.points.size()), 3.0) << "the test cloud must be dense for the fill to bin it";
+  Lattice L;
+  L.h = 0.004;
+  L.origin = Eigen::Vector3d::Constant(-0.058);
+  L.n = {29, 29, 29};
+  const std::vector<double> f_raw = nodeSignedDistance(p, L, r, 2.5 * L.h);
+  const std::vector<double> f_bin = nodeSignedDistance(b, L, r, 2.5 * L.h);
+  double worst = 0.0;
+  int nodes = 0;
+  for (int k = 0; k <= L.n[2]; ++k)
+    for (int j = 0; j <= L.n[1]; ++j)
+      for (int i = 0; i <= L.n[0]; ++i) {
+        const Eigen::Vector3d x = L.origin + L.h * Eigen::Vector3d(i, j, k);
+        if (std::abs(x.norm() - R) > 2.0 * r) continue;
+        const std::size_t q = (std::size_t(k) * (L.n[1] + 1) + j) * (L.n[0] + 1) + i;
+        ASSERT_TRUE(std::isfinite(f_raw[q]) && std::isfinite(f_bin[q]));
+        worst = std::max(worst, std::abs(f_bin[q] - f_raw[q]));
+        ++nodes;
+      }
+  std::printf("dense sphere: %d points -> %zu cubes; field at %d nodes near the surface: worst |binned - raw| %.3g r\n",
+              n, b.points.size(), nodes, worst / r);
+  EXPECT_GT(nodes, 1000);
+  EXPECT_LT(worst, 0.002 * r);
+}

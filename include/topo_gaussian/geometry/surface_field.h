@@ -64,6 +64,12 @@ std::size_t orientNormals(OrientedPoints& points, const Lattice& grid, const std
 std::vector<double> nodeSignedDistance(const OrientedPoints& points, const Lattice& lattice, double radius_m,
                                        double reach_m);
 
+/// A dense point set as the weighted means of its points per cube of side cell_m: position Σ a_i p_i / Σ a_i,
+/// normal the normalised Σ a_i n_i, weight Σ a_i (points of weight 0 left out). With cell_m ≤ r / 2 the
+/// field f above changes by O((cell_m / r)²) of r; nodeSignedDistance's cost falls with the number of
+/// points (a 2M-point scan at r = 0.56 mm: ~6 000 points within reach of a node, ~1 000 binned).
+OrientedPoints binnedPoints(const OrientedPoints& points, double cell_m);
+
 /// Trilinear interpolation of node values (nodeSignedDistance) at x; NaN outside the lattice or
 /// where a corner is undefined.
 double interpolateNodes(const Lattice& lattice, const std::vector<double>& node_field, const Eigen::Vector3d& x);
