@@ -20,7 +20,7 @@ void declareSoftParameters(TaskParameters& p, const SoftDefaults& d) {
   p.number("poisson_ratio_hollow", d.poisson_ratio_hollow, "unitless", d.poisson_ratio_hollow_doc, -0.99, 0.499);
   p.number("stiffness_power", d.stiffness_power, "unitless",
            "SIMP power of the Young's modulus interpolation, unitless", 1, 10);
-  p.text("energy_model", "corotated_linear", "corotated_linear (Cauchy strain) | stvk (Green strain)",
+  p.text("energy_model", d.energy_model, "corotated_linear (Cauchy strain) | stvk (Green strain)",
          {"corotated_linear", "stvk"});
   p.integer("gradient_order", d.gradient_order, "unitless",
             "SPH kernel gradient, unitless: 1 corrected (paper), 2 quadratic MLS (exact in bending)", 1, 2)

@@ -59,6 +59,7 @@ struct SoftDefaults {
   double default_spacing_m = 0.004;
   double density_hollow = 1000.0;  ///< [kg/m^3] (density_solid stays 1000)
   bool pin_shell = false;
+  std::string energy_model = "corotated_linear";  ///< corotated_linear | stvk
 };
 
 /// Declares the parameters every soft task reads (materials, SPH, Newton, default spacing; paper

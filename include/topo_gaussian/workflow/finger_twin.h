@@ -14,9 +14,9 @@
 // The default chamber (defaultChamberQuadric): an ellipsoid x ∈ [0.015, 0.065] m, |y| < 6 mm,
 // z ∈ [−4.5, 0.5] mm in the 0.1 × 0.02 × 0.015 m default finger (walls 3 mm below and 7 mm above
 // it): the thin lower wall stretches and the finger bends up (+z, the task's bend_normal): at the
-// paper's 5e5 Pa 0.68 deg with the task's default walls (E 1e7 Pa), 6.6 deg with the rig's soft
-// elastomer (config/rigs/finger_twin.yaml: E 2e6 Pa; 0.84 / 1.88 / 3.15 / 4.71 deg at 1–4e5 Pa;
-// linear interpolation between the 1e5 Pa levels is within 0.05 deg of direct solves, 16 s to set up). It ends before
+// paper's 5e5 Pa a fraction of a degree with the task's default walls (E 1e7 Pa), 6.0 deg with the rig's soft
+// elastomer (config/rigs/finger_twin.yaml: E 2e6 Pa; StVK 0.85 / 1.88 / 3.08 / 4.45 / 5.97 deg at 1–5e5 Pa;
+// linear interpolation between the 1e5 Pa levels is within 0.05 deg of direct solves, 16–36 s to set up). It ends before
 // the last 30 % of the length, whose two segments give the bend, so a side camera's silhouette there is the material's
 // (test/unit/vision_finger_bend.cpp: a chamber bulging under them makes the silhouette's chord 24 % steeper than the
 // task's).
