@@ -10,6 +10,7 @@
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/geometry/surface_field.h"
 #include "topo_gaussian/physics/neighbor_list.h"
 
 namespace topo_gaussian::geometry {
@@ -51,12 +52,6 @@ void checkCount(double count, double s, const ContactSampleOptions& o, const Sur
                       " m (FillOptions::contact.spacing_m, `topo fill --contact-spacing`)");
 }
 
-std::int64_t cellKey(const Eigen::Vector3d& p, double cell) {
-  const Eigen::Array3d q = (p / cell).array().floor();
-  return (std::int64_t(q[0]) & 0x1FFFFF) | (std::int64_t(q[1]) & 0x1FFFFF) << 21 |
-         (std::int64_t(q[2]) & 0x1FFFFF) << 42;
-}
-
 std::uint64_t mix(std::uint64_t x) {  // splitmix64: a fixed pseudo-random visiting order
   x += 0x9E3779B97F4A7C15ULL;
   x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ULL;
@@ -84,7 +79,7 @@ ContactSamples thinToSpacing(const ContactSamples& c, double s) {
       for (int dy = -1; dy <= 1; ++dy)
         for (int dz = -1; dz <= 1; ++dz) {
           const Eigen::Vector3d probe = (q + Eigen::Array3d(dx + 0.5, dy + 0.5, dz + 0.5)).matrix() * r;
-          const auto it = kept_in.find(cellKey(probe, r));
+          const auto it = kept_in.find(cubeKey(probe, r));
           if (it == kept_in.end()) continue;
           for (int j : it->second) {
             const double d2 = (c.X[j] - p).squaredNorm();
@@ -103,7 +98,7 @@ ContactSamples thinToSpacing(const ContactSamples& c, double s) {
   for (const auto& oi : order) {
     const int i = oi.second;
     if (near(c.X[i], r, nullptr)) continue;
-    kept_in[cellKey(c.X[i], r)].push_back(i);
+    kept_in[cubeKey(c.X[i], r)].push_back(i);
     kept.push_back(i);
   }
   // Lloyd relaxation (4 rounds): every candidate goes to its nearest sample, and each sample moves to
@@ -258,7 +253,7 @@ ContactSamples pointSamples(const SurfaceData& surface, const VolumeCloud& fille
   const SpatialGrid near_boundary(boundary, reach + half_diagonal);
   std::unordered_map<std::int64_t, char> verdict;  // 'c' all close, 'f' all floaters, 'm' mixed
   auto closeToBody = [&](const Eigen::Vector3d& p) {
-    const std::int64_t key = cellKey(p, s);
+    const std::int64_t key = cubeKey(p, s);
     auto it = verdict.find(key);
     if (it == verdict.end()) {
       const Eigen::Vector3d centre = (((p / s).array().floor() + 0.5) * s).matrix();
@@ -292,7 +287,7 @@ ContactSamples pointSamples(const SurfaceData& surface, const VolumeCloud& fille
       ++floaters;
       continue;
     }
-    Cell& c = cells[cellKey(p, s / 3.0)];
+    Cell& c = cells[cubeKey(p, s / 3.0)];
     c.sum += p;
     ++c.n;
     if (with_normals && surface.normals[i].allFinite()) c.normal += surface.normals[i];
@@ -309,7 +304,7 @@ ContactSamples pointSamples(const SurfaceData& surface, const VolumeCloud& fille
   {
     std::unordered_map<std::int64_t, Cell> coarse;
     for (const auto& kv : cells) {
-      Cell& c = coarse[cellKey(kv.second.sum / kv.second.n, s)];
+      Cell& c = coarse[cubeKey(kv.second.sum / kv.second.n, s)];
       c.sum += kv.second.sum;
       c.normal += kv.second.normal;
       c.n += kv.second.n;

@@ -230,6 +230,12 @@ std::vector<double> nodeSignedDistance(const OrientedPoints& p, const Lattice& L
   return f;
 }
 
+std::int64_t cubeKey(const Eigen::Vector3d& p, double cell) {
+  const Eigen::Array3d q = (p / cell).array().floor();
+  return (std::int64_t(q[0]) & 0x1FFFFF) | (std::int64_t(q[1]) & 0x1FFFFF) << 21 |
+         (std::int64_t(q[2]) & 0x1FFFFF) << 42;
+}
+
 OrientedPoints binnedPoints(const OrientedPoints& p, double cell) {
   struct Bin {
     Eigen::Vector3d x = Eigen::Vector3d::Zero(), n = Eigen::Vector3d::Zero();
@@ -240,9 +246,7 @@ OrientedPoints binnedPoints(const OrientedPoints& p, double cell) {
   for (std::size_t i = 0; i < p.points.size(); ++i) {
     const double a = p.weights[i];
     if (!(a > 0.0)) continue;
-    const Eigen::Array3d q = (p.points[i] / cell).array().floor();
-    const std::int64_t key =
-        (std::int64_t(q[0]) & 0x1FFFFF) | (std::int64_t(q[1]) & 0x1FFFFF) << 21 | (std::int64_t(q[2]) & 0x1FFFFF) << 42;
+    const std::int64_t key = cubeKey(p.points[i], cell);
     auto [it, fresh] = bins.try_emplace(key);
     if (fresh) order.push_back(key);
     it->second.x += a * p.points[i];

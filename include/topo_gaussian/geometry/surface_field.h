@@ -64,6 +64,10 @@ std::size_t orientNormals(OrientedPoints& points, const Lattice& grid, const std
 std::vector<double> nodeSignedDistance(const OrientedPoints& points, const Lattice& lattice, double radius_m,
                                        double reach_m);
 
+/// Hash key of the cube of side cell_m that holds p (floor(p / cell_m), 21 bits per axis): for
+/// binning points in a std::unordered_map.
+std::int64_t cubeKey(const Eigen::Vector3d& p, double cell_m);
+
 /// A dense point set as the weighted means of its points per cube of side cell_m: position Σ a_i p_i / Σ a_i,
 /// normal the normalised Σ a_i n_i, weight Σ a_i (points of weight 0 left out). With cell_m ≤ r / 2 the
 /// field f above changes by O((cell_m / r)²) of r; nodeSignedDistance's cost falls with the number of
