@@ -237,6 +237,170 @@ struct QuadricPatch {
   }
 };
 
+/// The means a scan's contact patches are fitted to, with a grid whose cells hold radius_m.
+struct PatchNeighbours {
+  PatchNeighbours(const std::vector<Eigen::Vector3d>& x, const std::vector<double>& w, const std::vector<double>& c,
+                  double radius)
+      : mean(x), weight(w), count(c), radius_m(radius), grid(x, radius) {}
+  const std::vector<Eigen::Vector3d>& mean;
+  const std::vector<double>& weight;  ///< a mean's share of the area
+  const std::vector<double>& count;   ///< the points it averages
+  double radius_m;
+  SpatialGrid grid;
+};
+
+struct PatchFit {
+  QuadricPatch patch;  ///< valid from 12 neighbours on
+  Eigen::Vector3d plane_normal = Eigen::Vector3d::Zero(), plane_point = Eigen::Vector3d::Zero();
+  int m = 0;                  ///< neighbours within the radius
+  double radius_m = 0.0;      ///< R_f
+  double noise_m = 0.0;       ///< the points' scatter about the fit: σ² = Σ w r² / Σ (w / count)
+  double height_sd_unit = 0;  ///< std of the fitted height at the point for unit point noise
+};
+
+// Quadric moving-least-squares patch of the means within R_f of p (Gaussian weights of width R_f / 2,
+// times each mean's area share): the weighted plane, then h(u, v) = c0 + c1 u + c2 v + c3 u² + c4 uv +
+// c5 v² over it by weighted least squares. The quadratic term follows the surface's curvature, so a
+// wide fit smooths noise without pulling samples inside (a plane fit of radius R_f on a sphere of
+// radius R would, by ~R_f²/(4R)). The height's standard deviation for unit point noise is the
+// sandwich [A⁻¹ B A⁻¹]₀₀, A = Σ w φφᵀ, B = Σ w² φφᵀ / count (a mean of n points has variance σ²/n).
+PatchFit quadricFit(const PatchNeighbours& nb, const Eigen::Vector3d& p, double rf) {
+  PatchFit f;
+  f.radius_m = rf;
+  const double w2 = 0.25 * rf * rf;
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
+  double wsum = 0.0;
+  thread_local std::vector<std::pair<int, double>> near;
+  near.clear();
+  nb.grid.query(p, [&](int j, const Eigen::Vector3d& x) {
+    const double d2 = (x - p).squaredNorm();
+    if (d2 >= rf * rf) return;
+    const double w = std::exp(-d2 / w2) * nb.weight[j];
+    near.emplace_back(j, w);
+    c += w * x;
+    C += w * x * x.transpose();
+    wsum += w;
+  });
+  f.m = int(near.size());
+  if (f.m < 4) return f;
+  c /= wsum;
+  C = C / wsum - c * c.transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(C);
+  const Eigen::Vector3d nrm = es.eigenvectors().col(0);
+  const Eigen::Vector3d t1 = es.eigenvectors().col(2), t2 = nrm.cross(t1);
+  f.plane_normal = nrm;
+  f.plane_point = p - (p - c).dot(nrm) * nrm;
+  if (f.m < 12) return f;
+  using Vec6 = Eigen::Matrix<double, 6, 1>;
+  auto basis = [&](const Eigen::Vector3d& x) {
+    const Eigen::Vector3d d = x - c;
+    const double u = d.dot(t1), v = d.dot(t2);
+    Vec6 phi;
+    phi << 1, u, v, u * u, u * v, v * v;
+    return phi;
+  };
+  Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero(), B = A;
+  Vec6 bvec = Vec6::Zero();
+  for (const auto& [j, w] : near) {
+    const Vec6 phi = basis(nb.mean[j]);
+    A += w * phi * phi.transpose();
+    B += (w * w / nb.count[j]) * phi * phi.transpose();
+    bvec += w * (nb.mean[j] - c).dot(nrm) * phi;
+  }
+  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(A);
+  f.patch.co = ldlt.solve(bvec);
+  if (!f.patch.co.allFinite()) return f;
+  double res2 = 0.0, wn = 0.0;
+  for (const auto& [j, w] : near) {
+    const double r = (nb.mean[j] - c).dot(nrm) - basis(nb.mean[j]).dot(f.patch.co);
+    res2 += w * r * r;
+    wn += w / nb.count[j];
+  }
+  f.noise_m = std::sqrt(res2 / wn);
+  const Eigen::Vector3d d = p - c;
+  f.patch.u = d.dot(t1);
+  f.patch.v = d.dot(t2);
+  const Vec6 g = ldlt.solve(basis(p));  // A⁻¹ φ(p): the fitted height is gᵀ b
+  f.height_sd_unit = std::sqrt(std::max(0.0, g.dot(B * g)));
+  f.patch.valid = true;
+  f.patch.c = c, f.patch.t1 = t1, f.patch.t2 = t2, f.patch.n = nrm;
+  return f;
+}
+
+struct FitWidening {
+  double noise_m = 0.0;          ///< the points' scatter about their fits at R_f = 8 s (median)
+  double median_radius_m = 0.0;  ///< R_f the fits ended at (median)
+  double short_fraction = 0.0;   ///< fits that stopped before their noise target (feature or R_f max)
+};
+
+// A noisy scan's fits widen until the noise no longer bends the contact surface. The fitted heights
+// e(x) carry noise of std σ_h = σ · height_sd_unit, correlated over the Gaussian's width w = R_f / 2,
+// so the surface's curvature is off by ~√3 σ_h / w² (a Gaussian-correlated field's second
+// derivative). That must stay within 0.5 % of κ_ref = 2 / the body's diagonal: a rocking period
+// follows the curvature under the contact. A hemisphere scanned with 0.3 mm noise (2 mm apart) rocked
+// −5.1…−0.4 % off at R_f = 8 s (four samplings of the noise), −2.7…+1.2 % with a 1 % bound, and
+// −1.5…+1.0 % (twelve samplings, mean −0.2 %) with 0.5 %. σ_h falls as 1 / w (the points in the fit grow as w²), so the
+// radius that meets the target is predicted from the first fit, R_f ∝ ratio^(1/3), and tried; a wider
+// fit is kept only while it still fits about as well as the first (scatter ≤ 1.5 × the first's or the
+// scan's median): an edge or a small feature inside it would raise the scatter, and the fit goes back
+// towards R_f = 8 s (geometric halving, twice).
+FitWidening widenNoisyFits(const PatchNeighbours& base, const std::vector<Eigen::Vector3d>& mean, double rf0,
+                           double rf_max, double kappa_ref, std::vector<PatchFit>* fit) {
+  FitWidening out;
+  std::vector<double> noise;
+  for (const PatchFit& f : *fit)
+    if (f.patch.valid) noise.push_back(f.noise_m);
+  if (noise.empty()) return out;
+  std::nth_element(noise.begin(), noise.begin() + noise.size() / 2, noise.end());
+  out.noise_m = noise[noise.size() / 2];
+  constexpr double kCurvatureShare = 0.005;  // 1 % left the hemisphere's period −2.7 % for one sampling
+  auto bend = [&](const PatchFit& f) {       // curvature the noise puts into the fitted surface [1/m]
+    const double w = 0.5 * f.radius_m;
+    return std::sqrt(3.0) * out.noise_m * f.height_sd_unit / (w * w);
+  };
+  const double target = kCurvatureShare * kappa_ref;
+  // grids at R_f = rf0 · 2^k, each queried for the radii up to its cell
+  std::vector<std::unique_ptr<PatchNeighbours>> grids;
+  for (double cell = 2.0 * rf0; cell < 2.0 * rf_max; cell *= 2.0)
+    grids.push_back(std::make_unique<PatchNeighbours>(base.mean, base.weight, base.count, cell));
+  auto fitAt = [&](const Eigen::Vector3d& p, double rf) {
+    for (const auto& g : grids)
+      if (rf <= g->radius_m) return quadricFit(*g, p, rf);
+    return quadricFit(*grids.back(), p, std::min(rf, grids.back()->radius_m));
+  };
+  const long n = long(mean.size());
+  std::vector<double> radius(mean.size(), rf0);
+  std::vector<std::uint8_t> short_of(mean.size(), 0);
+#pragma omp parallel for schedule(dynamic, 64)
+  for (long k = 0; k < n; ++k) {
+    PatchFit& f = (*fit)[k];
+    if (!f.patch.valid || out.noise_m <= 0.0 || bend(f) <= target) continue;
+    const double wanted = std::min(rf_max, rf0 * std::cbrt(bend(f) / target));
+    if (grids.empty() || wanted <= rf0 * 1.05) {
+      short_of[k] = 1;
+      continue;
+    }
+    const double allowed = 1.5 * std::max(f.noise_m, out.noise_m);
+    bool kept = false;
+    for (int step = 0; step < 3 && !kept; ++step) {
+      const double rf = rf0 * std::pow(wanted / rf0, std::pow(0.5, step));
+      PatchFit wide = fitAt(mean[k], rf);
+      if (wide.patch.valid && wide.noise_m <= allowed) {
+        short_of[k] = step > 0 || bend(wide) > 1.05 * target;
+        f = wide;
+        kept = true;
+      }
+    }
+    if (!kept) short_of[k] = 1;
+    radius[k] = f.radius_m;
+  }
+  std::nth_element(radius.begin(), radius.begin() + radius.size() / 2, radius.end());
+  out.median_radius_m = radius[radius.size() / 2];
+  out.short_fraction = double(std::count(short_of.begin(), short_of.end(), 1)) / double(mean.size());
+  return out;
+}
+
 ContactSamples pointSamples(const SurfaceData& surface, const VolumeCloud& filled, double s,
                             const ContactSampleOptions& o, std::vector<std::string>* warnings) {
   const bool gaussians = surface.kind == SurfaceKind::Gaussians;
@@ -314,94 +478,56 @@ ContactSamples pointSamples(const SurfaceData& surface, const VolumeCloud& fille
   }
   std::vector<Eigen::Vector3d> mean, given;
   std::vector<double> weight;  // a mean's share of the area: its points (dense), else 1
+  std::vector<double> count;   // the points a mean averages (its noise variance is σ² / count)
   mean.reserve(cells.size());
   for (const auto& kv : cells) {
     mean.push_back(kv.second.sum / kv.second.n);
     given.push_back(kv.second.normal);
     weight.push_back(dense ? double(kv.second.n) : 1.0);
+    count.push_back(double(kv.second.n));
   }
   if (mean.empty()) return out;
-  // One moving-least-squares step of second order: in the frame of the weighted plane of the
-  // neighbours within R_f = 8 s (Gaussian weights, width R_f / 2), fit the height h(u, v) = c0 + c1 u +
-  // c2 v + c3 u² + c4 uv + c5 v² and move the point onto it. The quadratic term follows the surface's
-  // curvature, so the wide fit smooths a scan's noise without pulling samples inside (a plane fit of
-  // radius R_f on a sphere of radius R would, by ~R_f²/(4R)).
-  const double r = 2.5 * s, rf = 8.0 * s, w2 = 0.25 * rf * rf;
-  const SpatialGrid grid(mean, rf);
+  // One moving-least-squares step of second order (quadricFit): the height over the weighted plane of
+  // the neighbours within R_f, fitted as a quadric, and the point moved onto it. R_f = 8 s unless the
+  // scan is noisy; then each fit widens until its noise no longer bends the surface (fitRadius).
+  const double r = 2.5 * s, rf0 = 8.0 * s;
+  Eigen::Vector3d lo, hi;
+  filled.bounds(&lo, &hi);
+  const double diagonal = (hi - lo).norm() + h;
+  const double rf_max = std::max(rf0, 0.25 * diagonal);
+  const PatchNeighbours base{mean, weight, count, rf0};
   const SpatialGrid particles(filled.X, 2.0 * h);
   // Each point also spreads 6 candidates on its fitted patch (a ring of radius half its own spacing):
   // a scan is often sparser than s and randomly spaced, and the thinning and Lloyd's relaxation can
   // only even out a sampling denser than s (random samples move the ground's pressure centre).
   constexpr int kSpread = 7;
+  const long n = long(mean.size());
+  std::vector<PatchFit> fit(mean.size());
+  std::vector<double> near(mean.size(), 0.0), kde(mean.size(), 0.0);
+#pragma omp parallel for schedule(dynamic, 256)
+  for (long k = 0; k < n; ++k) {
+    fit[k] = quadricFit(base, mean[k], rf0);
+    base.grid.query(mean[k], [&](int j, const Eigen::Vector3d& x) {
+      const double d2 = (x - mean[k]).squaredNorm();
+      if (d2 < r * r) near[k] += weight[j];
+      if (dense) kde[k] += weight[j] * std::exp(-d2 / (2.0 * s * s));
+    });
+  }
+  const FitWidening widening = widenNoisyFits(base, mean, rf0, rf_max, 2.0 / diagonal, &fit);
   out.X.resize(kSpread * mean.size());
   out.normal.resize(kSpread * mean.size());
   out.area.resize(kSpread * mean.size());
   std::vector<std::uint8_t> used(kSpread * mean.size(), 0);
-  std::vector<double> residual(mean.size(), 0.0);  // RMS of the points about their local fit: the noise
-  const long n = long(mean.size());
 #pragma omp parallel for schedule(dynamic, 256)
   for (long k = 0; k < n; ++k) {
     const Eigen::Vector3d& p = mean[k];
-    Eigen::Vector3d c = Eigen::Vector3d::Zero();
-    Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
-    double wsum = 0.0;
-    int m = 0;
-    double near = 0.0, kde = 0.0;
-    std::vector<std::pair<Eigen::Vector3d, double>> nb;
-    grid.query(p, [&](int j, const Eigen::Vector3d& x) {
-      const double d2 = (x - p).squaredNorm();
-      if (d2 >= rf * rf) return;
-      const double w = std::exp(-d2 / w2) * weight[j];  // a dense scan's mean counts its points
-      nb.emplace_back(x, w);
-      c += w * x;
-      C += w * x * x.transpose();
-      wsum += w;
-      ++m;
-      if (d2 < r * r) near += weight[j];
-      if (dense) kde += weight[j] * std::exp(-d2 / (2.0 * s * s));
-    });
     const Eigen::Vector3d pin = localInside(particles, p, 2.0 * h);
-    Eigen::Vector3d nrm = p - pin;
-    Eigen::Vector3d y = p;
-    QuadricPatch fit;
-    if (m >= 4) {
-      c /= wsum;
-      C = C / wsum - c * c.transpose();
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(C);
-      nrm = es.eigenvectors().col(0);
-      const Eigen::Vector3d t1 = es.eigenvectors().col(2), t2 = nrm.cross(t1);
-      y = p - (p - c).dot(nrm) * nrm;
-      if (m >= 12) {
-        Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
-        Eigen::Matrix<double, 6, 1> bvec = Eigen::Matrix<double, 6, 1>::Zero();
-        for (const auto& q : nb) {
-          const Eigen::Vector3d d = q.first - c;
-          const double u = d.dot(t1), v = d.dot(t2);
-          Eigen::Matrix<double, 6, 1> phi;
-          phi << 1, u, v, u * u, u * v, v * v;
-          A += q.second * phi * phi.transpose();
-          bvec += q.second * d.dot(nrm) * phi;
-        }
-        fit.co = A.ldlt().solve(bvec);
-        double res2 = 0.0;
-        for (const auto& q : nb) {
-          const Eigen::Vector3d d = q.first - c;
-          const double u = d.dot(t1), v = d.dot(t2);
-          const double hq =
-              fit.co[0] + fit.co[1] * u + fit.co[2] * v + fit.co[3] * u * u + fit.co[4] * u * v + fit.co[5] * v * v;
-          res2 += q.second * (d.dot(nrm) - hq) * (d.dot(nrm) - hq);
-        }
-        residual[k] = std::sqrt(res2 / wsum);
-        const Eigen::Vector3d d = p - c;
-        fit.u = d.dot(t1);
-        fit.v = d.dot(t2);
-        if (fit.co.allFinite()) {
-          fit.valid = true;
-          fit.c = c, fit.t1 = t1, fit.t2 = t2, fit.n = nrm;
-          y = fit.point(fit.u, fit.v);
-          nrm = fit.normal(fit.u, fit.v);
-        }
-      }
+    const PatchFit& f = fit[k];
+    Eigen::Vector3d nrm = f.m >= 4 ? f.plane_normal : Eigen::Vector3d(p - pin);
+    Eigen::Vector3d y = f.m >= 4 ? f.plane_point : p;
+    if (f.patch.valid) {
+      y = f.patch.point(f.patch.u, f.patch.v);
+      nrm = f.patch.normal(f.patch.u, f.patch.v);
     }
     const Eigen::Vector3d reference = given[k].squaredNorm() > 0 ? given[k] : Eigen::Vector3d(p - pin);
     const double sign = nrm.dot(reference) < 0.0 ? -1.0 : 1.0;
@@ -409,7 +535,7 @@ ContactSamples pointSamples(const SurfaceData& surface, const VolumeCloud& fille
     // the Gaussian kernel density of points (width s), which a count within a sharp radius would
     // overestimate by the lattice-like means at ~s spacing (21 cells of s within 2.5 s, not 19.6: −6 %).
     const double area =
-        dense ? 2.0 * M_PI * s * s * weight[k] / std::max(weight[k], kde) : M_PI * r * r / std::max(1.0, near);
+        dense ? 2.0 * M_PI * s * s * weight[k] / std::max(weight[k], kde[k]) : M_PI * r * r / std::max(1.0, near[k]);
     auto put = [&](int slot, const Eigen::Vector3d& x, const Eigen::Vector3d& nv, double a) {
       out.X[kSpread * k + slot] = x;
       out.normal[kSpread * k + slot] =
@@ -417,29 +543,34 @@ ContactSamples pointSamples(const SurfaceData& surface, const VolumeCloud& fille
       out.area[kSpread * k + slot] = a;
       used[kSpread * k + slot] = 1;
     };
-    if (fit.valid) {
+    if (f.patch.valid) {
       const double rho = 0.5 * std::sqrt(area);
       put(0, y, nrm, area / kSpread);
       for (int q = 1; q < kSpread; ++q) {
         const double ang = 2.0 * M_PI * (q - 1) / (kSpread - 1);
-        const double u = fit.u + rho * std::cos(ang), v = fit.v + rho * std::sin(ang);
-        put(q, fit.point(u, v), fit.normal(u, v), area / kSpread);
+        const double u = f.patch.u + rho * std::cos(ang), v = f.patch.v + rho * std::sin(ang);
+        put(q, f.patch.point(u, v), f.patch.normal(u, v), area / kSpread);
       }
     } else {
       put(0, y, nrm, area);
     }
   }
+  if (widening.noise_m > 0.05 * s) {
+    std::string text = surface.source + ": the points scatter " + numberText(widening.noise_m * 1e3, 3) +
+                       " mm about their local fits (median) against a contact spacing of " + numberText(s * 1e3, 3) +
+                       " mm: the contact fits widened to " + numberText(widening.median_radius_m * 1e3, 3) +
+                       " mm (median; " + numberText(rf0 * 1e3, 3) +
+                       " mm for a clean scan) so that the noise bends the contact surface by at most 0.5 % of the "
+                       "body's curvature scale (2 / its diagonal), which smooths away details smaller than that";
+    if (widening.short_fraction > 0.1)
+      text += "; " + numberText(100.0 * widening.short_fraction, 2) +
+              " % of the points could not widen that far (edges and small features stop the fit, or " +
+              numberText(rf_max * 1e3, 3) +
+              " mm is reached): rolling and rocking on those parts keeps part of the roughness; give a smoother "
+              "or denser scan, or a mesh";
+    warnings->push_back(text);
+  }
   {
-    std::vector<double> r_sorted = residual;
-    std::sort(r_sorted.begin(), r_sorted.end());
-    const double noise = r_sorted.empty() ? 0.0 : r_sorted[r_sorted.size() / 2];
-    if (noise > 0.05 * s)
-      warnings->push_back(surface.source + ": the points scatter " + numberText(noise * 1e3, 3) +
-                          " mm (median RMS about their local fits) against a contact spacing of " +
-                          numberText(s * 1e3, 3) +
-                          " mm: the contact samples keep part of that roughness, so rolling and rocking on it can be "
-                          "off by several % (measured: -1.6 % and +13 % for two samplings of a hemisphere with 0.3 mm "
-                          "noise); give a smoother or denser scan, or a mesh");
     ContactSamples kept;
     kept.origin = out.origin;
     kept.spacing = out.spacing;

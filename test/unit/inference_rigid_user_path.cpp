@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <random>
 #include <string>
 #include <vector>
@@ -82,14 +83,14 @@ geometry::SurfaceData gaussianHemisphere(double R) {
 }
 
 /// The hemisphere as a depth scan would give it: points 2 mm apart with Gaussian noise of σ = 0.3 mm
-/// in every direction (fixed seed), no normals.
-geometry::SurfaceData noisyPointHemisphere(double R) {
+/// in every direction (the seed picks the sampling of the noise), no normals.
+geometry::SurfaceData noisyPointHemisphere(double R, unsigned seed = 15) {
   geometry::SurfaceData s;
   s.kind = geometry::SurfaceKind::Points;
-  s.source = "noisy point hemisphere";
+  s.source = "noisy point hemisphere (seed " + std::to_string(seed) + ")";
   std::vector<Eigen::Vector3d> n;
   hemisphereSurfaceSamples(R, 0.002, &s.points, &n);
-  std::mt19937 rng(15);
+  std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, 0.3e-3);
   for (auto& p : s.points) p += Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
   return s;
@@ -335,5 +336,38 @@ TEST(RigidUserPath, GaussianAndNoisyPointHemispheresWithinTwoPercent) {
     // The period alone can be right for a wrong body (it depends on the shape's proportions, not its
     // scale alone): the volume must be right too (issue 15 §1: ≤ 2 % from points or Gaussians).
     EXPECT_NEAR(V / Vref, 1.0, 0.02) << s.source << " volume";
+  }
+}
+
+// The same scan's noise drawn again (four seeds): the period must not depend on which sampling of the
+// noise the scanner happened to give. With the contact fits at 8 s whatever the noise, these four
+// gave −1.63 / −5.05 / −3.43 / −0.42 %; widened with the noise (contact_samples.cpp widenNoisyFits)
+// −1.46 / −0.19 / −1.27 / +0.93 %, and seeds 19–26 −0.74…+0.98 % (TOPO_NOISE_SEEDS=19,20,...).
+TEST(RigidUserPath, NoisyPointHemisphereWithinTwoPercentForEverySampling) {
+  const topo_test::RoundBottom exact = topo_test::solidHemisphere(kR);
+  const double Tref = topo_test::rockingPeriod(exact, 10.0 * kRollPi / 180.0);
+  const char* only = std::getenv("TOPO_NOISE_SEEDS");  // e.g. "16,17": a subset while investigating
+  std::vector<unsigned> seeds = {15, 16, 17, 18};
+  if (only) {
+    seeds.clear();
+    for (const char* c = only; *c;) {
+      char* end = nullptr;
+      seeds.push_back(unsigned(std::strtoul(c, &end, 10)));
+      c = *end ? end + 1 : end;
+    }
+  }
+  for (unsigned seed : seeds) {
+    const geometry::SurfaceData s = noisyPointHemisphere(kR, seed);
+    geometry::IngestOptions o;
+    o.fill.spacing_m = 0.0035;
+    const geometry::IngestResult in = geometry::ingestSurface(s, o);
+    const VolumeCloud& cloud = in.cloud;
+    bool widened = false;  // the fill says the noise widened the contact fits
+    for (const auto& w : in.warnings) widened = widened || w.find("contact fits widened") != std::string::npos;
+    EXPECT_TRUE(widened) << s.source;
+    const double T = feature(simulateTumbler(cloud, 10.0), "period_s");
+    std::printf("[user-path] %s, spacing 3.5 mm, tumbler 10 deg | ours %.5f s | reference %.5f s | error %+.2f %%\n",
+                s.source.c_str(), T, Tref, pct(T, Tref));
+    EXPECT_NEAR(T / Tref, 1.0, 0.02) << s.source;
   }
 }

@@ -11,14 +11,17 @@
 //    normal oriented by the sign of the mesh's signed volume V = ⅙ Σ (a × b)·c (an inverted mesh is
 //    flipped, with a warning; an open mesh face by face, away from the filled particles);
 //  - point clouds: the points averaged per cube of edge s/3, then moved onto the quadric height field
-//    fitted to their neighbours within 5 s in the frame of their weighted plane (one second-order
+//    fitted to their neighbours within R_f = 8 s in the frame of their weighted plane (one second-order
 //    moving-least-squares step: it removes most of a scan's noise without the inward pull of a plane
 //    fit), the normal the fit's, turned away from the filled particles (or along the given normals),
 //    standing for π r² / (neighbours in r = 2.5 s);
 //  - 3D Gaussians: the same with the centres of the opaque Gaussians (opacity ≥ 0.5), which sit on
 //    the splat shell's mid-surface.
-// A scan whose points scatter about their local fits by more than s/20 gets a warning: its samples keep
-// part of that roughness, and rocking on it can be off by several %.
+// A noisy scan's patches widen until the noise no longer bends the surface: R_f grows until the
+// curvature its fitted heights' noise puts in (~√3 σ_h / (R_f/2)², σ_h the fit's height noise) is at
+// most 0.5 % of 2 / the body's diagonal, up to a quarter of the diagonal, and stops short where an edge
+// or a feature raises the scatter about the fit above 1.5 × the scan's. A scan whose points scatter
+// about their local fits by more than s/20 gets a warning saying how far the patches widened.
 // Points farther than two lattice spacings from every boundary particle of the fill (floaters, a
 // scanner's stray returns) are not contact samples.
 #pragma once
