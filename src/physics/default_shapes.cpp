@@ -243,8 +243,13 @@ ContactSamples shapeContactSamples(const DefaultShape& shape, double s) {
       Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(C / m - c * c.transpose());
       Eigen::Vector3d e = es.eigenvectors().col(0);
       if (e[axis[q]] * sign[q] < 0) e = -e;
-      // At an edge or a corner the plane fit is meaningless; the crossing's axis is the better guess.
-      if (std::abs(e[axis[q]]) > 0.2) nq = e.normalized();
+      // At an edge or a corner the plane fit is meaningless (the neighbours spread in all three
+      // directions); the crossing's axis is the better guess there. On a smooth surface the fit's
+      // normal holds even where the line meets the surface nearly tangentially (|n_a| small, so the
+      // crossing stands for little area): taking the axis there put horizontal normals and full cells
+      // of area under a sphere's bottom, and the tumbler twin rocked +3.2 % slow at 10°.
+      const bool planar = es.eigenvalues()[0] < 0.05 * es.eigenvalues()[1];
+      if (planar || std::abs(e[axis[q]]) > 0.2) nq = e.normalized();
     }
     out.normal[q] = nq;
     out.area[q] = s * s * std::abs(nq[axis[q]]);

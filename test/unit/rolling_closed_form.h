@@ -47,6 +47,16 @@ inline AxialMoments hemisphereMoments(double R) {
   const double V = 2.0 / 3.0 * kRollPi * R * R * R;
   return {V, -3.0 * R / 8.0 * V, 0.4 * V * R * R};
 }
+/// Solid sphere of radius R about the origin cut flat at z = c (−R < c < R), the part z ≤ c: with
+/// ρ² = R² − z², V = π ∫ ρ² dz, Σ V z = π ∫ ρ² z dz, Jxx = π ∫ (ρ⁴/4 + ρ² z²) dz over [−R, c].
+inline AxialMoments truncatedSphereMoments(double R, double c) {
+  auto V = [&](double z) { return kRollPi * (R * R * z - z * z * z / 3.0); };
+  auto F = [&](double z) { return kRollPi * (R * R * z * z / 2.0 - z * z * z * z / 4.0); };
+  auto J = [&](double z) {
+    return kRollPi * (R * R * R * R * z / 4.0 + R * R * z * z * z / 6.0 - 3.0 * z * z * z * z * z / 20.0);
+  };
+  return {V(c) - V(-R), F(c) - F(-R), J(c) - J(-R)};
+}
 /// Solid ball of radius r centred at (0, 0, z0): Jxx = V (2/5 r² + z0²).
 inline AxialMoments ballMoments(double r, double z0) {
   const double V = 4.0 / 3.0 * kRollPi * r * r * r;
