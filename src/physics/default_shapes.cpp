@@ -221,10 +221,19 @@ ContactSamples shapeContactSamples(const DefaultShape& shape, double s) {
           axis.push_back(a);
           sign.push_back(in[id(i, j, k)] ? 1.0 : -1.0);  // +1: inside → outside along +a
         }
+  // Normals from a plane fit of the crossings within 2.5 s. Lines along axis a cross a surface element
+  // dA of normal n |n_a| dA / s² times, so weights that add up to the area are s² / Σ_{b∈K} |n_b| for
+  // every crossing, K the axes whose lines cross the surface at |n_b| ≥ 0.2 (crossings nearly
+  // tangent to the surface are left out: they are few, and each would stand for little area or, with
+  // the axis as its normal as once at an ill-fitted point, for a full cell: the tumbler twin then rocked
+  // +3.2 % slow at 10°). At an edge or a corner the plane fit is meaningless (the neighbours spread in
+  // all three directions): the crossing's axis is the better guess there, standing for s² |n_a|.
   const SpatialGrid grid(out.X, 2.5 * s);
-  out.normal.resize(out.X.size());
-  out.area.resize(out.X.size());
   const double r2 = 2.5 * s * 2.5 * s;
+  constexpr double kTangent = 0.2;
+  ContactSamples kept;
+  kept.origin = out.origin;
+  kept.spacing = s;
   for (std::size_t q = 0; q < out.X.size(); ++q) {
     const Eigen::Vector3d& p = out.X[q];
     Eigen::Vector3d c = Eigen::Vector3d::Zero();
@@ -238,22 +247,29 @@ ContactSamples shapeContactSamples(const DefaultShape& shape, double s) {
       }
     });
     Eigen::Vector3d nq = Eigen::Vector3d::Unit(axis[q]) * sign[q];
+    double area = s * s;
     if (m >= 4) {
       c /= m;
       Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(C / m - c * c.transpose());
-      Eigen::Vector3d e = es.eigenvectors().col(0);
+      Eigen::Vector3d e = es.eigenvectors().col(0).normalized();
       if (e[axis[q]] * sign[q] < 0) e = -e;
-      // At an edge or a corner the plane fit is meaningless (the neighbours spread in all three
-      // directions); the crossing's axis is the better guess there. On a smooth surface the fit's
-      // normal holds even where the line meets the surface nearly tangentially (|n_a| small, so the
-      // crossing stands for little area): taking the axis there put horizontal normals and full cells
-      // of area under a sphere's bottom, and the tumbler twin rocked +3.2 % slow at 10°.
-      const bool planar = es.eigenvalues()[0] < 0.05 * es.eigenvalues()[1];
-      if (planar || std::abs(e[axis[q]]) > 0.2) nq = e.normalized();
+      if (es.eigenvalues()[0] < 0.05 * es.eigenvalues()[1]) {  // a smooth surface
+        if (std::abs(e[axis[q]]) < kTangent) continue;
+        double crossing = 0.0;
+        for (int b = 0; b < 3; ++b)
+          if (std::abs(e[b]) >= kTangent) crossing += std::abs(e[b]);
+        nq = e;
+        area = s * s / crossing;
+      } else if (std::abs(e[axis[q]]) > kTangent) {
+        nq = e;
+        area = s * s * std::abs(e[axis[q]]);
+      }
     }
-    out.normal[q] = nq;
-    out.area[q] = s * s * std::abs(nq[axis[q]]);
+    kept.X.push_back(p);
+    kept.normal.push_back(nq);
+    kept.area.push_back(area);
   }
+  out = std::move(kept);
   return out;
 }
 
