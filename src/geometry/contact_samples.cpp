@@ -489,7 +489,7 @@ ContactSamples pointSamples(const SurfaceData& surface, const VolumeCloud& fille
   if (mean.empty()) return out;
   // One moving-least-squares step of second order (quadricFit): the height over the weighted plane of
   // the neighbours within R_f, fitted as a quadric, and the point moved onto it. R_f = 8 s unless the
-  // scan is noisy; then each fit widens until its noise no longer bends the surface (fitRadius).
+  // scan is noisy; then each fit widens until its noise no longer bends the surface (widenNoisyFits).
   const double r = 2.5 * s, rf0 = 8.0 * s;
   Eigen::Vector3d lo, hi;
   filled.bounds(&lo, &hi);
