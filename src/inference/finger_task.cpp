@@ -135,7 +135,8 @@ class FingerTask : public SoftTask {
     warned_ = true;
     const double wall_m = layers * spacing_;
     const std::string where = "spacing " + numberText(spacing_, 4) + " m gives " + numberText(layers, 3) +
-                              " particles through the design's thinnest chamber wall (" + numberText(wall_m, 4) + " m)";
+                              (layers == 1.0 ? " particle" : " particles") +
+                              " through the design's thinnest chamber wall (" + numberText(wall_m, 4) + " m)";
     if (sph_.options().model == SphEnergyModel::CorotatedLinear) {
       std::cerr << "[finger] warning: " << where
                 << ". With energy_model corotated_linear the bend angle held to CalculiX comes out too small: "
