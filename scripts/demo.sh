@@ -5,7 +5,8 @@
 # recovered features next to the twin's ground truth, then the interior against the twin's (solid
 # fraction, mass, centre of mass, inertia, IoU). Exit 0 when every rig's features agree within 2 %.
 #   tumbler: demo.launch (rig_simulator, cloud_ingest filling the twin's scan, motion_tracker,
-#            interior_inference), two experiments: released at 10 and at 25 deg;
+#            interior_inference), three experiments: released at 10 and at 25 deg, and hung from a
+#            point on its top 4 cm off its axis;
 #   finger:  soft_finger_rig.launch (the finger twin stepping its chamber pressure 0 -> 5e5 Pa,
 #            motion_tracker kind finger, interior_inference on the default finger), one bend.
 #   scripts/demo.sh [BUILD_DIR] [OUTPUT_DIR]        (RIG in the environment)
@@ -53,8 +54,9 @@ run_rig() {
 
 status=0
 if [ "$RIG" = tumbler ] || [ "$RIG" = all ]; then
-  run_rig tumbler demo.launch _experiments:="rock10=tumbler;rock25=tumbler" \
-      _overrides:="contact_damping_ratio=0;measured_cycles=1;rock25.initial_tilt_deg=25" || status=$?
+  run_rig tumbler demo.launch _experiments:="rock10=tumbler;rock25=tumbler;hang=hanging" \
+      _overrides:="contact_damping_ratio=0;measured_cycles=1;density_solid=5000;rock25.initial_tilt_deg=25;hang.hanging_point=0,0.04,0.02" \
+      || status=$?
 fi
 if [ "$RIG" = finger ] || [ "$RIG" = all ]; then
   # the twin's materials (config/rigs/finger_twin.yaml)

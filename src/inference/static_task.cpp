@@ -252,6 +252,7 @@ void registerStaticTasks(TaskList* tasks) {
   swing.cavity_centre = Eigen::Vector3d(0.0, 0.0, 0.3);
   swing.cavity_radius = 0.4;
   swing.default_for_shapes = {"*"};
+  swing.hangs = true;
   hanging.twin = swing;
   tasks->push_back(hanging);
 

@@ -24,6 +24,18 @@ Eigen::Matrix3d targetRotation(double roll_deg, double pitch_deg) {
       .toRotationMatrix();
 }
 
+RollPitch hangingRestPose(const Eigen::Vector3d& com_m, const Eigen::Vector3d& point_m) {
+  const Eigen::Vector3d d = com_m - point_m;
+  if (!(d.norm() > 0) || !d.allFinite())
+    throw TopoError("hanging point (" + numberText(point_m.x()) + ", " + numberText(point_m.y()) + ", " +
+                        numberText(point_m.z()) + ") m",
+                    "is at the centre of mass: the object rests in any pose", "hang it from a point away from it");
+  RollPitch rp;
+  rp.roll_deg = std::atan2(-d.y(), -d.z()) * 180.0 / M_PI;
+  rp.pitch_deg = std::atan2(d.x(), std::hypot(d.y(), d.z())) * 180.0 / M_PI;
+  return rp;
+}
+
 Task::Task(const TaskConfig& config, const VolumeCloud& cloud, bool require_gravity)
     : name_(config.task()), cloud_(cloud) {
   cloud.validate("volume cloud for task '" + config.task() + "'");

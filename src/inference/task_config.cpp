@@ -681,12 +681,23 @@ std::pair<std::string, std::string> TaskConfig::splitNamedValue(const std::strin
 }
 
 TaskConfig TaskConfig::loadWithExperiments(const std::string& task, const std::vector<std::string>& experiments,
-                                           const std::string& task_dir) {
+                                           const std::string& task_dir, const std::vector<std::string>& assignments) {
   if (task.empty() && experiments.empty())
     throw TopoError("task", "is empty and no experiment is given",
                     "name a task (" + joinNames(taskNames()) + "), a task YAML file or experiments");
+  std::vector<std::string> shared;  // the user's shared values, "KEY=VALUE"
+  for (const auto& a : assignments) {
+    const auto eq = a.find('=');
+    if (eq != std::string::npos && isShared(trim(a.substr(0, eq)))) shared.push_back(a);
+  }
+  const auto loadOne = [&](const std::string& file) {
+    TaskConfig one = load(file, task_dir);
+    if (!experiments.empty() && !one.hasExperiments())
+      for (const auto& a : shared) one.setAssignment(a, "shared value");
+    return one;
+  };
   std::size_t next = 0;
-  TaskConfig c = load(task.empty() ? TaskConfig::splitNamedValue(experiments[0]).second : task, task_dir);
+  TaskConfig c = loadOne(task.empty() ? TaskConfig::splitNamedValue(experiments[0]).second : task);
   if (experiments.empty()) return c;
   if (!c.hasExperiments()) {  // the task (or the first experiment) becomes the first experiment
     const auto [name, file] =
@@ -698,7 +709,7 @@ TaskConfig TaskConfig::loadWithExperiments(const std::string& task, const std::v
   }
   for (std::size_t i = next; i < experiments.size(); ++i) {
     const auto [name, file] = TaskConfig::splitNamedValue(experiments[i]);
-    c.addExperiment(name.empty() ? experimentStem(file) : name, 1.0, load(file, task_dir));
+    c.addExperiment(name.empty() ? experimentStem(file) : name, 1.0, loadOne(file));
   }
   return c;
 }

@@ -37,6 +37,11 @@ class TumblerTask : public Task {
     w_tilt_ = c.number("weight_tilt");
     w_amplitude_ = c.number("weight_amplitude");
     if (c.has("amplitude_deg")) amplitude_target_ = c.number("amplitude_deg");
+    w_equilibrium_ = c.number("weight_equilibrium");
+    if (c.has("equilibrium_tilt_deg")) {
+      equilibrium_target_ = c.number("equilibrium_tilt_deg");
+      has_equilibrium_target_ = true;
+    }
     cycles_ = c.integer("measured_cycles");
     if (c.has("period_s")) period_target_ = c.number("period_s");
     if (c.has("max_tilt_deg")) tilt_target_ = c.number("max_tilt_deg");
@@ -113,18 +118,31 @@ class TumblerTask : public Task {
       ev.loss += w_amplitude_ * e.value() * e.value();
       dL += w_amplitude_ * 2.0 * e.value() * e.derivatives();
     }
+    // The equilibrium (near 0) is compared on the release tilt's scale, as the max tilt is, and by its
+    // magnitude: a camera on the other side sees the rocking mirrored (the amplitude's sign too).
+    const double eq_scale = std::max(1.0, std::abs(tilt0_ * kDeg));
+    const double eq_sign = f.equilibrium.value() < 0 ? -1.0 : 1.0;
+    if (has_equilibrium_target_) {
+      const Dual10 e = (eq_sign * f.equilibrium - std::abs(equilibrium_target_)) / eq_scale;
+      ev.loss += w_equilibrium_ * e.value() * e.value();
+      dL += w_equilibrium_ * 2.0 * e.value() * e.derivatives();
+    }
     Feature fp{"period_s", f.period.value(), "s", period_target_ > 0, period_target_, 1e-9, 0.01};
     Feature ft{"max_tilt_deg", f.max_abs.value(), "deg", tilt_target_ > 0, tilt_target_, 1e-9, 0.01};
     ev.features = {
-        fp, ft, Feature{"equilibrium_tilt_deg", f.equilibrium.value(), "deg"},
+        fp, ft,
+        Feature{"equilibrium_tilt_deg", f.equilibrium.value(), "deg", has_equilibrium_target_,
+                eq_sign * std::abs(equilibrium_target_), eq_scale, 0.01},
         Feature{"amplitude_deg", f.amplitude.value(), "deg", amplitude_target_ > 0, amplitude_target_, 1e-9, 0.01},
         Feature{"mass_kg", ev.mass.mass, "kg"}};
-    // Observations: period and max tilt with d/dp (Dual10); noise the features' 1 % tolerance.
-    const Dual10* obs[3] = {&f.period, &f.max_abs, &f.amplitude};
-    const Feature* feat[3] = {&ev.features[0], &ev.features[1], &ev.features[3]};
-    for (int k = 0; k < 3; ++k) {
+    // Observations: period, max tilt, equilibrium and amplitude with d/dp (Dual10); noise the features'
+    // 1 % tolerance (of the release tilt for the equilibrium).
+    const Dual10* obs[4] = {&f.period, &f.max_abs, &f.equilibrium, &f.amplitude};
+    const Feature* feat[4] = {&ev.features[0], &ev.features[1], &ev.features[2], &ev.features[3]};
+    for (int k = 0; k < 4; ++k) {
       const Feature& ft = *feat[k];
-      const double noise = ft.tolerance * std::max(ft.has_target ? std::abs(ft.target) : std::abs(ft.value), 1e-12);
+      const double noise = ft.tolerance * std::max({ft.has_target ? std::abs(ft.target) : std::abs(ft.value),
+                                                    ft.scale > 1e-6 ? ft.scale : 0.0, 1e-12});
       ev.observations.push_back(
           Observation{ft.name, ft.value, ft.unit, ft.has_target, ft.target, noise, obs[k]->derivatives()});
     }
@@ -172,6 +190,8 @@ class TumblerTask : public Task {
   Eigen::Vector3d axis_, up_;
   double tilt0_ = 0, omega0_ = 0, w_period_ = 1, w_tilt_ = 1, w_amplitude_ = 1;
   double period_target_ = -1, tilt_target_ = -1, amplitude_target_ = -1;
+  double equilibrium_target_ = 0, w_equilibrium_ = 1;
+  bool has_equilibrium_target_ = false;
   int cycles_ = 2;
   std::vector<Eigen::Vector3d> contact_;
 };
@@ -248,6 +268,12 @@ MotionTargets rockingTargets(const TaskConfig& config, const motion::MotionFeatu
     os << "; the tilt was not measured, only the period is used";
   }
   if (amplitude > 0) out.targets.emplace_back("amplitude_deg", amplitude);
+  // The tilt it rocks about fixes the centre of mass across the rocking axis (a doll at rest upright
+  // rocks about 0); the tracker's mean of its turning points, when it measured it.
+  if (f.equilibrium_confidence > 0 && std::isfinite(f.equilibrium_deg)) {
+    out.targets.emplace_back("equilibrium_tilt_deg", f.equilibrium_deg);
+    os << "; equilibrium tilt " << f.equilibrium_deg << " deg";
+  }
   out.note = os.str();
   return out;
 }
@@ -279,6 +305,13 @@ void registerTumblerTask(TaskList* tasks) {
              "observed rocking amplitude, the mean half peak-to-peak swing over the measured cycles [deg]: with "
              "the release tilt it fixes the tilt the doll rests at",
              0, 90, true);
+    p.number("weight_equilibrium", 1.0, "unitless", "loss weight of ((eq - eq*)/max(1 deg, release tilt))^2, unitless",
+             0);
+    p.target("equilibrium_tilt_deg", ParamType::Number, "deg",
+             "observed tilt the doll rocks about, the mean of its turning points [deg] (0: it rests upright): it "
+             "fixes the centre of mass across the rocking axis (its magnitude is compared: a camera on the other "
+             "side sees the sign mirrored)",
+             -90, 90);
   };
   t.make = [](const TaskConfig& config, const VolumeCloud& cloud) -> std::unique_ptr<Task> {
     return std::make_unique<TumblerTask>(config, cloud);

@@ -2,7 +2,9 @@
 // ~ground_truth_topic (a rig_simulator's ~ground_truth) it also prints the recovered features next to
 // the twin's truth, the recovered mass, centre of mass, inertia and solid fraction next to the true ones and
 // the IoU of the recovered and true cavity, and exits 0 only when every truth feature is reproduced within
-// ~tolerance (the interior is reported, not judged: several interiors may reproduce the features).
+// ~tolerance (the interior is reported, not judged: several interiors may reproduce the features); a
+// targeted feature relative to its truth, or, near zero, to its natural scale (angles [deg] on 10 deg,
+// lengths [m] on the object's size).
 // What `make demo` runs against demo.launch. Parameters (private):
 //   ~task (tumbler; "" when ~experiments are given), ~experiments [] ("NAME=TASK": several experiments of the
 //   object, as the goal's; the client waits for a measured window of each), ~representation (""),
@@ -200,6 +202,20 @@ int main(int argc, char** argv) {
   if (state != actionlib::SimpleClientGoalState::SUCCEEDED) return 1;
   for (const auto& f : res->files) std::printf("[demo] wrote %s\n", f.c_str());
   int status = 0;
+  // A feature near zero (a rest tilt, a centre-of-mass offset) is judged on its natural scale, not its
+  // own size: angles on 10 deg, lengths on the object's size (the twin's true interior's extent).
+  double object_size_m = NAN;
+  if (truth) {
+    std::vector<Eigen::Vector3d> xt;
+    std::vector<bool> st;
+    readInterior(truth->interior, &xt, &st);
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
+    for (const auto& x : xt) lo = lo.cwiseMin(x), hi = hi.cwiseMax(x);
+    if (!xt.empty()) object_size_m = (hi - lo).norm();
+  }
+  auto endsWith = [](const std::string& s, const std::string& e) {
+    return s.size() >= e.size() && s.compare(s.size() - e.size(), e.size(), e) == 0;
+  };
   std::printf("[demo] %-22s %12s %12s %12s\n", "feature", "recovered", "target", "twin truth");
   for (std::size_t k = 0; k < res->feature_names.size(); ++k) {
     const std::string& name = res->feature_names[k];
@@ -209,8 +225,12 @@ int main(int argc, char** argv) {
         if (truth->feature_names[j] == name) t = truth->feature_values[j];
     std::printf("[demo] %-22s %12.5g %12.5g %12.5g", name.c_str(), res->achieved[k], res->target[k], t);
     if (std::isfinite(t) && std::isfinite(res->target[k])) {
-      const double rel = std::abs(res->achieved[k] - t) / std::max(std::abs(t), 1e-12);
-      std::printf("   %+.2f %%%s", 100 * (res->achieved[k] - t) / std::max(std::abs(t), 1e-12),
+      double floor = 1e-12;
+      if (endsWith(name, "_deg")) floor = 10.0;
+      if (endsWith(name, "_m") && std::isfinite(object_size_m)) floor = object_size_m;
+      const double scale = std::max(std::abs(t), floor);
+      const double rel = std::abs(res->achieved[k] - t) / scale;
+      std::printf("   %+.2f %%%s%s", 100 * (res->achieved[k] - t) / scale, scale > std::abs(t) ? " (of the scale)" : "",
                   rel <= tolerance ? "" : "  (outside tolerance)");
       if (rel > tolerance) status = 3;
     }

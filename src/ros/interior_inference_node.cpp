@@ -172,7 +172,8 @@ inference::TaskConfig InteriorInferenceNode::configFor(const std::string& task,
           for (const auto& n : inference::TaskConfig::taskNames()) s += (s.empty() ? "" : ", ") + n;
           return s;
         }() + ") or a task YAML file");
-  inference::TaskConfig config = inference::TaskConfig::loadWithExperiments(task, experiments, params_.task_dir);
+  inference::TaskConfig config =
+      inference::TaskConfig::loadWithExperiments(task, experiments, params_.task_dir, overrides);
   if (!representation.empty()) config.set("representation", representation, origin + " representation");
   config.set("backend", params_.backend, "~backend");
   for (const auto& o : overrides) config.setAssignment(o, origin + " overrides");

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
@@ -53,6 +54,13 @@ StampWindow::Decision StampWindow::next(double stamp_s) {
   d.action = Action::Add;
   d.t_s = stamp_s - start_s_;
   return d;
+}
+
+vision::TrackOptions MotionTrackerParams::optionsFor(const std::string& name) const {
+  vision::TrackOptions o = options;
+  const auto it = tilt_reference_deg.find(name);
+  if (it != tilt_reference_deg.end()) o.tilt_reference_deg = it->second;
+  return o;
 }
 
 MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh) {
@@ -121,6 +129,20 @@ MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh) {
   p.publish_period_s = r.number("publish_period_s", 1.0, "s", Range::above(0.0));
   p.max_stamp_jump_s = r.number("max_stamp_jump_s", p.max_stamp_jump_s, "s", Range::above(0.0));
   p.stale_after_s = r.number("stale_after_s", 5.0, "s", Range::atLeast(0.0));  // 0: never report a stale camera
+  for (const std::string& e : r.texts("tilt_reference_deg", {}, "['hang=50', '0']", "; \t")) {
+    const auto eq = e.find('=');
+    const std::string name = eq == std::string::npos ? "" : e.substr(0, eq), v = e.substr(eq + 1);
+    char* end = nullptr;
+    const double deg = std::strtod(v.c_str(), &end);
+    if (v.empty() || *end != '\0' || !(std::abs(deg) <= 180.0) || (eq != std::string::npos && name.empty()))
+      throw TopoError(r.displayName("tilt_reference_deg") + " entry '" + e + "'",
+                      "is not [EXPERIMENT=]DEG with DEG in -180..180 (the tilt the object starts near)",
+                      "e.g. ['hang=50'] for an experiment 'hang' whose object rests ~50 deg over, or ['0']");
+    if (name.empty())
+      p.options.tilt_reference_deg = deg;
+    else
+      p.tilt_reference_deg[name] = deg;
+  }
   vision::MotionTracker check(p.options);  // validates kind and method (throws TopoError)
   return p;
 }
@@ -184,11 +206,12 @@ void MotionTrackerNode::publish(const vision::TrackResult& result_in, const std:
 
 void MotionTrackerNode::trackStartupFile() {
   try {
-    const vision::TrackResult r = vision::trackVideo(params_.video_file, params_.options, [&](const cv::Mat& overlay) {
-      if (debug_pub_.getNumSubscribers() == 0) return;
-      cv_bridge::CvImage img(std_msgs::Header(), "bgr8", overlay);
-      debug_pub_.publish(img.toImageMsg());
-    });
+    const vision::TrackResult r =
+        vision::trackVideo(params_.video_file, params_.optionsFor(params_.experiment), [&](const cv::Mat& overlay) {
+          if (debug_pub_.getNumSubscribers() == 0) return;
+          cv_bridge::CvImage img(std_msgs::Header(), "bgr8", overlay);
+          debug_pub_.publish(img.toImageMsg());
+        });
     publish(r, "camera");
     ROS_INFO("motion_tracker: %s: %s", params_.video_file.c_str(), asciiText(r.message).c_str());
   } catch (const std::exception& e) {
@@ -232,7 +255,7 @@ void MotionTrackerNode::onImage(const sensor_msgs::ImageConstPtr& msg) {
     ROS_WARN_THROTTLE(5.0, "motion_tracker: %s: %s", image_sub_.getTopic().c_str(), d.warning.c_str());
   try {
     if (!live_ || d.action != StampWindow::Action::Add)
-      live_ = std::make_unique<vision::MotionTracker>(params_.options);
+      live_ = std::make_unique<vision::MotionTracker>(params_.optionsFor(live_experiment_));
     live_->addFrame(bgr, d.t_s);
     live_frame_id_ = msg->header.frame_id;
     live_dirty_ = true;

@@ -82,7 +82,7 @@ inference::TaskConfig loadConfig(const Args& a) {
   const std::vector<std::string> experiments = a.has("experiment") ? a.all("experiment") : std::vector<std::string>{};
   if (!a.has("task") && experiments.empty()) throw UsageError("--task (or --experiment) is required");
   inference::TaskConfig c =
-      inference::TaskConfig::loadWithExperiments(a.str("task"), experiments, io::defaultTaskDir());
+      inference::TaskConfig::loadWithExperiments(a.str("task"), experiments, io::defaultTaskDir(), a.all("set"));
   if (a.has("representation")) c.set("representation", a.str("representation"), "--representation");
   if (a.has("backend")) c.set("backend", a.str("backend"), "--backend");
   for (const auto& s : a.all("set")) c.setAssignment(s, "--set");

@@ -51,6 +51,9 @@ const char* kTrackHelp =
     "  --gravity x,y          image direction of gravity in the (rotated) frame (default 0,1: down)\n"
     "  --tip-fraction F       finger: tip segment and the one before it, each F of the length (default\n"
     "                         0.15, the finger task's tip_fraction; the bend is that task's angle)\n"
+    "  --tilt-reference DEG   tilt: the tilt the object starts near, degrees from image-up, clockwise\n"
+    "                         positive (default 0: upright). A silhouette's axes are known modulo 90 deg,\n"
+    "                         so an object hung off its axis (resting ~50 deg over) needs it within 45 deg\n"
     "  --min-area PX          smallest blob accepted (default 30)\n"
     "  --json                 print the features as one JSON object (the motion-features document that\n"
     "                         `topo infer --features FILE` reads; tracker details under \"tracker\");\n"
@@ -181,9 +184,9 @@ void writePlot(const vision::TrackResult& r, const std::string& path) {
 int trackCommand(const std::vector<std::string>& argv) {
   const Args a(
       argv, {"help", "json", "series"},
-      {"video",       "method",    "kind",      "roi",         "start",    "end",         "stride",  "fps",
-       "pivot",       "hsv-lower", "hsv-upper", "foreground",  "polarity", "rotate",      "gravity", "min-area",
-       "debug-video", "plot",      "camera",    "camera-pose", "plane",    "tip-fraction"});
+      {"video",       "method",    "kind",      "roi",         "start",    "end",          "stride",        "fps",
+       "pivot",       "hsv-lower", "hsv-upper", "foreground",  "polarity", "rotate",       "gravity",       "min-area",
+       "debug-video", "plot",      "camera",    "camera-pose", "plane",    "tip-fraction", "tilt-reference"});
   if (a.has("help")) {
     std::cout << kTrackHelp;
     return 0;
@@ -196,6 +199,7 @@ int trackCommand(const std::vector<std::string>& argv) {
   o.tracker.polarity = a.str("polarity", "auto");
   o.rotate_deg = static_cast<int>(a.integer("rotate", 0));
   o.tip_fraction = a.num("tip-fraction", o.tip_fraction);
+  o.tilt_reference_deg = a.num("tilt-reference", o.tilt_reference_deg);
   if (a.has("gravity")) {
     const auto v = numbers(a, "gravity", 2);
     o.gravity = cv::Vec2d(v[0], v[1]);

@@ -192,12 +192,13 @@ EndFit fitEnds(const cv::Mat& mask, const cv::Point& offset, double tip_fraction
 }
 
 /// Tilt axis of a silhouette: of its two principal axes (the major one at `major_deg`, both taken
-/// pointing image-up, degrees from image-up), the one nearest image vertical at the first frame and
-/// after that the one nearest the previous frame's axis, unwrapped by ±180° for continuity. So an
-/// object wider than tall (a tumbler) is followed by its upright (minor) axis.
-double followTiltAxis(double major_deg, bool have_prev, double prev_deg) {
+/// pointing image-up, degrees from image-up), the one nearest `reference_deg` (TrackOptions::
+/// tilt_reference_deg, image vertical by default) at the first frame and after that the one nearest
+/// the previous frame's axis, unwrapped by ±180° for continuity. So an object wider than tall (a
+/// tumbler) is followed by its upright (minor) axis.
+double followTiltAxis(double major_deg, bool have_prev, double prev_deg, double reference_deg) {
   const double candidates[2] = {major_deg, major_deg > 0 ? major_deg - 90.0 : major_deg + 90.0};
-  const double ref = have_prev ? prev_deg : 0.0;
+  const double ref = have_prev ? prev_deg : reference_deg;
   double best = candidates[0], best_d = 1e300;
   for (double c : candidates) {
     const double a = c + 180.0 * std::round((ref - c) / 180.0);  // an axis is a line: c ≡ c ± 180°
@@ -254,6 +255,9 @@ void validateTrackOptions(const TrackOptions& o) {
   if (!(o.tip_fraction > 0.0 && o.tip_fraction <= 0.25))
     throw TopoError("--tip_fraction " + numberText(o.tip_fraction), "must be in (0, 0.25]",
                     "use the finger task's tip_fraction (default 0.15)");
+  if (!(std::abs(o.tilt_reference_deg) <= 180.0))
+    throw TopoError("--tilt-reference " + numberText(o.tilt_reference_deg), "must be a tilt in -180..180 deg",
+                    "give roughly the tilt the object starts near (0: upright), e.g. 50 for a doll hung off its axis");
   if (o.rotate_deg != 0 && o.rotate_deg != 90 && o.rotate_deg != 180 && o.rotate_deg != 270)
     throw TopoError("--rotate " + std::to_string(o.rotate_deg), "is not a quarter turn",
                     "use 90, 180 or 270 (degrees clockwise), or leave it out");
@@ -307,7 +311,7 @@ void MotionTracker::addFrame(const cv::Mat& frame_in, double t_s) {
   }
   Measurement me = s.tracker->track(bgr);
   if (me.found && s.opt.kind == "tilt") {
-    me.axis_angle_deg = followTiltAxis(me.axis_angle_deg, s.have_tilt_axis, s.tilt_axis_deg);
+    me.axis_angle_deg = followTiltAxis(me.axis_angle_deg, s.have_tilt_axis, s.tilt_axis_deg, s.opt.tilt_reference_deg);
     s.have_tilt_axis = true;
     s.tilt_axis_deg = me.axis_angle_deg;
   }

@@ -20,6 +20,7 @@ using namespace inference;  // the twin runs an inference task
 namespace {
 
 constexpr double kDeg = 180.0 / M_PI;
+constexpr double kHangingClearanceM = 0.005;  ///< a hanging twin's lowest point above the table at release
 
 /// Tasks whose motion the twin can replay, for messages: "tumbler, hanging".
 std::string twinTaskList() {
@@ -130,6 +131,7 @@ RigTwin::RigTwin(const RigTwinOptions& options) : options_(options) {
     throw TopoError(std::string("rig twin: simulating the true interior of the ") + shape_.name + " (" +
                     config_.task() + " task) failed: " + e.what());
   }
+  if (replay.hangs) restAtHangingPose(&quadric);
   const Feature* period = findFeature(truth_, replay.period_feature);
   if (!period || !(period->value > 0))
     throw TopoError("rig twin: the true interior of the " + shape_.name,
@@ -160,6 +162,22 @@ double RigTwin::feature(const std::string& name) const {
   for (const auto& f : truth_.task.features) names += (names.empty() ? "" : ", ") + f.name;
   throw TopoError("rig twin feature '" + name + "'", "is not a feature of the " + config_.task() + " task",
                   "use one of " + names);
+}
+
+void RigTwin::restAtHangingPose(TaskConfig* quadric) {
+  try {
+    const TaskGeometry g = InteriorProblem(*quadric, cloud_).task().geometry();
+    if (!g.has_point || !(g.gravity.normalized().z() < -0.999999)) return;  // the rest pose needs gravity along −z
+    const RollPitch rest = hangingRestPose(truth_.task.mass.com, g.point);
+    for (TaskConfig* c : {&config_, quadric}) {
+      c->setNumber("target_roll_deg", rest.roll_deg);
+      c->setNumber("target_pitch_deg", rest.pitch_deg);
+    }
+    truth_ = InteriorProblem(*quadric, cloud_).evaluateIndicator(r_, nullptr);
+  } catch (const TopoError& e) {
+    throw TopoError(std::string("rig twin: hanging the true interior of the ") + shape_.name +
+                    " at rest failed: " + e.what());
+  }
 }
 
 void RigTwin::buildLoop(const TaskEvaluation& run, double period_s) {
@@ -202,6 +220,14 @@ void RigTwin::buildLoop(const TaskEvaluation& run, double period_s) {
   // reaches at least 99.5 % of the release amplitude, so a tracker window that misses the seam still
   // sees the maximum tilt within 0.5 %.
   motion_ = run.motion;
+  if (twinMotion(config_.task()).hangs && !surface_points_.empty()) {
+    // held with its lowest point 5 mm above the table (z = 0), where the rig's camera looks
+    double z_min = 1e300;
+    for (const auto& x : surface_points_)
+      z_min = std::min(z_min, (motion_.front().rotation * x + motion_.front().translation).z());
+    const Eigen::Vector3d lift(0, 0, kHangingClearanceM - z_min);
+    for (auto& p : motion_) p.translation += lift;
+  }
   const BodyPose& p0 = motion_.front();
   const double tol_rot = std::max(0.005 * a0, 0.01), tol_pos = 0.2 * cloud_.spacing;
   int chosen = -1, best = 0;

@@ -1,9 +1,11 @@
 // rostest node for the whole lab loop (test/ros/demo_tumbler.test = demo.launch, the tumbler twin):
 //  - an unknown task aborts with a reason that names it;
-//  - end to end, two experiments (released at 10° and 25°, played in turn by the twin): motion_tracker
-//    measures the twin's images and tags each window with its experiment, the infer_interior goal
-//    (volume and targets from the topics) sends feedback every iteration with each experiment's loss,
-//    and the result reproduces both experiments' ground-truth period and maximum tilt within 2 %; ~simulate replays it;
+//  - end to end, three experiments (released at 10° and 25°, and hung from a point on the top 4 cm off
+//    the axis, played in turn by the twin): motion_tracker measures the twin's images and tags each
+//    window with its experiment (the hung doll's tilt from its ~tilt_reference_deg), the infer_interior
+//    goal (volume and targets from the topics) sends feedback every iteration with each experiment's
+//    loss, and the result reproduces both rocks' ground-truth period and maximum tilt within 2 % and
+//    the hung doll's rest tilt within 0.5°; ~simulate replays it;
 //    ~export writes a watertight STL whose volume matches the solid particles' within 3 %;
 //  - a goal cancelled after its first feedback is PREEMPTED with the best design so far and its files,
 //    and so is a running goal when a new one arrives (which then succeeds);
@@ -13,6 +15,7 @@
 #include <ros/ros.h>
 #include <ros/topic.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -49,8 +52,9 @@ double valueOf(const std::vector<std::string>& names, const std::vector<double>&
 
 /// The overrides the twin runs with (config/rigs/tumbler_twin.yaml: undamped contact, one cycle).
 const std::vector<std::string> kTwinOverrides{"contact_damping_ratio=0", "measured_cycles=1"};
-/// The twin's two experiments (demo.launch): released at 10° and at 25°.
-const std::vector<std::string> kExperiments{"rock10=tumbler", "rock25=tumbler"};
+/// The twin's three experiments (demo.launch): released at 10° and at 25°, and hung off its axis.
+const std::vector<std::string> kExperiments{"rock10=tumbler", "rock25=tumbler", "hang=hanging"};
+const std::vector<std::string> kExperimentNames{"rock10", "rock25", "hang"};
 
 /// One experiment, the task alone (for the tests of cancel and preempt, which give their own targets).
 topo_gaussian::InferInteriorGoal singleGoal() {
@@ -65,6 +69,8 @@ topo_gaussian::InferInteriorGoal tumblerGoal() {
   g.experiments = kExperiments;
   g.overrides = kTwinOverrides;
   g.overrides.push_back("rock25.initial_tilt_deg=25");
+  g.overrides.push_back("density_solid=5000");  // tumbler.yaml's (hanging.yaml has 1000)
+  g.overrides.push_back("hang.hanging_point=0,0.04,0.02");
   g.overrides.push_back("restarts=1");  // one search for designs that fit as well (make demo: the default 2)
   return g;
 }
@@ -87,23 +93,29 @@ TEST(DemoTumbler, EndToEndReproducesTheTwinsGroundTruth) {
   const auto truth =
       ros::topic::waitForMessage<topo_gaussian::RigGroundTruth>("/rig_simulator/ground_truth", ros::Duration(60.0));
   ASSERT_TRUE(truth) << "no ground truth from rig_simulator";
-  ASSERT_EQ(truth->experiments, (std::vector<std::string>{"rock10", "rock25"})) << "the twin plays both experiments";
+  ASSERT_EQ(truth->experiments, kExperimentNames) << "the twin plays the three experiments";
   const double T = valueOf(truth->feature_names, truth->feature_values, "rock10.period_s");
   const double tilt = valueOf(truth->feature_names, truth->feature_values, "rock10.max_tilt_deg");
   const double T25 = valueOf(truth->feature_names, truth->feature_values, "rock25.period_s");
   const double tilt25 = valueOf(truth->feature_names, truth->feature_values, "rock25.max_tilt_deg");
   ASSERT_TRUE(T > 0 && tilt > 0 && T25 > 0 && tilt25 > 0);
   EXPECT_NEAR(tilt25, 25.0, 0.5) << "rock25 is released at 25 deg";
-  // the tracker has measured both experiments (a window of images each, tagged with its experiment)
+  // the tracker has measured every experiment (a window of images each, tagged with its experiment)
   std::map<std::string, topo_gaussian::MotionFeatures::ConstPtr> seen;
-  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(120.0);
-  while (ros::ok() && ros::WallTime::now() < until && seen.size() < 2) {
+  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(150.0);
+  while (ros::ok() && ros::WallTime::now() < until && seen.size() < 3) {
     const auto f = ros::topic::waitForMessage<topo_gaussian::MotionFeatures>("/motion_features", ros::Duration(2.0));
     if (f && f->oscillation_found && f->end_time_s - f->start_time_s > 3.0 &&
-        (f->experiment == "rock10" || f->experiment == "rock25"))
+        std::find(kExperimentNames.begin(), kExperimentNames.end(), f->experiment) != kExperimentNames.end())
       seen[f->experiment] = f;
   }
-  ASSERT_EQ(seen.size(), 2u) << "motion_tracker published no oscillation of both experiments";
+  ASSERT_EQ(seen.size(), 3u) << "motion_tracker published no oscillation of every experiment";
+  // the hung doll's rest tilt, closed form from the true centre of mass: atan2(−d_y, −d_z), d = c − point
+  ASSERT_EQ(truth->center_of_mass.size(), 3u);
+  const double rest_deg = std::atan2(0.04 - truth->center_of_mass[1], 0.02 - truth->center_of_mass[2]) * 180.0 / M_PI;
+  std::printf("[demo] hang: tracker equilibrium %.3f deg, true rest roll %.3f deg\n", seen["hang"]->equilibrium_deg,
+              rest_deg);
+  EXPECT_NEAR(seen["hang"]->equilibrium_deg, rest_deg, 0.5) << "hung 4 cm off its axis, the doll rests ~53 deg over";
   std::printf("[demo] twin truth: period %.4f / %.4f s, max tilt %.3f / %.3f deg; tracker: %.4f / %.4f s\n", T, T25,
               tilt, tilt25, seen["rock10"]->period_s, seen["rock25"]->period_s);
 
@@ -113,7 +125,7 @@ TEST(DemoTumbler, EndToEndReproducesTheTwinsGroundTruth) {
   c->sendGoal(tumblerGoal(), {}, {}, [&](const topo_gaussian::InferInteriorFeedbackConstPtr& fb) {
     ++feedbacks;
     if (!fb->feature_names.empty() && fb->feature_names.size() == fb->feature_values.size()) with_features = true;
-    if (fb->experiment_names.size() == 2 && fb->experiment_losses.size() == 2) with_experiments = true;
+    if (fb->experiment_names.size() == 3 && fb->experiment_losses.size() == 3) with_experiments = true;
   });
   ASSERT_TRUE(c->waitForResult(ros::Duration(700.0))) << "no result in 700 s";
   ASSERT_EQ(c->getState(), actionlib::SimpleClientGoalState::SUCCEEDED) << c->getResult()->message;
@@ -132,7 +144,7 @@ TEST(DemoTumbler, EndToEndReproducesTheTwinsGroundTruth) {
   EXPECT_GE(feedbacks.load(), 1);
   EXPECT_TRUE(with_features.load()) << "feedback carries the current features";
   EXPECT_TRUE(with_experiments.load()) << "feedback carries each experiment's loss";
-  EXPECT_EQ(res->experiment_names, (std::vector<std::string>{"rock10", "rock25"})) << res->message;
+  EXPECT_EQ(res->experiment_names, kExperimentNames) << res->message;
   EXPECT_NEAR(T1, T, 0.02 * T) << res->message;
   EXPECT_NEAR(tilt1, tilt, 0.02 * tilt) << res->message;
   EXPECT_NEAR(T2, T25, 0.02 * T25) << res->message;

@@ -180,6 +180,24 @@ TEST(Experiments, AssignmentsReachTheirExperiments) {
   EXPECT_NE(errorOf([&] { c.set("no_such_key", "1"); }).find("none of the experiments"), std::string::npos);
 }
 
+// The shipped task files differ in their material (tumbler.yaml density_solid 5000, hanging.yaml
+// 1000): joined as named experiments (`--experiment hang=hanging`, the goal's `experiments`) they are
+// refused unless the user names the object's value (`--set density_solid=5000`), which then reaches
+// every file before they are joined.
+TEST(Experiments, TheUsersSharedValueJoinsTaskFilesWhoseOwnValuesDiffer) {
+  const std::string dir = std::string(TOPO_SOURCE_DIR) + "/config/tasks";
+  const std::string e = errorOf([&] { TaskConfig::loadWithExperiments("tumbler", {"hang=hanging"}, dir); });
+  EXPECT_NE(e.find("experiment 'hang' density_solid"), std::string::npos) << e;
+  const TaskConfig c = TaskConfig::loadWithExperiments(
+      "tumbler", {"hang=hanging"}, dir, {"density_solid=5000", "hang.hanging_point=0,0.04,0.02", "period_s=1"});
+  ASSERT_EQ(c.experiments().size(), 2u);
+  for (const auto& x : c.experiments()) EXPECT_DOUBLE_EQ(x.config.number("density_solid"), 5000.0) << x.name;
+  EXPECT_DOUBLE_EQ(c.number("density_solid"), 5000.0);
+  // only shared values are applied here (the caller applies the rest as before)
+  EXPECT_FALSE(c.experiments()[1].config.has("hanging_point"));
+  EXPECT_FALSE(c.experiments()[0].config.has("period_s"));
+}
+
 TEST(Experiments, TheJointLossIsTheWeightedSumAndItsGradientMatchesFiniteDifferences) {
   const CavityBox box;
   TaskConfig c = TaskConfig::common();

@@ -51,6 +51,15 @@ TEST(MotionTargets, TumblerSignalGetsTheTasksOwnAnalysis) {
   EXPECT_NEAR(t.targets[2].second, amplitude, 1e-9);
   std::printf("[targets] tumbler: task %.5f s %.4f deg; from the observed signal %.5f s %.4f deg\n", period, tilt,
               t.targets[0].second, t.targets[1].second);
+  // the tilt it rocks about, when the tracker measured it (confidence > 0), is a target too
+  auto with_eq = m;
+  with_eq.equilibrium_deg = 0.031;
+  with_eq.equilibrium_confidence = 0.9;
+  const inference::MotionTargets te = inference::targetsFromMotion(c, with_eq);
+  ASSERT_EQ(te.targets.size(), 4u) << te.note;
+  EXPECT_EQ(te.targets[3].first, "equilibrium_tilt_deg");
+  EXPECT_DOUBLE_EQ(te.targets[3].second, 0.031);
+  EXPECT_NE(te.note.find("equilibrium tilt 0.031 deg"), std::string::npos) << te.note;
   // a window that starts mid-swing (a steady rocking seen from a quarter period in): the tracker's
   // own numbers over the window
   auto later = m;

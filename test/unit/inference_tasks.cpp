@@ -142,6 +142,32 @@ TEST(TaskGradient, TumblerThroughTheSimulation) {
   gradientError(p, quadricDesign(), {0, 2, 6, 8, 9}, 1e-8);
 }
 
+// The observed tilt it rocks about (equilibrium_tilt_deg, compared by magnitude on the release tilt's
+// scale): its loss term's gradient through the simulation, on a design whose centre of mass is off
+// the axis (it rests tilted).
+TEST(TaskGradient, TumblerEquilibriumTargetThroughTheSimulation) {
+  const VolumeCloud cloud = topo_test::tumblerCloud(0.05, 0.5, 0.005);
+  TaskConfig c = TaskConfig::defaults("tumbler");
+  c.set("duration_s", "1.0");
+  c.set("initial_tilt_deg", "8");
+  c.set("period_s", "0.5");
+  c.set("equilibrium_tilt_deg", "-0.5");
+  c.set("weight_period", "0");
+  c.set("weight_tilt", "0");
+  const InteriorProblem p(c, cloud);
+  ProblemEvaluation ev;
+  p.evaluate(quadricDesign(), nullptr, &ev);
+  double eq = 0, target = 0;
+  for (const auto& f : ev.task.features)
+    if (f.name == "equilibrium_tilt_deg") eq = f.value, target = f.target;
+  std::printf("[tumbler] equilibrium %.5f deg, target %.5f deg (magnitude 0.5), loss %.3g\n", eq, target, ev.task.loss);
+  EXPECT_GT(std::abs(eq), 0.05);  // the design rests tilted
+  EXPECT_DOUBLE_EQ(std::abs(target), 0.5);
+  EXPECT_EQ(std::signbit(target), std::signbit(eq));  // the target takes the simulated side
+  EXPECT_NEAR(ev.task.loss, std::pow((std::abs(eq) - 0.5) / 8.0, 2), 1e-12);
+  gradientError(p, quadricDesign(), {0, 2, 6, 8, 9}, 1e-8);
+}
+
 TEST(Optimizer, LbfgsAndAdamMinimiseAQuadraticAndCancel) {
   const Eigen::Vector3d target(0.3, -0.2, 0.5);
   const Objective f = [&](const Eigen::VectorXd& x, Eigen::VectorXd* g) {

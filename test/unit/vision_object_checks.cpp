@@ -313,6 +313,17 @@ TEST(VisionObjectChecks, TrackOptionsAreCheckedWithTheFix) {
   k.kind = "finger";
   k.tracker.method = "klt";
   EXPECT_THROW(validateTrackOptions(k), TopoError);
+  TrackOptions t;
+  t.tilt_reference_deg = std::nan("");
+  try {
+    validateTrackOptions(t);
+    ADD_FAILURE() << "a tilt reference that is not a number was accepted";
+  } catch (const TopoError& e) {
+    EXPECT_NE(std::string(e.what()).find("--tilt-reference"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("the tilt the object starts near"), std::string::npos) << e.what();
+  }
+  t.tilt_reference_deg = 200;
+  EXPECT_THROW(validateTrackOptions(t), TopoError);
   EXPECT_THROW(validRoi(cv::Rect(600, 0, 100, 100), cv::Size(640, 480), true), TopoError);  // reaches outside
 
   // the command line: every bad option is exit 2 with the fix, before any tracking
@@ -324,7 +335,8 @@ TEST(VisionObjectChecks, TrackOptionsAreCheckedWithTheFix) {
   for (const std::string bad :
        {"--roi 600,0,100,100", "--roi 700,500,10,10", "--hsv-lower 0,0,0 --hsv-upper 200,255,255",
         "--hsv-lower 20,200,0 --hsv-upper 30,100,255", "--series", "--fps 25", "--rotate 45", "--gravity 0,0",
-        "--polarity darker", "--method silhouette --polarity sideways", "--kind finger --method klt"}) {
+        "--polarity darker", "--method silhouette --polarity sideways", "--kind finger --method klt",
+        "--kind tilt --method silhouette --tilt-reference 270"}) {
     const topo_test::ToolRun run = track(bad);
     EXPECT_EQ(run.code, 2) << bad << "\n" << run.out;
     EXPECT_EQ(run.out.find("period_s"), std::string::npos) << bad;  // nothing was tracked

@@ -143,4 +143,12 @@ std::unique_ptr<Task> makeTask(const TaskConfig& config, const VolumeCloud& clou
 /// Rotation of the target pose: roll about world x, then pitch about world y (degrees).
 Eigen::Matrix3d targetRotation(double roll_deg, double pitch_deg);
 
+/// The pose an object hung from a point rests in, as targetRotation's angles: with d = c − point (body
+/// frame) and gravity along −z, roll = atan2(−d_y, −d_z), then pitch = atan2(d_x, √(d_y² + d_z²)), so
+/// that targetRotation(roll, pitch) · d points straight down. Throws TopoError when c is at the point.
+struct RollPitch {
+  double roll_deg = 0.0, pitch_deg = 0.0;
+};
+RollPitch hangingRestPose(const Eigen::Vector3d& com_m, const Eigen::Vector3d& point_m);
+
 }  // namespace topo_gaussian::inference

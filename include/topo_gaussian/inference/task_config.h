@@ -62,8 +62,13 @@ class TaskConfig {
   /// `task` (a name or YAML path, may be empty), then every "[NAME=]FILE" of `experiments` as one more
   /// experiment of the same object (NAME defaults to the file's stem, or the task name): what
   /// `topo infer --task T --experiment F ...` and the InferInterior goal's `experiments` load.
+  /// `assignments` ("KEY=VALUE", the user's --set or goal overrides): those of a shared parameter
+  /// (isShared, no "NAME." prefix) are set in every loaded file before they are joined, so task files
+  /// whose own values differ (tumbler.yaml's density_solid 5000, hanging.yaml's 1000) make one object
+  /// when the user names the value; without it they are refused. The caller still applies them all.
   static TaskConfig loadWithExperiments(const std::string& task, const std::vector<std::string>& experiments,
-                                        const std::string& task_dir = "");
+                                        const std::string& task_dir = "",
+                                        const std::vector<std::string>& assignments = {});
   /// "NAME=VALUE" → {NAME, VALUE}; a text without '=' (or whose '=' comes after a '/', a path) →
   /// {"", text}: how `--experiment [NAME=]FILE` and `--features [NAME=]FILE` are read.
   static std::pair<std::string, std::string> splitNamedValue(const std::string& text);

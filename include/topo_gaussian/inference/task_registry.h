@@ -90,6 +90,11 @@ struct RigTwinMotion {
   double cavity_radius = 0.0;
   /// Default shapes whose twin runs this task when none is named; "*": every shape no task names.
   std::vector<std::string> default_for_shapes;
+  /// A hanging object (the task has target_roll_deg / target_pitch_deg and a point in geometry()): the
+  /// twin releases it about the pose its true interior rests in (hangingRestPose), as a rig leaves it
+  /// to settle before the swing, and holds it with its lowest point 5 mm above the table (z = 0) that
+  /// the rig's camera watches.
+  bool hangs = false;
 };
 
 struct TaskDefinition {

@@ -15,6 +15,7 @@
 #include <sensor_msgs/Image.h>
 #include <std_msgs/String.h>
 
+#include <map>
 #include <memory>
 #include <string>
 
@@ -43,6 +44,12 @@ struct MotionTrackerParams {
   cv::Vec4d plane;                            ///  the latest camera_info and ~camera_pose
   cv::Matx33d camera_R = cv::Matx33d::eye();  ///< ~camera_pose [x, y, z, qx, qy, qz, qw]: optical frame in the world
   cv::Vec3d camera_t = cv::Vec3d(0, 0, 0);
+  /// ~tilt_reference_deg: a list of "[NAME=]DEG" (or one string of them separated by ';'): the tilt
+  /// each experiment's object starts near (TrackOptions::tilt_reference_deg); an entry without NAME
+  /// is every other experiment's (in options).
+  std::map<std::string, double> tilt_reference_deg;
+  /// The options of a window of `experiment`: options with its tilt reference.
+  vision::TrackOptions optionsFor(const std::string& experiment) const;
 };
 
 /// The live stream's time line: which frame stamps go into the current analysis window. A camera

@@ -60,6 +60,11 @@ struct TrackOptions {
   /// finger: the tip segment and the one before it are each this fraction of the silhouette's
   /// length (the finger task's tip_fraction, whose bend the tracker measures)
   double tip_fraction = 0.15;
+  /// tilt: the silhouette's principal axes are a line pair, known modulo 90°: the first frame takes
+  /// the one nearest this tilt [deg from image-up, clockwise positive], later frames follow by
+  /// continuity. 0 (upright) for a doll rocking on the ground; about the tilt it hangs at for an
+  /// object hung off its axis (within 45°).
+  double tilt_reference_deg = 0.0;
   ObjectCheckOptions checks;
 };
 

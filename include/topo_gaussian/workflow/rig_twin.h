@@ -19,6 +19,11 @@
 // a period that falls by a third as the swing decays. With the contact damping off (`undamped`, the
 // default) the replayed tumbler keeps 99.9 % of its amplitude per period.
 //
+// A hanging object (RigTwinMotion::hangs) is released swing_tilt_deg off the pose its true interior
+// rests in (the target_roll_deg / target_pitch_deg of its config() are set to it, hangingRestPose),
+// as a rig lets it settle on its string before the swing, and is held with its lowest point 5 mm
+// above the table (z = 0) that the rig's camera watches.
+//
 // The truth features are those of the task as configured (after `undamped` and the overrides) on
 // that cloud; the long simulation for the loop only extends the same motion.
 #pragma once
@@ -113,6 +118,9 @@ class RigTwin {
 
  private:
   void buildSurface();
+  /// A hanging task (RigTwinMotion::hangs): sets the target pose of config_ and *quadric to the pose
+  /// the true interior rests in and simulates the truth again, so the twin swings about its rest.
+  void restAtHangingPose(inference::TaskConfig* quadric);
   void buildLoop(const inference::TaskEvaluation& run, double period_s);
 
   RigTwinOptions options_;
