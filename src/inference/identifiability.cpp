@@ -192,7 +192,7 @@ IdentifiabilityAnalysis analyseMomentJacobian(const MomentJacobian& J_si, const 
       << " % of its natural unit).";
   if (!a.moments[0].determined)
     s << " Rigid motion alone never fixes the mass (a heavier copy with the same centre of mass and inertia per "
-         "kilogram moves alike): weigh it.";
+         "kilogram moves alike): weigh it (a mass_kg target of a hanging, balance or stand experiment).";
   a.summary = s.str();
   return a;
 }

@@ -57,6 +57,7 @@ class StaticTask : public Task {
     roll_ = c.has("target_roll_deg") ? c.number("target_roll_deg") : 0.0;
     pitch_ = c.has("target_pitch_deg") ? c.number("target_pitch_deg") : 0.0;
     R_ = targetRotation(roll_, pitch_);
+    if (c.has("mass_kg")) mass_target_ = c.number("mass_kg");
     g_hat_ = geometry_.gravity.normalized();
     const Eigen::Vector3d top((lo_.x() + hi_.x()) / 2, (lo_.y() + hi_.y()) / 2, hi_.z());
     if (name_ == "hanging") {
@@ -116,6 +117,13 @@ class StaticTask : public Task {
       ev.loss += v * v / L2;
       dL_dc += -2.0 * v * R_.transpose() * g_hat_ / L2;
     }
+    // Weighed on a scale: ((m − m*)/m*)², the relative error as the rocking period's.
+    double dL_dm = 0.0;
+    if (mass_target_ > 0) {
+      const double e = (ev.mass.mass - mass_target_) / mass_target_;
+      ev.loss += e * e;
+      dL_dm = 2.0 * e / mass_target_;
+    }
     // stand succeeds once the centre of mass is over the base (the loss keeps pulling it to the
     // base centre); hanging and balance need it on the vertical through the point.
     Feature off{"com_offset_m", e.norm(), "m", name_ != "stand", 0.0, 1e-3 * size_, 1.0};
@@ -128,11 +136,17 @@ class StaticTask : public Task {
       ev.features.push_back(Feature{"support_margin_m", mg, "m"});
       ev.features.push_back(Feature{"stands", mg > 0 ? 1.0 : 0.0, "", true, 1.0, 1.0, 0.0});
     }
-    ev.features.push_back(Feature{"mass_kg", ev.mass.mass, "kg"});
+    ev.features.push_back(Feature{"mass_kg", ev.mass.mass, "kg", mass_target_ > 0, mass_target_, 1e-9, 0.01});
     if (name_ != "stand") addOffsetObservations(d, off, &ev);
+    if (mass_target_ > 0) {  // the scale's reading, noise its 1 % tolerance; dm/dp = (1, 0, ...)
+      Observation o{"mass_kg", ev.mass.mass, "kg", true, mass_target_, 0.01 * mass_target_};
+      o.d_dp[0] = 1.0;
+      ev.observations.push_back(o);
+    }
     if (swing_duration_ > 0) swing(ev);
     if (dL_dr) {
       Eigen::Matrix<double, 10, 1> g = Eigen::Matrix<double, 10, 1>::Zero();
+      g[0] = dL_dm;
       g.segment<3>(1) = dL_dc;
       chainToIndicator(rm, g, dL_dr);
     }
@@ -197,7 +211,7 @@ class StaticTask : public Task {
   }
 
   double swing_duration_ = 0, swing_tilt_ = 3;
-  double roll_ = 0, pitch_ = 0;
+  double roll_ = 0, pitch_ = 0, mass_target_ = -1;
   Eigen::Matrix3d R_;
   Eigen::Vector3d g_hat_, point_, e1_, e2_;
   bool require_stable_ = false;
@@ -218,6 +232,9 @@ void declareTargetPose(TaskParameters& p) {
   p.target("target_roll_deg", ParamType::Number, "deg",
            "target orientation: roll about world x [deg] (default 0: the rest pose)");
   p.target("target_pitch_deg", ParamType::Number, "deg", "target orientation: pitch about world y [deg] (default 0)");
+  p.target("mass_kg", ParamType::Number, "kg",
+           "the object weighed on a scale [kg]: the one number rigid motion never fixes (loss ((m - m*)/m*)^2)", 0,
+           1e300, true);
 }
 
 /// The camera looks along world x, so the observed equilibrium angle is the roll of the target pose.

@@ -174,6 +174,23 @@ TEST(Identifiability, HangingFromOnePointFixesTheHorizontalCentreOfMassOnly) {
   EXPECT_NE(a.summary.find("weigh it"), std::string::npos) << a.summary;
 }
 
+// A hang with a scale reading (mass_kg target) fixes the mass too, with std = its 1 % noise; the
+// summary no longer says "weigh it".
+TEST(Identifiability, WeighingFixesTheMass) {
+  const HangSetup s;
+  TaskConfig t = TaskConfig::defaults("hanging");
+  t.setNumber("density_solid", 1000.0);
+  t.setVector("hanging_point", Eigen::Vector3d(s.c.x(), s.c.y(), 0.04));
+  t.setNumber("mass_kg", 0.5);
+  const TaskEvaluation ev = makeTask(t, s.cloud)->evaluate(s.r, nullptr);
+  ASSERT_EQ(ev.observations.size(), 3u);
+  const IdentifiabilityAnalysis a = analyseMomentJacobian(rowsOf(ev), naturalMomentUnits(s.solid_mass, s.size));
+  EXPECT_TRUE(a.moments[0].determined);
+  EXPECT_NEAR(a.moments[0].std, 0.005, 1e-12);  // 1 % of the 0.5 kg reading
+  EXPECT_EQ(a.rank, 3);
+  EXPECT_EQ(a.summary.find("weigh it"), std::string::npos) << a.summary;
+}
+
 TEST(Identifiability, HangingFromTwoNonCollinearPointsFixesAllOfTheCentreOfMass) {
   const HangSetup s;
   const Eigen::Vector3d q1(s.c.x(), s.c.y(), 0.04), q2(0.05, 0.02, 0.03);

@@ -112,6 +112,32 @@ TEST(TaskGradient, HangingAllRepresentations) {
   }
 }
 
+// Weighed on a scale (mass_kg target): the loss gains ((m − m*)/m*)², its gradient matches central
+// differences on a design away from the target mass.
+TEST(TaskGradient, HangingWeighedOnAScale) {
+  const VolumeCloud cloud = topo_test::boxCloud(0.2, 0.1, 0.06, 0.01);
+  TaskConfig c = TaskConfig::defaults("hanging");
+  c.set("hanging_point", "0.03,0.01,0.03");
+  c.set("mass_kg", "0.7");
+  const InteriorProblem p(c, cloud);
+  ProblemEvaluation ev;
+  p.evaluate(quadricDesign(), nullptr, &ev);
+  TaskConfig plain = TaskConfig::defaults("hanging");
+  plain.set("hanging_point", "0.03,0.01,0.03");
+  ProblemEvaluation without;
+  InteriorProblem(plain, cloud).evaluate(quadricDesign(), nullptr, &without);
+  const double m = ev.task.mass.mass, e = (m - 0.7) / 0.7;
+  std::printf("[hanging] weighed: mass %.5f kg against 0.7, loss %.6g (without the scale %.6g)\n", m, ev.task.loss,
+              without.task.loss);
+  EXPECT_GT(std::abs(e), 0.05);
+  EXPECT_NEAR(ev.task.loss - without.task.loss, e * e, 1e-12);
+  bool reached_flag = true;
+  for (const auto& f : ev.task.features)
+    if (f.name == "mass_kg") reached_flag = f.has_target && !f.reached();
+  EXPECT_TRUE(reached_flag) << "mass_kg is a target, not reached at this design";
+  gradientError(p, quadricDesign(), {0, 3, 7, 9}, 1e-6);
+}
+
 TEST(TaskGradient, QiqiThroughTheEquilibrium) {
   // A hollow-capable box hanging on a hinge above its centre; water at three levels.
   const VolumeCloud cloud = topo_test::boxCloud(0.1, 0.12, 0.15, 0.01);
