@@ -252,12 +252,7 @@ int main(int argc, char** argv) {
     row("mass [kg]", res->mass_kg, truth->mass_kg, truth->mass_kg);
     const char* c[3] = {"centre of mass x [m]", "centre of mass y [m]", "centre of mass z [m]"};
     // The centre of mass relative to the object's size (its extent in the true interior cloud).
-    std::vector<Eigen::Vector3d> xt;
-    std::vector<bool> st;
-    readInterior(truth->interior, &xt, &st);
-    Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
-    for (const auto& x : xt) lo = lo.cwiseMin(x), hi = hi.cwiseMax(x);
-    const double size = xt.empty() ? 1.0 : (hi - lo).norm();
+    const double size = std::isfinite(object_size_m) ? object_size_m : 1.0;
     for (int a = 0; a < 3; ++a) row(c[a], res->center_of_mass[a], truth->center_of_mass[a], size);
     const char* I[3] = {"inertia xx [kg m^2]", "inertia yy [kg m^2]", "inertia zz [kg m^2]"};
     for (int a = 0; a < 3; ++a) row(I[a], res->inertia[4 * a], truth->inertia[4 * a], truth->inertia[4 * a]);
