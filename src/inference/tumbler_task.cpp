@@ -234,7 +234,12 @@ MotionTargets rockingTargets(const TaskConfig& config, const motion::MotionFeatu
   double period = f.period_s, tilt = f.amplitude_confidence > 0 ? f.max_tilt_deg : 0.0, amplitude = 0.0;
   std::vector<double> y;
   double dt = 0;
-  if (uniformSignal(f.time_s, f.angle_deg, &y, &dt)) {
+  // An absolute tilt the tracker could not tell (confidence 0: an axis known only modulo 90 deg, a
+  // pendulum's path without a pivot) leaves the period alone.
+  const bool tilt_known = f.amplitude_confidence > 0;
+  if (!tilt_known)
+    os << "the tracker gives no absolute tilt (confidence 0): its signal, largest tilt and equilibrium are not used";
+  if (tilt_known && uniformSignal(f.time_s, f.angle_deg, &y, &dt)) {
     // A window that starts at the release (the first sample a turning point, the first step small
     // against the range, far from the centre) is measured as the task measures its simulation.
     double lo = y[0], hi = y[0], peak = 0;
@@ -270,7 +275,7 @@ MotionTargets rockingTargets(const TaskConfig& config, const motion::MotionFeatu
   if (amplitude > 0) out.targets.emplace_back("amplitude_deg", amplitude);
   // The tilt it rocks about fixes the centre of mass across the rocking axis (a doll at rest upright
   // rocks about 0); the tracker's mean of its turning points, when it measured it.
-  if (f.equilibrium_confidence > 0 && std::isfinite(f.equilibrium_deg)) {
+  if (tilt_known && f.equilibrium_confidence > 0 && std::isfinite(f.equilibrium_deg)) {
     out.targets.emplace_back("equilibrium_tilt_deg", f.equilibrium_deg);
     os << "; equilibrium tilt " << f.equilibrium_deg << " deg";
   }

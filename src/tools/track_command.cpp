@@ -314,11 +314,13 @@ int trackCommand(const std::vector<std::string>& argv) {
           std::printf("unreliable      confidence %.2f < 0.3: the numbers below are not a measurement\n", c->second);
         std::printf("period_s        %.5f\n", r.signal.period_s);
         std::printf("amplitude_deg   %.3f\n", r.signal.amplitude_deg);
-        std::printf("equilibrium_deg %.3f\n", r.signal.equilibrium_deg);
-        std::printf("max_tilt_deg    %.3f\n", r.signal.max_tilt_deg);
+        const char* ambiguous = r.tilt_axis_ambiguous ? " (ambiguous: modulo 90 deg, see below)" : "";
+        std::printf("equilibrium_deg %.3f%s\n", r.signal.equilibrium_deg, ambiguous);
+        std::printf("max_tilt_deg    %.3f%s\n", r.signal.max_tilt_deg, ambiguous);
         std::printf("damping_ratio   %.5f\n", r.signal.damping_ratio);
       } else if (std::isfinite(r.static_pose.angle_deg)) {
-        std::printf("static_angle_deg %.3f (spread %.3f)\n", r.static_pose.angle_deg, r.static_pose.spread_deg);
+        std::printf("static_angle_deg %.3f (spread %.3f)%s\n", r.static_pose.angle_deg, r.static_pose.spread_deg,
+                    r.tilt_axis_ambiguous ? " (ambiguous: modulo 90 deg, see below)" : "");
       }
       if (r.kind == "pendulum")
         std::printf("pivot_px        %.1f, %.1f (%s)\n", r.pivot.x, r.pivot.y,

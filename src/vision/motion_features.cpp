@@ -23,9 +23,12 @@ motion::MotionFeatures toMotionFeatures(const TrackResult& r) {
   };
   m.period_confidence = conf("period_s");
   m.amplitude_confidence = conf("amplitude_deg");
-  // The tracker's confidence keys (motion_tracker.cpp): the equilibrium is the oscillation's centre
-  // (as sure as the period) or the static pose; the bend is "bend_deg".
-  m.equilibrium_confidence = r.signal.oscillation_found ? conf("period_s") : conf("static_angle_deg");
+  // The tracker's confidence keys (motion_tracker.cpp): "equilibrium_deg" (tilt; 0 when the axis is
+  // ambiguous), else the oscillation's centre (as sure as the period) or the static pose; the bend is
+  // "bend_deg".
+  m.equilibrium_confidence = r.confidence.count("equilibrium_deg") ? conf("equilibrium_deg")
+                             : r.signal.oscillation_found          ? conf("period_s")
+                                                                   : conf("static_angle_deg");
   m.bending_confidence = conf("bend_deg");
   m.start_time_s = r.t_start_s;
   m.end_time_s = r.t_end_s;

@@ -196,6 +196,10 @@ EndFit fitEnds(const cv::Mat& mask, const cv::Point& offset, double tip_fraction
 /// tilt_reference_deg, image vertical by default) at the first frame and after that the one nearest
 /// the previous frame's axis, unwrapped by ±180° for continuity. So an object wider than tall (a
 /// tumbler) is followed by its upright (minor) axis.
+/// A tilt whose rest lies further than this from TrackOptions::tilt_reference_deg is ambiguous: the
+/// other principal axis is then within 90° − this of the reference, about as plausible [deg].
+constexpr double kTiltAmbiguityDeg = 30.0;
+
 double followTiltAxis(double major_deg, bool have_prev, double prev_deg, double reference_deg) {
   const double candidates[2] = {major_deg, major_deg > 0 ? major_deg - 90.0 : major_deg + 90.0};
   const double ref = have_prev ? prev_deg : reference_deg;
@@ -627,6 +631,31 @@ TrackResult MotionTracker::finish() const {
     const double up_deg = std::atan2(-g[0], g[1]) * kDeg;
     for (double& a : axis) a -= up_deg;
     oscillation(t, axis, true);
+    // The axes are a line pair known modulo 90° (followTiltAxis): the one nearest the reference was
+    // followed. An object resting far from the reference rests about as near the other axis, so its
+    // absolute tilt (equilibrium, static angle, largest tilt) is not known; the period and the swing
+    // are the same about either axis.
+    const double rest = r.signal.oscillation_found ? r.signal.equilibrium_deg : r.static_pose.angle_deg;
+    const double off = std::isfinite(rest) ? std::abs(wrapDeg(rest - s.opt.tilt_reference_deg)) : 0.0;
+    r.tilt_axis_ambiguous = off > kTiltAmbiguityDeg;
+    if (r.tilt_axis_ambiguous) {
+      const double other = rest > s.opt.tilt_reference_deg ? rest - 90.0 : rest + 90.0;
+      r.confidence["static_angle_deg"] = 0.0;
+      r.confidence["amplitude_deg"] = 0.0;
+      r.confidence["equilibrium_deg"] = 0.0;
+      notes.insert(notes.begin(),
+                   "the absolute tilt is ambiguous: the silhouette's axes are known only modulo 90 deg and the "
+                   "object rests " +
+                       fixedText(off, 1) + " deg from the tilt reference " + fixedText(s.opt.tilt_reference_deg, 1) +
+                       " deg, so it reads " + fixedText(rest, 2) + " deg but may rest at " + fixedText(other, 2) +
+                       " deg (the other axis); the equilibrium, static angle and largest tilt are given with "
+                       "confidence 0 (the period holds). Pass the tilt it rests near, within " +
+                       fixedText(kTiltAmbiguityDeg, 0) +
+                       " deg (topo track --tilt-reference DEG, the node's ~tilt_reference_deg)");
+    } else {
+      r.confidence["equilibrium_deg"] =
+          r.signal.oscillation_found ? r.confidence["period_s"] : r.confidence["static_angle_deg"];
+    }
   } else if (s.opt.kind == "trajectory") {
     std::vector<double> hs;
     for (const auto& p : pts) hs.push_back(-(p.x * g[0] + p.y * g[1]));
@@ -860,6 +889,8 @@ std::string trackerJson(const TrackResult& r) {
         << ",\"pivot_fit_rms_px\":" << num(r.pivot_fit_rms_px)
         << ",\"pivot_radius_rel_uncertainty\":" << num(r.pivot_radius_rel_uncertainty)
         << ",\"angles_known\":" << (r.angles_known ? "true" : "false");
+    else
+      o << ",\"tilt_axis_ambiguous\":" << (r.tilt_axis_ambiguous ? "true" : "false");
   } else if (r.kind == "trajectory") {
     const BounceFeatures& b = r.bounces;
     o << ",\"bounce_times_s\":" << array(r.bounce_times_s) << ",\"bounce_y_px\":" << array(r.bounce_y_px)

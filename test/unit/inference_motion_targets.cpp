@@ -60,6 +60,18 @@ TEST(MotionTargets, TumblerSignalGetsTheTasksOwnAnalysis) {
   EXPECT_EQ(te.targets[3].first, "equilibrium_tilt_deg");
   EXPECT_DOUBLE_EQ(te.targets[3].second, 0.031);
   EXPECT_NE(te.note.find("equilibrium tilt 0.031 deg"), std::string::npos) << te.note;
+  // a tracker that could not tell the absolute tilt (an axis known only modulo 90 deg: confidence 0
+  // for the angles) gives the period only; its signal, largest tilt and equilibrium are left out
+  auto ambiguous = with_eq;
+  ambiguous.amplitude_confidence = 0.0;
+  ambiguous.equilibrium_confidence = 0.0;
+  for (double& a : ambiguous.angle_deg) a += 90.0;
+  const inference::MotionTargets ta = inference::targetsFromMotion(c, ambiguous);
+  ASSERT_EQ(ta.targets.size(), 2u) << ta.note;
+  EXPECT_DOUBLE_EQ(ta.targets[0].second, 0.5 * period) << ta.note;  // the tracker's own period
+  EXPECT_EQ(ta.targets[1].first, "max_tilt_deg");
+  EXPECT_DOUBLE_EQ(ta.targets[1].second, 10.0) << ta.note;  // the release tilt, which the task knows
+  EXPECT_NE(ta.note.find("no absolute tilt"), std::string::npos) << ta.note;
   // a window that starts mid-swing (a steady rocking seen from a quarter period in): the tracker's
   // own numbers over the window
   auto later = m;

@@ -10,9 +10,12 @@
 
 #include "rolling_closed_form.h"
 #include "test_util.h"
+#include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/inference/motion_targets.h"
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/inference/task_config.h"
 #include "topo_gaussian/physics/default_shapes.h"
+#include "topo_gaussian/vision/motion_features.h"
 #include "topo_gaussian/vision/motion_tracker.h"
 #include "topo_gaussian/vision/particle_normals.h"
 #include "topo_gaussian/vision/splat_renderer.h"
@@ -443,10 +446,28 @@ TEST(RigTwin, HangingTumblerRestsTiltedAndTheTrackerSeesTheRestPose) {
   std::printf("[twin] hanging tumbler spans z %.4f .. %.4f m\n", z_min, z_max);
   EXPECT_GT(z_min, 0.0);
   // Its silhouette's axes are a line pair: from upright (the default reference) the tracker takes the
-  // other axis, 90° off; told the doll hangs about 50° over, it follows the right one.
+  // other axis, 90° off. It says so: the absolute angles get confidence 0 (the period holds), the
+  // message gives both readings, and the hanging task takes no target from them.
   const TrackResult upright = trackTwin(twin, rigCamera(), 0.3, 30.0, 8.0);
   EXPECT_NEAR(upright.signal.equilibrium_deg, rest_deg - 90.0, 0.2);
+  EXPECT_TRUE(upright.tilt_axis_ambiguous) << upright.message;
+  EXPECT_EQ(upright.confidence.at("equilibrium_deg"), 0.0);
+  EXPECT_EQ(upright.confidence.at("static_angle_deg"), 0.0);
+  EXPECT_EQ(upright.confidence.at("amplitude_deg"), 0.0);
+  EXPECT_GT(upright.confidence.at("period_s"), 0.5);
+  EXPECT_NE(upright.message.find("ambiguous"), std::string::npos) << upright.message;
+  EXPECT_NE(upright.message.find(fixedText(upright.signal.equilibrium_deg + 90.0, 2)), std::string::npos)
+      << upright.message;
+  const auto upright_targets = inference::targetsFromMotion(twin.config(), vision::toMotionFeatures(upright));
+  EXPECT_TRUE(upright_targets.targets.empty()) << upright_targets.note;
+  std::printf("[twin] hanging tumbler tracked from upright: %s\n", upright.message.c_str());
+  // Told the doll hangs about 50° over, it follows the right one.
   const TrackResult r = trackTwin(twin, rigCamera(), 0.3, 30.0, 8.0, nullptr, 50.0);
+  EXPECT_FALSE(r.tilt_axis_ambiguous) << r.message;
+  EXPECT_GT(r.confidence.at("equilibrium_deg"), 0.5);
+  const auto targets = inference::targetsFromMotion(twin.config(), vision::toMotionFeatures(r));
+  ASSERT_EQ(targets.targets.size(), 1u) << targets.note;
+  EXPECT_NEAR(targets.targets[0].second, rest_deg, 0.2);
   std::printf(
       "[twin] hanging tumbler tracked: equilibrium %.4f deg (rest %.4f, %+.4f deg), period %.5f s (%+.3f %%), "
       "confidence %.3f\n",

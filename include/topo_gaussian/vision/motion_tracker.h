@@ -63,7 +63,8 @@ struct TrackOptions {
   /// tilt: the silhouette's principal axes are a line pair, known modulo 90°: the first frame takes
   /// the one nearest this tilt [deg from image-up, clockwise positive], later frames follow by
   /// continuity. 0 (upright) for a doll rocking on the ground; about the tilt it hangs at for an
-  /// object hung off its axis (within 45°).
+  /// object hung off its axis. An object resting more than 30° from it is reported ambiguous
+  /// (TrackResult::tilt_axis_ambiguous): its absolute angles get confidence 0.
   double tilt_reference_deg = 0.0;
   ObjectCheckOptions checks;
 };
@@ -100,6 +101,9 @@ struct TrackResult {
   double pivot_radius_rel_uncertainty = 0.0;  ///< relative standard error of the pendulum length (angles scale with it)
   bool angles_known = true;  ///< false: the path is too straight for a pivot, angle_deg holds px along it
   // pendulum / tilt
+  /// tilt: the object rests more than 30° from TrackOptions::tilt_reference_deg, so it may rest on the
+  /// other principal axis (90° away): the absolute angles have confidence 0, `message` says both readings
+  bool tilt_axis_ambiguous = false;
   SignalFeatures signal;
   StaticPose static_pose;
   // finger
