@@ -23,6 +23,14 @@
 // −20.9 / −18.7 % (void −51.5 / −37.2 %), levelling off near −17 %: at 5e5 Pa the chamber inflates by ~20 % and
 // CalculiX's bend grows ×3.4 from 5e3 Pa (void), StVK's ×3.6, the corotated model's ×2.6. The task says so at its first
 // evaluation of a design with a chamber, with the design's wall resolution and the spacing that would reach 5 %.
+//
+// Obstacle (obstacle plane): a rigid plane through obstacle_point with normal obstacle_normal (towards
+// the finger) that the bending finger presses against, frictionless in static mode (SoftContact,
+// penalty ½ k Σ_k ω_k min(φ(y_k), 0)², φ(y) = n·(y − p)). The contact points are the volume's contact
+// samples on the true surface embedded in the particles (SoftTask::embedContactSamples), so the finger
+// touches with its real skin, not with the surface particles half a spacing inside it (measured in
+// inference_soft_contact, FingerStopsAtTheObstacleOnItsTrueSurface). The static equilibrium and its
+// adjoint carry the contact's Hessian.
 #include <algorithm>
 #include <cmath>
 #include <iostream>
@@ -58,6 +66,7 @@ class FingerTask : public SoftTask {
     clamp_stiffness_ = c.number("clamp_stiffness_factor");
     spacing_ = sph_.options().spacing;
     if (c.has("bend_angle_deg")) target_ = c.number("bend_angle_deg"), has_target_ = true;
+    if (c.text("obstacle") == "plane") setUpObstacle(c, cloud);
     // Rest coordinate along the axis; clamp and segments.
     double smin = 1e300, smax = -1e300;
     std::vector<double> s(cloud.size());
@@ -85,6 +94,58 @@ class FingerTask : public SoftTask {
       throw TopoError("finger volume", "has no particles in the clamp, the tip or the segment before it",
                       "check finger_axis, clamp_length_m and tip_fraction against the shape");
     geometry_.has_point = false;
+  }
+
+  /// The obstacle plane (obstacle plane): validated against the rest shape, which must lie on its
+  /// free side.
+  void setUpObstacle(const TaskConfig& c, const VolumeCloud& cloud) {
+    if (!c.has("obstacle_point"))
+      throw TopoError("obstacle_point", "is not given but obstacle is plane",
+                      "give a point on the plane in the finger's frame [m], e.g. obstacle_point=0.1,0,0.009");
+    Eigen::Vector3d n = c.vector3("obstacle_normal");
+    if (!(n.norm() > 0) || !n.allFinite())
+      throw TopoError("obstacle_normal", "is zero", "give the plane's normal pointing towards the finger, e.g. 0,0,-1");
+    n.normalize();
+    const Eigen::Vector3d p = c.vector3("obstacle_point");
+    obstacle_ = ContactObstacle::ground(0.0);
+    obstacle_.normal = n;
+    obstacle_.offset = n.dot(p);
+    contact_opt_.stiffness = c.number("contact_stiffness_n_per_m");
+    if (!(contact_opt_.stiffness > 0.0)) {
+      // Automatic: the wall material's (λ + 2μ) h, fixed for every design (the simulator's own default
+      // takes the stiffest particle, which here is the clamp at clamp_stiffness_factor × the wall).
+      const double E = c.number("youngs_modulus_solid"), nu = c.number("poisson_ratio");
+      contact_opt_.stiffness = E * (1.0 - nu) / ((1.0 + nu) * (1.0 - 2.0 * nu)) * spacing_;
+    }
+    contact_opt_.friction = c.number("friction_mu");
+    contact_opt_.slip_velocity = 0.01;
+    contact_embedding_ = embedContactSamples(cloud);
+    contact_mask_ = cloud.surface;
+    if (std::count(contact_mask_.begin(), contact_mask_.end(), 1) == 0) contact_mask_.assign(cloud.size(), 1);
+    // The rest shape on the plane's free side (its true surface, or its surface particles).
+    const std::vector<Eigen::Vector3d>& pts = contact_embedding_ ? cloud.contact.X : cloud.X;
+    double clearance = INFINITY;
+    for (std::size_t k = 0; k < pts.size(); ++k)
+      if (contact_embedding_ || contact_mask_[k]) clearance = std::min(clearance, n.dot(pts[k]) - obstacle_.offset);
+    if (!(clearance >= 0.0))
+      throw TopoError("obstacle_point / obstacle_normal",
+                      "put the plane through the finger at rest (its surface reaches " + numberText(-clearance, 3) +
+                          " m past the plane)",
+                      "move obstacle_point out along obstacle_normal's opposite, or flip obstacle_normal to point "
+                      "towards the finger");
+    has_obstacle_ = true;
+  }
+
+  /// Contact points (true surface samples, or the surface particles) and their signed distances.
+  double obstacleClearance(const SoftBodySimulator& sim, std::size_t* touching) const {
+    double clearance = INFINITY;
+    *touching = 0;
+    for (const auto& y : sim.contact().contactPositions(sim.positions())) {
+      const double phi = obstacle_.normal.dot(y) - obstacle_.offset;
+      clearance = std::min(clearance, phi);
+      if (phi < 0.0) ++*touching;
+    }
+    return clearance;
   }
 
   void requireTargets() const override {
@@ -179,6 +240,12 @@ class FingerTask : public SoftTask {
     act.pressure_pa = pressure_;
     act.ramp_s = implicit_ ? duration_ : 0.0;
     sim->setActuation(act);
+    if (has_obstacle_) {
+      if (contact_embedding_)
+        sim->setContact(SoftContact({obstacle_}, contact_opt_, contact_embedding_));
+      else
+        sim->setContact(SoftContact({obstacle_}, contact_opt_, contact_mask_));
+    }
     TaskEvaluation ev;
     double theta = 0.0;
     SoftDesignGradient g;
@@ -227,6 +294,12 @@ class FingerTask : public SoftTask {
                    Feature{"chamber_volume_fraction", vch / vtot, ""},
                    Feature{"chamber_inflation", act.chamberVolume(sim->sph()) / std::max(vch, 1e-30), ""},
                    Feature{"tip_displacement_m", tipdisp, "m"}, Feature{"pressure_pa", pressure_, "Pa"}};
+    if (has_obstacle_) {
+      std::size_t touching = 0;
+      const double clearance = obstacleClearance(*sim, &touching);
+      ev.features.push_back(Feature{"obstacle_clearance_m", clearance, "m"});
+      ev.features.push_back(Feature{"obstacle_contact_points", double(touching), ""});
+    }
     std::vector<double> m;
     masses(r, &m, nullptr);
     ev.mass = massPropertiesFromMoments(computeMassMoments(cloud_.X, m));
@@ -238,6 +311,11 @@ class FingerTask : public SoftTask {
 
  private:
   mutable bool warned_ = false;
+  bool has_obstacle_ = false;
+  ContactObstacle obstacle_;
+  SoftContactOptions contact_opt_;
+  std::shared_ptr<const ContactEmbedding> contact_embedding_;
+  std::vector<std::uint8_t> contact_mask_;
   double clamp_stiffness_ = 100.0, spacing_ = 0.0;
   Eigen::Vector3d axis_, normal_;
   double pressure_ = 0.0, duration_ = 0.2, dt_ = 0.01, target_ = 0.0;
@@ -311,6 +389,20 @@ void registerFingerTask(TaskList* tasks) {
     p.number("tip_fraction", 0.15, "unitless",
              "the tip segment: the last fraction of the length, unitless; the segment before it has the same length",
              0.02, 0.45);
+    p.text("obstacle", "none",
+           "none | plane: a rigid plane the bending finger presses against (through obstacle_point, normal "
+           "obstacle_normal), touched by the finger's true surface (the volume's contact samples)",
+           {"none", "plane"});
+    p.vector3("obstacle_point", nullptr, "m", "obstacle plane: a point on it in the finger's frame [m]");
+    const Eigen::Vector3d down(0, 0, -1);
+    p.vector3("obstacle_normal", &down, "unitless",
+              "obstacle plane: its normal, pointing towards the finger, a unitless direction");
+    p.number("contact_stiffness_n_per_m", 0.0, "N/m",
+             "obstacle penalty stiffness per surface particle's area [N/m]; 0 = automatic ((lambda + 2 mu) h of the "
+             "wall material)",
+             0);
+    p.number("friction_mu", 0.0, "unitless",
+             "obstacle Coulomb friction, unitless (implicit mode only: the static equilibrium is frictionless)", 0);
     p.setDefault("gravity", Eigen::Vector3d(0, 0, 0));  // the paper's finger task: actuation only
     p.setDefault("loss_tolerance", 1e-8);
     p.target("bend_angle_deg", ParamType::Number, "deg", "observed bending angle of the tip at the full pressure [deg]",

@@ -119,7 +119,7 @@ std::shared_ptr<const ContactEmbedding> SoftTask::embedContactSamples(const Volu
     std::size_t n = 0;
     for (auto s : cloud.surface) n += s ? 1 : 0;
     notes_.push_back("the volume has no contact samples on the true surface: the " + name_ +
-                     " task's ground contact uses its " + std::to_string(n) +
+                     " task's contact uses its " + std::to_string(n) +
                      " surface particles (the lattice staircase: the body rests and bounces up to half a spacing off "
                      "its true surface); fill it again with `topo fill` to get them");
     return nullptr;

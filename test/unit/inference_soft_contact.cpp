@@ -9,6 +9,9 @@
 //    height) is printed for both contact models; the embedded pear rebounds, and no higher than it fell.
 //  - The same with samples as fine as `topo fill` makes them (0.8 mm), which the task merges to h/2.
 //  - Without contact samples the task says so (a note naming the staircase and `topo fill`).
+//  - The finger pressing against a rigid plane (obstacle plane) stops with its true surface at the
+//    plane; the staircase lets its skin through by the particles' depth under it. The gradient with
+//    the plane touched against central differences; bad obstacle input named.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -146,4 +149,134 @@ TEST(SoftContactTask, WithoutContactSamplesTheTaskSaysSo) {
   EXPECT_NE(n.find("no contact samples"), std::string::npos) << n;
   EXPECT_NE(n.find("staircase"), std::string::npos) << n;
   EXPECT_NE(n.find("topo fill"), std::string::npos) << n;
+}
+
+// The finger pressing against a rigid plane (finger task, obstacle plane): the chamber below the axis
+// turns the tip towards +z; a plane above the tip's top, 40 % of the free tip displacement away,
+// stops it. With the contact samples embedded the true surface stops at the plane (penetration of
+// the penalty only: below a µm, against the spacing of 4 mm); the staircase's surface particles lie
+// 1.5 mm inside the skin and stop at the plane, so its skin passes through the plane by that much and
+// the finger bends further. A plane out of reach leaves the bend exactly as it was.
+namespace {
+
+std::vector<double> fingerChamberBelowAxis(const VolumeCloud& c) {
+  std::vector<double> r(c.size(), 1.0);
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    const auto& p = c.X[i];
+    if (!c.surface[i] && p.x() > 0.02 && p.x() < 0.085 && p.z() > -0.006 && p.z() < -0.0005 && std::abs(p.y()) < 0.006)
+      r[i] = 0.0;
+  }
+  return r;
+}
+
+/// The default finger, its walls at 1 MPa (as soft as its chamber) so that it bends by degrees.
+TaskConfig softFinger() {
+  TaskConfig c = TaskConfig::defaults("finger");
+  c.setNumber("youngs_modulus_solid", 1e6);
+  return c;
+}
+
+TaskConfig fingerAgainstPlane(double plane_z, TaskConfig c = softFinger()) {
+  c.set("obstacle", "plane");
+  c.setList("obstacle_point", {0.1, 0.0, plane_z});
+  c.setList("obstacle_normal", {0.0, 0.0, -1.0});
+  return c;
+}
+
+}  // namespace
+
+TEST(SoftContactTask, FingerStopsAtTheObstacleOnItsTrueSurface) {
+  const double h = 0.004;
+  const VolumeCloud embedded = defaultShapeCloud("finger", h);
+  const VolumeCloud stairs = staircase(embedded);
+  ASSERT_FALSE(embedded.contact.empty());
+  const std::vector<double> r = fingerChamberBelowAxis(embedded);
+  const TaskEvaluation free = makeTask(softFinger(), embedded)->evaluate(r, nullptr);
+  const double bend_free = feature(free, "bend_angle_deg"), tip_free = feature(free, "tip_displacement_m");
+  ASSERT_GT(bend_free, 0.1);
+  double top_true = -1e300, top_particles = -1e300;
+  for (const auto& y : embedded.contact.X) top_true = std::max(top_true, y.z());
+  for (std::size_t i = 0; i < embedded.size(); ++i)
+    if (embedded.surface[i]) top_particles = std::max(top_particles, embedded.X[i].z());
+  const double gap = 0.4 * tip_free, plane = top_true + gap;
+  const TaskEvaluation et = makeTask(fingerAgainstPlane(plane), embedded)->evaluate(r, nullptr);
+  const TaskEvaluation es = makeTask(fingerAgainstPlane(plane), stairs)->evaluate(r, nullptr);
+  const double clear_true = feature(et, "obstacle_clearance_m");
+  // The staircase's skin: its particles' clearance less the particles' depth under the skin.
+  const double offset = top_true - top_particles, clear_stairs = feature(es, "obstacle_clearance_m") - offset;
+  std::printf(
+      "[finger plane] h = %.0f mm, free bend %.4f deg, tip moved %.3f mm; plane %.3f mm above the top: true surface "
+      "bend %.4f deg, clearance %+.2f um (%.0f samples touching); staircase (particles %.2f mm under the skin) bend "
+      "%.4f deg, skin clearance %+.4f mm\n",
+      h * 1e3, bend_free, tip_free * 1e3, gap * 1e3, feature(et, "bend_angle_deg"), clear_true * 1e6,
+      feature(et, "obstacle_contact_points"), offset * 1e3, feature(es, "bend_angle_deg"), clear_stairs * 1e3);
+  // True surface: stopped at the plane, within the penalty's penetration.
+  EXPECT_GT(feature(et, "obstacle_contact_points"), 0.0);
+  EXPECT_LT(clear_true, 0.0);
+  EXPECT_GT(clear_true, -0.01 * h);
+  EXPECT_LT(feature(et, "bend_angle_deg"), 0.8 * bend_free);
+  // Staircase: its surface particles stop at the plane, so its skin passes through it by their depth
+  // under the skin, and the finger bends further.
+  EXPECT_GT(feature(es, "obstacle_contact_points"), 0.0);
+  EXPECT_LT(clear_stairs, -0.9 * offset);
+  EXPECT_GT(feature(es, "bend_angle_deg"), 1.1 * feature(et, "bend_angle_deg"));
+  // Out of reach: the bend is the free one.
+  const TaskEvaluation far = makeTask(fingerAgainstPlane(top_true + 0.01), embedded)->evaluate(r, nullptr);
+  EXPECT_EQ(feature(far, "obstacle_contact_points"), 0.0);
+  EXPECT_NEAR(feature(far, "bend_angle_deg"), bend_free, 1e-9 * bend_free);
+}
+
+// dL/dr of the finger pressed against the plane (the static equilibrium with the contact's Hessian
+// and its adjoint) against central differences.
+TEST(SoftContactTask, FingerAgainstThePlaneGradientMatchesFiniteDifferences) {
+  const VolumeCloud cloud = defaultShapeCloud("finger", 0.004);
+  std::vector<double> r = fingerChamberBelowAxis(cloud);
+  // the paper's walls (E 1e7): a grey design with the softer walls (1e6) bends too far for a tight solve
+  const TaskEvaluation free = makeTask(TaskConfig::defaults("finger"), cloud)->evaluate(r, nullptr);
+  double top = -1e300;
+  for (const auto& y : cloud.contact.X) top = std::max(top, y.z());
+  TaskConfig c = fingerAgainstPlane(top + 0.4 * feature(free, "tip_displacement_m"), TaskConfig::defaults("finger"));
+  c.setNumber("bend_angle_deg", 25.0);
+  c.setNumber("newton_tolerance", 1e-12);
+  for (std::size_t i = 0; i < r.size(); ++i) r[i] = 0.3 + 0.4 * r[i] + 0.05 * std::sin(3.0 * i);
+  const auto task = makeTask(c, cloud);
+  std::vector<double> g;
+  const TaskEvaluation ev = task->evaluate(r, &g);
+  ASSERT_GT(feature(ev, "obstacle_contact_points"), 0.0) << "the plane must be touched for this check";
+  double gmax = 0.0;
+  for (double v : g) gmax = std::max(gmax, std::abs(v));
+  const std::size_t n = cloud.size();
+  for (std::size_t i : {n / 3, n / 2, (2 * n) / 3, n - 5}) {
+    const double step = 1e-4;
+    auto rp = r, rm = r;
+    rp[i] += step;
+    rm[i] -= step;
+    const double fd = (task->evaluate(rp, nullptr).loss - task->evaluate(rm, nullptr).loss) / (2 * step);
+    const double rel = std::abs(fd - g[i]) / std::max(std::abs(fd), 1e-3 * gmax);
+    std::printf("[finger plane fd] r_%zu: adjoint %.8g fd %.8g rel %.2g\n", i, g[i], fd, rel);
+    EXPECT_LT(rel, 1e-4) << "particle " << i;
+  }
+}
+
+TEST(SoftContactTask, FingerObstacleBadInputIsNamed) {
+  const VolumeCloud cloud = defaultShapeCloud("finger", 0.004);
+  TaskConfig c = TaskConfig::defaults("finger");
+  c.set("obstacle", "plane");
+  auto message = [&](const TaskConfig& cfg) {
+    try {
+      makeTask(cfg, cloud);
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  const std::string no_point = message(c);
+  EXPECT_NE(no_point.find("obstacle_point"), std::string::npos) << no_point;
+  c.setList("obstacle_point", {0.05, 0.0, 0.0});  // through the finger's middle
+  const std::string through = message(c);
+  EXPECT_NE(through.find("past the plane"), std::string::npos) << through;
+  c.setList("obstacle_point", {0.05, 0.0, 0.02});
+  c.setList("obstacle_normal", {0.0, 0.0, 0.0});
+  const std::string zero = message(c);
+  EXPECT_NE(zero.find("obstacle_normal"), std::string::npos) << zero;
 }
