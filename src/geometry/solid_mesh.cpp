@@ -93,11 +93,12 @@ std::array<Face, 6> cubeFaces() {
 /// Each crossing is one vertex, shared through the lattice edge it lies on.
 class CubeMarcher {
  public:
-  CubeMarcher(const std::vector<double>& field, const std::vector<std::int32_t>& owner, const std::array<int, 3>& n,
-              const Eigen::Vector3d& origin, double h, double iso, SurfaceData& out,
-              std::vector<std::uint8_t>& interface)
+  CubeMarcher(const std::vector<double>& field, const std::vector<std::int32_t>& owner,
+              const std::vector<double>& fraction, const std::array<int, 3>& n, const Eigen::Vector3d& origin, double h,
+              double iso, SurfaceData& out, std::vector<std::uint8_t>& interface)
       : f_(field),
         owner_(owner),
+        fraction_(fraction),
         n_(n),
         origin_(origin),
         h_(h),
@@ -120,7 +121,13 @@ class CubeMarcher {
     auto it = edges_.find(key);
     if (it != edges_.end()) return it->second;
     const double fa = f_[a], fb = f_[b];
-    const double t = std::clamp((iso_ - fa) / (fb - fa), kMinT, 1.0 - kMinT);
+    double t = std::clamp((iso_ - fa) / (fb - fa), kMinT, 1.0 - kMinT);
+    const bool a_solid = fa >= iso_;
+    const std::size_t solid = a_solid ? a : b, other = a_solid ? b : a;
+    if (!fraction_.empty() && owner_[other] < 0) {  // the outer boundary: where the surface cuts the cell
+      const double d = std::clamp(fraction_[solid] - 0.5, kMinT, 1.0 - kMinT);
+      t = a_solid ? d : 1.0 - d;
+    }
     const Eigen::Vector3d pa = nodePosition(a), pb = nodePosition(b);
     const int idx = int(out_.points.size());
     out_.points.push_back(pa + t * (pb - pa));
@@ -199,6 +206,7 @@ class CubeMarcher {
 
   const std::vector<double>& f_;
   const std::vector<std::int32_t>& owner_;
+  const std::vector<double>& fraction_;  ///< per node: the particle's V_i / h³ (empty: mid-points)
   std::array<int, 3> n_;
   Eigen::Vector3d origin_;
   double h_, iso_;
@@ -298,6 +306,8 @@ SurfaceData solidRegionMesh(const VolumeCloud& cloud, const std::vector<double>&
   const double iso = value(o.iso);
   std::vector<double> field(N, value(0.0));
   std::vector<std::int32_t> owner(N, -1);
+  std::vector<double> fraction;
+  if (o.boundary_fractions) fraction.assign(N, 1.0);
   auto idOf = [&](const Eigen::Vector3i& q) {
     const Eigen::Vector3i c = q - nlo + Eigen::Vector3i::Ones();
     return (std::size_t(c.z()) * n[1] + std::size_t(c.y())) * n[0] + std::size_t(c.x());
@@ -332,13 +342,14 @@ SurfaceData solidRegionMesh(const VolumeCloud& cloud, const std::vector<double>&
     }
     owner[id] = std::int32_t(i);
     field[id] = value(r[i]);
+    if (!fraction.empty()) fraction[id] = cloud.V[i] / (h * h * h);
   }
 
   SurfaceData mesh;
   mesh.kind = SurfaceKind::Mesh;
   mesh.source = "solid region";
   std::vector<std::uint8_t> interface;
-  CubeMarcher march(field, owner, n, origin, h, iso, mesh, interface);
+  CubeMarcher march(field, owner, fraction, n, origin, h, iso, mesh, interface);
   const std::size_t sx = 1, sy = std::size_t(n[0]), sz = std::size_t(n[0]) * n[1];
   for (int k = 0; k + 1 < n[2]; ++k)
     for (int j = 0; j + 1 < n[1]; ++j)

@@ -678,7 +678,7 @@ bool InteriorInferenceNode::onExport(topo_gaussian::ExportInterior::Request& req
     std::ostringstream os;
     os << "wrote " << s.files.size() << " files to " << s.output_dir << "; STL "
        << (res.watertight ? "watertight" : "NOT watertight") << ", volume " << std::showpos
-       << 100 * s.interface.volume_difference << std::noshowpos << " % vs the solid particles' cells";
+       << 100 * s.interface.volume_difference << std::noshowpos << " % vs the solid particles' volume";
     for (const auto& n : s.notes) os << "; " << n;
     res.message = os.str();
     ROS_INFO("interior_inference: ~export: %s", asciiText(res.message).c_str());

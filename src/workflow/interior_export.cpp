@@ -61,10 +61,9 @@ InterfaceQuality measureInterface(const VolumeCloud& cloud, const std::vector<do
   q.check = geometry::checkManifold(mesh);
   q.mesh_volume_m3 = geometry::meshIntegrals(mesh).volume;
   q.solid_volume_m3 = geometry::solidParticleVolume(cloud, r, iso);
-  // The mesh is drawn through the particles' lattice cells, so it is held to their cells' volume (the
-  // particles' own volumes are exact at the object's boundary: a box between lattice planes differs).
-  const double cells = double(q.solid_particles) * std::pow(cloud.spacing, 3);
-  q.volume_difference = (q.mesh_volume_m3 - cells) / cells;
+  // The mesh's outer boundary cuts each boundary cell where its inside fraction says (SolidMeshOptions::
+  // boundary_fractions), so it is held to the particles' own volumes, exact at the object's boundary.
+  q.volume_difference = (q.mesh_volume_m3 - q.solid_volume_m3) / q.solid_volume_m3;
   q.smoothness = geometry::normalSmoothness(mesh);
   q.interface_smoothness = geometry::normalSmoothness(mesh, &interface_vertex);
   q.mesh_s = secondsSince(t0);

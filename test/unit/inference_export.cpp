@@ -131,7 +131,9 @@ TEST_F(ExportCli, RecoveredInteriorExportsWatertightWithTheSolidVolume) {
   for (double v : rr) hollow += v < 0.5 ? 1 : 0;
   ASSERT_GT(hollow, cloud.size() / 10) << "the recovered interior has a cavity";
   const double rel = checkStl("recovered hanging sphere (CLI)", out + "/interior.stl", cloud, rr, seconds);
-  EXPECT_LT(std::abs(rel), 0.015) << "measured -0.80 %";
+  // measured -1.67 % (the outer boundary cut by the inside fractions; marching cubes chamfers the rest;
+  // whole cells gave -0.80 % here by a cancellation of the cells' overhang and the chamfer)
+  EXPECT_LT(std::abs(rel), 0.02) << "measured -1.67 %";
 
   const std::string ej = slurp(out + "/export.json");
   for (const char* key : {"\"watertight\": true", "\"unit\": \"mm\"", "\"relative_difference\"", "\"interface\": {",
@@ -176,14 +178,16 @@ TEST_F(ExportCli, MetresOnRequestAndAFullySolidInteriorHasNoInterface) {
   EXPECT_TRUE(contains(x.out, "\"interface\": null")) << x.out;
   EXPECT_FALSE(exists(dir_ + "/solid/loss.png")) << "no report, no loss plot";
   const geometry::SurfaceData mesh = geometry::readSurface(dir_ + "/solid/interior.stl");
-  // The export prints the lattice: one cube per particle's cell, so its volume is the particle count ×
-  // h³ (the fill's exact boundary volumes are not drawn; the box's faces fall between lattice planes).
+  // The box's faces fall between lattice planes: the outer boundary is cut where the boundary
+  // particles' inside fractions say, so the STL has the box's volume (the particles' exact volume)
+  // up to the chamfer of its edges; the particles' whole cells are 12 % larger (the STL before).
   const double cells = double(cloud.size()) * std::pow(cloud.spacing, 3);
-  const double rel = (geometry::meshIntegrals(mesh).volume - cells) / cells;
+  const double rel = geometry::meshIntegrals(mesh).volume / cloud.totalVolume() - 1.0;
   std::printf(
-      "[export] solid box (metres): volume %+.3f %% of its particles' cells (the particles' exact volume: %+.3f %%)\n",
-      100 * rel, 100 * (geometry::meshIntegrals(mesh).volume / cloud.totalVolume() - 1.0));
-  EXPECT_LT(std::abs(rel), 0.03);
+      "[export] solid box (metres): volume %+.3f %% of the particles' exact volume (their whole cells: %+.3f %%)\n",
+      100 * rel, 100 * (cells / cloud.totalVolume() - 1.0));
+  EXPECT_LT(std::abs(rel), 0.02) << "measured -1.30 %";
+  EXPECT_GT(cells / cloud.totalVolume() - 1.0, 0.05);
   EXPECT_EQ(countColour(dir_ + "/solid/slices.png", vision::kSliceHollowBgr), 16 * 16)
       << "only the legend swatch (18 x 18 with a 1-pixel frame) is hollow-coloured";
 }

@@ -16,7 +16,9 @@
 //
 // Geometry: with a 0/1 indicator the surface runs half-way between solid and empty nodes, i.e. on the
 // faces of the particles' cells except at steps and edges, which it chamfers: its volume is Σ V_i
-// over the solid particles up to O(h / size) (measured: test/unit/geometry_solid_mesh.cpp). With a
+// over the solid particles up to O(h / size) (measured: test/unit/geometry_solid_mesh.cpp). On the
+// object's outer boundary a particle's inside fraction moves the vertex to where the true surface cuts
+// its cell (SolidMeshOptions::boundary_fractions), so a filled mesh's export has the object's volume. With a
 // sigmoid indicator r = sigmoid(s / ε) (every representation) the vertices follow the zero level set
 // of s, interpolated linearly between particles (SolidMeshOptions::interpolate_logit).
 #pragma once
@@ -38,6 +40,14 @@ struct SolidMeshOptions {
   /// the pinned shell) are clamped to 1e-6 from the ends, so a 0/1 field still gives mid-points.
   /// Which particles are solid does not change.
   bool interpolate_logit = true;
+  /// On the object's outer boundary (a solid particle next to a node without a particle) place the
+  /// vertex by the particle's inside fraction φ = V_i / h³ (the fill's exact boundary cells): at
+  /// φ − ½ spacings from its node, where a face across that lattice edge cuts its cell (clamped to
+  /// the edge; φ ≤ ½ puts it at the node). The mesh then has the particles' volume Σ V_i, the object's,
+  /// instead of their whole cells' (a filled box: +11.5 % at 3 000 particles). Interior interfaces
+  /// (solid next to a hollow particle) are unchanged. Clouds whose particles are whole cells give
+  /// mid-points, as before.
+  bool boundary_fractions = true;
   /// Largest distance of a particle from its lattice node, as a fraction of the spacing (a jittered
   /// fill is at most 0.5 off); more is refused as "not a lattice cloud".
   double lattice_tolerance = 0.5;

@@ -30,7 +30,7 @@ struct InterfaceQuality {
   geometry::ManifoldCheck check;
   double mesh_volume_m3 = 0.0;     ///< enclosed by the mesh (divergence theorem)
   double solid_volume_m3 = 0.0;    ///< Σ V_i over r_i ≥ iso
-  double volume_difference = 0.0;  ///< (mesh − cells) / cells, cells = solid particles × h³ (what the mesh draws)
+  double volume_difference = 0.0;  ///< (mesh − Σ V_i) / Σ V_i over the solid particles (exact boundary volumes)
   /// The paper's quality metric over the designed solid/hollow interface (mesh vertices between a
   /// solid and a hollow particle; vertices = 0 when nothing is hollow) ...
   geometry::NormalSmoothness interface_smoothness;
