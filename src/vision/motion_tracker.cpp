@@ -191,15 +191,15 @@ EndFit fitEnds(const cv::Mat& mask, const cv::Point& offset, double tip_fraction
   return f;
 }
 
+/// A tilt whose rest lies further than this from TrackOptions::tilt_reference_deg is ambiguous: the
+/// other principal axis is then within 90° − this of the reference, about as plausible [deg].
+constexpr double kTiltAmbiguityDeg = 30.0;
+
 /// Tilt axis of a silhouette: of its two principal axes (the major one at `major_deg`, both taken
 /// pointing image-up, degrees from image-up), the one nearest `reference_deg` (TrackOptions::
 /// tilt_reference_deg, image vertical by default) at the first frame and after that the one nearest
 /// the previous frame's axis, unwrapped by ±180° for continuity. So an object wider than tall (a
 /// tumbler) is followed by its upright (minor) axis.
-/// A tilt whose rest lies further than this from TrackOptions::tilt_reference_deg is ambiguous: the
-/// other principal axis is then within 90° − this of the reference, about as plausible [deg].
-constexpr double kTiltAmbiguityDeg = 30.0;
-
 double followTiltAxis(double major_deg, bool have_prev, double prev_deg, double reference_deg) {
   const double candidates[2] = {major_deg, major_deg > 0 ? major_deg - 90.0 : major_deg + 90.0};
   const double ref = have_prev ? prev_deg : reference_deg;
