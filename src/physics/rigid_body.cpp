@@ -55,14 +55,20 @@
 // damper causes a rolling drag of about ζ v sqrt(2 p*/g) / R × m g (≈ 1.4 % of m g at ζ = 0.1,
 // v = 1 m/s, R = 5 cm, p* = 0.2 mm): for long free rolling use a small damping_ratio.
 //
-// Cost: each point's height is computed with plain doubles (value parts) first; only points in
-// contact get the full (dual) force computation.
+// Cost: the points that can touch during a step are found in a Verlet list (the points within a skin
+// of max(4 p_rest, 0.02 L) of the plane, remade when the body has moved a point by more than the skin);
+// only points in contact get a force. With S = Dual10 the forces are computed in plain doubles with
+// their partial derivatives, summed over the points as 3×3 matrices and 3×3×3 moments, and multiplied
+// with the state's derivative parts once per evaluation (RigidSim::addContactDual): same values and
+// derivatives as dual numbers point by point, 2.3× faster on 5000 points and 2.9× on a doll's 0.4 mm
+// samples (RigidSpeed.Tumbler5000Points, `topo simulate --task tumbler`).
 #include "topo_gaussian/physics/rigid_body.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <type_traits>
 
 #include <Eigen/Eigenvalues>
 
@@ -430,6 +436,10 @@ class RigidSim {
       }
       w_ = o.ground.point_weights;
       if (w_.empty()) w_.assign(n, 1.0);
+      // Skin of the Verlet list: wide enough that a rocking body remakes it every few output samples,
+      // narrow enough to hold a small part of the points.
+      size_ = cs.size;
+      skin_m_ = std::max(4.0 * pen_rest_, 0.02 * cs.size);
       anchor_.assign(n, Vec2<S>::Zero());
       flag_.assign(n, 0);
     } else {
@@ -447,17 +457,41 @@ class RigidSim {
     s->velocity = s->angular_velocity.cross(arm);
   }
 
-  /// Indices of points whose value height is below the contact offset.
-  void screen(const RigidState<S>& s, std::vector<int>* out) const {
+  /// Indices of points whose value height is below the contact offset (all points).
+  void screenAll(const RigidState<S>& s, double margin, std::vector<int>* out) const {
     out->clear();
     if (!contact_) return;
     const Eigen::Matrix3d R = val(s.orientation).toRotationMatrix();
     const double r0 = R(2, 0), r1 = R(2, 1), r2 = R(2, 2);
-    const double thr = height_ + delta_ - valueOf(s.position.z());
+    const double thr = height_ + delta_ + margin - valueOf(s.position.z());
     const size_t n = bx_.size();
     for (size_t i = 0; i < n; ++i) {
       const double z = r0 * bx_[i] + r1 * by_[i] + r2 * bz_[i];
       if (z < thr) out->push_back(static_cast<int>(i));
+    }
+  }
+
+  /// The same set, searched among the points that were within a skin of width skin_m_ of the contact
+  /// offset when the list was made (a Verlet list): no point moves farther than |Δp| + θ L (θ the
+  /// rotation since then, L the largest distance of a point from the centre of mass), so while that
+  /// stays below the skin no other point can touch; the list is remade when it does not.
+  void screen(const RigidState<S>& s, std::vector<int>* out) {
+    out->clear();
+    if (!contact_) return;
+    const Eigen::Quaterniond q = val(s.orientation);
+    const Eigen::Vector3d pos = val(s.position);
+    const Eigen::Quaterniond dq = skin_q_.conjugate() * q;
+    const double moved = (pos - skin_p_).norm() + 2.0 * std::atan2(dq.vec().norm(), std::abs(dq.w())) * size_;
+    if (!skin_valid_ || !(moved < skin_m_)) {
+      screenAll(s, skin_m_, &skin_);
+      skin_q_ = q, skin_p_ = pos, skin_valid_ = true;
+    }
+    const Eigen::Matrix3d R = q.toRotationMatrix();
+    const double r0 = R(2, 0), r1 = R(2, 1), r2 = R(2, 2);
+    const double thr = height_ + delta_ - pos.z();
+    for (int i : skin_) {
+      const double z = r0 * bx_[i] + r1 * by_[i] + r2 * bz_[i];
+      if (z < thr) out->push_back(i);
     }
   }
 
@@ -480,73 +514,10 @@ class RigidSim {
       tau = (p - ref).cross(F);
     }
 
-    if (update_anchors) {
-      for (int j : active_) flag_[j] = 2;  // stale unless still in contact
-    }
-    std::vector<int> now;
-    if (update_anchors) now.reserve(cand.size());
-    for (int i : cand) {
-      const Vec3<S> r = R * (lift<S>(pts_[i]) - com_);
-      const Vec3<S> x = p + r;
-      const S pen = S(height_ + delta_) - x.z();
-      if (!(valueOf(pen) > 0.0)) continue;
-      const Vec3<S> vel = v + w.cross(r);
-      // Hunt–Crossley: the damper grows with the penetration (c pen / p_rest), so it is c at the resting
-      // penetration but vanishes where points enter and leave contact, which is where a rolling body's
-      // damper caused its drag (a ball rolling down 15° came out 5 % slow with a constant c).
-      const S ki = k_ * w_[i], ci = c_ * w_[i] * (pen / S(pen_rest_));
-      const S fs = ki * pen;
-      S fn = fs - ci * vel.z();
-      if (valueOf(fn) < 0.0) {
-        fn = S(0.0);
-      } else if (valueOf(fn) > 2.0 * valueOf(fs)) {
-        fn = S(2.0) * fs;
-      }
-      const Vec2<S> xt(x.x(), x.y());
-      Vec2<S> ft(S(0.0), S(0.0));
-      if (mu_ > 0.0) {
-        const S lim = S(mu_) * fn;
-        if (update_anchors) {
-          if (flag_[i] == 0) {
-            anchor_[i] = xt;
-          } else {
-            const Vec2<S> dsp = xt - anchor_[i];
-            const S sp2 = ki * ki * dsp.squaredNorm();
-            const double limv = valueOf(lim);
-            if (valueOf(sp2) > limv * limv) {
-              if (limv > 0.0) {
-                const S scale = lim / sqrt(sp2);
-                anchor_[i] = xt - dsp * scale;
-              } else {
-                anchor_[i] = xt;
-              }
-            }
-          }
-          flag_[i] = 1;
-          now.push_back(i);
-        }
-        const S nc = -ci;
-        ft = nc * Vec2<S>(vel.x(), vel.y());
-        if (flag_[i] == 1) ft -= ki * (xt - anchor_[i]);
-        const S f2 = ft.squaredNorm();
-        const double limv = valueOf(lim);
-        if (valueOf(f2) > limv * limv) {
-          if (limv > 0.0) {
-            const S scale = lim / sqrt(f2);
-            ft *= scale;
-          } else {
-            ft = Vec2<S>(S(0.0), S(0.0));
-          }
-        }
-      }
-      const Vec3<S> f(ft(0), ft(1), fn);
-      F += f;
-      tau += (x - ref).cross(f);
-    }
-    if (update_anchors) {
-      for (int j : active_)
-        if (flag_[j] == 2) flag_[j] = 0;
-      active_.swap(now);
+    if constexpr (std::is_same_v<S, Dual10>) {
+      addContactDual(R, s, ref, cand, update_anchors, &F, &tau);
+    } else {
+      addContactGeneric(R, s, ref, cand, update_anchors, &F, &tau);
     }
 
     Deriv<S> d;
@@ -569,6 +540,264 @@ class RigidSim {
     const Vec3<S> dqv = S(0.5) * (q.w() * w + w.cross(qv));
     d.dq << dqv(0), dqv(1), dqv(2), S(-0.5) * w.dot(qv);
     return d;
+  }
+
+  /// Normal force of a point with spring force fs = k_i pen and Hunt–Crossley damper c_i v_z, clamped
+  /// to [0, 2 fs] (no glue; the damper never more than doubles the spring).
+  template <typename T>
+  static T clampedNormal(const T& fs, const T& ci, const T& vz) {
+    T fn = fs - ci * vz;
+    if (valueOf(fn) < 0.0) return T(0.0);
+    if (valueOf(fn) > 2.0 * valueOf(fs)) return T(2.0) * fs;
+    return fn;
+  }
+
+  /// Friction anchor of point i (in contact) at the start of a step: a new contact anchors where it is;
+  /// one that slips (spring force k_i |x_t − a| above lim = μ f_n) is dragged so the spring force is lim.
+  void updateAnchor(int i, const Vec2<S>& xt, const S& ki, const S& lim) {
+    if (flag_[i] == 0) {
+      anchor_[i] = xt;
+    } else {
+      const Vec2<S> dsp = xt - anchor_[i];
+      const S sp2 = ki * ki * dsp.squaredNorm();
+      const double limv = valueOf(lim);
+      if (valueOf(sp2) > limv * limv) {
+        if (limv > 0.0) {
+          const S scale = lim / sqrt(sp2);
+          anchor_[i] = xt - dsp * scale;
+        } else {
+          anchor_[i] = xt;
+        }
+      }
+    }
+    flag_[i] = 1;
+  }
+
+  /// Contact forces and torques of the candidate points, computed in S (the plain double path).
+  void addContactGeneric(const Mat3<S>& R, const RigidState<S>& s, const Vec3<S>& ref, const std::vector<int>& cand,
+                         bool update_anchors, Vec3<S>* F, Vec3<S>* tau) {
+    const Vec3<S>& p = s.position;
+    const Vec3<S>& v = s.velocity;
+    const Vec3<S>& w = s.angular_velocity;
+    if (update_anchors)
+      for (int j : active_) flag_[j] = 2;  // stale unless still in contact
+    std::vector<int> now;
+    if (update_anchors) now.reserve(cand.size());
+    for (int i : cand) {
+      const Vec3<S> r = R * (lift<S>(pts_[i]) - com_);
+      const Vec3<S> x = p + r;
+      const S pen = S(height_ + delta_) - x.z();
+      if (!(valueOf(pen) > 0.0)) continue;
+      const Vec3<S> vel = v + w.cross(r);
+      // Hunt–Crossley: the damper grows with the penetration (c pen / p_rest), so it is c at the resting
+      // penetration but vanishes where points enter and leave contact, which is where a rolling body's
+      // damper caused its drag (a ball rolling down 15° came out 5 % slow with a constant c).
+      const S ki = k_ * w_[i], ci = c_ * w_[i] * (pen / S(pen_rest_));
+      const S fn = clampedNormal<S>(ki * pen, ci, vel.z());
+      const Vec2<S> xt(x.x(), x.y());
+      Vec2<S> ft(S(0.0), S(0.0));
+      if (mu_ > 0.0) {
+        const S lim = S(mu_) * fn;
+        if (update_anchors) {
+          updateAnchor(i, xt, ki, lim);
+          now.push_back(i);
+        }
+        ft = -ci * Vec2<S>(vel.x(), vel.y());
+        if (flag_[i] == 1) ft -= ki * (xt - anchor_[i]);
+        const S f2 = ft.squaredNorm();
+        const double limv = valueOf(lim);
+        if (valueOf(f2) > limv * limv) {
+          if (limv > 0.0) {
+            const S scale = lim / sqrt(f2);
+            ft *= scale;
+          } else {
+            ft = Vec2<S>(S(0.0), S(0.0));
+          }
+        }
+      }
+      const Vec3<S> f(ft(0), ft(1), fn);
+      *F += f;
+      *tau += (x - ref).cross(f);
+    }
+    if (update_anchors) {
+      for (int j : active_)
+        if (flag_[j] == 2) flag_[j] = 0;
+      active_.swap(now);
+    }
+  }
+
+  /// The same forces for S = Dual10, at a fraction of the cost: each point's force f_i and its partial
+  /// derivatives (∂f/∂x, ∂f/∂v_point, ∂f/∂k, ∂f/∂c, ∂f/∂anchor) in plain doubles, summed over the points
+  /// as 3×3 matrices (and 3×3×3 moments Σ P_i ⊗ u_i for the rotation's derivative, u_i = b_i − c), then
+  /// one product with the state's derivative parts:
+  ///   dx_i = dp + dR u_i − R dc,   dv_i = dv + dω × r_i + ω × dr_i,   dτ_i = −[f_i]× dρ_i + [ρ_i]× df_i
+  /// (ρ_i = x_i − reference point). Same values as addContactGeneric; derivatives to rounding.
+  void addContactDual(const Mat3<S>& R, const RigidState<S>& s, const Vec3<S>& ref, const std::vector<int>& cand,
+                      bool update_anchors, Vec3<S>* F_out, Vec3<S>* tau_out) {
+    using M3 = Eigen::Matrix3d;
+    using V3 = Eigen::Vector3d;
+    using D10 = Eigen::Matrix<double, 3, 10>;
+    const M3 Rv = val(R);
+    const V3 pv = val(s.position), vv = val(s.velocity), wv = val(s.angular_velocity), refv = val(ref);
+    const double kv = valueOf(k_), cv = valueOf(c_), H = height_ + delta_;
+    auto skew = [](const V3& a) {
+      M3 m;
+      m << 0.0, -a.z(), a.y(), a.z(), 0.0, -a.x(), -a.y(), a.x(), 0.0;
+      return m;
+    };
+    // Pass 1 (start of a step): friction anchors. Only points whose anchor moves (new contacts, slipping
+    // points) are evaluated in dual numbers.
+    if (update_anchors) {
+      for (int j : active_) flag_[j] = 2;
+      std::vector<int> now;
+      now.reserve(cand.size());
+      for (int i : cand) {
+        const V3 r = Rv * V3(bx_[i], by_[i], bz_[i]);
+        const V3 x = pv + r;
+        const double pen = H - x.z();
+        if (!(pen > 0.0) || !(mu_ > 0.0)) continue;
+        bool moves = flag_[i] == 0;
+        if (!moves) {
+          const V3 vel = vv + wv.cross(r);
+          const double ki = kv * w_[i];
+          const double lim = mu_ * clampedNormal<double>(ki * pen, cv * w_[i] * pen / pen_rest_, vel.z());
+          const Eigen::Vector2d dsp(x.x() - valueOf(anchor_[i](0)), x.y() - valueOf(anchor_[i](1)));
+          moves = ki * ki * dsp.squaredNorm() > lim * lim;
+        }
+        if (moves) {
+          const Vec3<S> rd = R * (lift<S>(pts_[i]) - com_);
+          const Vec3<S> xd = s.position + rd;
+          const S pen_d = S(H) - xd.z();
+          const Vec3<S> vel_d = s.velocity + s.angular_velocity.cross(rd);
+          const S ki = k_ * w_[i], ci = c_ * w_[i] * (pen_d / S(pen_rest_));
+          updateAnchor(i, Vec2<S>(xd.x(), xd.y()), ki, S(mu_) * clampedNormal<S>(ki * pen_d, ci, vel_d.z()));
+        } else {
+          flag_[i] = 1;
+        }
+        now.push_back(i);
+      }
+      for (int j : active_)
+        if (flag_[j] == 2) flag_[j] = 0;
+      active_.swap(now);
+    }
+    // Pass 2: values and partial derivatives, summed.
+    const M3 wx = skew(wv);
+    V3 Fv = V3::Zero(), Tv = V3::Zero();
+    M3 SA[2], SB[2], SBr[2], SP[2];
+    V3 Sk[2], Sc[2];
+    Eigen::Matrix<double, 3, 9> T[2];  // T[a, 3 j + k] = Σ P_i(a, j) u_i(k)
+    for (int t = 0; t < 2; ++t) {
+      SA[t].setZero(), SB[t].setZero(), SBr[t].setZero(), SP[t].setZero(), Sk[t].setZero(), Sc[t].setZero();
+      T[t].setZero();
+    }
+    D10 anchor_F = D10::Zero(), anchor_T = D10::Zero();
+    for (int i : cand) {
+      const V3 u(bx_[i], by_[i], bz_[i]);
+      const V3 r = Rv * u;
+      const V3 x = pv + r;
+      const double pen = H - x.z();
+      if (!(pen > 0.0)) continue;
+      const V3 vel = vv + wv.cross(r);
+      const double wi = w_[i], ki = kv * wi, ci = cv * wi * pen / pen_rest_, fs = ki * pen;
+      // normal force and its partials (rows 2 of A = ∂f/∂x, B = ∂f/∂v_point; κ = ∂f/∂k, γ = ∂f/∂c)
+      M3 A = M3::Zero(), B = M3::Zero();
+      V3 kap = V3::Zero(), gam = V3::Zero();
+      double fn = fs - ci * vel.z();
+      if (fn < 0.0) {
+        fn = 0.0;
+      } else if (fn > 2.0 * fs) {
+        fn = 2.0 * fs;
+        A(2, 2) = -2.0 * ki;
+        kap(2) = 2.0 * wi * pen;
+      } else {
+        A(2, 2) = -(ki - cv * wi * vel.z() / pen_rest_);
+        B(2, 2) = -ci;
+        kap(2) = wi * pen;
+        gam(2) = -wi * pen * vel.z() / pen_rest_;
+      }
+      Eigen::Vector2d ft = Eigen::Vector2d::Zero();
+      Eigen::Matrix2d E = Eigen::Matrix2d::Zero();  // ∂f_t/∂anchor
+      if (mu_ > 0.0) {
+        const double lim = mu_ * fn;
+        const Eigen::Vector2d vt(vel.x(), vel.y());
+        ft = -ci * vt;
+        A.block<2, 1>(0, 2) = (cv * wi / pen_rest_) * vt;  // ci grows with pen = H − x_z
+        B(0, 0) = -ci, B(1, 1) = -ci;
+        gam.head<2>() = -(wi * pen / pen_rest_) * vt;
+        if (flag_[i] == 1) {
+          const Eigen::Vector2d d(x.x() - valueOf(anchor_[i](0)), x.y() - valueOf(anchor_[i](1)));
+          ft -= ki * d;
+          A(0, 0) -= ki, A(1, 1) -= ki;
+          kap.head<2>() = -wi * d;
+          E = ki * Eigen::Matrix2d::Identity();
+        }
+        const double f2 = ft.squaredNorm();
+        if (f2 > lim * lim) {
+          if (lim > 0.0) {
+            // f_t = lim n, n = raw / |raw|: df_t = (lim / |raw|)(I − n nᵀ) d raw + n d lim
+            const double nr = std::sqrt(f2);
+            const Eigen::Vector2d n = ft / nr;
+            const Eigen::Matrix2d Pm = (lim / nr) * (Eigen::Matrix2d::Identity() - n * n.transpose());
+            ft = lim * n;
+            A.topRows<2>() = Pm * A.topRows<2>() + mu_ * n * A.row(2);
+            B.topRows<2>() = Pm * B.topRows<2>() + mu_ * n * B.row(2);
+            kap.head<2>() = Pm * kap.head<2>() + mu_ * kap(2) * n;
+            gam.head<2>() = Pm * gam.head<2>() + mu_ * gam(2) * n;
+            E = Pm * E;
+          } else {
+            ft.setZero();
+            A.topRows<2>().setZero(), B.topRows<2>().setZero();
+            kap.head<2>().setZero(), gam.head<2>().setZero();
+            E.setZero();
+          }
+        }
+      }
+      const V3 f(ft(0), ft(1), fn);
+      const V3 rho = x - refv;
+      const M3 Mx = skew(rho);
+      Fv += f;
+      Tv += rho.cross(f);
+      const M3 P = A + B * wx;  // ∂f/∂r_i (through x_i and the point's velocity)
+      const M3 Br = B * skew(r);
+      const M3 Q = Mx * P - skew(f);  // ∂τ/∂r_i
+      SA[0] += A, SB[0] += B, SBr[0] += Br, SP[0] += P, Sk[0] += kap, Sc[0] += gam;
+      SA[1] += Mx * A, SB[1] += Mx * B, SBr[1] += Mx * Br, SP[1] += Q, Sk[1] += Mx * kap, Sc[1] += Mx * gam;
+      if (pivot_) SA[1] -= skew(f);  // ρ_i = x_i − pivot also moves with p
+      for (int j = 0; j < 3; ++j)
+        for (int k = 0; k < 3; ++k) {
+          T[0].col(3 * j + k) += P.col(j) * u(k);
+          T[1].col(3 * j + k) += Q.col(j) * u(k);
+        }
+      if (flag_[i] == 1 && mu_ > 0.0 && E.squaredNorm() > 0.0) {
+        Eigen::Matrix<double, 2, 10> DA;
+        DA.row(0) = anchor_[i](0).derivatives().transpose();
+        DA.row(1) = anchor_[i](1).derivatives().transpose();
+        const Eigen::Matrix<double, 2, 10> EDA = E * DA;
+        anchor_F.topRows<2>() += EDA;
+        anchor_T += Mx.leftCols<2>() * EDA;
+      }
+    }
+    // One product with the state's derivative parts.
+    D10 DP, DV, DW, DC;
+    Eigen::Matrix<double, 9, 10> DR;
+    for (int a = 0; a < 3; ++a) {
+      DP.row(a) = s.position(a).derivatives().transpose();
+      DV.row(a) = s.velocity(a).derivatives().transpose();
+      DW.row(a) = s.angular_velocity(a).derivatives().transpose();
+      DC.row(a) = com_(a).derivatives().transpose();
+      for (int b = 0; b < 3; ++b) DR.row(3 * a + b) = R(a, b).derivatives().transpose();
+    }
+    const D10 RDC = Rv * DC;
+    const Eigen::Matrix<double, 1, 10> dk = k_.derivatives().transpose(), dc = c_.derivatives().transpose();
+    D10 dF = anchor_F, dT = anchor_T;
+    D10* out[2] = {&dF, &dT};
+    for (int t = 0; t < 2; ++t) {
+      *out[t] += SA[t] * DP + SB[t] * DV - SBr[t] * DW + Sk[t] * dk + Sc[t] * dc + T[t] * DR - SP[t] * RDC;
+    }
+    for (int a = 0; a < 3; ++a) {
+      (*F_out)(a) += S(Fv(a), Eigen::Matrix<double, 10, 1>(dF.row(a).transpose()));
+      (*tau_out)(a) += S(Tv(a), Eigen::Matrix<double, 10, 1>(dT.row(a).transpose()));
+    }
   }
 
   RigidState<S> advance(const RigidState<S>& s, const Deriv<S>& d, double h) const {
@@ -600,7 +829,7 @@ class RigidSim {
     S e = S(0.5) * m_ * s.velocity.squaredNorm() + S(0.5) * wb.dot(I_com_ * wb) - m_ * g_.dot(s.position);
     if (contact_) {
       std::vector<int> c;
-      screen(s, &c);
+      screenAll(s, 0.0, &c);
       for (int i : c) {
         const Vec3<S> x = s.position + R * (lift<S>(pts_[i]) - com_);
         const S pen = S(height_ + delta_) - x.z();
@@ -651,13 +880,19 @@ class RigidSim {
   bool contact_ = false;
   double height_ = 0.0, delta_ = 0.0, mu_ = 0.0;
   S k_, c_;
-  std::vector<double> w_;  ///< GroundContact::point_weights, or all 1
+  std::vector<double> w_;   ///< GroundContact::point_weights, or all 1
   double pen_rest_ = 1e-3;  ///< resting penetration [m]: where the Hunt–Crossley damper equals c
   std::vector<double> bx_, by_, bz_;
   std::vector<Vec2<S>> anchor_;
   std::vector<char> flag_;   ///< 0 free, 1 anchored, 2 stale (during an update)
   std::vector<int> active_;  ///< anchored points
   std::vector<int> cand_;
+  double size_ = 0.0;    ///< largest distance of a contact point from the centre of mass [m]
+  double skin_m_ = 0.0;  ///< Verlet skin [m]
+  bool skin_valid_ = false;
+  std::vector<int> skin_;  ///< points within the skin when it was made
+  Eigen::Quaterniond skin_q_ = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d skin_p_ = Eigen::Vector3d::Zero();
 };
 
 double minPrincipal(const Eigen::Matrix3d& I) {
