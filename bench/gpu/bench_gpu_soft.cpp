@@ -5,8 +5,8 @@
 //       dt = 0.5 × stableTimeStep(): particle-steps/s and µs per step of SoftBodyCuda::step over
 //       `steps` steps (graph batches, one status read at the end), the CPU's rate over a few
 //       steps, gpu_over_cpu, and the memory traffic: model_bytes_per_particle_step (what the
-//       kernels stream: per CSR entry the index, ĝ, W, the reverse ĝ and the hourglass weights; per
-//       particle the state and constants, neighbours' x, M and F̃ counted once), the achieved
+//       kernels stream: per CSR entry the index (ĝ, W and the gather's weights are recomputed);
+//       per particle the state and constants, neighbours' records counted once), the achieved
 //       bandwidth that implies and its share of the measured device-to-device copy bandwidth
 //       (copy_GBs, read + write).
 //   rollout_<N>  the explicit rollout with its gradient (runSoftRolloutCuda against SoftRollout, float64,
@@ -98,7 +98,12 @@ void gpuCase(const std::string& base, int nx, int ny, int nz, double hfac, int g
     std::sort(times.begin(), times.end());
     const double cpu_rate = double(n) / times[times.size() / 2];
     const double T = p == CudaPrecision::Float64 ? 8.0 : 4.0;
-    const double bytes = (8.0 + 11.0 * T) * nb + 83.0 * T + 17.0;
+    // Order-1 gradients are recomputed (soft_step_kernels.h): per entry only the index (both
+    // kernels); per particle 97 values (evaluate: x, c, V, μ, λ, C, writes F̃ and the 24-value
+    // record; gather: the record as a neighbour's, c, V, x, Σ V ∇W, hourglass sums, m, v, writes f,
+    // v, next x) and 145 bytes (X and L in float64, X again in the gather, offsets, clamp flag).
+    const bool recomputed = sim->sph().options().gradient_order == 1;
+    const double bytes = recomputed ? 8.0 * nb + 97.0 * T + 145.0 : (8.0 + 11.0 * T) * nb + 83.0 * T + 17.0;
     const double achieved = gpu_rate * bytes / 1e9;
     std::printf(
         "{\"case\": \"%s\", \"device\": \"%s\", \"particles\": %zu, \"neighbours_mean\": %.1f, \"precision\": \"%s\", "
@@ -109,9 +114,9 @@ void gpuCase(const std::string& base, int nx, int ny, int nz, double hfac, int g
         "\"bandwidth_share\": %.3f, \"bandwidth_bound_particle_steps_per_s\": %.4g, \"setup_s\": %.2f, "
         "\"upload_s\": %.3f, \"device_MiB\": %.1f}\n",
         name.c_str(), cudaDeviceInfo().name.c_str(), n, nb, p == CudaPrecision::Float64 ? "float64" : "float32",
-        gpu.lanesPerParticle(), dt, gpu_steps, gpu_s, gpu_rate, 1e6 * gpu_s / gpu_steps, threads(), cpu_rate, gpu_rate / cpu_rate,
-        bytes, achieved, g_copy_GBs, g_copy_GBs > 0 ? achieved / g_copy_GBs : 0.0, g_copy_GBs * 1e9 / bytes, setup_s,
-        upload_s, double(gpu.deviceBytes()) / (1024.0 * 1024.0));
+        gpu.lanesPerParticle(), dt, gpu_steps, gpu_s, gpu_rate, 1e6 * gpu_s / gpu_steps, threads(), cpu_rate,
+        gpu_rate / cpu_rate, bytes, achieved, g_copy_GBs, g_copy_GBs > 0 ? achieved / g_copy_GBs : 0.0,
+        g_copy_GBs * 1e9 / bytes, setup_s, upload_s, double(gpu.deviceBytes()) / (1024.0 * 1024.0));
     std::fflush(stdout);
   }
 }
@@ -146,13 +151,14 @@ void rolloutCase(const std::string& name, int nx, int ny, int nz, int steps, int
   const SoftRolloutResult c = SoftRollout(cpu.get(), o).run(loss, true);
   const double n = double(cpu->size());
   std::printf(
-      "{\"case\": \"%s\", \"device\": \"%s\", \"particles\": %.0f, \"steps\": %d, \"loss_every\": %d, \"precision\": \"float64\", "
+      "{\"case\": \"%s\", \"device\": \"%s\", \"particles\": %.0f, \"steps\": %d, \"loss_every\": %d, \"precision\": "
+      "\"float64\", "
       "\"gpu_forward_s\": %.4f, \"gpu_backward_s\": %.4f, \"gpu_backward_over_forward\": %.2f, "
       "\"baseline\": \"cpu_soft_rollout\", \"cpu_threads\": %d, \"cpu_forward_s\": %.4f, \"cpu_backward_s\": %.4f, "
       "\"gpu_over_cpu_forward_plus_backward\": %.1f, \"loss_relative_difference\": %.2e}\n",
-      name.c_str(), cudaDeviceInfo().name.c_str(), n, steps, loss_every, g.forward_s, g.backward_s, g.backward_s / g.forward_s,
-      threads(), c.forward_s, c.backward_s, (c.forward_s + c.backward_s) / (g.forward_s + g.backward_s),
-      std::abs(g.loss - c.loss) / std::abs(c.loss));
+      name.c_str(), cudaDeviceInfo().name.c_str(), n, steps, loss_every, g.forward_s, g.backward_s,
+      g.backward_s / g.forward_s, threads(), c.forward_s, c.backward_s,
+      (c.forward_s + c.backward_s) / (g.forward_s + g.backward_s), std::abs(g.loss - c.loss) / std::abs(c.loss));
   std::fflush(stdout);
 }
 

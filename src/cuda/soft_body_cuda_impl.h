@@ -15,6 +15,7 @@
 #include "soft_step_kernels.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/cuda/soft_body_cuda.h"
+#include "topo_gaussian/physics/sph_kernel.h"
 
 namespace topo_gaussian {
 
@@ -48,11 +49,16 @@ struct DeviceBuffer {
 using cuda_detail::check;
 using cuda_detail::DeviceBuffer;
 
-/// Device bytes per particle of a body (SoftDeviceBody's arrays: 51 values and 5 bytes per particle,
-/// 11 values and 4 bytes per neighbour entry), T the precision's size.
+/// Whether the step recomputes ĝ and W per entry (order-1 gradients, SoftDeviceBody::L).
+inline bool recomputesKernelGradients(const SoftBodySimulator& sim) { return sim.sph().options().gradient_order == 1; }
+
+/// Device bytes per particle of a body (SoftDeviceBody's arrays: 54 values and 5 bytes per particle
+/// with the double-buffered x, 11 values and 4 bytes per neighbour entry; with recomputed gradients
+/// 27 values (the gather's record, Σ V_j ∇W) and 104 bytes (X and L in float64) more), T the
+/// precision's size.
 inline double softBodyBytesPerParticle(const SoftBodySimulator& sim, double T) {
   const double nb = double(sim.sph().neighbors().indices.size()) / double(std::max<std::size_t>(1, sim.size()));
-  return 51.0 * T + 5.0 + nb * (4.0 + 11.0 * T);
+  return 54.0 * T + 5.0 + nb * (4.0 + 11.0 * T) + (recomputesKernelGradients(sim) ? 27.0 * T + 104.0 : 0.0);
 }
 
 struct SoftBodyCuda::Impl {
@@ -129,8 +135,29 @@ struct SoftBodyCuda::Impl {
     b->c = upload(cast<T>(sph.hourglassCoefficients()));
     b->gh = upload(flat<T>(sph.kernelGradients()));
     b->W = upload(cast<T>(sph.kernelValues()));
-    b->ghr = upload(flat<T>(sph.reverseKernelGradients()));
+    b->ghr = upload(flat<T>(sph.reverseKernelGradients()));  // the adjoint's gather streams these
     b->hgw = upload(flat<T>(sph.hourglassWeights()));
+    if (recomputesKernelGradients(sim)) {
+      const double h = sph.smoothingLength();
+      std::vector<Eigen::Matrix3d> L(n);
+      std::vector<Eigen::Vector3d> gsum_raw(n, Eigen::Vector3d::Zero());
+      std::vector<double> Xr(4 * n, 0.0);
+      for (std::size_t i = 0; i < n; ++i) {
+        L[i] = sph.correction(i);
+        for (int d = 0; d < 3; ++d) Xr[4 * i + d] = sph.restPositions()[i](d);
+        for (int e = nbr.offsets[i]; e < nbr.offsets[i + 1]; ++e) {
+          const int j = nbr.indices[e];
+          gsum_raw[i] += sph.volumes()[j] * cubicSplineGradW(sph.restPositions()[j] - sph.restPositions()[i], h);
+        }
+      }
+      b->L = upload(flat<double>(L));
+      b->Xr = upload(Xr);
+      b->gsum_raw = upload(flat<T>(gsum_raw));
+      b->rec = allocate<T>(cuda_detail::kRecord * n);
+      b->inv_h = 1.0 / h;
+      b->w_scale = 1.0 / (M_PI * h * h * h);
+      b->dw_scale = 1.0 / (M_PI * h * h * h * h);
+    }
     b->gsum = upload(flat<T>(sph.gradientSums()));
     b->hgsum = upload(flat<T>(sph.hourglassSums()));
     b->hourglass = sph.options().hourglass_alpha > 0.0 ? 1 : 0;
@@ -153,6 +180,9 @@ struct SoftBodyCuda::Impl {
     b->M = allocate<T>(9 * n);
     b->time = upload(std::vector<double>{sim.time()});
     b->step = upload(std::vector<long long>{static_cast<long long>(sim.stepCount())});
+    b->x_alt = allocate<T>(3 * n);
+    b->time_alt = allocate<double>(1);
+    b->step_alt = allocate<long long>(1);
     b->status = upload(std::vector<unsigned long long>(cuda_detail::kStatusWords, 0));
     resetStatus(b->status);
   }
@@ -240,12 +270,10 @@ struct SoftBodyCuda::Impl {
   unsigned long long* status() const { return precision == CudaPrecision::Float64 ? body64.status : body32.status; }
 
   void launchSteps(double dt, long steps) {
-    for (long s = 0; s < steps; ++s) {
-      if (precision == CudaPrecision::Float64)
-        cuda_detail::launchLeapfrogStep(body64, dt, stream);
-      else
-        cuda_detail::launchLeapfrogStep(body32, dt, stream);
-    }
+    if (precision == CudaPrecision::Float64)
+      cuda_detail::launchLeapfrogSteps(body64, dt, steps, stream);
+    else
+      cuda_detail::launchLeapfrogSteps(body32, dt, steps, stream);
   }
 
   /// Runs `steps` steps: batches of up to kGraphSteps replayed from one captured graph.

@@ -268,6 +268,56 @@ __device__ Mat3<T> polarRotation(const Mat3<T>& A, bool* fallback) {
   return polarFallback(A);
 }
 
+/// The cubic spline kernel at rest offset r (sph_kernel.h: cubicSplineW and cubicSplineDW / |r|, with
+/// q = |r| / h): *W = W(|r|, h), *dW_over_r = W'(|r|) / |r| (0 at r = 0), so ∇W(r) = *dW_over_r · r.
+/// K: the arithmetic's precision (float64 in the evaluation, T in the gather).
+template <class K, class T>
+__device__ inline void cubicSpline(const SoftDeviceBody<T>& b, K r0, K r1, K r2, K* W, K* dW_over_r) {
+  const K rr = r0 * r0 + r1 * r1 + r2 * r2;
+  const K rinv = rr > K(0) ? rsqrt(rr) : K(0);
+  const K r = rr * rinv;
+  const K q = r * static_cast<K>(b.inv_h);
+  K w = 0, dw = 0;
+  if (q < K(1)) {
+    w = K(1) - K(1.5) * q * q + K(0.75) * q * q * q;
+    dw = K(-3) * q + K(2.25) * q * q;
+  } else if (q < K(2)) {
+    const K t = K(2) - q;
+    w = K(0.25) * t * t * t;
+    dw = K(-0.75) * t * t;
+  }
+  *W = static_cast<K>(b.w_scale) * w;
+  *dW_over_r = static_cast<K>(b.dw_scale) * dw * rinv;
+}
+
+/// The 16-byte vector type of T.
+template <class T>
+struct Vector16;
+template <>
+struct Vector16<float> {
+  using type = float4;
+};
+template <>
+struct Vector16<double> {
+  using type = double2;
+};
+
+/// N consecutive values at p (16-byte aligned; N a multiple of 16 / sizeof(T)) by 16-byte loads
+/// through the read-only cache (only for data no thread of the kernel writes).
+template <int N, class T>
+__device__ inline void load16(const T* p, T* out) {
+  using V = typename Vector16<T>::type;
+  constexpr int w = static_cast<int>(sizeof(V) / sizeof(T));
+  static_assert(N % w == 0, "whole 16-byte vectors");
+#pragma unroll
+  for (int k = 0; k < N / w; ++k) {
+    const V v = __ldg(reinterpret_cast<const V*>(p) + k);
+    const T* c = reinterpret_cast<const T*>(&v);
+#pragma unroll
+    for (int q = 0; q < w; ++q) out[w * k + q] = c[q];
+  }
+}
+
 template <class T>
 __device__ inline void encodeFirst(unsigned long long* word, long long step, int particle) {
   atomicMin(word, (static_cast<unsigned long long>(step) << 32) | static_cast<unsigned int>(particle));

@@ -19,24 +19,48 @@ namespace {
 
 using namespace device;
 
-/// First half kick and drift of free particles (SoftBodySimulator::step's kick(½dt, true)); thread 0
-/// advances the clock and the step counter (read by the step's later kernels).
+/// v + h (f/m + g − c v): one half kick of a free particle's velocity component.
 template <class T>
-__global__ void kickDriftKernel(SoftDeviceBody<T> b, T h, T dt, double dt_clock) {
+__device__ inline T halfKick(T v, T f, T m, T g, T damping, T h) {
+  return v + h * (f / m + g - damping * v);
+}
+
+/// Where a step's drift writes: x, the clock and the step counter of the next state (the same
+/// buffers as the input for a single step; the other half of SoftDeviceBody's double buffer when the
+/// drift is fused into the gather, which still reads the neighbours' x at the current state).
+template <class T>
+struct DriftTarget {
+  T* x = nullptr;  // null: no drift
+  double* time = nullptr;
+  long long* step = nullptr;
+  T dt = 0;
+  double dt_clock = 0.0;
+};
+
+/// First half kick and drift of free particles (SoftBodySimulator::step's kick(½dt, true)) into
+/// out (clamped particles copied when out is the other buffer); thread 0 advances the clock and
+/// the step counter (read by the step's later kernels).
+template <class T>
+__global__ void kickDriftKernel(SoftDeviceBody<T> b, T h, DriftTarget<T> out) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i == 0) {
-    *b.time += dt_clock;
-    *b.step += 1;
+    *out.time = *b.time + out.dt_clock;
+    *out.step = *b.step + 1;
   }
-  if (i >= b.n || b.clamped[i]) return;
+  if (i >= b.n) return;
+  if (b.clamped[i]) {
+    if (out.x != b.x)
+#pragma unroll
+      for (int d = 0; d < 3; ++d) out.x[3 * i + d] = b.x[3 * i + d];
+    return;
+  }
   const T m = b.mass[i];
 #pragma unroll
   for (int d = 0; d < 3; ++d) {
-    const T v = b.v[3 * i + d];
     const T f = b.contact.points ? b.f[3 * i + d] + b.contact.pfr[3 * i + d] : b.f[3 * i + d];
-    const T vn = v + h * (f / m + b.gravity[d] - b.damping * v);
+    const T vn = halfKick(b.v[3 * i + d], f, m, b.gravity[d], b.damping, h);
     b.v[3 * i + d] = vn;
-    b.x[3 * i + d] += dt * vn;
+    out.x[3 * i + d] = b.x[3 * i + d] + out.dt * vn;
   }
 }
 
@@ -50,15 +74,16 @@ __global__ void kickKernel(SoftDeviceBody<T> b, T h) {
 #pragma unroll
   for (int d = 0; d < 3; ++d) {
     const T v = b.v[3 * i + d];
-    const T vn = v + h * ((b.f[3 * i + d] + b.contact.pfr[3 * i + d]) / m + b.gravity[d] - b.damping * v);
+    const T vn = halfKick(v, b.f[3 * i + d] + b.contact.pfr[3 * i + d], m, b.gravity[d], b.damping, h);
     b.v[3 * i + d] = vn;
     finite = finite && isfinite(vn);
   }
   if (!finite) encodeFirst<T>(&b.status[1], *b.step, i);
 }
 
-/// CorotatedSph::evaluate (Forces) at x, plus the pneumatic term in M, at time *time.
-template <class T, int L>
+/// CorotatedSph::evaluate (Forces) at x, plus the pneumatic term in M, at time *time. G: ĝ_ij and
+/// W_ij recomputed from X and L_i (b.L), and the gather's record written in place of M.
+template <class T, int L, bool G>
 __global__ void __launch_bounds__(kBlock) evaluateKernel(SoftDeviceBody<T> b) {
   const int tid = blockIdx.x * blockDim.x + threadIdx.x;
   const int i = tid / L, lane = tid % L;
@@ -71,11 +96,37 @@ __global__ void __launch_bounds__(kBlock) evaluateKernel(SoftDeviceBody<T> b) {
   const bool hg_row = b.hourglass && ci > T(0);
   const bool need_D = hg_row || b.shape_matching;
   Mat3<T> Ft = zero3<T>(), D = zero3<T>();
+  Mat3<double> Li;
+  double Xr[4] = {0, 0, 0, 0};
+  if (G) {
+#pragma unroll
+    for (int k = 0; k < 9; ++k) Li.a[k] = b.L[9 * ii + k];
+    load16<4>(b.Xr + 4 * ii, Xr);
+  }
   for (int e = e0 + lane; e < e1; e += L) {
     const int j = b.idx[e];
     const T v = b.V[j];
     const T d0 = v * (b.x[3 * j] - xi0), d1 = v * (b.x[3 * j + 1] - xi1), d2 = v * (b.x[3 * j + 2] - xi2);
-    const T g0 = b.gh[3 * e], g1 = b.gh[3 * e + 1], g2 = b.gh[3 * e + 2];
+    T g0, g1, g2, w = 0, X0 = 0, X1 = 0, X2 = 0;
+    if (G) {  // ĝ_ij = L_i ∇W(X_ji), in float64
+      double Xj[4];
+      load16<4>(b.Xr + 4 * j, Xj);
+      const double Y0 = Xj[0] - Xr[0], Y1 = Xj[1] - Xr[1], Y2 = Xj[2] - Xr[2];
+      double wd, s;
+      cubicSpline(b, Y0, Y1, Y2, &wd, &s);
+      const double r0 = s * Y0, r1 = s * Y1, r2 = s * Y2;
+      g0 = static_cast<T>(Li(0, 0) * r0 + Li(0, 1) * r1 + Li(0, 2) * r2);
+      g1 = static_cast<T>(Li(1, 0) * r0 + Li(1, 1) * r1 + Li(1, 2) * r2);
+      g2 = static_cast<T>(Li(2, 0) * r0 + Li(2, 1) * r1 + Li(2, 2) * r2);
+      w = static_cast<T>(wd);
+      X0 = static_cast<T>(Y0);
+      X1 = static_cast<T>(Y1);
+      X2 = static_cast<T>(Y2);
+    } else {
+      g0 = b.gh[3 * e];
+      g1 = b.gh[3 * e + 1];
+      g2 = b.gh[3 * e + 2];
+    }
     Ft(0, 0) += d0 * g0;
     Ft(1, 0) += d1 * g0;
     Ft(2, 0) += d2 * g0;
@@ -86,9 +137,13 @@ __global__ void __launch_bounds__(kBlock) evaluateKernel(SoftDeviceBody<T> b) {
     Ft(1, 2) += d1 * g2;
     Ft(2, 2) += d2 * g2;
     if (need_D) {
-      const T w = b.W[e];
+      if (!G) {
+        w = b.W[e];
+        X0 = b.X[3 * j] - Xi0;
+        X1 = b.X[3 * j + 1] - Xi1;
+        X2 = b.X[3 * j + 2] - Xi2;
+      }
       const T b0 = w * d0, b1 = w * d1, b2 = w * d2;
-      const T X0 = b.X[3 * j] - Xi0, X1 = b.X[3 * j + 1] - Xi1, X2 = b.X[3 * j + 2] - Xi2;
       D(0, 0) += b0 * X0;
       D(1, 0) += b1 * X0;
       D(2, 0) += b2 * X0;
@@ -167,22 +222,75 @@ __global__ void __launch_bounds__(kBlock) evaluateKernel(SoftDeviceBody<T> b) {
     }
   }
 #pragma unroll
-  for (int k = 0; k < 9; ++k) {
-    b.Ft[9 * i + k] = Ft.a[k];
-    b.M[9 * i + k] = M.a[k];
+  for (int k = 0; k < 9; ++k) b.Ft[9 * i + k] = Ft.a[k];
+  if (G) {  // the gather's record: N_i = M_i L_i, F̃_i, x_i, c_i, V_i
+    Mat3<T> Lt;
+#pragma unroll
+    for (int k = 0; k < 9; ++k) Lt.a[k] = static_cast<T>(Li.a[k]);
+    const Mat3<T> N = mul(M, Lt);
+    T* r = b.rec + kRecord * i;
+#pragma unroll
+    for (int k = 0; k < 9; ++k) {
+      r[k] = N.a[k];
+      r[9 + k] = Ft.a[k];
+    }
+    r[18] = xi0;
+    r[19] = xi1;
+    r[20] = xi2;
+    r[21] = ci;
+    r[22] = Vi;
+    r[23] = T(0);
+  } else {
+#pragma unroll
+    for (int k = 0; k < 9; ++k) b.M[9 * i + k] = M.a[k];
   }
 }
 
 /// CorotatedSph::gather (negated: f = −∂E/∂x) and, with kick, the second half kick of free particles.
-template <class T, int L>
-__global__ void __launch_bounds__(kBlock) gatherKickKernel(SoftDeviceBody<T> b, T h, bool kick) {
+/// G: ĝ_jk and the hourglass weights recomputed from X, V, c, the neighbours read from their records
+/// (b.rec, N_j = M_j L_j in place of M_j). With drift.x set (and kick), the next step's first half
+/// kick and drift follow the second half kick (kickDriftKernel's arithmetic), into the other state
+/// buffer.
+template <class T, int L, bool G>
+__global__ void __launch_bounds__(kBlock) gatherKickKernel(SoftDeviceBody<T> b, T h, bool kick, DriftTarget<T> drift) {
   const int tid = blockIdx.x * blockDim.x + threadIdx.x;
   const int k = tid / L, lane = tid % L;
   const bool active = k < b.n;
   const int e0 = active ? b.offsets[k] : 0, e1 = active ? b.offsets[k + 1] : 0;
   const int kk = active ? k : 0;
   T a0 = 0, a1 = 0, a2 = 0, t0 = 0, t1 = 0, t2 = 0, u0 = 0, u1 = 0, u2 = 0;
-  if (b.hourglass) {
+  if (G) {
+    double Xk[4];
+    load16<4>(b.Xr + 4 * kk, Xk);
+    const T ck = b.c[kk], Vk = b.V[kk];
+    const T xk0 = b.x[3 * kk], xk1 = b.x[3 * kk + 1], xk2 = b.x[3 * kk + 2];
+    for (int e = e0 + lane; e < e1; e += L) {
+      const int j = b.idx[e];
+      T r[kRecord];  // N_j, F̃_j, x_j, c_j, V_j
+      load16<kRecord>(b.rec + kRecord * j, r);
+      double Xj[4];
+      load16<4>(b.Xr + 4 * j, Xj);
+      const T X0 = static_cast<T>(Xj[0] - Xk[0]), X1 = static_cast<T>(Xj[1] - Xk[1]),
+              X2 = static_cast<T>(Xj[2] - Xk[2]);  // X_jk
+      T w, s;
+      cubicSpline(b, X0, X1, X2, &w, &s);
+      const T g0 = -s * X0, g1 = -s * X1, g2 = -s * X2;  // ∇W(X_kj)
+      a0 += r[0] * g0 + r[3] * g1 + r[6] * g2;
+      a1 += r[1] * g0 + r[4] * g1 + r[7] * g2;
+      a2 += r[2] * g0 + r[5] * g1 + r[8] * g2;
+      if (b.hourglass) {
+        const T cj = r[21];
+        const T wc = w * cj, y3 = w * (ck * r[22] + cj * Vk);
+        const T* f = r + 9;
+        t0 += wc * (f[0] * X0 + f[3] * X1 + f[6] * X2);
+        t1 += wc * (f[1] * X0 + f[4] * X1 + f[7] * X2);
+        t2 += wc * (f[2] * X0 + f[5] * X1 + f[8] * X2);
+        u0 += y3 * (r[18] - xk0);
+        u1 += y3 * (r[19] - xk1);
+        u2 += y3 * (r[20] - xk2);
+      }
+    }
+  } else if (b.hourglass) {
     const T xk0 = b.x[3 * kk], xk1 = b.x[3 * kk + 1], xk2 = b.x[3 * kk + 2];
     for (int e = e0 + lane; e < e1; e += L) {
       const int j = b.idx[e];
@@ -200,12 +308,6 @@ __global__ void __launch_bounds__(kBlock) gatherKickKernel(SoftDeviceBody<T> b, 
       u1 += y[3] * (b.x[3 * j + 1] - xk1);
       u2 += y[3] * (b.x[3 * j + 2] - xk2);
     }
-    t0 = groupSum<L>(t0);
-    t1 = groupSum<L>(t1);
-    t2 = groupSum<L>(t2);
-    u0 = groupSum<L>(u0);
-    u1 = groupSum<L>(u1);
-    u2 = groupSum<L>(u2);
   } else {
     for (int e = e0 + lane; e < e1; e += L) {
       const T* m = b.M + 9 * b.idx[e];
@@ -218,18 +320,33 @@ __global__ void __launch_bounds__(kBlock) gatherKickKernel(SoftDeviceBody<T> b, 
   a0 = groupSum<L>(a0);
   a1 = groupSum<L>(a1);
   a2 = groupSum<L>(a2);
+  if (b.hourglass) {
+    t0 = groupSum<L>(t0);
+    t1 = groupSum<L>(t1);
+    t2 = groupSum<L>(t2);
+    u0 = groupSum<L>(u0);
+    u1 = groupSum<L>(u1);
+    u2 = groupSum<L>(u2);
+  }
+  if (drift.x && tid == 0) {
+    *drift.time = *b.time + drift.dt_clock;
+    *drift.step = *b.step + 1;
+  }
   if (!active || lane != 0) return;
   const T Vk = b.V[k];
+  const T* Mk_src = G ? b.rec + kRecord * k : b.M + 9 * k;  // N_k with G
+  const T* Fk_src = G ? b.rec + kRecord * k + 9 : b.Ft + 9 * k;
   Mat3<T> Mk;
 #pragma unroll
-  for (int q = 0; q < 9; ++q) Mk.a[q] = b.M[9 * k + q];
-  const T gs0 = b.gsum[3 * k], gs1 = b.gsum[3 * k + 1], gs2 = b.gsum[3 * k + 2];
+  for (int q = 0; q < 9; ++q) Mk.a[q] = Mk_src[q];
+  const T* gsum = G ? b.gsum_raw : b.gsum;
+  const T gs0 = gsum[3 * k], gs1 = gsum[3 * k + 1], gs2 = gsum[3 * k + 2];
   const T a[3] = {a0, a1, a2};
   T g[3];
   if (b.hourglass) {
     Mat3<T> Fk;
 #pragma unroll
-    for (int q = 0; q < 9; ++q) Fk.a[q] = b.Ft[9 * k + q];
+    for (int q = 0; q < 9; ++q) Fk.a[q] = Fk_src[q];
     const T hs0 = b.hgsum[3 * k], hs1 = b.hgsum[3 * k + 1], hs2 = b.hgsum[3 * k + 2];
     const T t[3] = {t0, t1, t2}, u[3] = {u0, u1, u2};
 #pragma unroll
@@ -248,10 +365,17 @@ __global__ void __launch_bounds__(kBlock) gatherKickKernel(SoftDeviceBody<T> b, 
     const T f = -g[r];
     b.f[3 * k + r] = f;
     if (kick && free) {
-      const T v = b.v[3 * k + r];
-      const T vn = v + h * (f / m + b.gravity[r] - b.damping * v);
-      b.v[3 * k + r] = vn;
+      const T vn = halfKick(b.v[3 * k + r], f, m, b.gravity[r], b.damping, h);
       finite = finite && isfinite(vn);
+      if (drift.x) {
+        const T vh = halfKick(vn, f, m, b.gravity[r], b.damping, h);
+        b.v[3 * k + r] = vh;
+        drift.x[3 * k + r] = b.x[3 * k + r] + drift.dt * vh;
+      } else {
+        b.v[3 * k + r] = vn;
+      }
+    } else if (drift.x) {
+      drift.x[3 * k + r] = b.x[3 * k + r];
     }
   }
   if (!finite) encodeFirst<T>(&b.status[1], *b.step, k);
@@ -274,43 +398,84 @@ __global__ void polarKernel(const T* A, T* R, int count, unsigned long long* fal
 inline int blocks(long long threads) { return static_cast<int>((threads + kBlock - 1) / kBlock); }
 
 template <class T, int L>
-void launchForces(const SoftDeviceBody<T>& b, T h, bool kick, cudaStream_t s) {
-  evaluateKernel<T, L><<<blocks(static_cast<long long>(b.n) * L), kBlock, 0, s>>>(b);
-  gatherKickKernel<T, L><<<blocks(static_cast<long long>(b.n) * L), kBlock, 0, s>>>(b, h, kick);
+void launchEvaluateOnly(const SoftDeviceBody<T>& b, cudaStream_t s) {
+  if (b.L)
+    evaluateKernel<T, L, true><<<blocks(static_cast<long long>(b.n) * L), kBlock, 0, s>>>(b);
+  else
+    evaluateKernel<T, L, false><<<blocks(static_cast<long long>(b.n) * L), kBlock, 0, s>>>(b);
 }
 
 template <class T, int L>
-void launchEvaluateOnly(const SoftDeviceBody<T>& b, cudaStream_t s) {
-  evaluateKernel<T, L><<<blocks(static_cast<long long>(b.n) * L), kBlock, 0, s>>>(b);
+void launchGatherKick(const SoftDeviceBody<T>& b, T h, bool kick, cudaStream_t s,
+                      const DriftTarget<T>& drift = DriftTarget<T>()) {
+  if (b.L)
+    gatherKickKernel<T, L, true><<<blocks(static_cast<long long>(b.n) * L), kBlock, 0, s>>>(b, h, kick, drift);
+  else
+    gatherKickKernel<T, L, false><<<blocks(static_cast<long long>(b.n) * L), kBlock, 0, s>>>(b, h, kick, drift);
 }
 
+template <class T, int L>
+void launchForces(const SoftDeviceBody<T>& b, T h, bool kick, cudaStream_t s,
+                  const DriftTarget<T>& drift = DriftTarget<T>()) {
+  launchEvaluateOnly<T, L>(b, s);
+  launchGatherKick<T, L>(b, h, kick, s, drift);
+}
+
+/// The adjoint's gather (linear in x, F̃, M: the body's arrays, streamed ĝ_jk and weights).
 template <class T, int L>
 void launchGatherOnly(const SoftDeviceBody<T>& b, cudaStream_t s) {
-  gatherKickKernel<T, L><<<blocks(static_cast<long long>(b.n) * L), kBlock, 0, s>>>(b, T(0), false);
+  gatherKickKernel<T, L, false>
+      <<<blocks(static_cast<long long>(b.n) * L), kBlock, 0, s>>>(b, T(0), false, DriftTarget<T>());
 }
 
 template <class T>
-void launchForcesLanes(const SoftDeviceBody<T>& b, T h, bool kick, cudaStream_t s) {
+void launchForcesLanes(const SoftDeviceBody<T>& b, T h, bool kick, cudaStream_t s,
+                       const DriftTarget<T>& drift = DriftTarget<T>()) {
   switch (b.lanes) {
     case 1:
-      launchForces<T, 1>(b, h, kick, s);
+      launchForces<T, 1>(b, h, kick, s, drift);
       break;
     case 2:
-      launchForces<T, 2>(b, h, kick, s);
+      launchForces<T, 2>(b, h, kick, s, drift);
       break;
     case 4:
-      launchForces<T, 4>(b, h, kick, s);
+      launchForces<T, 4>(b, h, kick, s, drift);
       break;
     case 16:
-      launchForces<T, 16>(b, h, kick, s);
+      launchForces<T, 16>(b, h, kick, s, drift);
       break;
     case 32:
-      launchForces<T, 32>(b, h, kick, s);
+      launchForces<T, 32>(b, h, kick, s, drift);
       break;
     default:
-      launchForces<T, 8>(b, h, kick, s);
+      launchForces<T, 8>(b, h, kick, s, drift);
       break;
   }
+}
+
+/// The drift target of body b: its own state (in place) or the other half of the double buffer.
+template <class T>
+DriftTarget<T> driftInto(const SoftDeviceBody<T>& b, double dt, bool other) {
+  DriftTarget<T> d;
+  d.x = other ? b.x_alt : b.x;
+  d.time = other ? b.time_alt : b.time;
+  d.step = other ? b.step_alt : b.step;
+  d.dt = static_cast<T>(dt);
+  d.dt_clock = dt;
+  return d;
+}
+
+/// b with the halves of its double-buffered state (x, clock, step counter) exchanged.
+template <class T>
+SoftDeviceBody<T> swapped(const SoftDeviceBody<T>& b) {
+  SoftDeviceBody<T> o = b;
+  o.x = b.x_alt;
+  o.x_alt = b.x;
+  o.time = b.time_alt;
+  o.time_alt = b.time;
+  o.step = b.step_alt;
+  o.step_alt = b.step;
+  return o;
 }
 
 }  // namespace
@@ -320,17 +485,39 @@ void launchLeapfrogStep(const SoftDeviceBody<T>& b, double dt, void* stream) {
   cudaStream_t s = static_cast<cudaStream_t>(stream);
   const T h = static_cast<T>(0.5 * dt);
   if (b.contact.points == 0) {
-    kickDriftKernel<T><<<blocks(b.n), kBlock, 0, s>>>(b, h, static_cast<T>(dt), dt);
+    kickDriftKernel<T><<<blocks(b.n), kBlock, 0, s>>>(b, h, driftInto(b, dt, false));
     launchForcesLanes(b, h, true, s);  // forces at t + dt, second half kick
     return;
   }
   // With contact: friction at (x_n, v_n) for the first kick; the normal force joins the forces at
   // x_{n+1}, and the second kick takes friction at (x_{n+1}, v_{n+½}) (SoftBodySimulator::step).
   launchContact(b, false, stream);
-  kickDriftKernel<T><<<blocks(b.n), kBlock, 0, s>>>(b, h, static_cast<T>(dt), dt);
+  kickDriftKernel<T><<<blocks(b.n), kBlock, 0, s>>>(b, h, driftInto(b, dt, false));
   launchForcesLanes(b, T(0), false, s);
   launchContact(b, true, stream);
   kickKernel<T><<<blocks(b.n), kBlock, 0, s>>>(b, h);
+}
+
+template <class T>
+void launchLeapfrogSteps(const SoftDeviceBody<T>& b, double dt, long steps, void* stream) {
+  if (steps <= 0) return;
+  if (b.contact.points != 0 || b.x_alt == nullptr || steps == 1) {
+    for (long k = 0; k < steps; ++k) launchLeapfrogStep(b, dt, stream);
+    return;
+  }
+  // kick + drift, then per step evaluate and gather + kick, the gather of every step but the last
+  // also kicking and drifting into the other buffer; the first drift picks the buffer so that the
+  // last state lands in b's own (x, time, step).
+  cudaStream_t s = static_cast<cudaStream_t>(stream);
+  const T h = static_cast<T>(0.5 * dt);
+  const SoftDeviceBody<T> half[2] = {b, swapped(b)};
+  int p = static_cast<int>((steps - 1) % 2);
+  kickDriftKernel<T><<<blocks(b.n), kBlock, 0, s>>>(b, h, driftInto(b, dt, p == 1));
+  for (long k = 0; k + 1 < steps; ++k) {
+    launchForcesLanes(half[p], h, true, s, driftInto(half[p], dt, true));
+    p = 1 - p;
+  }
+  launchForcesLanes(half[p], h, true, s);  // p == 0: b's own buffers
 }
 
 template <class T>
@@ -396,6 +583,8 @@ void launchPolarRotations(const T* A, T* R, int count, unsigned long long* fallb
 
 template void launchLeapfrogStep<double>(const SoftDeviceBody<double>&, double, void*);
 template void launchLeapfrogStep<float>(const SoftDeviceBody<float>&, double, void*);
+template void launchLeapfrogSteps<double>(const SoftDeviceBody<double>&, double, long, void*);
+template void launchLeapfrogSteps<float>(const SoftDeviceBody<float>&, double, long, void*);
 template void launchEvaluateForces<double>(const SoftDeviceBody<double>&, void*);
 template void launchEvaluateForces<float>(const SoftDeviceBody<float>&, void*);
 template void launchEvaluateState<double>(const SoftDeviceBody<double>&, void*);

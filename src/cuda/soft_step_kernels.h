@@ -15,6 +15,9 @@ namespace cuda_detail {
 /// [2] rotations that left the Newton iteration for the Jacobi fallback (count)
 constexpr int kStatusWords = 4;
 
+/// Values per particle of the gather's neighbour record (SoftDeviceBody::rec).
+constexpr int kRecord = 24;
+
 /// Penalty contact with rigid obstacles (physics/soft_contact.h) on contact points: embedded surface
 /// samples y_k = Σ_i φ_ki x_i with weights ω_k, or the candidate particles themselves (φ = 1, ω = 1).
 /// points == 0: no contact.
@@ -49,19 +52,34 @@ struct SoftDeviceBody {
   int n = 0;
   int nnz = 0;
   // rest constants
-  const int* offsets = nullptr;           // n + 1
-  const int* idx = nullptr;               // nnz
-  const T* X = nullptr;                   // 3n
-  const T* V = nullptr;                   // n
-  const T* mass = nullptr;                // n
-  const T* mu = nullptr;                  // n
-  const T* lambda = nullptr;              // n
-  const T* c = nullptr;                   // n, hourglass coefficients
-  const T* gh = nullptr;                  // 3 nnz, ĝ_ij
-  const T* W = nullptr;                   // nnz
-  const T* ghr = nullptr;                 // 3 nnz, ĝ_jk of the reverse entry
-  const T* hgw = nullptr;                 // 4 nnz
-  const T* gsum = nullptr;                // 3n
+  const int* offsets = nullptr;  // n + 1
+  const int* idx = nullptr;      // nnz
+  const T* X = nullptr;          // 3n
+  const T* V = nullptr;          // n
+  const T* mass = nullptr;       // n
+  const T* mu = nullptr;         // n
+  const T* lambda = nullptr;     // n
+  const T* c = nullptr;          // n, hourglass coefficients
+  const T* gh = nullptr;         // 3 nnz, ĝ_ij
+  const T* W = nullptr;          // nnz
+  const T* ghr = nullptr;        // 3 nnz, ĝ_jk of the reverse entry (null with L)
+  const T* hgw = nullptr;        // 4 nnz (null with L)
+  const T* gsum = nullptr;       // 3n
+  // Order-1 gradients (ĝ_ij = L_i ∇W(X_ji)) recomputed per entry instead of streamed (set when the
+  // body's gradient_order is 1): the step's kernels then read no per-entry constant but the index.
+  // The evaluation also writes per particle one record of what the gather reads of a neighbour j
+  // (N_j = M_j L_j, so that Σ_j M_j ĝ_jk = Σ_j N_j ∇W(X_kj) needs no L_j; F̃_j, x_j, c_j, V_j), read
+  // as 16-byte vectors: a neighbour costs the gather 6 (float32) or 12 (float64) loads instead of 23.
+  // In float32 too, ĝ_ij is computed in float64 from X_ji in float64 and rounded once (as the CPU's
+  // streamed ĝ is): float32 errors in ĝ would show as a spurious strain Σ_j V_j X_ji δĝ_ijᵀ.
+  // The adjoint's gather (launchGatherForces) still streams ghr and hgw.
+  const double* L = nullptr;              // 9n, correction matrices L_i (null: stream gh, W, ghr, hgw)
+  const double* Xr = nullptr;             // 4n, X in float64, padded to 4 values (16-byte loads)
+  const T* gsum_raw = nullptr;            // 3n, Σ_j V_j ∇W(X_ji) (with L: M_k ĝsum_k = N_k gsum_raw_k)
+  T* rec = nullptr;                       // kRecord n: N_i, F̃_i, x_i, c_i, V_i, 0 (with L; then M is not written)
+  double inv_h = 0;                       // 1/h [1/m]
+  double w_scale = 0;                     // 1/(π h³) [1/m³]: W = w_scale · w(q)
+  double dw_scale = 0;                    // 1/(π h⁴) [1/m⁴]: dW/dr = dw_scale · w'(q)
   const T* hgsum = nullptr;               // 3n
   const T* moment = nullptr;              // 9n (null without hourglass)
   const std::uint8_t* clamped = nullptr;  // n
@@ -77,20 +95,31 @@ struct SoftDeviceBody {
   ContactDevice<T> contact;
   int lanes = 8;  // threads per particle in the neighbour sums: 1, 2, 4, 8, 16 or 32
   // state
-  T* x = nullptr;                        // 3n
-  T* v = nullptr;                        // 3n
-  T* f = nullptr;                        // 3n, conservative forces at x
-  T* Ft = nullptr;                       // 9n
-  T* M = nullptr;                        // 9n
-  T* R = nullptr;                        // 9n rotations R_i, written by the evaluation when set
-  double* time = nullptr;                // 1
-  long long* step = nullptr;             // 1, steps taken
+  T* x = nullptr;             // 3n
+  T* v = nullptr;             // 3n
+  T* f = nullptr;             // 3n, conservative forces at x
+  T* Ft = nullptr;            // 9n
+  T* M = nullptr;             // 9n
+  T* R = nullptr;             // 9n rotations R_i, written by the evaluation when set
+  double* time = nullptr;     // 1
+  long long* step = nullptr;  // 1, steps taken
+  // the other half of the double-buffered state (null: steps one at a time, in place)
+  T* x_alt = nullptr;                    // 3n
+  double* time_alt = nullptr;            // 1
+  long long* step_alt = nullptr;         // 1
   unsigned long long* status = nullptr;  // kStatusWords
 };
 
 /// One leapfrog step (three kernels) on `stream` (a cudaStream_t).
 template <class T>
 void launchLeapfrogStep(const SoftDeviceBody<T>& body, double dt, void* stream);
+
+/// `steps` leapfrog steps: without contact the gather of each step but the last also does the next
+/// step's first half kick and drift into the other half of the double-buffered state (x_alt,
+/// time_alt, step_alt), so a step is two kernels; the last state is in b's own buffers. The same
+/// arithmetic as `steps` launchLeapfrogStep calls.
+template <class T>
+void launchLeapfrogSteps(const SoftDeviceBody<T>& body, double dt, long steps, void* stream);
 
 /// The state at the current x (F̃, M, f) without moving: after an upload, or to refresh f.
 template <class T>

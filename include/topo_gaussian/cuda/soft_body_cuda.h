@@ -1,6 +1,6 @@
 // Explicit soft-body step on a CUDA GPU (issue 20 §1): SoftBodySimulator::step (paper appendix
 // "Soft body dynamics"; physics/soft_body.h) with the same corotated SPH forces
-// (physics/corotated_sph.h) evaluated by two kernels per step:
+// (physics/corotated_sph.h) evaluated by two kernels per step (three for a batch's first step):
 //
 //   v ← v + ½dt (f/m + g − c v);  x ← x + dt v              (kick + drift, free particles)
 //   evaluate:  F̃_i = Σ_j V_j x_ji ĝ_ijᵀ,  D_i = Σ_j V_j W_ij x_ji X_jiᵀ,  R_i = polar(D_i or F̃_i),
@@ -9,14 +9,21 @@
 //   gather + kick:  f_k = −Σ_{j∈N(k)} [V_k M_j ĝ_jk − V_j M_k ĝ_kj + q_kj − q_jk];
 //              v ← v + ½dt (f/m + g − c v)
 //
-// The rest constants (neighbourhoods, ĝ, W, the gather's sums) are the CPU body's
-// (CorotatedSph::reverseKernelGradients() etc.), uploaded once; the step is the CPU's arithmetic
-// with each neighbour sum split over a few lanes of a warp, so in float64 a step agrees with
-// SoftBodySimulator::step to round-off. float32
-// keeps positions and constants in single precision (tolerance in test/unit/core_cuda_soft_body.cpp).
+// The rest constants (neighbourhoods, L_i, the gather's sums) are the CPU body's, uploaded once. With
+// order-1 gradients (the default) the kernels recompute W_ij and ĝ_ij = L_i ∇W(X_ji) per neighbour
+// from X and L (float64) instead of streaming per-entry arrays, and the gather reads Σ_j M_j ĝ_jk as
+// Σ_j N_j ∇W(X_kj) with N_j = M_j L_j from one 24-value record per neighbour written by the evaluation
+// (soft_step_kernels.h); order-2 (MLS) gradients stream ĝ, W, the reverse ĝ and the hourglass weights
+// (CorotatedSph::reverseKernelGradients() etc.). The step is the CPU's arithmetic up to the order of
+// sums and products, with each neighbour sum split over a few lanes of a warp, so in float64 a step
+// agrees with SoftBodySimulator::step to round-off. float32 keeps positions and the state in single
+// precision (the evaluation computes ĝ in float64 and rounds it; tolerance in
+// test/unit/core_cuda_soft_body.cpp).
 // Batches of steps are captured once in a CUDA graph and replayed (no host synchronisation inside a
-// batch); a batch ends by reading one status word: an inverted particle (det F ≤ 0) or a non-finite
-// velocity throws TopoError naming the particle and the step, as the CPU does.
+// batch); without contact the gather of each step but a batch's last also does the next step's first
+// half kick and drift (x, clock and step counter double-buffered), so a step is two kernels. A batch
+// ends by reading one status word: an inverted particle (det F ≤ 0) or a non-finite velocity throws
+// TopoError naming the particle and the step, as the CPU does.
 //
 // With contact (physics/soft_contact.h: obstacles, on embedded surface samples or on the particles)
 // a step is five kernels: friction at (x_n, v_n), kick + drift, evaluate, gather + the normal force
