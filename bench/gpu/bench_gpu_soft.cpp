@@ -99,11 +99,11 @@ void gpuCase(const std::string& base, int nx, int ny, int nz, double hfac, int g
     const double cpu_rate = double(n) / times[times.size() / 2];
     const double T = p == CudaPrecision::Float64 ? 8.0 : 4.0;
     // Order-1 gradients are recomputed (soft_step_kernels.h): per entry only the index (both
-    // kernels); per particle 97 values (evaluate: x, c, V, μ, λ, C, writes F̃ and the 24-value
-    // record; gather: the record as a neighbour's, c, V, x, Σ V ∇W, hourglass sums, m, v, writes f,
-    // v, next x) and 145 bytes (X and L in float64, X again in the gather, offsets, clamp flag).
+    // kernels); per particle 96 values (evaluate: x, c, μ, λ, C, writes F̃ and the 24-value record;
+    // gather: the record as a neighbour's, c, V, x, Σ V ∇W, hourglass sums, m, v, writes f, v, next
+    // x) and 145 bytes (X, V and L in float64, X and V again in the gather, offsets, clamp flag).
     const bool recomputed = sim->sph().options().gradient_order == 1;
-    const double bytes = recomputed ? 8.0 * nb + 97.0 * T + 145.0 : (8.0 + 11.0 * T) * nb + 83.0 * T + 17.0;
+    const double bytes = recomputed ? 8.0 * nb + 96.0 * T + 145.0 : (8.0 + 11.0 * T) * nb + 83.0 * T + 17.0;
     const double achieved = gpu_rate * bytes / 1e9;
     std::printf(
         "{\"case\": \"%s\", \"device\": \"%s\", \"particles\": %zu, \"neighbours_mean\": %.1f, \"precision\": \"%s\", "

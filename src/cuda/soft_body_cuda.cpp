@@ -24,7 +24,11 @@ SoftBodyCuda::SoftBodyCuda(const SoftBodySimulator& sim, CudaPrecision precision
     : impl_(std::make_unique<Impl>()) {
   if (lanes == 0) {
     const double nb = double(sim.sph().neighbors().indices.size()) / double(std::max<std::size_t>(1, sim.size()));
-    lanes = nb < 48.0 ? 4 : 8;
+    const bool large = sim.size() >= 50000;
+    if (precision == CudaPrecision::Float64)
+      lanes = large ? 2 : 4;
+    else
+      lanes = nb >= 48.0 && !large ? 8 : 4;
   }
   if (lanes != 1 && lanes != 2 && lanes != 4 && lanes != 8 && lanes != 16 && lanes != 32)
     throw TopoError("CUDA soft body", "lanes_per_particle " + std::to_string(lanes) + " is not a power of 2 up to 32",
@@ -44,6 +48,7 @@ SoftBodyCuda::SoftBodyCuda(const SoftBodySimulator& sim, CudaPrecision precision
   check(cudaSetDevice(info.device), "cudaSetDevice");
   check(cudaStreamCreateWithFlags(&impl_->stream, cudaStreamNonBlocking), "stream creation");
   impl_->body64.lanes = impl_->body32.lanes = lanes;
+  impl_->body64.dependent_launch = impl_->body32.dependent_launch = info.compute_capability >= 90 ? 1 : 0;
   if (precision == CudaPrecision::Float64) {
     impl_->build(sim, &impl_->body64);
     cuda_detail::launchEvaluateForces(impl_->body64, impl_->stream);  // F̃ and M at x (f as uploaded)

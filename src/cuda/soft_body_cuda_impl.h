@@ -145,6 +145,7 @@ struct SoftBodyCuda::Impl {
       for (std::size_t i = 0; i < n; ++i) {
         L[i] = sph.correction(i);
         for (int d = 0; d < 3; ++d) Xr[4 * i + d] = sph.restPositions()[i](d);
+        Xr[4 * i + 3] = sph.volumes()[i];
         for (int e = nbr.offsets[i]; e < nbr.offsets[i + 1]; ++e) {
           const int j = nbr.indices[e];
           gsum_raw[i] += sph.volumes()[j] * cubicSplineGradW(sph.restPositions()[j] - sph.restPositions()[i], h);

@@ -318,6 +318,17 @@ __device__ inline void load16(const T* p, T* out) {
   }
 }
 
+/// Programmatic dependent launch: waits until the kernel before this one (when this one was launched
+/// as its dependent) has finished and its writes are visible; a no-op otherwise. Nothing the previous
+/// kernel writes may be read, and nothing it reads may be written, before this call. (The previous
+/// kernel triggers the launch only by finishing: an early cudaTriggerProgrammaticLaunchCompletion()
+/// made the 9k-particle step 20–30 % slower on an H100: the waiting blocks hold the SMs' slots.)
+__device__ inline void waitForPreviousKernel() {
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
+  cudaGridDependencySynchronize();
+#endif
+}
+
 template <class T>
 __device__ inline void encodeFirst(unsigned long long* word, long long step, int particle) {
   atomicMin(word, (static_cast<unsigned long long>(step) << 32) | static_cast<unsigned int>(particle));

@@ -85,6 +85,7 @@ __global__ void kickKernel(SoftDeviceBody<T> b, T h) {
 /// W_ij recomputed from X and L_i (b.L), and the gather's record written in place of M.
 template <class T, int L, bool G>
 __global__ void __launch_bounds__(kBlock) evaluateKernel(SoftDeviceBody<T> b) {
+  waitForPreviousKernel();
   const int tid = blockIdx.x * blockDim.x + threadIdx.x;
   const int i = tid / L, lane = tid % L;
   const bool active = i < b.n;
@@ -105,12 +106,12 @@ __global__ void __launch_bounds__(kBlock) evaluateKernel(SoftDeviceBody<T> b) {
   }
   for (int e = e0 + lane; e < e1; e += L) {
     const int j = b.idx[e];
-    const T v = b.V[j];
+    double Xj[4];  // X_j and V_j
+    if (G) load16<4>(b.Xr + 4 * j, Xj);
+    const T v = G ? static_cast<T>(Xj[3]) : b.V[j];
     const T d0 = v * (b.x[3 * j] - xi0), d1 = v * (b.x[3 * j + 1] - xi1), d2 = v * (b.x[3 * j + 2] - xi2);
     T g0, g1, g2, w = 0, X0 = 0, X1 = 0, X2 = 0;
     if (G) {  // ĝ_ij = L_i ∇W(X_ji), in float64
-      double Xj[4];
-      load16<4>(b.Xr + 4 * j, Xj);
       const double Y0 = Xj[0] - Xr[0], Y1 = Xj[1] - Xr[1], Y2 = Xj[2] - Xr[2];
       double wd, s;
       cubicSpline(b, Y0, Y1, Y2, &wd, &s);
@@ -253,6 +254,7 @@ __global__ void __launch_bounds__(kBlock) evaluateKernel(SoftDeviceBody<T> b) {
 /// buffer.
 template <class T, int L, bool G>
 __global__ void __launch_bounds__(kBlock) gatherKickKernel(SoftDeviceBody<T> b, T h, bool kick, DriftTarget<T> drift) {
+  waitForPreviousKernel();
   const int tid = blockIdx.x * blockDim.x + threadIdx.x;
   const int k = tid / L, lane = tid % L;
   const bool active = k < b.n;
@@ -397,21 +399,39 @@ __global__ void polarKernel(const T* A, T* R, int count, unsigned long long* fal
 
 inline int blocks(long long threads) { return static_cast<int>((threads + kBlock - 1) / kBlock); }
 
+/// kernel<<<blocks(threads), kBlock, 0, s>>>(args…), as a programmatic dependent of the stream's
+/// previous kernel when b.dependent_launch is set.
+template <class T, class... P, class... A>
+void launchStep(const SoftDeviceBody<T>& b, void (*kernel)(P...), long long threads, cudaStream_t s, A... args) {
+  cudaLaunchConfig_t cfg = {};
+  cfg.gridDim = dim3(static_cast<unsigned>(blocks(threads)));
+  cfg.blockDim = dim3(kBlock);
+  cfg.stream = s;
+  cudaLaunchAttribute attr[1];
+  attr[0].id = cudaLaunchAttributeProgrammaticStreamSerialization;
+  attr[0].val.programmaticStreamSerializationAllowed = 1;
+  cfg.attrs = attr;
+  cfg.numAttrs = b.dependent_launch ? 1 : 0;
+  cudaLaunchKernelEx(&cfg, kernel, args...);  // errors: cudaGetLastError() after the batch
+}
+
 template <class T, int L>
 void launchEvaluateOnly(const SoftDeviceBody<T>& b, cudaStream_t s) {
+  const long long threads = static_cast<long long>(b.n) * L;
   if (b.L)
-    evaluateKernel<T, L, true><<<blocks(static_cast<long long>(b.n) * L), kBlock, 0, s>>>(b);
+    launchStep(b, evaluateKernel<T, L, true>, threads, s, b);
   else
-    evaluateKernel<T, L, false><<<blocks(static_cast<long long>(b.n) * L), kBlock, 0, s>>>(b);
+    launchStep(b, evaluateKernel<T, L, false>, threads, s, b);
 }
 
 template <class T, int L>
 void launchGatherKick(const SoftDeviceBody<T>& b, T h, bool kick, cudaStream_t s,
                       const DriftTarget<T>& drift = DriftTarget<T>()) {
+  const long long threads = static_cast<long long>(b.n) * L;
   if (b.L)
-    gatherKickKernel<T, L, true><<<blocks(static_cast<long long>(b.n) * L), kBlock, 0, s>>>(b, h, kick, drift);
+    launchStep(b, gatherKickKernel<T, L, true>, threads, s, b, h, kick, drift);
   else
-    gatherKickKernel<T, L, false><<<blocks(static_cast<long long>(b.n) * L), kBlock, 0, s>>>(b, h, kick, drift);
+    launchStep(b, gatherKickKernel<T, L, false>, threads, s, b, h, kick, drift);
 }
 
 template <class T, int L>

@@ -74,7 +74,7 @@ struct SoftDeviceBody {
   // streamed ĝ is): float32 errors in ĝ would show as a spurious strain Σ_j V_j X_ji δĝ_ijᵀ.
   // The adjoint's gather (launchGatherForces) still streams ghr and hgw.
   const double* L = nullptr;              // 9n, correction matrices L_i (null: stream gh, W, ghr, hgw)
-  const double* Xr = nullptr;             // 4n, X in float64, padded to 4 values (16-byte loads)
+  const double* Xr = nullptr;             // 4n, X_i and V_i in float64 (16-byte loads)
   const T* gsum_raw = nullptr;            // 3n, Σ_j V_j ∇W(X_ji) (with L: M_k ĝsum_k = N_k gsum_raw_k)
   T* rec = nullptr;                       // kRecord n: N_i, F̃_i, x_i, c_i, V_i, 0 (with L; then M is not written)
   double inv_h = 0;                       // 1/h [1/m]
@@ -94,6 +94,9 @@ struct SoftDeviceBody {
   double hg_alpha_over_h2 = 0.0;  // α / h² (the hourglass material derivative)
   ContactDevice<T> contact;
   int lanes = 8;  // threads per particle in the neighbour sums: 1, 2, 4, 8, 16 or 32
+  // Launch the step's two neighbour kernels as programmatic dependents of the kernel before them
+  // (compute capability 9.0+): their launch overlaps that kernel's end; they wait for its results.
+  int dependent_launch = 0;
   // state
   T* x = nullptr;             // 3n
   T* v = nullptr;             // 3n
