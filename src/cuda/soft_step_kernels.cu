@@ -8,6 +8,7 @@
 
 #include <climits>
 #include <cstdint>
+#include <type_traits>
 
 #include "soft_device_math.cuh"
 #include "soft_step_kernels.h"
@@ -434,13 +435,6 @@ void launchGatherKick(const SoftDeviceBody<T>& b, T h, bool kick, cudaStream_t s
     launchStep(b, gatherKickKernel<T, L, false>, threads, s, b, h, kick, drift);
 }
 
-template <class T, int L>
-void launchForces(const SoftDeviceBody<T>& b, T h, bool kick, cudaStream_t s,
-                  const DriftTarget<T>& drift = DriftTarget<T>()) {
-  launchEvaluateOnly<T, L>(b, s);
-  launchGatherKick<T, L>(b, h, kick, s, drift);
-}
-
 /// The adjoint's gather (linear in x, F̃, M: the body's arrays, streamed ĝ_jk and weights).
 template <class T, int L>
 void launchGatherOnly(const SoftDeviceBody<T>& b, cudaStream_t s) {
@@ -448,29 +442,39 @@ void launchGatherOnly(const SoftDeviceBody<T>& b, cudaStream_t s) {
       <<<blocks(static_cast<long long>(b.n) * L), kBlock, 0, s>>>(b, T(0), false, DriftTarget<T>());
 }
 
+/// f(std::integral_constant<int, L>()) for L = lanes (1, 2, 4, 8, 16 or 32; anything else 8).
+template <class F>
+void withLanes(int lanes, F&& f) {
+  switch (lanes) {
+    case 1:
+      f(std::integral_constant<int, 1>());
+      break;
+    case 2:
+      f(std::integral_constant<int, 2>());
+      break;
+    case 4:
+      f(std::integral_constant<int, 4>());
+      break;
+    case 16:
+      f(std::integral_constant<int, 16>());
+      break;
+    case 32:
+      f(std::integral_constant<int, 32>());
+      break;
+    default:
+      f(std::integral_constant<int, 8>());
+      break;
+  }
+}
+
+/// Evaluation, then gather + kick, with b.lanes lanes a particle.
 template <class T>
 void launchForcesLanes(const SoftDeviceBody<T>& b, T h, bool kick, cudaStream_t s,
                        const DriftTarget<T>& drift = DriftTarget<T>()) {
-  switch (b.lanes) {
-    case 1:
-      launchForces<T, 1>(b, h, kick, s, drift);
-      break;
-    case 2:
-      launchForces<T, 2>(b, h, kick, s, drift);
-      break;
-    case 4:
-      launchForces<T, 4>(b, h, kick, s, drift);
-      break;
-    case 16:
-      launchForces<T, 16>(b, h, kick, s, drift);
-      break;
-    case 32:
-      launchForces<T, 32>(b, h, kick, s, drift);
-      break;
-    default:
-      launchForces<T, 8>(b, h, kick, s, drift);
-      break;
-  }
+  withLanes(b.lanes, [&](auto L) {
+    launchEvaluateOnly<T, decltype(L)::value>(b, s);
+    launchGatherKick<T, decltype(L)::value>(b, h, kick, s, drift);
+  });
 }
 
 /// The drift target of body b: its own state (in place) or the other half of the double buffer.
@@ -548,52 +552,12 @@ void launchEvaluateForces(const SoftDeviceBody<T>& b, void* stream) {
 
 template <class T>
 void launchEvaluateState(const SoftDeviceBody<T>& b, void* stream) {
-  cudaStream_t s = static_cast<cudaStream_t>(stream);
-  switch (b.lanes) {
-    case 1:
-      launchEvaluateOnly<T, 1>(b, s);
-      break;
-    case 2:
-      launchEvaluateOnly<T, 2>(b, s);
-      break;
-    case 4:
-      launchEvaluateOnly<T, 4>(b, s);
-      break;
-    case 16:
-      launchEvaluateOnly<T, 16>(b, s);
-      break;
-    case 32:
-      launchEvaluateOnly<T, 32>(b, s);
-      break;
-    default:
-      launchEvaluateOnly<T, 8>(b, s);
-      break;
-  }
+  withLanes(b.lanes, [&](auto L) { launchEvaluateOnly<T, decltype(L)::value>(b, static_cast<cudaStream_t>(stream)); });
 }
 
 template <class T>
 void launchGatherForces(const SoftDeviceBody<T>& b, void* stream) {
-  cudaStream_t s = static_cast<cudaStream_t>(stream);
-  switch (b.lanes) {
-    case 1:
-      launchGatherOnly<T, 1>(b, s);
-      break;
-    case 2:
-      launchGatherOnly<T, 2>(b, s);
-      break;
-    case 4:
-      launchGatherOnly<T, 4>(b, s);
-      break;
-    case 16:
-      launchGatherOnly<T, 16>(b, s);
-      break;
-    case 32:
-      launchGatherOnly<T, 32>(b, s);
-      break;
-    default:
-      launchGatherOnly<T, 8>(b, s);
-      break;
-  }
+  withLanes(b.lanes, [&](auto L) { launchGatherOnly<T, decltype(L)::value>(b, static_cast<cudaStream_t>(stream)); });
 }
 
 template <class T>
