@@ -69,36 +69,45 @@ ContactSamples thinToSpacing(const ContactSamples& c, double s) {
   std::vector<std::pair<std::uint64_t, int>> order(c.size());
   for (std::size_t i = 0; i < c.size(); ++i) order[i] = {mix(i), int(i)};
   std::sort(order.begin(), order.end());
-  std::unordered_map<std::int64_t, std::vector<int>> kept_in;
-  std::vector<int> kept;
-  auto near = [&](const Eigen::Vector3d& p, double radius, int* nearest) {
-    const Eigen::Array3d q = (p / r).array().floor();
-    double best = radius * radius;
-    bool found = false;
-    for (int dx = -1; dx <= 1; ++dx)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dz = -1; dz <= 1; ++dz) {
-          const Eigen::Vector3d probe = (q + Eigen::Array3d(dx + 0.5, dy + 0.5, dz + 0.5)).matrix() * r;
-          const auto it = kept_in.find(cubeKey(probe, r));
-          if (it == kept_in.end()) continue;
-          for (int j : it->second) {
-            const double d2 = (c.X[j] - p).squaredNorm();
-            if (d2 < best) {
-              best = d2;
-              found = true;
-              if (nearest)
-                *nearest = j;
-              else
-                return true;
-            }
-          }
-        }
-    return found;
+  // Kept samples by cube of edge r: an open-addressing table from the cube's key to its first sample,
+  // the others chained through next (the cubes of a surface are few and scattered in its box).
+  std::vector<std::int64_t> keys(1024, -1);
+  std::vector<int> head(1024, -1), next(c.size(), -1);
+  std::size_t used = 0;
+  auto slot = [&](std::int64_t key) {
+    std::size_t k = mix(std::uint64_t(key)) & (keys.size() - 1);
+    while (keys[k] != -1 && keys[k] != key) k = (k + 1) & (keys.size() - 1);
+    return k;
   };
+  auto pack = [](const Eigen::Array3i& q) {
+    return (std::int64_t(q[0]) & 0x1FFFFF) | (std::int64_t(q[1]) & 0x1FFFFF) << 21 |
+           (std::int64_t(q[2]) & 0x1FFFFF) << 42;
+  };
+  std::vector<int> kept;
   for (const auto& oi : order) {
     const int i = oi.second;
-    if (near(c.X[i], r, nullptr)) continue;
-    kept_in[cubeKey(c.X[i], r)].push_back(i);
+    const Eigen::Array3i q = (c.X[i] / r).array().floor().cast<int>();
+    bool near = false;
+    for (int dx = -1; dx <= 1 && !near; ++dx)
+      for (int dy = -1; dy <= 1 && !near; ++dy)
+        for (int dz = -1; dz <= 1 && !near; ++dz)
+          for (int j = head[slot(pack(q + Eigen::Array3i(dx, dy, dz)))]; j >= 0 && !near; j = next[j])
+            near = (c.X[j] - c.X[i]).squaredNorm() < r * r;
+    if (near) continue;
+    if (2 * (used + 1) > keys.size()) {  // grow: keep the table at most half full
+      std::vector<std::int64_t> old_keys(2 * keys.size(), -1);
+      std::vector<int> old_head(2 * keys.size(), -1);
+      old_keys.swap(keys), old_head.swap(head);
+      for (std::size_t k = 0; k < old_keys.size(); ++k)
+        if (old_keys[k] != -1) {
+          const std::size_t t = slot(old_keys[k]);
+          keys[t] = old_keys[k], head[t] = old_head[k];
+        }
+    }
+    const std::int64_t key = pack(q);
+    const std::size_t t = slot(key);
+    if (keys[t] == -1) keys[t] = key, ++used;
+    next[i] = head[t], head[t] = i;
     kept.push_back(i);
   }
   // Lloyd relaxation (4 rounds): every candidate goes to its nearest sample, and each sample moves to
@@ -112,7 +121,9 @@ ContactSamples thinToSpacing(const ContactSamples& c, double s) {
   std::vector<int> owner(c.size(), -1);
   for (int round = 0; round < 5; ++round) {
     const SpatialGrid grid(out.X, 2.0 * r);
-    for (std::size_t i = 0; i < c.size(); ++i) {
+    const std::ptrdiff_t nc = static_cast<std::ptrdiff_t>(c.size());
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t i = 0; i < nc; ++i) {
       double best = 4.0 * r * r;
       grid.query(c.X[i], [&](int j, const Eigen::Vector3d& x) {
         const double d2 = (x - c.X[i]).squaredNorm();
@@ -625,11 +636,11 @@ void patchHoles(const VolumeCloud& filled, const std::string& source, ContactSam
 
 }  // namespace
 
-double defaultContactSpacing(const VolumeCloud& filled) {
+double defaultContactSpacing(const VolumeCloud& filled, SurfaceKind kind) {
   Eigen::Vector3d lo, hi;
   filled.bounds(&lo, &hi);
   const double d = (hi - lo).norm() + filled.spacing;
-  return std::min(0.5 * filled.spacing, d / 200.0);
+  return std::min(0.5 * filled.spacing, d / (kind == SurfaceKind::Mesh ? 400.0 : 200.0));
 }
 
 ContactSamples sampleContactSurface(const SurfaceData& surface, const VolumeCloud& filled,
@@ -640,10 +651,11 @@ ContactSamples sampleContactSurface(const SurfaceData& surface, const VolumeClou
   if (!(o.spacing_m >= 0.0) || !std::isfinite(o.spacing_m))
     throw TopoError("contact spacing", "is " + numberText(o.spacing_m, 4) + " m",
                     "give a positive spacing in m, or 0 for the automatic one");
-  const double s = o.spacing_m > 0.0 ? o.spacing_m : defaultContactSpacing(filled);
-  ContactSamples out = surface.kind == SurfaceKind::Mesh && !surface.triangles.empty()
-                           ? meshSamples(surface, filled, s, o, warnings)
-                           : pointSamples(surface, filled, s, o, warnings);
+  const bool mesh = surface.kind == SurfaceKind::Mesh && !surface.triangles.empty();
+  const double s =
+      o.spacing_m > 0.0 ? o.spacing_m : defaultContactSpacing(filled, mesh ? SurfaceKind::Mesh : SurfaceKind::Points);
+  ContactSamples out =
+      mesh ? meshSamples(surface, filled, s, o, warnings) : pointSamples(surface, filled, s, o, warnings);
   if (out.empty())
     throw TopoError(surface.source,
                     "gives no contact samples: none of its " + std::to_string(surface.size()) +

@@ -48,7 +48,7 @@ SpatialGrid::SpatialGrid(const std::vector<Eigen::Vector3d>& X, double cell_m) {
     dims_[a] = static_cast<int>(cells);
   }
   const std::int64_t ncells = static_cast<std::int64_t>(dims_[0]) * dims_[1] * static_cast<std::int64_t>(dims_[2]);
-  dense_ = ncells <= 4 * static_cast<std::int64_t>(n) + 4096;
+  dense_ = ncells <= 16 * static_cast<std::int64_t>(n) + 4096;  // a surface in its box: still dense
 
   // Cell key of every point (row-major x fastest).
   std::vector<std::int64_t> key(n);

@@ -1,7 +1,9 @@
 // RigTwin: a default shape with a known interior, simulated once and replayed as a seamless loop.
 #include "topo_gaussian/workflow/rig_twin.h"
 
+#include "topo_gaussian/geometry/contact_samples.h"
 #include "topo_gaussian/geometry/ingest.h"
+#include "topo_gaussian/geometry/shape_generator.h"
 
 #include <algorithm>
 #include <chrono>
@@ -78,6 +80,58 @@ Eigen::VectorXd RigTwin::defaultInteriorQuadric(const std::string& task) {
   return theta;
 }
 
+ContactSamples exactShapeContactSamples(const DefaultShape& shape, const VolumeCloud& cloud, double spacing_m,
+                                        int mirror_axis) {
+  if (!(spacing_m >= 0.0) || !std::isfinite(spacing_m))
+    throw TopoError("rig twin contact spacing " + numberText(spacing_m, 4) + " m", "is negative or not finite",
+                    "give a positive spacing in metres, or 0 for d / 400");
+  geometry::ContactSampleOptions o;
+  o.spacing_m = spacing_m;
+  ContactSamples c = geometry::sampleContactSurface(geometry::makeDefaultShapeMesh(shape.name, 512), cloud, o, nullptr);
+  // The mesh's faces lie within ~(2π R / 512)² / (8 R) of the surface (0.4 µm on the doll): bracket
+  // each sample by a quarter of the spacing along its normal and bisect to the boundary.
+  const double t = 0.25 * c.spacing;
+  for (std::size_t k = 0; k < c.size(); ++k) {
+    Eigen::Vector3d in = c.X[k] - t * c.normal[k], out = c.X[k] + t * c.normal[k];
+    if (!shape.inside(in) || shape.inside(out)) continue;  // an edge or a corner: keep the mesh's point
+    while ((out - in).norm() > 1e-12) {
+      const Eigen::Vector3d mid = 0.5 * (in + out);
+      (shape.inside(mid) ? in : out) = mid;
+    }
+    c.X[k] = in;
+  }
+  // The true solid rocks about a horizontal axis without spinning about the vertical: the motion is its
+  // own mirror image across the vertical plane normal to the axis. An uneven sample set is not, and the
+  // small yaw torques of its friction springs add up (the twin doll turned 2.8° about the vertical in 9
+  // periods). Where the shape is its own mirror image across that plane through its centre (every
+  // sample's image lies on the surface as the sample does), the samples are joined by their images,
+  // each taking half the area: the set then has the motion's symmetry.
+  if (mirror_axis == 0 || mirror_axis == 1) {
+    const double centre = 0.5 * (shape.lo[mirror_axis] + shape.hi[mirror_axis]);
+    auto mirror = [&](Eigen::Vector3d v, bool point) {
+      v[mirror_axis] = point ? 2.0 * centre - v[mirror_axis] : -v[mirror_axis];
+      return v;
+    };
+    bool symmetric = true;
+    for (std::size_t k = 0; k < c.size() && symmetric; ++k) {
+      const Eigen::Vector3d m = mirror(c.X[k], true), n = mirror(c.normal[k], false);
+      symmetric = shape.inside(m - t * n) == shape.inside(c.X[k] - t * c.normal[k]) &&
+                  shape.inside(m + t * n) == shape.inside(c.X[k] + t * c.normal[k]);
+    }
+    if (symmetric) {
+      const std::size_t n0 = c.size();
+      for (std::size_t k = 0; k < n0; ++k) {
+        c.area[k] *= 0.5;
+        c.X.push_back(mirror(c.X[k], true));
+        c.normal.push_back(mirror(c.normal[k], false));
+        c.area.push_back(c.area[k]);
+      }
+    }
+  }
+  c.origin = "exact " + shape.name + " surface";
+  return c;
+}
+
 RigTwin::RigTwin(const RigTwinOptions& options) : options_(options) {
   const auto t0 = std::chrono::steady_clock::now();
   if (options_.loop_cycles < 2 || options_.loop_cycles > 1000)
@@ -102,6 +156,17 @@ RigTwin::RigTwin(const RigTwinOptions& options) : options_(options) {
   config_ = TaskConfig::load(options_.task, options_.task_dir);
   if (options_.undamped && config_.has("contact_damping_ratio")) config_.setNumber("contact_damping_ratio", 0.0);
   for (const auto& a : options_.overrides) config_.setAssignment(a, "rig twin set");
+  if (options_.surface_file.empty()) {
+    // Rocking about a horizontal lattice axis, the motion is its own mirror image across the vertical
+    // plane normal to that axis.
+    int mirror_axis = -1;
+    if (config_.has("rocking_axis")) {
+      const Eigen::Vector3d a = config_.vector3("rocking_axis").cwiseAbs();
+      for (int k = 0; k < 2; ++k)
+        if (a[k] > 0 && a[k] >= (1 - 1e-12) * a.norm()) mirror_axis = k;
+    }
+    cloud_.contact = exactShapeContactSamples(shape_, cloud_, options_.contact_spacing_m, mirror_axis);
+  }
   const RigTwinMotion& replay = twinMotion(config_.task());
   if (replay.fallback_duration_s > 0 && !(config_.number(replay.duration_parameter) > 0))
     config_.setNumber(replay.duration_parameter, replay.fallback_duration_s);

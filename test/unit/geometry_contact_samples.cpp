@@ -66,10 +66,15 @@ TEST(ContactSamples, MeshSamplesLieOnTheSurfaceEvenlyWithTheirAreas) {
   const ContactSamples& c = cloud.contact;
   ASSERT_FALSE(c.empty());
   EXPECT_EQ(c.origin, "mesh triangles");
-  EXPECT_NEAR(c.spacing, defaultContactSpacing(cloud), 1e-15);
-  double sagitta = 0.0;  // deepest face centroid below the sphere: how far the mesh itself lies inside
-  for (const auto& t : mesh.triangles)
-    sagitta = std::max(sagitta, R - (mesh.points[t[0]] + mesh.points[t[1]] + mesh.points[t[2]]).norm() / 3.0);
+  EXPECT_NEAR(c.spacing, defaultContactSpacing(cloud, SurfaceKind::Mesh), 1e-15);
+  // How far the mesh itself lies inside the sphere: no point of a face is deeper than its plane's
+  // distance from the centre (the default samples are finer than the faces, so they show the faces).
+  double sagitta = 0.0;
+  for (const auto& t : mesh.triangles) {
+    const Eigen::Vector3d &a = mesh.points[t[0]], &b = mesh.points[t[1]], &d = mesh.points[t[2]];
+    const Eigen::Vector3d n = (b - a).cross(d - a);
+    if (n.norm() > 0) sagitta = std::max(sagitta, R - std::abs(n.normalized().dot(a)));
+  }
   double worst_r = 0.0, worst_n = 1.0;
   for (std::size_t k = 0; k < c.size(); ++k) {
     worst_r = std::max(worst_r, std::abs(c.X[k].norm() - R));
@@ -82,7 +87,7 @@ TEST(ContactSamples, MeshSamplesLieOnTheSurfaceEvenlyWithTheirAreas) {
   EXPECT_NEAR(c.totalArea() / meshArea(mesh), 1.0, 1e-9);
   EXPECT_NEAR(rep.contact_area_m2 / meshArea(mesh), 1.0, 1e-9);
   const double per_area = double(c.size()) * c.spacing * c.spacing / c.totalArea();
-  EXPECT_GT(per_area, 0.8);
+  EXPECT_GT(per_area, 0.75);  // a maximal disk set of radius 0.85 s holds ~0.96 / s², less after Lloyd
   EXPECT_LT(per_area, 1.5);
   double p10, p50, p90;
   nearestNeighbourSpread(c.X, 2.0 * c.spacing, &p10, &p50, &p90);

@@ -44,9 +44,14 @@ struct ContactSampleOptions {
   double min_opacity = 0.5;  ///< Gaussians: centres of Gaussians at least this opaque
 };
 
-/// min(h / 2, d / 200): half the lattice spacing h, and at most 1/200 of the bounding-box diagonal d
-/// of the filled particles (rocking within 1 % of the smooth body needs s ≲ 0.3 R θ at the contact).
-double defaultContactSpacing(const VolumeCloud& filled);
+/// Half the lattice spacing h, and at most a fraction of the bounding-box diagonal d of the filled
+/// particles: d / 400 on a mesh, d / 200 on points and Gaussians (their own spacing and noise limit
+/// what finer samples could add). Rocking within 1 % of the smooth body needs s ≲ 0.3 R θ at the
+/// contact; a wobbly doll whose centre of mass sits only 0.17 R below its sphere's centre is ~5× more
+/// sensitive: filled at 4 mm its period over release tilts 5…25° wanders −0.79…+0.08 % with samples at
+/// d / 200 (0.78 mm) and −0.12…+0.21 % at d / 400 (RigTwin.TumblerPeriodOverReleaseTilts). The penalty
+/// sum over the ~35 samples under the doll moves its resting height by bumps ∝ s.
+double defaultContactSpacing(const VolumeCloud& filled, SurfaceKind kind);
 
 /// Samples of `surface` (the input the cloud was filled from; meshes already repaired). `filled` gives
 /// the lattice spacing, the boundary particles (floater rejection) and the inside (normal orientation).
