@@ -13,8 +13,11 @@
 //  - point clouds: the points averaged per cube of edge s/3, then moved onto the quadric height field
 //    fitted to their neighbours within R_f = 8 s in the frame of their weighted plane (one second-order
 //    moving-least-squares step: it removes most of a scan's noise without the inward pull of a plane
-//    fit), the normal the fit's, turned away from the filled particles (or along the given normals),
-//    standing for π r² / (neighbours in r = 2.5 s);
+//    fit), the normal the fit's, turned away from the filled particles (or along the given normals);
+//    each point's patch then carries candidates ≈ 36 per s² (R2 sequence over a disk), those of its
+//    Voronoi cell on the surface (the candidates nearer to it than to any other point), each standing
+//    for its patch area: the cells tile the surface, so after the thinning every sample stands for the
+//    area around it whatever the scan's own layout (a dense scan's means: their kernel-density share);
 //  - 3D Gaussians: the same with the centres of the opaque Gaussians (opacity ≥ 0.5), which sit on
 //    the splat shell's mid-surface.
 // A noisy scan's patches widen until the noise no longer bends the surface: R_f grows until the
