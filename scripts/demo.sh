@@ -55,6 +55,7 @@ run_rig() {
 status=0
 if [ "$RIG" = tumbler ] || [ "$RIG" = all ]; then
   run_rig tumbler demo.launch _experiments:="rock10=tumbler;rock25=tumbler;hang=hanging" \
+      _weigh_topic:=/scale_kg _weigh_experiment:=hang \
       _overrides:="contact_damping_ratio=0;measured_cycles=1;density_solid=5000;rock25.initial_tilt_deg=25;hang.hanging_point=0,0.04,0.02" \
       || status=$?
 fi

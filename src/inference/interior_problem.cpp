@@ -1,8 +1,11 @@
 #include "topo_gaussian/inference/interior_problem.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/topology/quadric_representation.h"
 
 namespace topo_gaussian::inference {
 
@@ -142,15 +145,80 @@ std::vector<std::string> InteriorProblem::notes() const {
   return out;
 }
 
-Eigen::VectorXd InteriorProblem::initialParameters() const {
+Eigen::VectorXd InteriorProblem::initialParameters(std::string* note) const {
   const std::vector<double>& given = config_.list("initial_parameters");
-  if (given.empty()) return representation_->initialParameters();
+  if (given.empty()) {
+    double mass = 0.0, radius = 0.0;
+    Eigen::VectorXd theta = weighedCavityStart(&mass, &radius);
+    if (theta.size() > 0) {
+      if (note)
+        *note = "start: the weighed mass " + numberText(weighedMassKg(), 6) +
+                " kg from a sphere of the other material centred on the volume's centroid, radius " +
+                numberText(radius, 4) + " m (design mass " + numberText(mass, 6) +
+                " kg; initial_parameters overrides it)";
+      return theta;
+    }
+    if (note) *note = "start: " + representation_->name() + " fully solid (initial_field)";
+    return representation_->initialParameters();
+  }
   if (static_cast<int>(given.size()) != representation_->numParameters())
     throw TopoError("initial_parameters",
                     "has " + std::to_string(given.size()) + " values but the " + representation_->name() +
                         " representation has " + std::to_string(representation_->numParameters()) + " parameters",
                     "give one value per parameter, or leave it empty to start from initial_field");
+  if (note) *note = "start: initial_parameters";
   return Eigen::Map<const Eigen::VectorXd>(given.data(), static_cast<Eigen::Index>(given.size()));
+}
+
+double InteriorProblem::weighedMassKg() const {
+  double m = 0.0;
+  for (const auto& x : experiments_)
+    if (x.config.has("mass_kg")) m = std::max(m, x.config.number("mass_kg"));
+  return m;
+}
+
+Eigen::VectorXd InteriorProblem::weighedCavityStart(double* mass_kg, double* radius_m) const {
+  const double target = weighedMassKg();
+  const auto* quadric = dynamic_cast<const QuadricRepresentation*>(representation_.get());
+  if (!(target > 0) || !quadric || cloud_.X.empty()) return {};
+  const NormalisedFrame& f = quadric->frame();
+  Eigen::Vector3d uc = Eigen::Vector3d::Zero();
+  double vol = 0, reach = 0;
+  for (std::size_t i = 0; i < cloud_.X.size(); ++i) {
+    uc += cloud_.V[i] * (cloud_.X[i] - f.centre) / f.scale;
+    vol += cloud_.V[i];
+  }
+  uc /= vol;
+  for (const auto& x : cloud_.X) reach = std::max(reach, ((x - f.centre) / f.scale - uc).norm());
+  std::vector<double> r, m;
+  const auto design = [&](double rho) {
+    Eigen::VectorXd theta(10);
+    theta << 1, 1, 1, 0, 0, 0, -2 * uc.x(), -2 * uc.y(), -2 * uc.z(), uc.squaredNorm() - rho * rho;
+    return theta;
+  };
+  const auto mass = [&](double rho) {
+    indicator(design(rho), &r);
+    task().masses(r, &m, nullptr);
+    double sum = 0;
+    for (double v : m) sum += v;
+    return sum;
+  };
+  // The mass is monotone in ρ (the sphere of the other material grows); bisect on its sign change.
+  double lo = 0.0, hi = reach + 1.0;
+  const double m_lo = mass(lo), m_hi = mass(hi);
+  if (!((m_lo - target) * (m_hi - target) < 0)) return {};
+  for (int k = 0; k < 100 && hi - lo > 1e-12; ++k) {
+    const double mid = 0.5 * (lo + hi), m_mid = mass(mid);
+    if (std::abs(m_mid - target) <= 1e-6 * target) {
+      lo = hi = mid;
+      break;
+    }
+    ((m_mid - target) * (m_lo - target) > 0 ? lo : hi) = mid;
+  }
+  const double rho = 0.5 * (lo + hi);
+  if (mass_kg) *mass_kg = mass(rho);
+  if (radius_m) *radius_m = rho * f.scale;
+  return design(rho);
 }
 
 double InteriorProblem::evaluate(const Eigen::VectorXd& theta, Eigen::VectorXd* grad,

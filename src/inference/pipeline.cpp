@@ -139,7 +139,7 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   const std::string outside = pointOutsideObjectNote(res.geometry, cloud);
   if (!outside.empty()) res.warnings.push_back(outside);
   for (const auto& note : problem.notes()) res.warnings.push_back(note);
-  const Eigen::VectorXd theta0 = problem.initialParameters();
+  const Eigen::VectorXd theta0 = problem.initialParameters(&res.start);
   Eigen::VectorXd lo, hi, g;
   problem.bounds(&lo, &hi);
   const auto te = Clock::now();

@@ -174,7 +174,10 @@ std::string reportJson(const InferenceResult& r, const TaskConfig& config) {
   }
   s << "},\n  \"targets\": " << allTargetsJson(config) << ",\n  \"experiments\": " << experimentsJson(r.final, config)
     << ",\n  \"initial_features\": " << featuresJson(r.initial.task.features)
-    << ",\n  \"achieved_features\": " << featuresJson(r.final.task.features)
+    << ",\n  \"achieved_features\": " << featuresJson(r.final.task.features) << ",\n  \"start\": " << quote(r.start)
+    << ",\n  \"theta\": [";
+  for (Eigen::Index i = 0; i < r.theta.size(); ++i) s << (i ? ", " : "") << num(r.theta[i]);
+  s << "]"
     << ",\n  \"initial_loss\": " << num(r.initial.loss) << ",\n  \"final_loss\": " << num(r.final.loss)
     << ",\n  \"converged\": " << (r.converged ? "true" : "false")
     << ",\n  \"optimizer_converged\": " << (r.optimizer.converged ? "true" : "false")

@@ -10,13 +10,16 @@
 //   object, as the goal's; the client waits for a measured window of each), ~representation (""),
 //   ~overrides [], ~targets [] (lists, or "A=1;B=2"), ~max_iterations (0),
 //   ~output_dir (""), ~wait_for_features_s (120: wait for motion_features with a measured motion
-//   before sending; 0 = send at once), ~ground_truth_topic (""), ~tolerance (0.02), ~timeout_s (900)
+//   before sending; 0 = send at once), ~ground_truth_topic (""), ~tolerance (0.02), ~timeout_s (900),
+//   ~weigh_topic ("": a std_msgs/Float64 scale reading [kg], e.g. /scale_kg of a rig_simulator, added as the
+//   target mass_kg of ~weigh_experiment (a hanging, balance or stand experiment; "" with a single experiment)
 // Exit codes: 0 done (and within tolerance of the truth), 1 aborted / timed out / bad parameters,
 // 3 finished but the truth was not reproduced.
 #include <actionlib/client/simple_action_client.h>
 #include <ros/ros.h>
 
 #include <sensor_msgs/point_cloud2_iterator.h>
+#include <std_msgs/Float64.h>
 
 #include <Eigen/Core>
 #include <algorithm>
@@ -92,7 +95,7 @@ int main(int argc, char** argv) {
   ros::NodeHandle pnh("~");
   topo_gaussian::InferInteriorGoal goal;
   double wait_s = 120, tolerance = 0.02, timeout_s = 900;
-  std::string truth_topic;
+  std::string truth_topic, weigh_topic, weigh_experiment;
   try {
     const topo_gaussian::topo_ros::ParamReader r(pnh, "infer_client");
     using topo_gaussian::topo_ros::Range;
@@ -108,6 +111,8 @@ int main(int argc, char** argv) {
     tolerance = r.number("tolerance", tolerance, "", Range::above(0.0));
     timeout_s = r.number("timeout_s", timeout_s, "s", Range::above(0.0));
     truth_topic = r.text("ground_truth_topic", "");
+    weigh_topic = r.text("weigh_topic", "");
+    weigh_experiment = r.text("weigh_experiment", "");
   } catch (const std::exception& e) {
     ROS_FATAL("infer_client: %s", topo_gaussian::topo_ros::asciiText(e.what()).c_str());
     return 1;
@@ -122,6 +127,21 @@ int main(int argc, char** argv) {
       ROS_FATAL("infer_client: no ground truth on %s within 60 s (is rig_simulator running?)", truth_topic.c_str());
       return 1;
     }
+  }
+  if (!weigh_topic.empty()) {
+    // The object on a scale (a rig_simulator's scale_kg): rigid motion alone never fixes the mass.
+    const auto w = waitFor<std_msgs::Float64>(weigh_topic, 60.0, nullptr);
+    if (!w || !(w->data > 0) || !std::isfinite(w->data)) {
+      ROS_FATAL("infer_client: no positive scale reading on %s within 60 s (~weigh_topic; is the scale publishing?)",
+                weigh_topic.c_str());
+      return 1;
+    }
+    const std::string key = (weigh_experiment.empty() ? "" : weigh_experiment + ".") + "mass_kg";
+    char text[64];
+    std::snprintf(text, sizeof(text), "%.9g", w->data);
+    goal.targets.push_back(key + "=" + text);
+    std::printf("[demo] scale (%s): %s kg, target %s\n", weigh_topic.c_str(), text, key.c_str());
+    std::fflush(stdout);
   }
   if (wait_s > 0 && !goal.experiments.empty()) {
     // A measured window of every experiment (motion_tracker tags them with the `experiment` topic).

@@ -211,6 +211,8 @@ void loadCameraParams(const ParamReader& r, RigSimulatorParams* params) {
   }
   p.noise_sigma = r.number("noise_sigma", p.noise_sigma, "grey levels");
   requireRange("noise_sigma", p.noise_sigma, 0, 100, "grey levels of Gaussian pixel noise, e.g. 2 (0 = none)");
+  p.scale_resolution_kg = r.number("scale_resolution_kg", p.scale_resolution_kg, "kg");
+  requireRange("scale_resolution_kg", p.scale_resolution_kg, 1e-9, 10, "the scale's display step in kg, e.g. 0.001");
   p.seed = int(r.integer("seed", p.seed));
   requireRange("seed", p.seed, 0, 2147483647, "any non-negative integer");
   p.world_frame = r.text("world_frame", p.world_frame);
@@ -436,6 +438,13 @@ RigSimulatorNode::RigSimulatorNode(const ::ros::NodeHandle& nh, const ::ros::Nod
   for (const auto& t : twins_) twins.push_back(t.get());
   truth_pub_.publish(toGroundTruthMsg(twins, names_, params_.object_frame, now));
   experiment_pub_ = nh_.advertise<std_msgs::String>("experiment", 1, true);
+  // The object on the rig's scale, as a lab weighs it once: its true mass to the scale's resolution.
+  scale_pub_ = nh_.advertise<std_msgs::Float64>("scale_kg", 1, true);
+  std_msgs::Float64 reading;
+  reading.data = params_.scale_resolution_kg * std::round(tw.truth().task.mass.mass / params_.scale_resolution_kg);
+  scale_pub_.publish(reading);
+  ROS_INFO("rig_simulator: on the scale (scale_kg): %.6g kg (true mass %.6g kg, resolution %.3g kg)", reading.data,
+           tw.truth().task.mass.mass, params_.scale_resolution_kg);
   // The true interior beside the object, for rviz (the recovered one is drawn at the object).
   geometry_msgs::TransformStamped view;
   view.header.stamp = now;

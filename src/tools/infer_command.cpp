@@ -167,6 +167,7 @@ int inferCommand(const std::vector<std::string>& argv) {
   std::cerr << "[topo infer] " << backend_line << "\n";
   const workflow::InferenceRunOutcome out = workflow::runInference(rq);
   const inference::InferenceResult& res = out.result;
+  if (!res.start.empty()) std::cerr << "[topo infer] " << res.start << "\n";
   for (const auto& w : res.warnings) std::cerr << "[topo infer] warning: " << w << "\n";
   std::cerr << "[topo infer] " << out.message << "\n";
   if (res.spread.computed) {  // the sentence is in the message above; here the ranges behind it

@@ -191,6 +191,7 @@ InferenceRunOutcome runUnguarded(const InferenceRunRequest& rq) {
   out.result = inference::runInference(config, *out.volume, rq.progress, rq.on_evaluation, rq.should_stop);
   out.cancelled = out.result.cancelled || out.result.optimizer.cancelled;
   out.result.warnings.insert(out.result.warnings.begin(), left_out.begin(), left_out.end());
+  if (!out.result.start.empty()) out.notes.push_back(out.result.start);
   for (const auto& w : out.result.warnings) out.notes.push_back("warning: " + w);
   const auto& res = out.result;
   const std::string dir = out.output_dir + "/";

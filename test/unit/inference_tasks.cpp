@@ -112,6 +112,54 @@ TEST(TaskGradient, HangingAllRepresentations) {
   }
 }
 
+// Weighed on a scale, the quadric starts from a sphere of the other material centred on the centroid
+// whose design mass is the reading (an unweighed solid start reaches a lower mass fastest through the
+// constant c: a uniformly grey body). Centred on the centroid, the sphere keeps the centre of mass of
+// the uniform solid; initial_parameters, a reading above the solid mass or another representation keep
+// the old start.
+TEST(WeighedStart, SphereOfTheOtherMaterialWithTheWeighedMass) {
+  const VolumeCloud cloud = topo_test::boxCloud(0.12, 0.1, 0.08, 0.008);
+  TaskConfig c = TaskConfig::defaults("hanging");
+  c.set("hanging_point", "0.02,0.01,0.04");
+  const double solid = c.number("density_solid") * cloud.totalVolume();
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < cloud.size(); ++i) centroid += cloud.V[i] * cloud.X[i] / cloud.totalVolume();
+  for (double fraction : {0.9, 0.75, 0.6}) {
+    c.setNumber("mass_kg", fraction * solid);
+    const InteriorProblem p(c, cloud);
+    std::string note;
+    const Eigen::VectorXd theta = p.initialParameters(&note);
+    ProblemEvaluation ev;
+    p.evaluate(theta, nullptr, &ev);
+    std::printf("[weighed start] reading %.4f kg: start mass %.6f kg, c (%.2g %.2g %.2g) m; %s\n", fraction * solid,
+                ev.task.mass.mass, ev.task.mass.com.x(), ev.task.mass.com.y(), ev.task.mass.com.z(), note.c_str());
+    EXPECT_NEAR(ev.task.mass.mass, fraction * solid, 1e-5 * solid);
+    EXPECT_LT((ev.task.mass.com - centroid).norm(), 1e-9);
+    EXPECT_NE(note.find("weighed mass"), std::string::npos) << note;
+    EXPECT_LT(ev.solid_fraction, fraction + 0.01);
+  }
+  c.setNumber("mass_kg", 1.1 * solid);  // heavier than solid: no sphere of hollow reaches it
+  {
+    const InteriorProblem heavy(c, cloud);
+    EXPECT_EQ(heavy.initialParameters(), heavy.representation().initialParameters());
+  }
+  EXPECT_EQ(InteriorProblem(c, cloud).weighedCavityStart().size(), 0);
+  c.setNumber("mass_kg", 0.8 * solid);
+  TaskConfig given = c;
+  given.set("initial_parameters", "0,0,0,0,0,0,0,0,0,0.5");
+  std::string note;
+  EXPECT_DOUBLE_EQ(InteriorProblem(given, cloud).initialParameters(&note)[9], 0.5);
+  EXPECT_EQ(note, "start: initial_parameters");
+  TaskConfig point = c;
+  point.set("representation", "point");
+  EXPECT_EQ(InteriorProblem(point, cloud).weighedCavityStart().size(), 0);
+  TaskConfig unweighed = TaskConfig::defaults("hanging");
+  unweighed.set("hanging_point", "0.02,0.01,0.04");
+  EXPECT_EQ(InteriorProblem(unweighed, cloud).weighedMassKg(), 0.0);
+  const InteriorProblem plain(unweighed, cloud);
+  EXPECT_EQ(plain.initialParameters(), plain.representation().initialParameters());
+}
+
 // Weighed on a scale (mass_kg target): the loss gains ((m − m*)/m*)², its gradient matches central
 // differences on a design away from the target mass.
 TEST(TaskGradient, HangingWeighedOnAScale) {

@@ -40,8 +40,21 @@ class InteriorProblem {
   InteriorProblem(const TaskConfig& config, const VolumeCloud& cloud);
 
   int numParameters() const { return representation_->numParameters(); }
-  /// The representation's start (initial_field), or initial_parameters when configured.
-  Eigen::VectorXd initialParameters() const;
+  /// The start design: initial_parameters when configured; else, for the quadric when an experiment
+  /// is weighed (a mass_kg target) that the solid start does not match, weighedCavityStart(); else the
+  /// representation's start (initial_field: fully solid). `note` (optional) says which, in words.
+  Eigen::VectorXd initialParameters(std::string* note = nullptr) const;
+  /// The weighed start: a sphere of the other material (hollow, or the insert's when it is the heavier)
+  /// centred on the particles' centroid, s(u) = |u − u_c|² − ρ² in the normalised frame, with ρ
+  /// bisected until the design's mass Σ ρ(r_i) V_i equals the scale's reading m* to 1e-6 (relative).
+  /// An unweighed solid start cannot leave its uniform density: a lower mass is reached fastest by
+  /// lowering the constant c, a grey body with the solid's centre of mass and inertia per mass (on the
+  /// tumbler demo 50 % of the volume grey, cavity IoU 0; from this start 0.72). Returns an empty vector
+  /// when no experiment is weighed, the representation is not the quadric, or m* lies outside the
+  /// masses such spheres reach (then the solid start stands).
+  Eigen::VectorXd weighedCavityStart(double* mass_kg = nullptr, double* radius_m = nullptr) const;
+  /// The largest scale reading (mass_kg target) among the experiments, 0 when none is weighed.
+  double weighedMassKg() const;
   void bounds(Eigen::VectorXd* lo, Eigen::VectorXd* hi) const { representation_->bounds(lo, hi); }
 
   /// Loss (and gradient when grad != null) at θ.

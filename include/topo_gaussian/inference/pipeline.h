@@ -24,6 +24,7 @@ struct InferenceResult {
   std::vector<double> r;        ///< indicator of the best design
   std::vector<double> density;  ///< [kg/m³]
   ProblemEvaluation initial;    ///< the starting design (fully solid unless configured otherwise)
+  std::string start;            ///< how the start design was chosen (InteriorProblem::initialParameters)
   ProblemEvaluation final;      ///< the best design
   /// The drawn interior is binary (solid where r ≥ 0.5) but the simulated one may be grey (0 < r < 1:
   /// a density between the materials). grey_fraction = Σ V_i [0.1 < r_i < 0.9] / Σ V_i; above 1 %
@@ -38,7 +39,7 @@ struct InferenceResult {
   bool cancelled = false;             ///< by progress or should_stop: the best design evaluated so far
   std::vector<std::string> warnings;  ///< for a person, not errors (e.g. a hanging point outside the object)
   std::string backend;  ///< where the kernels ran, e.g. "backend auto: CUDA on NVIDIA H100 … (132 SMs, 80 GiB)"
-  std::string message;                ///< one paragraph for a person: what happened, how close, what to do
+  std::string message;  ///< one paragraph for a person: what happened, how close, what to do
   /// Designs that fit as well as the best (restarts > 0; inference/design_spread.h): per particle the
   /// agreement with the best design's solid/hollow label (empty when not explored), and the spread.
   std::vector<double> solid_confidence;

@@ -13,6 +13,9 @@
 //        ~true_interior_markers (MarkerArray latched: the same, drawn like interior_markers, with the
 //        viewer's half cut away so its cavity shows);
 //        `experiment` (std_msgs/String latched: the experiment on camera, with ~experiments).
+//        `scale_kg` (std_msgs/Float64 latched: the object on the rig's scale, its true mass rounded to
+//        ~scale_resolution_kg, 1 g; a lab weighs the object once and so does the twin: the inference
+//        takes it as a mass_kg target, since rigid motion alone never fixes the mass).
 // ~object finger: the pneumatic finger twin (workflow/finger_twin.h) instead of a moving rigid body:
 //   in : `pressure_command` (std_msgs/Float64 [Pa], ~pressure_profile command: the regulator's set
 //        point; outside [0, ~pressure_max_pa] or not finite: ignored with a throttled error naming it;
@@ -65,6 +68,7 @@ struct RigSimulatorParams {
   double horizontal_fov_deg = 8.0;              ///< ~horizontal_fov_deg: gives fx = fy when ~fx/~fy are 0
   double fx = 0, fy = 0, cx = 0, cy = 0;        ///< ~fx ~fy ~cx ~cy [px]; 0 = from the FOV / image centre
   double noise_sigma = 2.0;                     ///< ~noise_sigma: Gaussian pixel noise [grey levels]
+  double scale_resolution_kg = 0.001;           ///< ~scale_resolution_kg: the scale's display step [kg]
   int seed = 1;                                 ///< ~seed: noise of frame k uses seed + k
   std::string world_frame = "world";            ///< ~world_frame
   std::string camera_frame = "camera_optical";  ///< ~camera_frame (optical: x right, y down, z forward)
@@ -160,7 +164,7 @@ class RigSimulatorNode {
   vision::SplatCamera camera_;
   vision::SplatShading shading_;
   vision::Splats body_;  ///< the surface in the body frame (posed per frame)
-  ::ros::Publisher image_pub_, info_pub_, surface_pub_, truth_pub_;
+  ::ros::Publisher image_pub_, info_pub_, surface_pub_, truth_pub_, scale_pub_;
   ::ros::Timer timer_;
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
