@@ -191,10 +191,13 @@ Eigen::VectorXd InteriorProblem::weighedCavityStart(double* mass_kg, double* rad
   uc /= vol;
   for (const auto& x : cloud_.X) reach = std::max(reach, ((x - f.centre) / f.scale - uc).norm());
   std::vector<double> r, m;
+  // The other material than the configured start's: hollow in a solid start (initial_field ≥ 0), the
+  // solid (e.g. a heavy insert) in a start of the other material (initial_field < 0).
+  const double sign = config_.number("initial_field") >= 0 ? 1.0 : -1.0;
   const auto design = [&](double rho) {
     Eigen::VectorXd theta(10);
     theta << 1, 1, 1, 0, 0, 0, -2 * uc.x(), -2 * uc.y(), -2 * uc.z(), uc.squaredNorm() - rho * rho;
-    return theta;
+    return Eigen::VectorXd(sign * theta);
   };
   const auto mass = [&](double rho) {
     indicator(design(rho), &r);

@@ -2,8 +2,8 @@
 // from observations of a reference filled at half the spacing (~48k particles) with a known geometric
 // interior and noise, never from the inference's own lattice. The bench exits 1 when a case's mass,
 // inertia or held-out error exceeds its bound (the 2 % goal, or a bound the case states where the
-// experiments do not fix a moment); this test also shows that the bound can fail: the fully solid
-// start design of every case lies outside it.
+// experiments do not fix a moment); this test also shows that the bound can fail: the body all of its
+// other material (the unweighed start, baseline_start) lies outside it in every case.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -33,7 +33,7 @@ TEST(BenchInteriors, QuickCasesMeetTheirBoundsAndTheStartDesignDoesNot) {
     const std::string name = j.at("case");
     ++cases;
     SCOPED_TRACE(name);
-    // The start design misses by more than 2 % somewhere: the bounds can fail.
+    // The body alone misses by more than 2 % somewhere: the bounds can fail.
     const auto& b = j.at("baseline_start");
     EXPECT_GT(std::max({b.at("mass_err").get<double>(), b.at("inertia_err").get<double>(),
                         b.at("held_out_err").get<double>()}),

@@ -116,7 +116,7 @@ TEST(TaskGradient, HangingAllRepresentations) {
 // whose design mass is the reading (an unweighed solid start reaches a lower mass fastest through the
 // constant c: a uniformly grey body). Centred on the centroid, the sphere keeps the centre of mass of
 // the uniform solid; initial_parameters, a reading above the solid mass or another representation keep
-// the old start.
+// the old start; a start of the body material (a heavy insert) gets a sphere of the solid.
 TEST(WeighedStart, SphereOfTheOtherMaterialWithTheWeighedMass) {
   const VolumeCloud cloud = topo_test::boxCloud(0.12, 0.1, 0.08, 0.008);
   TaskConfig c = TaskConfig::defaults("hanging");
@@ -153,6 +153,22 @@ TEST(WeighedStart, SphereOfTheOtherMaterialWithTheWeighedMass) {
   TaskConfig point = c;
   point.set("representation", "point");
   EXPECT_EQ(InteriorProblem(point, cloud).weighedCavityStart().size(), 0);
+  // A heavy insert: the start is the body material (initial_field < 0), the sphere is of the solid.
+  TaskConfig insert = c;
+  insert.setNumber("initial_field", -0.3);
+  insert.set("pin_shell", "false");  // the shell would be steel
+  insert.setNumber("density_solid", 7800);
+  insert.setNumber("density_hollow", 1000);
+  const double body = 1000 * cloud.totalVolume(), reading = body + 0.05 * (7800 - 1000) * cloud.totalVolume();
+  insert.setNumber("mass_kg", reading);
+  {
+    const InteriorProblem p(insert, cloud);
+    ProblemEvaluation ev;
+    p.evaluate(p.initialParameters(), nullptr, &ev);
+    EXPECT_NEAR(ev.task.mass.mass, reading, 1e-5 * reading);
+    EXPECT_NEAR(ev.solid_fraction, 0.05, 0.01);  // a ball of steel, 5 % of the volume
+    EXPECT_LT((ev.task.mass.com - centroid).norm(), 1e-9);
+  }
   TaskConfig unweighed = TaskConfig::defaults("hanging");
   unweighed.set("hanging_point", "0.02,0.01,0.04");
   EXPECT_EQ(InteriorProblem(unweighed, cloud).weighedMassKg(), 0.0);

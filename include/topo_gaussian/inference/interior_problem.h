@@ -44,8 +44,9 @@ class InteriorProblem {
   /// is weighed (a mass_kg target) that the solid start does not match, weighedCavityStart(); else the
   /// representation's start (initial_field: fully solid). `note` (optional) says which, in words.
   Eigen::VectorXd initialParameters(std::string* note = nullptr) const;
-  /// The weighed start: a sphere of the other material (hollow, or the insert's when it is the heavier)
-  /// centred on the particles' centroid, s(u) = |u − u_c|² − ρ² in the normalised frame, with ρ
+  /// The weighed start: a sphere of the other material than the configured start's (hollow in a solid
+  /// start; the solid, e.g. a heavy insert, when initial_field < 0 starts from the body material) centred
+  /// on the particles' centroid, s(u) = ±(|u − u_c|² − ρ²) in the normalised frame, with ρ
   /// bisected until the design's mass Σ ρ(r_i) V_i equals the scale's reading m* to 1e-6 (relative).
   /// An unweighed solid start cannot leave its uniform density: a lower mass is reached fastest by
   /// lowering the constant c, a grey body with the solid's centre of mass and inertia per mass (on the
