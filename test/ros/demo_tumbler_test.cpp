@@ -1,5 +1,5 @@
 // rostest node for the whole lab loop (test/ros/demo_tumbler.test = demo.launch, the tumbler twin):
-//  - an unknown task aborts with a reason that names it;
+//  - an unknown task aborts with a reason that names it; the twin's scale (scale_kg) reads the true mass;
 //  - end to end, three experiments (released at 10° and 25°, and hung from a point on the top 4 cm off
 //    the axis, played in turn by the twin): motion_tracker measures the twin's images and tags each
 //    window with its experiment (the hung doll's tilt from its ~tilt_reference_deg), the infer_interior
@@ -25,6 +25,7 @@
 #include <string>
 
 #include <sensor_msgs/PointCloud2.h>
+#include <std_msgs/Float64.h>
 #include <tf2_msgs/TFMessage.h>
 #include <visualization_msgs/MarkerArray.h>
 
@@ -100,6 +101,11 @@ TEST(DemoTumbler, EndToEndReproducesTheTwinsGroundTruth) {
   const double tilt25 = valueOf(truth->feature_names, truth->feature_values, "rock25.max_tilt_deg");
   ASSERT_TRUE(T > 0 && tilt > 0 && T25 > 0 && tilt25 > 0);
   EXPECT_NEAR(tilt25, 25.0, 0.5) << "rock25 is released at 25 deg";
+  // the object on the rig's scale: its true mass to the scale's gram
+  const auto scale = ros::topic::waitForMessage<std_msgs::Float64>("/scale_kg", ros::Duration(10.0));
+  ASSERT_TRUE(scale) << "no scale reading on /scale_kg";
+  EXPECT_NEAR(scale->data, truth->mass_kg, 0.0005 + 1e-12) << "the reading is the true mass rounded to 1 g";
+  EXPECT_NEAR(std::round(scale->data * 1000.0), scale->data * 1000.0, 1e-6) << "a whole number of grams";
   // the tracker has measured every experiment (a window of images each, tagged with its experiment)
   std::map<std::string, topo_gaussian::MotionFeatures::ConstPtr> seen;
   const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(150.0);

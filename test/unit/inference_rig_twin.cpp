@@ -21,6 +21,7 @@
 #include "topo_gaussian/vision/motion_tracker.h"
 #include "topo_gaussian/vision/particle_normals.h"
 #include "topo_gaussian/vision/splat_renderer.h"
+#include "topo_gaussian/workflow/motion_video.h"
 #include "topo_gaussian/workflow/rig_twin.h"
 
 using namespace topo_gaussian;
@@ -66,55 +67,23 @@ const RigTwin& defaultTwin() {
   return twin;
 }
 
-Splats posedSplats(const RigTwin& twin, double t) {
-  const inference::BodyPose p = twin.poseAt(t);
-  Splats s;
-  s.radius_m = 0.8 * twin.cloud().spacing;
-  s.colours = {cv::Vec3b(40, 40, 150)};  // a dark red doll on a light backdrop
-  for (std::size_t i = 0; i < twin.surfacePoints().size(); ++i) {
-    s.positions.push_back(p.rotation * twin.surfacePoints()[i] + p.translation);
-    s.normals.push_back(p.rotation * twin.surfaceNormals()[i]);
-  }
-  return s;
-}
-
 /// The camera the launch files use: 1.5 m in front of the object along −x (the rocking axis),
 /// looking horizontally at `height_m` (4 cm for the tumbler), 640x480 with an 8° horizontal field
 /// of view.
-SplatCamera rigCamera(double height_m = 0.04) {
-  SplatCamera c;
-  c.width = 640;
-  c.height = 480;
-  c.fx = c.fy = 0.5 * c.width / std::tan(0.5 * 8.0 * kPi / 180.0);
-  c.cx = 319.5;
-  c.cy = 239.5;
-  c.t_wc = Eigen::Vector3d(-1.5, 0.0, height_m);
-  c.R_wc = lookAtRotation(c.t_wc, Eigen::Vector3d(0.0, 0.0, height_m));
-  return c;
-}
+SplatCamera rigCamera(double height_m = 0.04) { return workflow::rigCameraAlongX(Eigen::Vector3d(0, 0, height_m)); }
 
 /// Renders `duration_s` of the twin from t_start at `fps` and tracks the tilt of its silhouette.
 TrackResult trackTwin(const RigTwin& twin, const SplatCamera& cam, double t_start, double fps, double duration_s,
                       double* render_ms = nullptr, double tilt_reference_deg = 0.0) {
-  SplatShading shading;
-  shading.noise_sigma = 2.0;
-  TrackOptions o;
-  o.kind = "tilt";
-  o.tilt_reference_deg = tilt_reference_deg;
-  o.tracker.method = "silhouette";  // foreground auto: Otsu for tilt (MOG2 would absorb an object rocking in place)
+  workflow::MotionVideoOptions o;
   o.fps = fps;
-  MotionTracker tracker(o);
-  double render_s = 0;
-  const int frames = static_cast<int>(fps * duration_s);
-  for (int k = 0; k < frames; ++k) {
-    shading.noise_seed = 1000 + k;
-    const auto t0 = std::chrono::steady_clock::now();
-    const cv::Mat img = renderSplats(cam, posedSplats(twin, t_start + k / fps), shading);
-    render_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    tracker.addFrame(img, k / fps);
-  }
-  if (render_ms) *render_ms = 1e3 * render_s / frames;
-  return tracker.finish();
+  o.start_s = t_start;
+  o.duration_s = duration_s;
+  o.splat_radius_m = 0.8 * twin.cloud().spacing;
+  o.tilt_reference_deg = tilt_reference_deg;
+  o.render_ms = render_ms;
+  return workflow::trackRenderedMotion(
+      twin.surfacePoints(), twin.surfaceNormals(), [&](double t) { return twin.poseAt(t); }, cam, o);
 }
 
 }  // namespace
