@@ -27,7 +27,6 @@ struct Lattice {
   Eigen::Vector3d lo, hi;
   double h;
   int layer(const Eigen::Vector3d& x, int axis) const { return int(std::lround((x[axis] - lo[axis]) / h)); }
-  double snapped(const Eigen::Vector3d& x, int axis) const { return lo[axis] + h * layer(x, axis); }
   int layers(int axis) const { return layer(hi, axis) + 1; }
 };
 
@@ -58,7 +57,6 @@ void drawPanel(cv::Mat& img, const Panel& p, double s, const Lattice& L, const s
                const std::vector<double>& r, double iso, const std::vector<double>& confidence) {
   int u, v;
   planeAxes(p.axis, &u, &v);
-  const double umin = L.lo[u] - 0.5 * L.h, vmax = L.hi[v] + 0.5 * L.h;
   const int w = int(std::ceil((L.hi[u] - L.lo[u] + L.h) * s)), hgt = int(std::ceil((L.hi[v] - L.lo[v] + L.h) * s));
   const int ox = p.rect.x + (p.rect.width - w) / 2;
   const int oy = p.rect.y + kCaption + kMargin + (p.rect.height - kCaption - kStrip - 2 * kMargin - hgt) / 2;
@@ -66,11 +64,13 @@ void drawPanel(cv::Mat& img, const Panel& p, double s, const Lattice& L, const s
   cv::rectangle(img, cv::Rect(ox - 1, oy - 1, w + 2, hgt + 2), kFrame, 1);
   for (std::size_t i = 0; i < X.size(); ++i) {
     if (L.layer(X[i], p.axis) != p.layer) continue;
-    const double cu = L.snapped(X[i], u), cv_ = L.snapped(X[i], v);
-    const int x0 = ox + int(std::floor((cu - 0.5 * L.h - umin) * s));
-    const int x1 = std::max(x0, ox + int(std::floor((cu + 0.5 * L.h - umin) * s)) - 1);
-    const int y0 = oy + int(std::floor((vmax - (cv_ + 0.5 * L.h)) * s));
-    const int y1 = std::max(y0, oy + int(std::floor((vmax - (cv_ - 0.5 * L.h)) * s)) - 1);
+    // Cell edges from whole lattice indices, so neighbouring cells share an edge pixel exactly (from
+    // snapped coordinates a rounding of cu + h/2 against cu' − h/2 left a white column between them).
+    const int ku = L.layer(X[i], u), kv = L.layers(v) - 1 - L.layer(X[i], v);
+    const int x0 = ox + int(std::floor(ku * L.h * s));
+    const int x1 = std::max(x0, ox + int(std::floor((ku + 1) * L.h * s)) - 1);
+    const int y0 = oy + int(std::floor(kv * L.h * s));
+    const int y1 = std::max(y0, oy + int(std::floor((kv + 1) * L.h * s)) - 1);
     cv::rectangle(img, cv::Point(x0, y0), cv::Point(x1, y1), r[i] >= iso ? kSliceSolidBgr : kSliceHollowBgr,
                   cv::FILLED);
     if (!confidence.empty() && confidence[i] < 1.0) {  // hatched in image coordinates: lines run on across cells
