@@ -182,13 +182,8 @@ Eigen::VectorXd InteriorProblem::weighedCavityStart(double* mass_kg, double* rad
   const auto* quadric = dynamic_cast<const QuadricRepresentation*>(representation_.get());
   if (!(target > 0) || !quadric || cloud_.X.empty()) return {};
   const NormalisedFrame& f = quadric->frame();
-  Eigen::Vector3d uc = Eigen::Vector3d::Zero();
-  double vol = 0, reach = 0;
-  for (std::size_t i = 0; i < cloud_.X.size(); ++i) {
-    uc += cloud_.V[i] * (cloud_.X[i] - f.centre) / f.scale;
-    vol += cloud_.V[i];
-  }
-  uc /= vol;
+  const Eigen::Vector3d uc = (cloud_.centroid() - f.centre) / f.scale;
+  double reach = 0;
   for (const auto& x : cloud_.X) reach = std::max(reach, ((x - f.centre) / f.scale - uc).norm());
   std::vector<double> r, m;
   // The other material than the configured start's: hollow in a solid start (initial_field ≥ 0), the
