@@ -283,7 +283,29 @@ void suggestNextExperiment(const InteriorProblem& problem, const std::vector<dou
     }
     const auto task = makeTask(cand.config, cloud);
     score(cand, task->evaluate(r, nullptr));
-    analysis->candidates.push_back(std::move(cand));
+    const ExperimentSuggestion hang = cand;
+    analysis->candidates.push_back(std::move(cand));  // first: a tie goes to the simpler experiment
+    // Swing it there on a horizontal axle along world x, then along y, and time both swings (hanging's
+    // axle_swing_period_s and cross_axle_swing_period_s, their targets set to the design's own periods:
+    // only the derivatives count).
+    ExperimentSuggestion swing = hang;
+    swing.kind = "swing";
+    swing.newly_determined.clear();
+    swing.axis = Eigen::Vector3d::UnitX();
+    swing.config.setNumber("axle_heading_deg", 0.0);
+    int timed = 0;
+    for (const auto& f : makeTask(swing.config, cloud)->evaluate(r, nullptr).features)
+      if ((f.name == "axle_swing_period_s" || f.name == "cross_axle_swing_period_s") && f.value > 0) {
+        swing.config.setNumber(f.name, f.value);
+        ++timed;
+      }
+    if (timed == 0) continue;
+    score(swing, makeTask(swing.config, cloud)->evaluate(r, nullptr));
+    // The swing includes the hang. Where the hang fixes a moment and the swing no other, the simpler hang
+    // is as good (the extra rows only shift the pseudo-inverse's spread among the free moments).
+    if (!hang.newly_determined.empty() && swing.newly_determined == hang.newly_determined)
+      swing.score_gain = std::min(swing.score_gain, hang.score_gain);
+    analysis->candidates.push_back(std::move(swing));
   }
 
   // Rock about another horizontal axis, when a tumbler experiment shows the object rocks.
@@ -328,9 +350,6 @@ void suggestNextExperiment(const InteriorProblem& problem, const std::vector<dou
       }
     }
   }
-  analysis->notes.push_back(
-      "swinging on a pivot is not a candidate: no task observes a swing with derivatives (hanging's "
-      "swing_duration_s simulates one but has no target)");
 
   std::stable_sort(
       analysis->candidates.begin(), analysis->candidates.end(),
@@ -339,6 +358,10 @@ void suggestNextExperiment(const InteriorProblem& problem, const std::vector<dou
     std::ostringstream s;
     if (cand.kind == "hang")
       s << "hang it from " << vecText(cand.point) << " m";
+    else if (cand.kind == "swing")
+      s << "hang it from " << vecText(cand.point)
+        << " m on a horizontal axle, along world x and then along y, and time its small swings "
+           "(axle_swing_period_s, cross_axle_swing_period_s)";
     else
       s << "rock it about the body axis " << vecText(cand.axis);
     std::vector<int> idx;
@@ -355,9 +378,17 @@ void suggestNextExperiment(const InteriorProblem& problem, const std::vector<dou
       s << " to narrow the undetermined moments (score gain " << numberText(cand.score_gain, 3) << ")";
     cand.sentence = s.str();
   }
+  // None fixes another moment on its own: the one that determines the most combinations (swings add one
+  // inertia combination each; the inertia is fixed once six independent ones are).
+  const ExperimentSuggestion* most = nullptr;
+  for (const auto& cand : analysis->candidates)
+    if (cand.directions_after > (most ? most->directions_after : analysis->determined_directions)) most = &cand;
   if (!analysis->candidates.empty() && analysis->candidates.front().score_gain > 1e-6) {
     analysis->has_suggestion = true;
     analysis->suggestion = analysis->candidates.front();
+  } else if (most) {
+    analysis->has_suggestion = true;
+    analysis->suggestion = *most;
   } else {
     analysis->notes.push_back("no candidate experiment improves what the experiments determine");
   }

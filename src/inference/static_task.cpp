@@ -4,6 +4,16 @@
 // is the squared offset of c from that vertical, perpendicular to gravity, over the object size².
 // No time stepping: the loss depends on c alone. Observations (TaskEvaluation::observations): the two
 // horizontal components of that offset, linear in c.
+//
+// hanging also takes the period of the object swinging on a horizontal axle through the hanging point (a
+// knife edge, the compound-pendulum method of measuring a moment of inertia): with s = c − q, a the axle
+// (world heading axle_heading_deg from x towards y, in the body frame Rᵀ a), s⊥ = s − (a·s) a, d = |s⊥|,
+//   I_a = aᵀ I_c a + m d²,   T = 2π √(I_a / (m g d)) · (2/π) K(sin(A/2))
+// for amplitude A (axle_swing_amplitude_deg; the complete elliptic integral K is the exact amplitude
+// correction of a rigid pendulum). T does not depend on the pose about a, so the target pose need not be
+// the axle's rest. cross_axle_swing_period_s: the same with the axle turned 90° about the vertical (a lab
+// times both at one hanging point). Loss ((T − T*)/T*)² each; observations of the same names, with
+//   ∂ln T/∂m = d²/(2 I_a) − 1/(2m),  ∂ln T/∂c = m s⊥/I_a − s⊥/(2d²),  ∂ln T/∂I_jk = a_j a_k (2 − δ_jk)/(2 I_a).
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -65,6 +75,17 @@ class StaticTask : public Task {
       geometry_.point_name = "hanging_point";
       swing_duration_ = c.number("swing_duration_s");
       swing_tilt_ = c.number("swing_tilt_deg");
+      const double heading = c.number("axle_heading_deg") * M_PI / 180.0;
+      axle_amplitude_ = c.number("axle_swing_amplitude_deg") * M_PI / 180.0;
+      Eigen::Vector3d h1, h2;
+      horizontalAxes(&h1, &h2);
+      const char* names[2] = {"axle_swing_period_s", "cross_axle_swing_period_s"};
+      for (int k = 0; k < 2; ++k) {
+        const double psi = heading + k * M_PI / 2;
+        axles_[k].name = names[k];
+        axles_[k].axis_body = R_.transpose() * (std::cos(psi) * h1 + std::sin(psi) * h2);
+        if (c.has(names[k])) axles_[k].target = c.number(names[k]);
+      }
     } else if (name_ == "balance") {
       point_ = c.has("support_point") ? c.vector3("support_point") : top;
       geometry_.point_name = "support_point";
@@ -144,10 +165,13 @@ class StaticTask : public Task {
       ev.observations.push_back(o);
     }
     if (swing_duration_ > 0) swing(ev);
+    Eigen::Matrix<double, 10, 1> dL_daxle = Eigen::Matrix<double, 10, 1>::Zero();
+    if (name_ == "hanging")
+      for (const Axle& a : axles_) axleSwing(a, ev, &dL_daxle);
     if (dL_dr) {
-      Eigen::Matrix<double, 10, 1> g = Eigen::Matrix<double, 10, 1>::Zero();
-      g[0] = dL_dm;
-      g.segment<3>(1) = dL_dc;
+      Eigen::Matrix<double, 10, 1> g = dL_daxle;
+      g[0] += dL_dm;
+      g.segment<3>(1) += dL_dc;
       chainToIndicator(rm, g, dL_dr);
     }
     return ev;
@@ -158,11 +182,16 @@ class StaticTask : public Task {
   // horizontal directions h1 (world x made perpendicular to gravity; world y when gravity is along x) and
   // h2 = up × h1; target 0, noise the com_offset_m tolerance; d/dc = Rᵀ h_k. stand has none: standing
   // only bounds c (an inequality), which determines no moment.
-  void addOffsetObservations(const Eigen::Vector3d& d, const Feature& off, TaskEvaluation* ev) const {
+  void horizontalAxes(Eigen::Vector3d* h1, Eigen::Vector3d* h2) const {
     const Eigen::Vector3d up = -g_hat_;
-    Eigen::Vector3d h1 = std::abs(up.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-    h1 = (h1 - h1.dot(up) * up).normalized();
-    const Eigen::Vector3d h2 = up.cross(h1);
+    *h1 = std::abs(up.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+    *h1 = (*h1 - h1->dot(up) * up).normalized();
+    *h2 = up.cross(*h1);
+  }
+
+  void addOffsetObservations(const Eigen::Vector3d& d, const Feature& off, TaskEvaluation* ev) const {
+    Eigen::Vector3d h1, h2;
+    horizontalAxes(&h1, &h2);
     const Eigen::Vector3d h[2] = {h1, h2};
     const char* names[2] = {"com_offset_h1_m", "com_offset_h2_m"};
     for (int k = 0; k < 2; ++k) {
@@ -210,7 +239,43 @@ class StaticTask : public Task {
                                     2 * M_PI * std::sqrt(Ip / (ev.mass.mass * geometry_.gravity.norm() * d)), "s"});
   }
 
+  struct Axle {
+    std::string name;                                      ///< its feature, observation and target
+    Eigen::Vector3d axis_body = Eigen::Vector3d::UnitX();  ///< the axle's direction, body frame
+    double target = -1;                                    ///< measured period [s]; ≤ 0: none
+  };
+
+  // The swing on an axle (formula at the top): its feature; with a target, its loss term (gradient added
+  // to *dL_dp, [m, c, I] order) and its observation. Nothing when c lies on the axle.
+  void axleSwing(const Axle& axle, TaskEvaluation& ev, Eigen::Matrix<double, 10, 1>* dL_dp) const {
+    const MassProperties& p = ev.mass;
+    const Eigen::Vector3d& a = axle.axis_body;
+    const double target = axle.target;
+    const Eigen::Vector3d s = p.com - point_;
+    const Eigen::Vector3d s_perp = s - a.dot(s) * a;
+    const double d2 = s_perp.squaredNorm(), d = std::sqrt(d2), g = geometry_.gravity.norm();
+    if (!(d > 1e-9 * size_) || !(p.mass > 0) || !(g > 0)) return;
+    const double I_a = a.dot(p.inertia * a) + p.mass * d2;
+    const double K = std::comp_ellint_1(std::sin(axle_amplitude_ / 2));
+    const double T = 2 * M_PI * std::sqrt(I_a / (p.mass * g * d)) * (2 / M_PI) * K;
+    Eigen::Matrix<double, 10, 1> dlnT = Eigen::Matrix<double, 10, 1>::Zero();
+    dlnT[0] = d2 / (2 * I_a) - 1 / (2 * p.mass);
+    dlnT.segment<3>(1) = p.mass * s_perp / I_a - s_perp / (2 * d2);
+    const int row[6] = {0, 1, 2, 0, 0, 1}, col[6] = {0, 1, 2, 1, 2, 2};
+    for (int k = 0; k < 6; ++k) dlnT[4 + k] = a[row[k]] * a[col[k]] * (row[k] == col[k] ? 1.0 : 2.0) / (2 * I_a);
+    ev.features.push_back(Feature{axle.name, T, "s", target > 0, target, 1e-9, 0.01});
+    if (!(target > 0)) return;
+    const double e = (T - target) / target;
+    ev.loss += e * e;
+    *dL_dp += (2 * e * T / target) * dlnT;
+    Observation o{axle.name, T, "s", true, target, 0.01 * target};
+    o.d_dp = T * dlnT;
+    ev.observations.push_back(o);
+  }
+
   double swing_duration_ = 0, swing_tilt_ = 3;
+  Axle axles_[2];
+  double axle_amplitude_ = 0;
   double roll_ = 0, pitch_ = 0, mass_target_ = -1;
   Eigen::Matrix3d R_;
   Eigen::Vector3d g_hat_, point_, e1_, e2_;
@@ -258,6 +323,19 @@ void registerStaticTasks(TaskList* tasks) {
     p.number("swing_duration_s", 0.0, "s",
              "also simulate the design swinging on the hanging point for this long [s] (0 = off)", 0);
     p.number("swing_tilt_deg", 3.0, "deg", "release angle of that swing about world x [deg]", -80, 80);
+    p.number("axle_heading_deg", 0.0, "deg",
+             "axle_swing_period_s: the horizontal axle through hanging_point points this far from world x "
+             "towards world y [deg] (0: along x; 90: along y); cross_axle_swing_period_s's axle 90 more",
+             -360, 360);
+    p.number("axle_swing_amplitude_deg", 3.0, "deg",
+             "the measured axle swings' amplitude [deg] (the period grows with it, +0.02 % at 3)", 0, 80);
+    p.target("axle_swing_period_s", ParamType::Number, "s",
+             "period of small swings on a horizontal axle (knife edge) through hanging_point [s]: fixes the inertia "
+             "about that axle (T = 2 pi sqrt(I_a / (m g d)))",
+             0, 1e300, true);
+    p.target("cross_axle_swing_period_s", ParamType::Number, "s",
+             "the same with the axle turned 90 deg about the vertical (heading axle_heading_deg + 90) [s]", 0, 1e300,
+             true);
     declareTargetPose(p);
   };
   hanging.make = makeStaticTask;

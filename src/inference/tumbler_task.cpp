@@ -13,6 +13,7 @@
 #include "rigid_options.h"
 #include "task_factories.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/inference/oscillation.h"
 #include "topo_gaussian/physics/rigid_body.h"
 
@@ -38,9 +39,17 @@ class TumblerTask : public Task {
     w_amplitude_ = c.number("weight_amplitude");
     if (c.has("amplitude_deg")) amplitude_target_ = c.number("amplitude_deg");
     w_equilibrium_ = c.number("weight_equilibrium");
+    if (c.has("equilibrium_tilt_deg") && c.has("equilibrium_from_release_deg"))
+      throw TopoError("tumbler targets", "give both equilibrium_tilt_deg and equilibrium_from_release_deg",
+                      "give one: equilibrium_from_release_deg when the sign relative to the release is known");
     if (c.has("equilibrium_tilt_deg")) {
       equilibrium_target_ = c.number("equilibrium_tilt_deg");
       has_equilibrium_target_ = true;
+    }
+    if (c.has("equilibrium_from_release_deg")) {
+      equilibrium_target_ = c.number("equilibrium_from_release_deg");
+      has_equilibrium_target_ = true;
+      equilibrium_from_release_ = true;
     }
     cycles_ = c.integer("measured_cycles");
     if (c.has("period_s")) period_target_ = c.number("period_s");
@@ -80,6 +89,15 @@ class TumblerTask : public Task {
       const Eigen::Vector3d u = qd.normalized() * up_;
       max_tilt = std::max(max_tilt, std::acos(std::max(-1.0, std::min(1.0, u.z()))) * kDeg);
     }
+    // Past 90 deg it lies on its side, or turns over: not a doll that rights itself. Refused at once (the
+    // optimiser's line search steps back from such a trial design), not re-simulated on all of the
+    // surface's samples in forward mode, which took minutes for a steel-ball tumbler's first trial step.
+    if (max_tilt >= 90.0)
+      throw TopoError("tumbler simulation",
+                      "the design tips past 90 deg (to " + numberText(max_tilt, 3) + " deg) from the release at " +
+                          numberText(tilt0_ * kDeg, 3) + " deg: it falls over instead of rocking",
+                      "a design with its centre of mass lower, or a smaller initial_tilt_deg or "
+                      "initial_angular_velocity_rad_s");
     if (max_tilt > reach_deg_ - 5.0 && contact_.size() < all_contact_.size())
       traj = simulateRigid(inertia, s0, all_contact_, withStop(options_all_, should_stop_));
     // Signed tilt about the rocking axis: rotating ez by φ about a gives cos φ ez + sin φ (a × ez).
@@ -118,12 +136,17 @@ class TumblerTask : public Task {
       ev.loss += w_amplitude_ * e.value() * e.value();
       dL += w_amplitude_ * 2.0 * e.value() * e.derivatives();
     }
-    // The equilibrium (near 0) is compared on the release tilt's scale, as the max tilt is, and by its
-    // magnitude: a camera on the other side sees the rocking mirrored (the amplitude's sign too).
+    // The equilibrium (near 0) is compared on the release tilt's scale, as the max tilt is.
+    // equilibrium_tilt_deg: by its magnitude (a camera on the other side sees the rocking mirrored);
+    // equilibrium_from_release_deg: signed towards the side of the release (a mirror flips both, so
+    // this sign is seen from either side), which tells a doll resting on the release's side from one
+    // resting on the other: compared by magnitude, the two are separated by a ridge of the loss at 0.
     const double eq_scale = std::max(1.0, std::abs(tilt0_ * kDeg));
-    const double eq_sign = f.equilibrium.value() < 0 ? -1.0 : 1.0;
+    const double release_sign = tilt0_ < 0 ? -1.0 : 1.0;
+    const double eq_sign = equilibrium_from_release_ ? release_sign : (f.equilibrium.value() < 0 ? -1.0 : 1.0);
     if (has_equilibrium_target_) {
-      const Dual10 e = (eq_sign * f.equilibrium - std::abs(equilibrium_target_)) / eq_scale;
+      const double target = equilibrium_from_release_ ? equilibrium_target_ : std::abs(equilibrium_target_);
+      const Dual10 e = (eq_sign * f.equilibrium - target) / eq_scale;
       ev.loss += w_equilibrium_ * e.value() * e.value();
       dL += w_equilibrium_ * 2.0 * e.value() * e.derivatives();
     }
@@ -131,8 +154,10 @@ class TumblerTask : public Task {
     Feature ft{"max_tilt_deg", f.max_abs.value(), "deg", tilt_target_ > 0, tilt_target_, 1e-9, 0.01};
     ev.features = {
         fp, ft,
-        Feature{"equilibrium_tilt_deg", f.equilibrium.value(), "deg", has_equilibrium_target_,
-                eq_sign * std::abs(equilibrium_target_), eq_scale, 0.01},
+        Feature{
+            "equilibrium_tilt_deg", f.equilibrium.value(), "deg", has_equilibrium_target_,
+            equilibrium_from_release_ ? release_sign * equilibrium_target_ : eq_sign * std::abs(equilibrium_target_),
+            eq_scale, 0.01},
         Feature{"amplitude_deg", f.amplitude.value(), "deg", amplitude_target_ > 0, amplitude_target_, 1e-9, 0.01},
         Feature{"mass_kg", ev.mass.mass, "kg"}};
     // Observations: period, max tilt, equilibrium and amplitude with d/dp (Dual10); noise the features'
@@ -191,7 +216,7 @@ class TumblerTask : public Task {
   double tilt0_ = 0, omega0_ = 0, w_period_ = 1, w_tilt_ = 1, w_amplitude_ = 1;
   double period_target_ = -1, tilt_target_ = -1, amplitude_target_ = -1;
   double equilibrium_target_ = 0, w_equilibrium_ = 1;
-  bool has_equilibrium_target_ = false;
+  bool has_equilibrium_target_ = false, equilibrium_from_release_ = false;
   int cycles_ = 2;
   std::vector<Eigen::Vector3d> contact_;
 };
@@ -232,6 +257,7 @@ MotionTargets rockingTargets(const TaskConfig& config, const motion::MotionFeatu
   const double release = config.has("initial_tilt_deg") ? std::abs(config.number("initial_tilt_deg")) : 0.0;
   std::ostringstream os;
   double period = f.period_s, tilt = f.amplitude_confidence > 0 ? f.max_tilt_deg : 0.0, amplitude = 0.0;
+  double from_release = NAN;  // the equilibrium signed towards the release's side (a release window)
   std::vector<double> y;
   double dt = 0;
   // An absolute tilt the tracker could not tell (confidence 0: an axis known only modulo 90 deg, a
@@ -254,6 +280,7 @@ MotionTargets rockingTargets(const TaskConfig& config, const motion::MotionFeatu
       // Measured as the task measures its simulation, the amplitude is comparable too (over a window
       // started mid-swing the swing may have decayed, so it is used only here).
       amplitude = o.amplitude;
+      from_release = (y[0] < 0 ? -1.0 : 1.0) * o.equilibrium;
       os << "the window starts at a release: the task's analysis of the observed signal (" << y.size()
          << " samples, first " << cycles << " cycles) gives period " << o.period << " s, max tilt " << o.max_abs
          << " deg, amplitude " << o.amplitude << " deg (the tracker's own over the window: " << f.period_s << " s, "
@@ -275,9 +302,17 @@ MotionTargets rockingTargets(const TaskConfig& config, const motion::MotionFeatu
   if (amplitude > 0) out.targets.emplace_back("amplitude_deg", amplitude);
   // The tilt it rocks about fixes the centre of mass across the rocking axis (a doll at rest upright
   // rocks about 0); the tracker's mean of its turning points, when it measured it.
+  // From a window that starts at the release, the task's own analysis gives it signed towards the
+  // release's side (equilibrium_from_release_deg: a doll released at +10 deg that swings out to −16.5
+  // rests on the other side, whichever side the camera looks from); otherwise its magnitude counts.
   if (tilt_known && f.equilibrium_confidence > 0 && std::isfinite(f.equilibrium_deg)) {
-    out.targets.emplace_back("equilibrium_tilt_deg", f.equilibrium_deg);
-    os << "; equilibrium tilt " << f.equilibrium_deg << " deg";
+    if (std::isfinite(from_release)) {
+      out.targets.emplace_back("equilibrium_from_release_deg", from_release);
+      os << "; equilibrium tilt " << from_release << " deg towards the release's side";
+    } else {
+      out.targets.emplace_back("equilibrium_tilt_deg", f.equilibrium_deg);
+      os << "; equilibrium tilt " << f.equilibrium_deg << " deg";
+    }
   }
   out.note = os.str();
   return out;
@@ -316,6 +351,11 @@ void registerTumblerTask(TaskList* tasks) {
              "observed tilt the doll rocks about, the mean of its turning points [deg] (0: it rests upright): it "
              "fixes the centre of mass across the rocking axis (its magnitude is compared: a camera on the other "
              "side sees the sign mirrored)",
+             -90, 90);
+    p.target("equilibrium_from_release_deg", ParamType::Number, "deg",
+             "the same signed towards the release's side [deg] (+: it rests on the side it was released from, -: "
+             "on the other; a mirror flips the release too, so the sign counts): what a clip from the release "
+             "gives; instead of equilibrium_tilt_deg",
              -90, 90);
   };
   t.make = [](const TaskConfig& config, const VolumeCloud& cloud) -> std::unique_ptr<Task> {

@@ -120,6 +120,10 @@ TEST(ObservationDerivatives, HangingAndBalance) {
   h.set("target_roll_deg", "12");
   h.set("target_pitch_deg", "-7");
   checkObservationDerivatives(h, cloud, 1e-5, 1e-6);
+  h.set("axle_heading_deg", "30");
+  h.set("axle_swing_period_s", "0.4");
+  h.set("cross_axle_swing_period_s", "0.45");
+  checkObservationDerivatives(h, cloud, 1e-5, 1e-6);
   TaskConfig b = TaskConfig::defaults("balance");
   b.set("support_point", "0.0,0.01,0.02");
   checkObservationDerivatives(b, cloud, 1e-5, 1e-6);
@@ -213,6 +217,76 @@ TEST(Identifiability, HangingFromTwoNonCollinearPointsFixesAllOfTheCentreOfMass)
   EXPECT_EQ(a.rank, 3);
   EXPECT_TRUE(std::isinf(a.moments[0].std));  // nothing determines m
   for (int j = 4; j < 10; ++j) EXPECT_FALSE(a.moments[j].determined);
+}
+
+// Three hangs and a weighing fix m and c but none of the inertia; timing each hang's swing on axles along
+// world x and y (axle_swing_period_s, 1 % noise) adds six rows aᵀ I a in six body directions: all ten
+// moments are then determined; with the weighing and the hangs alone the suggestion is such a swing.
+TEST(Identifiability, SwingsOnTwoAxlesAtThreeHangsFixTheInertia) {
+  const HangSetup s;
+  const Eigen::Vector3d points[3] = {Eigen::Vector3d(s.c.x(), s.c.y(), 0.04), Eigen::Vector3d(0.05, 0.02, 0.03),
+                                     Eigen::Vector3d(-0.05, 0.03, -0.02)};
+  auto config = [&](const Eigen::Vector3d& q, double heading) {
+    TaskConfig t = TaskConfig::defaults("hanging");
+    t.setNumber("density_solid", 1000.0);
+    t.setVector("hanging_point", q);
+    const RollPitch rest = hangingRestPose(s.c, q);
+    t.setNumber("target_roll_deg", rest.roll_deg);
+    t.setNumber("target_pitch_deg", rest.pitch_deg);
+    t.setNumber("axle_heading_deg", heading);
+    return t;
+  };
+  MomentJacobian hangs(0, 10), swings(0, 10);
+  for (int k = 0; k < 3; ++k) {
+    TaskConfig t = config(points[k], 0);
+    if (k == 0) t.setNumber("mass_kg", 0.5);
+    appendObservationRows(makeTask(t, s.cloud)->evaluate(s.r, nullptr), 1.0, true, &hangs);
+    for (double heading : {0.0, 90.0}) {
+      TaskConfig a = config(points[k], heading);
+      double T = 0;
+      for (const auto& f : makeTask(a, s.cloud)->evaluate(s.r, nullptr).features)
+        if (f.name == "axle_swing_period_s") T = f.value;
+      ASSERT_GT(T, 0) << "hang " << k;
+      a.setNumber("axle_swing_period_s", T);
+      const TaskEvaluation ev = makeTask(a, s.cloud)->evaluate(s.r, nullptr);
+      ASSERT_EQ(ev.observations.back().name, "axle_swing_period_s");
+      EXPECT_NEAR(ev.observations.back().noise, 0.01 * T, 1e-15);
+      swings.conservativeResize(swings.rows() + 1, 10);
+      swings.row(swings.rows() - 1) = ev.observations.back().d_dp.transpose() / ev.observations.back().noise;
+    }
+  }
+  const MomentVector u = naturalMomentUnits(s.solid_mass, s.size);
+  const IdentifiabilityAnalysis without = analyseMomentJacobian(hangs, u);
+  for (int j = 0; j < 4; ++j) EXPECT_TRUE(without.moments[j].determined) << without.moments[j].name;
+  for (int j = 4; j < 10; ++j) EXPECT_FALSE(without.moments[j].determined) << without.moments[j].name;
+  MomentJacobian all(hangs.rows() + swings.rows(), 10);
+  all << hangs, swings;
+  const IdentifiabilityAnalysis with = analyseMomentJacobian(all, u);
+  for (int j = 0; j < 10; ++j) {
+    EXPECT_TRUE(with.moments[j].determined) << with.moments[j].name << " std " << with.moments[j].std_relative;
+    std::printf("[identifiability] %s: std %.3g of its natural unit\n", with.moments[j].name.c_str(),
+                with.moments[j].std_relative);
+  }
+  EXPECT_EQ(with.rank, 10);
+  // The same three hangs and the weighing as one problem: no further hang fixes anything, a swing on two
+  // axles adds two inertia combinations, so the suggestion is a swing.
+  TaskConfig joint;
+  for (int k = 0; k < 3; ++k) {
+    TaskConfig t = config(points[k], 0);
+    if (k == 0) t.setNumber("mass_kg", 0.5);
+    joint.addExperiment("hang" + std::to_string(k), 1.0, t);
+  }
+  const InteriorProblem problem(joint, s.cloud);
+  const Eigen::VectorXd theta = problem.initialParameters();
+  ProblemEvaluation at;
+  problem.evaluate(theta, nullptr, &at);
+  const IdentifiabilityAnalysis a = analyseIdentifiability(problem, theta, at);
+  ASSERT_TRUE(a.has_suggestion) << a.summary;
+  EXPECT_EQ(a.suggestion.kind, "swing") << a.suggestion.sentence;
+  EXPECT_EQ(a.suggestion.directions_after, a.determined_directions + 2) << a.suggestion.sentence;
+  EXPECT_NE(a.suggestion.sentence.find("on a horizontal axle, along world x and then along y"), std::string::npos)
+      << a.suggestion.sentence;
+  std::printf("[identifiability] after three hangs and a weighing: %s\n", a.suggestion.sentence.c_str());
 }
 
 TEST(Identifiability, RockingAboutXAndYMovesIxxIyyButNotIzzOrTheProducts) {

@@ -258,6 +258,51 @@ TEST(SoftContactTask, FingerAgainstThePlaneGradientMatchesFiniteDifferences) {
   }
 }
 
+// The finger against the plane in implicit mode (implicit Euler over a 0.5 s pressure ramp, 10 ms
+// steps, where obstacle friction applies): frictionless, the ramp ends where the static equilibrium
+// does; with friction (mu 1) the skin's samples on the plane cannot slide freely, and it still stops at
+// the plane.
+TEST(SoftContactTask, FingerAgainstThePlaneInImplicitMode) {
+  const double h = 0.004;
+  const VolumeCloud cloud = defaultShapeCloud("finger", h);
+  const std::vector<double> r = fingerChamberBelowAxis(cloud);
+  const TaskEvaluation free = makeTask(softFinger(), cloud)->evaluate(r, nullptr);
+  double top = -1e300;
+  for (const auto& y : cloud.contact.X) top = std::max(top, y.z());
+  const double plane = top + 0.4 * feature(free, "tip_displacement_m");
+  const TaskEvaluation st = makeTask(fingerAgainstPlane(plane), cloud)->evaluate(r, nullptr);
+  auto implicitRun = [&](double mu, const char* duration) {
+    TaskConfig c = fingerAgainstPlane(plane);
+    c.set("mode", "implicit");
+    c.set("duration_s", duration);
+    c.set("dt_s", "0.01");
+    c.setNumber("friction_mu", mu);
+    return makeTask(c, cloud)->evaluate(r, nullptr);
+  };
+  const TaskEvaluation im0 = implicitRun(0.0, "0.5"), im1 = implicitRun(1.0, "0.5");
+  std::printf(
+      "[finger plane implicit] ramp 0.5 s: static bend %.5f deg, clearance %+.3f um; implicit mu 0: bend "
+      "%.5f deg, clearance %+.3f um, %g touching; mu 1: bend %.5f deg, clearance %+.3f um, %g touching\n",
+      feature(st, "bend_angle_deg"), feature(st, "obstacle_clearance_m") * 1e6, feature(im0, "bend_angle_deg"),
+      feature(im0, "obstacle_clearance_m") * 1e6, feature(im0, "obstacle_contact_points"),
+      feature(im1, "bend_angle_deg"), feature(im1, "obstacle_clearance_m") * 1e6,
+      feature(im1, "obstacle_contact_points"));
+  // Frictionless: the slow ramp ends in the static equilibrium (measured: equal to 5 digits).
+  EXPECT_NEAR(feature(im0, "bend_angle_deg"), feature(st, "bend_angle_deg"), 1e-3 * feature(st, "bend_angle_deg"));
+  EXPECT_NEAR(feature(im0, "obstacle_clearance_m"), feature(st, "obstacle_clearance_m"), 0.05 * 5.28e-6);
+  EXPECT_EQ(feature(im0, "obstacle_contact_points"), feature(st, "obstacle_contact_points"));
+  // With friction it still stops at the plane (penalty penetration only), and friction changes the
+  // outcome (measured: bend +0.5 %, 5 samples in contact instead of 10).
+  for (const TaskEvaluation* e : {&im0, &im1}) {
+    EXPECT_LT(feature(*e, "obstacle_clearance_m"), 0.0);
+    EXPECT_GT(feature(*e, "obstacle_clearance_m"), -0.01 * h);
+    EXPECT_GT(feature(*e, "obstacle_contact_points"), 0.0);
+    EXPECT_LT(feature(*e, "bend_angle_deg"), 0.8 * feature(free, "bend_angle_deg"));
+  }
+  EXPECT_GT(std::abs(feature(im1, "bend_angle_deg") - feature(im0, "bend_angle_deg")),
+            1e-3 * feature(im0, "bend_angle_deg"));
+}
+
 TEST(SoftContactTask, FingerObstacleBadInputIsNamed) {
   const VolumeCloud cloud = defaultShapeCloud("finger", 0.004);
   TaskConfig c = TaskConfig::defaults("finger");

@@ -2,6 +2,7 @@
 // bad input for topo_inference.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <random>
@@ -202,6 +203,31 @@ TEST(TaskGradient, HangingWeighedOnAScale) {
   gradientError(p, quadricDesign(), {0, 3, 7, 9}, 1e-6);
 }
 
+// Swung on horizontal axles through the hanging point (axle_swing_period_s and the cross axle's): the loss
+// gains ((T − T*)/T*)² each, its gradient matches central differences, for several axle headings.
+TEST(TaskGradient, HangingSwungOnAnAxle) {
+  const VolumeCloud cloud = topo_test::boxCloud(0.2, 0.1, 0.06, 0.01);
+  for (const char* heading : {"0", "90", "35"}) {
+    TaskConfig c = TaskConfig::defaults("hanging");
+    c.set("hanging_point", "0.03,0.01,0.03");
+    c.set("target_roll_deg", "20");
+    c.set("axle_heading_deg", heading);
+    c.set("axle_swing_amplitude_deg", "8");
+    c.set("axle_swing_period_s", "0.5");
+    c.set("cross_axle_swing_period_s", "0.45");
+    const InteriorProblem p(c, cloud);
+    ProblemEvaluation ev;
+    p.evaluate(quadricDesign(), nullptr, &ev);
+    double T = 0;
+    for (const auto& f : ev.task.features)
+      if (f.name == "axle_swing_period_s") T = f.value;
+    std::printf("[hanging] axle at %s deg: period %.5f s against 0.5 s\n", heading, T);
+    ASSERT_GT(T, 0.0);
+    EXPECT_GT(std::abs(T - 0.5) / 0.5, 0.05);
+    gradientError(p, quadricDesign(), {0, 3, 5, 7, 9}, 1e-6);
+  }
+}
+
 TEST(TaskGradient, QiqiThroughTheEquilibrium) {
   // A hollow-capable box hanging on a hinge above its centre; water at three levels.
   const VolumeCloud cloud = topo_test::boxCloud(0.1, 0.12, 0.15, 0.01);
@@ -237,13 +263,17 @@ TEST(TaskGradient, TumblerThroughTheSimulation) {
 // the axis (it rests tilted).
 TEST(TaskGradient, TumblerEquilibriumTargetThroughTheSimulation) {
   const VolumeCloud cloud = topo_test::tumblerCloud(0.05, 0.5, 0.005);
-  TaskConfig c = TaskConfig::defaults("tumbler");
-  c.set("duration_s", "1.0");
-  c.set("initial_tilt_deg", "8");
-  c.set("period_s", "0.5");
+  auto rocking = [](const char* duration, const char* release) {  // the equilibrium term alone
+    TaskConfig r = TaskConfig::defaults("tumbler");
+    r.set("duration_s", duration);
+    r.set("initial_tilt_deg", release);
+    r.set("period_s", "0.5");
+    r.set("weight_period", "0");
+    r.set("weight_tilt", "0");
+    return r;
+  };
+  TaskConfig c = rocking("1.0", "8");
   c.set("equilibrium_tilt_deg", "-0.5");
-  c.set("weight_period", "0");
-  c.set("weight_tilt", "0");
   const InteriorProblem p(c, cloud);
   ProblemEvaluation ev;
   p.evaluate(quadricDesign(), nullptr, &ev);
@@ -256,6 +286,31 @@ TEST(TaskGradient, TumblerEquilibriumTargetThroughTheSimulation) {
   EXPECT_EQ(std::signbit(target), std::signbit(eq));  // the target takes the simulated side
   EXPECT_NEAR(ev.task.loss, std::pow((std::abs(eq) - 0.5) / 8.0, 2), 1e-12);
   gradientError(p, quadricDesign(), {0, 2, 6, 8, 9}, 1e-8);
+  // Signed towards the release's side (equilibrium_from_release_deg): the target keeps its side, so a
+  // design resting on the other side pays for the whole distance, and a release at -8 deg mirrors it
+  // (this lopsided design, released that way, tips over to rest at 32 deg: only the sign, the loss and
+  // the gradient are checked there).
+  for (const char* release : {"8", "-8"}) {
+    TaskConfig s = rocking("1.5", release);  // released at -8 deg it swings further: a longer run
+    const double side = std::string(release) == "8" ? 1.0 : -1.0;
+    s.set("equilibrium_from_release_deg", "-0.5");
+    const InteriorProblem ps(s, cloud);
+    ProblemEvaluation es;
+    ps.evaluate(quadricDesign(), nullptr, &es);
+    double eq_s = 0, target_s = 0;
+    for (const auto& f : es.task.features)
+      if (f.name == "equilibrium_tilt_deg") eq_s = f.value, target_s = f.target;
+    std::printf(
+        "[tumbler] released at %s deg: equilibrium %.5f deg, target -0.5 towards the release = %.5f deg, "
+        "loss %.3g\n",
+        release, eq_s, target_s, es.task.loss);
+    EXPECT_DOUBLE_EQ(target_s, -0.5 * side);
+    EXPECT_NEAR(es.task.loss, std::pow((eq_s - target_s) / 8.0, 2), 1e-12);
+    gradientError(ps, quadricDesign(), {0, 2, 6, 8, 9}, 1e-8);
+  }
+  TaskConfig both = c;
+  both.set("equilibrium_from_release_deg", "0.5");
+  EXPECT_NE(errorOf([&] { InteriorProblem(both, cloud); }).find("equilibrium_from_release_deg"), std::string::npos);
 }
 
 TEST(Optimizer, LbfgsAndAdamMinimiseAQuadraticAndCancel) {
@@ -344,6 +399,21 @@ TEST(Inference, DivergingSimulationIsReportedWithTheStep) {
   EXPECT_NE(e.find("step"), std::string::npos) << e;
 }
 
+// A doll that turns over (here: released with a spin of 40 rad/s) does not rock: it tips past 90 deg, and
+// the task refuses it at once (the optimiser steps back from such a trial design) instead of simulating it
+// again on all of the surface's samples.
+TEST(Inference, TumblerDesignThatFallsOverIsRefused) {
+  const VolumeCloud cloud = topo_test::tumblerCloud(0.05, 0.5, 0.005);
+  TaskConfig c = TaskConfig::defaults("tumbler");
+  c.set("initial_angular_velocity_rad_s", "40");
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::string e = errorOf([&] { simulateInterior(c, cloud, {}); });
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("[tumbler] spun doll: %s (%.2f s)\n", e.c_str(), s);
+  EXPECT_NE(e.find("falls over"), std::string::npos) << e;
+  EXPECT_NE(e.find("initial_tilt_deg"), std::string::npos) << e;
+}
+
 TEST(Inference, BalanceAndStandReachTheirTargets) {
   const VolumeCloud cloud = topo_test::boxCloud(0.2, 0.1, 0.06, 0.008);
   // Balance on a point above the centre, 1 cm off in x: the centre of mass must move under it.
@@ -426,6 +496,61 @@ TEST(Inference, BallTrajectoryWithSpinIsRecovered) {
   EXPECT_LT(rms, 1e-3 * 0.1 * std::sqrt(3.0));  // < 1e-3 of the size (bounding-box diagonal)
   const double rough = ballRecovery(0.5, &solid);
   EXPECT_LT(rough, 0.1 * solid);  // measured 3.72 mm -> 0.16 mm
+}
+
+// The axle's closed form against the simulator: a box hung from its top centre rests with its principal
+// axes along the world's, so the ball-joint swing released 10° about world x stays in one plane and is
+// the swing on an axle along x. The simulated period equals axle_swing_period_s with the elliptic
+// amplitude correction, and differs from its small-amplitude limit by more than the tolerance. An axle
+// along y on the box equals one along x on the box turned a quarter about z.
+TEST(Inference, AxleSwingPeriodIsTheSimulatedPlanarSwing) {
+  const VolumeCloud cloud = topo_test::boxCloud(0.2, 0.1, 0.06, 0.008);
+  auto axle = [&](const VolumeCloud& vc, const char* heading, const char* amplitude, bool simulate, double* sim) {
+    TaskConfig c = TaskConfig::defaults("hanging");
+    c.set("hanging_point", "0,0,0.1");
+    c.set("axle_heading_deg", heading);
+    c.set("axle_swing_amplitude_deg", amplitude);
+    if (simulate) {
+      c.set("swing_duration_s", "4");
+      c.set("swing_tilt_deg", amplitude);
+    }
+    const ProblemEvaluation ev = simulateInterior(c, vc, {});
+    double T = 0;
+    for (const auto& f : ev.task.features) {
+      if (f.name == "axle_swing_period_s") T = f.value;
+      if (sim && f.name == "swing_period_s") *sim = f.value;
+    }
+    return T;
+  };
+  const double T0 = axle(cloud, "0", "0", false, nullptr);
+  for (const char* amplitude : {"2", "10", "20"}) {
+    double sim = 0;
+    const double T = axle(cloud, "0", amplitude, true, &sim);
+    std::printf(
+        "[hanging] %s deg swing: simulated %.6f s, axle closed form %.6f s (%+.4f %%), small-amplitude %.6f s "
+        "(%+.4f %%)\n",
+        amplitude, sim, T, 100 * (sim - T) / T, T0, 100 * (sim - T0) / T0);
+    // Measured +0.009 / +0.045 / +0.090 % at 2 / 10 / 20 deg (the simulated swing's period read from
+    // 5 ms samples); the small-amplitude form is off by +0.24 % at 10 and +0.86 % at 20 deg.
+    EXPECT_NEAR(sim, T, 1.2e-3 * T) << amplitude << " deg";
+    if (std::string(amplitude) != "2") {
+      EXPECT_GT(std::abs(sim - T0), 2e-3 * T0) << amplitude << " deg";
+    }
+  }
+  const double T10 = axle(cloud, "0", "10", false, nullptr);
+  VolumeCloud turned = cloud;
+  for (auto& x : turned.X) x = Eigen::Vector3d(-x.y(), x.x(), x.z());
+  EXPECT_NEAR(axle(turned, "0", "10", false, nullptr), axle(cloud, "90", "10", false, nullptr), 1e-9 * T10);
+  // The cross axle is the axle turned 90 deg about the vertical.
+  TaskConfig c = TaskConfig::defaults("hanging");
+  c.set("hanging_point", "0,0,0.1");
+  c.set("axle_swing_amplitude_deg", "10");
+  double cross = 0;
+  for (const auto& f : simulateInterior(c, cloud, {}).task.features)
+    if (f.name == "cross_axle_swing_period_s") cross = f.value;
+  const double T90 = axle(cloud, "90", "10", false, nullptr);
+  EXPECT_NEAR(cross, T90, 1e-9 * T90);
+  EXPECT_GT(std::abs(T90 - T10), 0.01 * T10) << "a 0.2 x 0.1 m box swings differently about x and y";
 }
 
 TEST(Inference, HangingDesignSwingsAsAPhysicalPendulum) {

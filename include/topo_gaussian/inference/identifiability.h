@@ -13,8 +13,9 @@
 // J_θ = J · diag(1/u) · dp/dθ (dp/dθ: the indicator chain's backward pass, one per moment) has the rank
 // the observations give the design parameters θ.
 // Next experiment: candidates the object admits (hang from ~40 surface points; rock about other
-// horizontal axes when a tumbler experiment is present; swing: no task observes a swing with d/dp, so
-// none), each built as a TaskConfig (task defaults + the experiment's and the object's shared
+// horizontal axes when a tumbler experiment is present; swing on a horizontal axle along world x and then
+// y through each of those hanging points: hanging's axle_swing_period_s and cross_axle_swing_period_s),
+// each built as a TaskConfig (task defaults + the experiment's and the object's shared
 // parameters) and evaluated at r; the best one most lowers Σ_j log min(std_j/u_j, 1).
 #pragma once
 
@@ -43,10 +44,10 @@ struct MomentIdentification {
 };
 
 struct ExperimentSuggestion {
-  std::string kind;  ///< "hang" or "rock"
+  std::string kind;  ///< "hang", "swing" (hang there on an axle and time the swing) or "rock"
   TaskConfig config;
-  Eigen::Vector3d point = Eigen::Vector3d::Zero();  ///< hanging point, body frame [m] (hang)
-  Eigen::Vector3d axis = Eigen::Vector3d::Zero();   ///< rocking axis, body frame (rock)
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();  ///< hanging point, body frame [m] (hang, swing)
+  Eigen::Vector3d axis = Eigen::Vector3d::Zero();   ///< rocking axis, body frame (rock); the first axle, world (swing)
   double score_gain = 0.0;                          ///< decrease of Σ_j log min(std_j/u_j, 1)
   std::vector<std::string> newly_determined;        ///< moment names that become determined
   int directions_after = 0;                         ///< determined directions with this experiment added

@@ -9,7 +9,11 @@
 //                            does not exceed the release tilt (initial_tilt_deg) by 1 % becomes the
 //                            release tilt: a doll released at rest always reaches it, never less.
 //                            From a window that starts at the release also amplitude_deg (the mean half
-//                            peak-to-peak swing): with the release tilt it fixes the rest tilt.
+//                            peak-to-peak swing): with the release tilt it fixes the rest tilt. The rest
+//                            tilt itself (tracker equilibrium measured): equilibrium_from_release_deg, the
+//                            analysis's equilibrium signed towards the release's side (a camera's mirror
+//                            flips both), from a release window; otherwise equilibrium_tilt_deg, whose
+//                            magnitude the task compares.
 //   hanging, balance, stand  target_roll_deg ← equilibrium_deg                   (the camera looks along
 //                            world x, so the image angle is the roll about x; equilibrium measured)
 //   finger                   bend_angle_deg ← bending_angle_deg                  (bending measured)
