@@ -12,8 +12,9 @@
 // of the fine lattice. Noise (seeded per case, std::mt19937): hanging angles ± N(0, 0.05°), rocking
 // period × (1 + N(0, 0.1 %)), maximum tilt ± N(0, 0.05°). The object is weighed once, as a lab does
 // (rigid motion alone never fixes the mass): the first hanging experiment carries the target mass_kg,
-// the true mass × (1 + N(0, 0.1 %)) from its own generator; the quadric then starts from a sphere of
-// the other material with that mass (InteriorProblem::weighedCavityStart). --unweighed leaves it out.
+// the true mass × (1 + N(0, 0.1 %)) from its own generator; the quadric then starts from a region of
+// the other material with that mass (InteriorProblem::weighedCavityStart: the volume's equivalent
+// ellipsoid scaled, or a sphere with --weighed-start sphere). --unweighed leaves it out.
 // Every hang is also timed swinging on a horizontal axle through its point, along world x and then y, in
 // the pose it rests in (the compound-pendulum method; hanging's axle_swing_period_s and
 // cross_axle_swing_period_s: 2π √(I_a/(m g d)) with the elliptic amplitude correction, exact for a rigid
@@ -33,8 +34,8 @@
 // same run), and in the JSON those of the design the optimiser started from (`start`). One JSON line per case, a
 // table, and one PNG per case (true over recovered slices) in the output folder.
 //
-// Usage: bench_interiors [--quick] [--check] [--unweighed] [--no-swings] [--max-iterations N] [--restarts N]
-//                       [--out DIR] [CASE_SUBSTRING]
+// Usage: bench_interiors [--quick] [--check] [--unweighed] [--no-swings] [--weighed-start sphere|ellipsoid]
+//                       [--max-iterations N] [--restarts N] [--out DIR] [CASE_SUBSTRING]
 //   --check: exit 1 when a case's mass or inertia error, or its held-out error, exceeds the
 //   tolerances below (the quick mode's test in `make test`).
 #include <algorithm>
@@ -84,6 +85,7 @@ bool g_weigh = true;  // --unweighed: no scale reading (the table before 2026-11
 // y (hanging's axle_swing_period_s, cross_axle_swing_period_s: the compound-pendulum method), each period
 // × (1 + N(0, kPeriodNoiseRel)) from its own generator (seed + 2000). --no-swings: the hangs' poses only.
 bool g_swing = true;
+std::string g_weighed_start;  // --weighed-start sphere|ellipsoid (empty: the task default)
 
 double seconds(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
@@ -243,6 +245,7 @@ void setShared(TaskConfig& c, const CaseSpec& s) {
   c.setNumber("density_solid", s.density_solid);
   c.setNumber("density_hollow", s.density_hollow);
   c.set("pin_shell", s.pin_shell ? "true" : "false");
+  if (!g_weighed_start.empty()) c.set("weighed_start", g_weighed_start);
 }
 
 /// The experiment's config without targets (hanging point / rocking axis from the spec).
@@ -510,7 +513,7 @@ CaseResult runCase(const CaseSpec& s, bool quick, unsigned seed, const std::stri
   const std::vector<double> r_plain(coarse.size(), s.region_is_solid ? 0.0 : 1.0);
   out.base = errorsOf(simulateInterior(full_cfg, coarse, r_plain).task.mass, truth, full_fine, diag,
                       featureValue(simulateInterior(held, coarse, r_plain).task, hf), held_truth);
-  // The design the optimiser started from (weighed: a sphere of the other material with the scale's mass).
+  // The design the optimiser started from (weighed: a region of the other material with the scale's mass).
   std::vector<double> r_start;
   {
     const InteriorProblem problem(joint, coarse);
@@ -804,6 +807,8 @@ int main(int argc, char** argv) {
       g_weigh = false;
     else if (std::strcmp(argv[i], "--no-swings") == 0)
       g_swing = false;
+    else if (std::strcmp(argv[i], "--weighed-start") == 0 && i + 1 < argc)
+      g_weighed_start = argv[++i];
     else if (std::strcmp(argv[i], "--out") == 0 && i + 1 < argc)
       out_dir = argv[++i];
     else

@@ -152,10 +152,13 @@ Eigen::VectorXd InteriorProblem::initialParameters(std::string* note) const {
     Eigen::VectorXd theta = weighedCavityStart(&mass, &radius);
     if (theta.size() > 0) {
       if (note)
-        *note = "start: the weighed mass " + numberText(weighedMassKg(), 6) +
-                " kg from a sphere of the other material centred on the volume's centroid, radius " +
-                numberText(radius, 4) + " m (design mass " + numberText(mass, 6) +
-                " kg; initial_parameters overrides it)";
+        *note = "start: the weighed mass " + numberText(weighedMassKg(), 6) + " kg from " +
+                (config_.text("weighed_start") == "ellipsoid"
+                     ? "the volume's equivalent ellipsoid of the other material, centred on its centroid, scaled by " +
+                           numberText(radius, 4)
+                     : "a sphere of the other material centred on the volume's centroid, radius " +
+                           numberText(radius, 4) + " m") +
+                " (design mass " + numberText(mass, 6) + " kg; initial_parameters overrides it)";
       return theta;
     }
     if (note) *note = "start: " + representation_->name() + " fully solid (initial_field)";
@@ -183,15 +186,33 @@ Eigen::VectorXd InteriorProblem::weighedCavityStart(double* mass_kg, double* rad
   if (!(target > 0) || !quadric || cloud_.X.empty()) return {};
   const NormalisedFrame& f = quadric->frame();
   const Eigen::Vector3d uc = (cloud_.centroid() - f.centre) / f.scale;
+  // The region's shape: A = 1 (a sphere), or the volume's equivalent ellipsoid A = C⁻¹/5 (C the volume's
+  // covariance in u; a solid ellipsoid of semi-axes a_k has C = diag(a_k²)/5, so ρ = 1 is the body's own).
+  Eigen::Matrix3d A = Eigen::Matrix3d::Identity();
+  if (config_.text("weighed_start") == "ellipsoid") {
+    Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
+    double volume = 0;
+    for (std::size_t i = 0; i < cloud_.size(); ++i) {
+      const Eigen::Vector3d d = (cloud_.X[i] - f.centre) / f.scale - uc;
+      C += cloud_.V[i] * d * d.transpose();
+      volume += cloud_.V[i];
+    }
+    C /= volume;
+    if (C.determinant() > 0) A = C.inverse() / 5.0;
+  }
   double reach = 0;
-  for (const auto& x : cloud_.X) reach = std::max(reach, ((x - f.centre) / f.scale - uc).norm());
+  for (const auto& x : cloud_.X) {
+    const Eigen::Vector3d d = (x - f.centre) / f.scale - uc;
+    reach = std::max(reach, std::sqrt(d.dot(A * d)));
+  }
   std::vector<double> r, m;
   // The other material than the configured start's: hollow in a solid start (initial_field ≥ 0), the
   // solid (e.g. a heavy insert) in a start of the other material (initial_field < 0).
   const double sign = config_.number("initial_field") >= 0 ? 1.0 : -1.0;
-  const auto design = [&](double rho) {
+  const Eigen::Vector3d b = -2.0 * A * uc;
+  const auto design = [&](double rho) {  // s(u) = ±((u − u_c)ᵀ A (u − u_c) − ρ²)
     Eigen::VectorXd theta(10);
-    theta << 1, 1, 1, 0, 0, 0, -2 * uc.x(), -2 * uc.y(), -2 * uc.z(), uc.squaredNorm() - rho * rho;
+    theta << A(0, 0), A(1, 1), A(2, 2), A(0, 1), A(0, 2), A(1, 2), b.x(), b.y(), b.z(), uc.dot(A * uc) - rho * rho;
     return Eigen::VectorXd(sign * theta);
   };
   const auto mass = [&](double rho) {
@@ -215,7 +236,7 @@ Eigen::VectorXd InteriorProblem::weighedCavityStart(double* mass_kg, double* rad
   }
   const double rho = 0.5 * (lo + hi);
   if (mass_kg) *mass_kg = mass(rho);
-  if (radius_m) *radius_m = rho * f.scale;
+  if (radius_m) *radius_m = config_.text("weighed_start") == "ellipsoid" ? rho : rho * f.scale;
   return design(rho);
 }
 

@@ -113,6 +113,11 @@ void declareCommonParameters(TaskParameters& p) {
   p.flag("continuous_material", false, "use r as a density fraction (no binarisation), the paper's ablation");
   p.flag("pin_shell", true, "pin the boundary shell solid (the paper fixes surface particles)").paper("true");
   p.number("shell_thickness_m", 0.0, "m", "pinned shell thickness [m]; 0 = the surface particles only", 0);
+  p.text("weighed_start", "ellipsoid",
+         "quadric with a mass_kg target: the start's region of the other material, centred on the volume's "
+         "centroid with the reading's mass: sphere | ellipsoid (the volume's equivalent ellipsoid, scaled: a shell's "
+         "own shape)",
+         {"sphere", "ellipsoid"});
   // regularisers
   p.number(
       "weight_volume", 0.0, "unitless",

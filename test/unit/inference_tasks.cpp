@@ -113,12 +113,14 @@ TEST(TaskGradient, HangingAllRepresentations) {
   }
 }
 
-// Weighed on a scale, the quadric starts from a sphere of the other material centred on the centroid
+// Weighed on a scale, the quadric starts from a region of the other material centred on the centroid
 // whose design mass is the reading (an unweighed solid start reaches a lower mass fastest through the
-// constant c: a uniformly grey body). Centred on the centroid, the sphere keeps the centre of mass of
-// the uniform solid; initial_parameters, a reading above the solid mass or another representation keep
-// the old start; a start of the body material (a heavy insert) gets a sphere of the solid.
-TEST(WeighedStart, SphereOfTheOtherMaterialWithTheWeighedMass) {
+// constant c: a uniformly grey body): by default the volume's equivalent ellipsoid, scaled (a shell's own
+// proportions: 0.12 x 0.08 m box, a hollow 1.5 times as long in x as in z), with weighed_start: sphere a
+// sphere. Centred on the centroid, it keeps the centre of mass of the uniform solid; initial_parameters,
+// a reading above the solid mass or another representation keep the old start; a start of the body
+// material (a heavy insert) gets a region of the solid.
+TEST(WeighedStart, RegionOfTheOtherMaterialWithTheWeighedMass) {
   const VolumeCloud cloud = topo_test::boxCloud(0.12, 0.1, 0.08, 0.008);
   TaskConfig c = TaskConfig::defaults("hanging");
   c.set("hanging_point", "0.02,0.01,0.04");
@@ -139,7 +141,26 @@ TEST(WeighedStart, SphereOfTheOtherMaterialWithTheWeighedMass) {
     EXPECT_NE(note.find("weighed mass"), std::string::npos) << note;
     EXPECT_LT(ev.solid_fraction, fraction + 0.01);
   }
-  c.setNumber("mass_kg", 1.1 * solid);  // heavier than solid: no sphere of hollow reaches it
+  // The hollow's proportions at 85 % of the solid mass (inside the pinned skin either way): its extent
+  // along x over its extent along z.
+  auto proportion = [&](const char* shape) {
+    TaskConfig t = c;
+    t.setNumber("mass_kg", 0.85 * solid);
+    t.set("weighed_start", shape);
+    const InteriorProblem p(t, cloud);
+    std::vector<double> r;
+    p.indicator(p.initialParameters(), &r);
+    Eigen::Vector3d reach = Eigen::Vector3d::Zero();
+    for (std::size_t i = 0; i < r.size(); ++i)
+      if (r[i] < 0.5) reach = reach.cwiseMax((cloud.X[i] - centroid).cwiseAbs());
+    return (reach.x() + 0.004) / (reach.z() + 0.004);  // to the cells' outer faces
+  };
+  const double ellipsoid = proportion("ellipsoid"), sphere = proportion("sphere");
+  std::printf("[weighed start] hollow's extent x / z: ellipsoid %.3f (the box's 1.5), sphere %.3f\n", ellipsoid,
+              sphere);
+  EXPECT_NEAR(ellipsoid, 1.5, 0.2);
+  EXPECT_NEAR(sphere, 1.0, 0.2);
+  c.setNumber("mass_kg", 1.1 * solid);  // heavier than solid: no region of hollow reaches it
   {
     const InteriorProblem heavy(c, cloud);
     EXPECT_EQ(heavy.initialParameters(), heavy.representation().initialParameters());

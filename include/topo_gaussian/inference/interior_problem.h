@@ -52,7 +52,10 @@ class InteriorProblem {
   /// lowering the constant c, a grey body with the solid's centre of mass and inertia per mass (on the
   /// tumbler demo 50 % of the volume grey, cavity IoU 0; from this start 0.72). Returns an empty vector
   /// when no experiment is weighed, the representation is not the quadric, or m* lies outside the
-  /// masses such spheres reach (then the solid start stands).
+  /// masses such spheres reach (then the solid start stands). weighed_start: ellipsoid replaces the
+  /// sphere by the volume's equivalent ellipsoid (s(u) = ±((u − u_c)ᵀ A (u − u_c) − ρ²), A = C⁻¹/5 with C
+  /// the volume's covariance: ρ = 1 is the solid ellipsoid of the body's second moments), a shell's own
+  /// shape. radius_m: the sphere's radius [m], or the ellipsoid's ρ (unitless).
   Eigen::VectorXd weighedCavityStart(double* mass_kg = nullptr, double* radius_m = nullptr) const;
   /// The largest scale reading (mass_kg target) among the experiments, 0 when none is weighed.
   double weighedMassKg() const;
