@@ -281,20 +281,19 @@ void suggestNextExperiment(const InteriorProblem& problem, const std::vector<dou
       cand.config.setNumber("target_roll_deg", roll * 180.0 / M_PI);
       cand.config.setNumber("target_pitch_deg", pitch * 180.0 / M_PI);
     }
-    const auto task = makeTask(cand.config, cloud);
-    score(cand, task->evaluate(r, nullptr));
+    const TaskEvaluation hung = makeTask(cand.config, cloud)->evaluate(r, nullptr);
+    score(cand, hung);
     const ExperimentSuggestion hang = cand;
     analysis->candidates.push_back(std::move(cand));  // first: a tie goes to the simpler experiment
     // Swing it there on a horizontal axle along world x, then along y, and time both swings (hanging's
-    // axle_swing_period_s and cross_axle_swing_period_s, their targets set to the design's own periods:
-    // only the derivatives count).
+    // axle_swing_period_s and cross_axle_swing_period_s, which the hang already reports at the default
+    // heading 0, set as targets to the design's own periods: only the derivatives count).
     ExperimentSuggestion swing = hang;
     swing.kind = "swing";
     swing.newly_determined.clear();
     swing.axis = Eigen::Vector3d::UnitX();
-    swing.config.setNumber("axle_heading_deg", 0.0);
     int timed = 0;
-    for (const auto& f : makeTask(swing.config, cloud)->evaluate(r, nullptr).features)
+    for (const auto& f : hung.features)
       if ((f.name == "axle_swing_period_s" || f.name == "cross_axle_swing_period_s") && f.value > 0) {
         swing.config.setNumber(f.name, f.value);
         ++timed;
