@@ -37,6 +37,14 @@ InteriorProblem::InteriorProblem(const TaskConfig& config, const VolumeCloud& cl
   ro.neural.backend = parseComputeBackend(config_.text("backend"), "task parameter backend");
   representation_ = makeRepresentation(ro, cloud_.X);
   indicator_.epsilon = config_.number("epsilon");
+  if (auto* quadric = dynamic_cast<QuadricRepresentation*>(representation_.get())) {
+    const std::string field = config_.text("quadric_field");
+    if (field == "distance" || (field == "auto" && weighedMassKg() > 0)) {
+      double w = config_.number("quadric_boundary_m");
+      if (!(w > 0)) w = 0.5 * (cloud_.spacing > 0 ? cloud_.spacing : 0.01 * task().size());
+      quadric->setDistanceUnit(w / (indicator_.epsilon * quadric->frame().scale));
+    }
+  }
   if (config_.boolean("pin_shell"))
     indicator_.pinned = boundaryShell(cloud_.X, cloud_.surface, config_.number("shell_thickness_m"));
   w_volume_ = config_.number("weight_volume");

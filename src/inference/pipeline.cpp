@@ -49,8 +49,8 @@ void exploreSpread(const TaskConfig& config, const VolumeCloud& cloud, const Pro
                    const StopCheck& should_stop, InferenceResult* res, std::ostringstream* message) {
   const int restarts = config.integer("restarts");
   if (restarts <= 0) {
-    *message << " Other designs that fit as well were not searched (restarts = 0): the interior's confidence is "
-                "not measured (1 everywhere); set restarts=2 to measure it.";
+    *message << " Other designs that fit as well were not searched (restarts = 0; set restarts=2 to search): the "
+                "interior's confidence comes from the linearised region uncertainty below, where it is analysed.";
     return;
   }
   if (res->cancelled) {
@@ -259,6 +259,19 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   } else {
     try {
       res.identifiability = analyseIdentifiability(problem, res.theta, res.final);
+      if (res.identifiability.available) {
+        const MomentJacobian J_si =
+            res.identifiability.J * res.identifiability.natural_units.cwiseInverse().asDiagonal();
+        res.region = analyseRegionUncertainty(problem, res.theta, res.final, J_si);
+        if (res.region.available) {
+          if (res.solid_confidence.size() != res.region.confidence.size())
+            res.solid_confidence = res.region.confidence;
+          else
+            for (std::size_t i = 0; i < res.solid_confidence.size(); ++i)
+              res.solid_confidence[i] = std::min(res.solid_confidence[i], res.region.confidence[i]);
+          res.message += " " + res.region.sentence;
+        }
+      }
     } catch (const TopoError& e) {
       res.identifiability.notes.push_back(std::string("not analysed: ") + e.what());
     } catch (const SimulationCancelled&) {

@@ -79,6 +79,18 @@ std::string experimentsJson(const ProblemEvaluation& ev, const TaskConfig& c) {
   return s + "]";
 }
 
+std::string regionJson(const RegionUncertainty& g) {
+  std::ostringstream s;
+  s << "{\"available\": " << (g.available ? "true" : "false") << ", \"note\": " << quote(g.note)
+    << ", \"observations\": " << g.observations << ", \"directions\": " << g.directions
+    << ", \"determined_directions\": " << g.determined_directions << ", \"free_directions\": " << g.free_directions
+    << ", \"chi2\": " << num(g.chi2) << ", \"noise_scale\": " << num(g.noise_scale) << ", \"samples\": " << g.samples
+    << ", \"region_fraction\": " << num(g.region_fraction) << ", \"iou_mean\": " << num(g.iou_mean)
+    << ", \"iou_p10\": " << num(g.iou_p10) << ", \"undetermined_fraction\": " << num(g.undetermined_fraction)
+    << ", \"sentence\": " << quote(g.sentence) << "}";
+  return s.str();
+}
+
 std::string identifiabilityJson(const IdentifiabilityAnalysis& a) {
   std::ostringstream s;
   s << "{\"available\": " << (a.available ? "true" : "false") << ", \"summary\": " << quote(a.summary)
@@ -195,7 +207,8 @@ std::string reportJson(const InferenceResult& r, const TaskConfig& config) {
                         : std::string("null"))
     << ",\n  \"parameters_count\": " << r.theta.size() << ",\n  \"timings_s\": {\"setup\": " << num(r.setup_s)
     << ", \"optimize\": " << num(r.optimize_s) << ", \"per_evaluation\": " << num(r.evaluation_s)
-    << "},\n  \"identifiability\": " << identifiabilityJson(r.identifiability) << ",\n  \"loss_history\": [";
+    << "},\n  \"identifiability\": " << identifiabilityJson(r.identifiability)
+    << ",\n  \"region_uncertainty\": " << regionJson(r.region) << ",\n  \"loss_history\": [";
   for (std::size_t i = 0; i < r.optimizer.history.size(); ++i) {
     const auto& h = r.optimizer.history[i];
     s << (i ? ", " : "") << "{\"iteration\": " << h.iteration << ", \"loss\": " << num(h.loss)

@@ -118,6 +118,15 @@ void declareCommonParameters(TaskParameters& p) {
          "centroid with the reading's mass: sphere | ellipsoid (the volume's equivalent ellipsoid, scaled: a shell's "
          "own shape)",
          {"sphere", "ellipsoid"});
+  p.text("quadric_field", "auto",
+         "quadric: the field whose sign is the material: algebraic (s = u'Au + b'u + c, the paper's) | distance "
+         "(s / |grad s|, the distance to the quadric's surface: binary beyond quadric_boundary_m, no grey spread) | "
+         "auto (distance when a mass_kg target weighs the object, algebraic otherwise)",
+         {"auto", "algebraic", "distance"});
+  p.number("quadric_boundary_m", 0.0, "m",
+           "quadric_field distance: the boundary's width w [m], r = sigmoid(d / w) for the distance d to the surface "
+           "(0.12 to 0.88 across 4 w); 0 = half the particle spacing",
+           0);
   // regularisers
   p.number(
       "weight_volume", 0.0, "unitless",

@@ -178,6 +178,15 @@ int inferCommand(const std::vector<std::string>& argv) {
               << " kg, centre of mass (" << d.com_min_m.transpose() << ") .. (" << d.com_max_m.transpose()
               << ") m; undetermined volume " << 100.0 * d.undetermined_fraction << " %\n";
   }
+  if (res.region.available) {  // the sentence is in the message above; here the numbers behind it
+    const inference::RegionUncertainty& g = res.region;
+    std::cerr << "[topo infer] the region: " << g.samples << " of " << g.drawn
+              << " drawn designs fit the observations to their noise (" << g.noise_scale << " x the tolerances); "
+              << g.free_directions << " of " << g.directions << " directions free; ";
+    if (g.free_directions == 0)
+      std::cerr << "region IoU with this design " << g.iou_mean << " (10 % below " << g.iou_p10 << "); ";
+    std::cerr << "undetermined volume " << 100.0 * g.undetermined_fraction << " %\n";
+  }
   for (const auto& f : res.final.task.features) {
     std::cerr << "[topo infer]   " << std::setw(28) << std::left << f.name << " " << f.value << " " << f.unit;
     if (f.has_target) std::cerr << "   (target " << f.target << (f.reached() ? ", reached)" : ", NOT reached)");

@@ -19,7 +19,34 @@ double evaluate(const Eigen::VectorXd& t, const Eigen::Vector3d& u) {
          t[7] * y + t[8] * z + t[9];
 }
 
+constexpr double kDistanceKappa = 1e-3;
+
+/// q = |∇s|² + κ²|θ_{A,b}|² and ∇s = 2Au + b at u.
+double gradientSquare(const Eigen::VectorXd& t, const Eigen::Vector3d& u, Eigen::Vector3d* g) {
+  const double x = u.x(), y = u.y(), z = u.z();
+  *g = Eigen::Vector3d(2.0 * (t[0] * x + t[3] * y + t[4] * z) + t[6], 2.0 * (t[3] * x + t[1] * y + t[5] * z) + t[7],
+                       2.0 * (t[4] * x + t[5] * y + t[2] * z) + t[8]);
+  return g->squaredNorm() + kDistanceKappa * kDistanceKappa * t.head<9>().squaredNorm();
+}
+
+/// The field at u: algebraic (unit 0) or the distance field in `unit`.
+double fieldValue(const Eigen::VectorXd& t, const Eigen::Vector3d& u, double unit) {
+  const double s = evaluate(t, u);
+  if (unit <= 0.0) return s;
+  Eigen::Vector3d g;
+  const double q = gradientSquare(t, u, &g);
+  if (!(q > 0.0)) return s > 0 ? 1e300 : (s < 0 ? -1e300 : 0.0);  // θ_{A,b} = 0: a constant field
+  return s / (std::sqrt(q) * unit);
+}
+
 }  // namespace
+
+void QuadricRepresentation::setDistanceUnit(double unit) {
+  if (!(unit >= 0.0) || !std::isfinite(unit))
+    throw TopoError("quadric distance unit", "is " + std::to_string(unit),
+                    "use a positive length in normalised units, or 0 for the algebraic field");
+  distance_unit_ = unit;
+}
 
 QuadricRepresentation::QuadricRepresentation(const std::vector<Eigen::Vector3d>& X, double initial_field)
     : frame_(NormalisedFrame::fromPoints(X)), initial_field_(initial_field) {
@@ -49,7 +76,7 @@ void QuadricRepresentation::field(const Eigen::VectorXd& theta, std::vector<doub
   s->resize(n_);
   const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(n_);
 #pragma omp parallel for schedule(static) if (n > 8192)
-  for (std::ptrdiff_t i = 0; i < n; ++i) (*s)[i] = evaluate(theta, U_[i]);
+  for (std::ptrdiff_t i = 0; i < n; ++i) (*s)[i] = fieldValue(theta, U_[i], distance_unit_);
 }
 
 void QuadricRepresentation::fieldAt(const Eigen::VectorXd& theta, const std::vector<Eigen::Vector3d>& points,
@@ -59,15 +86,16 @@ void QuadricRepresentation::fieldAt(const Eigen::VectorXd& theta, const std::vec
   const double inv = 1.0 / frame_.scale;
   const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(points.size());
 #pragma omp parallel for schedule(static) if (n > 8192)
-  for (std::ptrdiff_t i = 0; i < n; ++i) (*s)[i] = evaluate(theta, (points[i] - frame_.centre) * inv);
+  for (std::ptrdiff_t i = 0; i < n; ++i) (*s)[i] = fieldValue(theta, (points[i] - frame_.centre) * inv, distance_unit_);
 }
 
 void QuadricRepresentation::fieldBackward(const Eigen::VectorXd& theta, const std::vector<double>& dL_ds,
                                           Eigen::VectorXd* dL_dtheta) const {
   checkParameters(theta);
   checkFieldGradient(dL_ds);
-  // s is linear in θ: dL/dθ = Σ_i dL/ds_i · basis(u_i). Per-thread partial sums, added in thread
-  // order so the result does not depend on scheduling.
+  // Algebraic: s is linear in θ, dL/dθ = Σ_i dL/ds_i · basis(u_i). Distance field s_d = s / (√q · unit):
+  // ds_d/dθ = (basis/√q − s ∂q/∂θ / (2 q^{3/2})) / unit, ∂q/∂θ = 2 (∂g/∂θ)ᵀ g + 2κ² θ_{A,b}. Per-thread
+  // partial sums, added in thread order so the result does not depend on scheduling.
   using Vec10 = Eigen::Matrix<double, 10, 1>;
   int threads = 1;
 #ifdef _OPENMP
@@ -83,7 +111,22 @@ void QuadricRepresentation::fieldBackward(const Eigen::VectorXd& theta, const st
 #endif
     Vec10 local = Vec10::Zero();
 #pragma omp for schedule(static)
-    for (std::ptrdiff_t i = 0; i < n; ++i) local += dL_ds[i] * basis(U_[i]);
+    for (std::ptrdiff_t i = 0; i < n; ++i) {
+      if (distance_unit_ <= 0.0) {
+        local += dL_ds[i] * basis(U_[i]);
+        continue;
+      }
+      const Eigen::Vector3d& u = U_[i];
+      Eigen::Vector3d g;
+      const double q = gradientSquare(theta, u, &g);
+      if (!(q > 0.0) || dL_ds[i] == 0.0) continue;
+      const double x = u.x(), y = u.y(), z = u.z(), sq = std::sqrt(q), s = evaluate(theta, u);
+      Vec10 dq;
+      dq << 4.0 * x * g.x(), 4.0 * y * g.y(), 4.0 * z * g.z(), 4.0 * (y * g.x() + x * g.y()),
+          4.0 * (z * g.x() + x * g.z()), 4.0 * (z * g.y() + y * g.z()), 2.0 * g.x(), 2.0 * g.y(), 2.0 * g.z(), 0.0;
+      dq.head<9>() += 2.0 * kDistanceKappa * kDistanceKappa * theta.head<9>();
+      local += (dL_ds[i] / distance_unit_) * (basis(u) / sq - (s / (2.0 * q * sq)) * dq);
+    }
     partial[t] = local;
   }
   Vec10 total = Vec10::Zero();

@@ -199,6 +199,89 @@ TEST(Quadric, GradientMatchesFiniteDifferences) {
   RecordProperty("quadric_fd_rel_error", std::to_string(worst));
 }
 
+TEST(Quadric, DistanceFieldIsTheDistanceToTheSurfaceAtAnyScaleOfTheta) {
+  // Bounds [0, 2]³: u = x − (1, 1, 1). The sphere |u| = 0.5 written k (|u|² − 0.25) for any k > 0.
+  std::vector<Eigen::Vector3d> X = {{0, 0, 0},   {2, 2, 2},    {1.5, 1, 1}, {1.6, 1, 1},
+                                    {1.4, 1, 1}, {1, 1.52, 1}, {1, 1, 1.9}};
+  QuadricRepresentation q(X, 0.3);
+  const double unit = 0.01;
+  q.setDistanceUnit(unit);
+  EXPECT_DOUBLE_EQ(q.distanceUnit(), unit);
+  for (double k : {1e-3, 1.0, 250.0}) {
+    Eigen::VectorXd t(10);
+    t << k, k, k, 0, 0, 0, 0, 0, 0, -0.25 * k;
+    std::vector<double> s;
+    q.field(t, &s);
+    // (|u|² − R²) / (2|u|) = (|u| − R)(|u| + R) / (2|u|): the distance |u| − R to first order.
+    for (std::size_t i = 0; i < X.size(); ++i) {
+      const double d = (X[i] - Eigen::Vector3d(1, 1, 1)).norm();
+      const double expected = (d * d - 0.25) / std::sqrt(4 * d * d + 3e-6) / unit;  // κ²|θ_{A,b}|² = 3e-6 k²
+      EXPECT_NEAR(s[i], expected, 1e-9 * std::max(1.0, std::abs(expected))) << "k " << k << " point " << i;
+    }
+    EXPECT_NEAR(s[2], 0.0, 1e-12);                      // on the surface
+    EXPECT_NEAR(s[3], 0.11 / 1.2 / unit, 1e-3 / unit);  // 0.1 outside: 0.092 (the first-order distance)
+    EXPECT_LT(s[4], -8.0);                              // 0.1 inside
+  }
+  // The algebraic field again with unit 0; a negative unit is refused.
+  q.setDistanceUnit(0.0);
+  Eigen::VectorXd t(10);
+  t << 1, 1, 1, 0, 0, 0, 0, 0, 0, -0.25;
+  std::vector<double> s;
+  q.field(t, &s);
+  EXPECT_NEAR(s[3], 0.36 - 0.25, 1e-14);
+  EXPECT_NE(errorOf([&] { q.setDistanceUnit(-1.0); }).find("quadric distance unit"), std::string::npos);
+}
+
+TEST(Quadric, DistanceFieldCannotSpreadGrey) {
+  // A lattice; the algebraic field of a small sphere with θ shrunk 100× is grey over most of the body, the
+  // distance field of the same θ is binary (r ∉ (0.05, 0.95): |d| > 2.94 w) beyond four boundary widths w of
+  // the sphere (outside, the first-order distance is (d² − R²)/(2d) < d − R).
+  std::vector<Eigen::Vector3d> X;
+  for (int i = 0; i < 21; ++i)
+    for (int j = 0; j < 21; ++j)
+      for (int k = 0; k < 21; ++k) X.emplace_back(0.005 * i, 0.005 * j, 0.005 * k);  // 0.1 m cube, h 5 mm
+  QuadricRepresentation algebraic(X, 0.3), distance(X, 0.3);
+  IndicatorOptions io;                      // ε 0.05
+  const double w_m = 0.0025, scale = 0.05;  // boundary width half the spacing; scale = half the extent
+  distance.setDistanceUnit(w_m / (io.epsilon * scale));
+  Eigen::VectorXd t(10);
+  t << 1, 1, 1, 0, 0, 0, 0, 0, 0, -0.16;  // |u| < 0.4: a 20 mm sphere in the middle
+  t *= 0.01;
+  auto greyAndFar = [&](const Representation& rep, int* grey, int* grey_far) {
+    std::vector<double> r;
+    evaluateIndicator(rep, t, io, &r);
+    *grey = *grey_far = 0;
+    for (std::size_t i = 0; i < X.size(); ++i) {
+      const bool g = r[i] > 0.05 && r[i] < 0.95;
+      const double d = std::abs((X[i] - Eigen::Vector3d(0.05, 0.05, 0.05)).norm() - 0.02);
+      *grey += g;
+      *grey_far += g && d > 4 * w_m;
+    }
+  };
+  int grey_a, far_a, grey_d, far_d;
+  greyAndFar(algebraic, &grey_a, &far_a);
+  greyAndFar(distance, &grey_d, &far_d);
+  EXPECT_GT(grey_a, static_cast<int>(X.size()) / 2);  // the algebraic field: grey almost everywhere
+  EXPECT_EQ(far_d, 0);                                // the distance field: grey only at the surface
+  EXPECT_GT(grey_d, 0);
+  EXPECT_LT(grey_d, static_cast<int>(X.size()) / 10);
+}
+
+TEST(Quadric, DistanceFieldGradientMatchesFiniteDifferences) {
+  const auto X = randomPoints(500, 11, Eigen::Vector3d(-0.1, -0.05, 0), Eigen::Vector3d(0.1, 0.05, 0.08));
+  QuadricRepresentation rep(X, 0.3);
+  rep.setDistanceUnit(0.5);
+  Eigen::VectorXd t(10);
+  t << 1.2, 0.8, 1.5, 0.1, -0.2, 0.15, 0.05, -0.1, 0.2, -0.4;
+  IndicatorOptions io;
+  io.epsilon = 0.1;
+  const double worst = checkGradient(rep, t, io, randomWeights(X.size(), 5), allIndices(10), 1e-6);
+  // A hyperboloid (A indefinite) through the middle, where |∇s| is small near its saddle.
+  t << 1.0, -0.7, 0.4, 0.3, 0.0, -0.2, 0.1, 0.0, -0.05, 0.02;
+  const double worst_saddle = checkGradient(rep, t, io, randomWeights(X.size(), 6), allIndices(10), 1e-7);
+  RecordProperty("quadric_distance_fd_rel_error", std::to_string(std::max(worst, worst_saddle)));
+}
+
 // ---------------------------------------------------------------- point
 
 TEST(Point, BoundsInitialAndGradient) {

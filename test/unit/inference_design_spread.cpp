@@ -83,8 +83,12 @@ TEST(DesignSpread, HangingFixesOnlyTheHorizontalCentreOfMassSoManySolidFractions
   std::printf("[ spread   ] %s\n", s.sentence.c_str());
   EXPECT_EQ(s.tried, 4);
   EXPECT_GE(s.accepted, 3) << res.message;
-  EXPECT_EQ(res.solid_confidence, s.confidence);
   ASSERT_EQ(s.confidence.size(), cloud.size());
+  // The result's confidence: the lower of the spread's and the linearised region analysis's.
+  ASSERT_TRUE(res.region.available) << res.region.note;
+  ASSERT_EQ(res.solid_confidence.size(), cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    EXPECT_DOUBLE_EQ(res.solid_confidence[i], std::min(s.confidence[i], res.region.confidence[i])) << i;
 
   // The designs again, with their indicators, to hold each against the closed form: from the main
   // run's best (the same run without the search; a restart may have found a lower loss, which is then
@@ -212,7 +216,9 @@ TEST(DesignSpread, NoRestartsOrACancelledRunExploreNothing) {
   const VolumeCloud cloud = box();
   const inference::InferenceResult none = inference::runInference(hangingConfig(0.01, 0), cloud);
   EXPECT_FALSE(none.spread.computed);
-  EXPECT_TRUE(none.solid_confidence.empty());
+  // No spread: the confidence is the linearised region analysis's alone.
+  ASSERT_TRUE(none.region.available) << none.region.note;
+  EXPECT_EQ(none.solid_confidence, none.region.confidence);
   const inference::InferenceResult cancelled =
       inference::runInference(hangingConfig(0.01, 4), cloud, [](const inference::IterationInfo&) { return false; });
   EXPECT_TRUE(cancelled.cancelled);

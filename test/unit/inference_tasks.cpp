@@ -205,6 +205,8 @@ TEST(TaskGradient, HangingWeighedOnAScale) {
   TaskConfig c = TaskConfig::defaults("hanging");
   c.set("hanging_point", "0.03,0.01,0.03");
   c.set("mass_kg", "0.7");
+  // The same field as the unweighed problem's (a weighed quadric takes the distance field by default).
+  c.set("quadric_field", "algebraic");
   const InteriorProblem p(c, cloud);
   ProblemEvaluation ev;
   p.evaluate(quadricDesign(), nullptr, &ev);
@@ -222,6 +224,10 @@ TEST(TaskGradient, HangingWeighedOnAScale) {
     if (f.name == "mass_kg") reached_flag = f.has_target && !f.reached();
   EXPECT_TRUE(reached_flag) << "mass_kg is a target, not reached at this design";
   gradientError(p, quadricDesign(), {0, 3, 7, 9}, 1e-6);
+  // The default (auto) for a weighed quadric: the distance field, its gradient through the whole chain.
+  c.set("quadric_field", "auto");
+  const InteriorProblem pd(c, cloud);
+  gradientError(pd, quadricDesign(), {0, 3, 7, 9}, 1e-6);
 }
 
 // Swung on horizontal axles through the hanging point (axle_swing_period_s and the cross axle's): the loss

@@ -12,6 +12,7 @@
 #include "topo_gaussian/inference/identifiability.h"
 #include "topo_gaussian/inference/interior_problem.h"
 #include "topo_gaussian/inference/optimizer.h"
+#include "topo_gaussian/inference/region_uncertainty.h"
 #include "topo_gaussian/inference/task_config.h"
 #include "topo_gaussian/physics/volume_cloud.h"
 
@@ -40,14 +41,19 @@ struct InferenceResult {
   std::vector<std::string> warnings;  ///< for a person, not errors (e.g. a hanging point outside the object)
   std::string backend;  ///< where the kernels ran, e.g. "backend auto: CUDA on NVIDIA H100 … (132 SMs, 80 GiB)"
   std::string message;  ///< one paragraph for a person: what happened, how close, what to do
-  /// Designs that fit as well as the best (restarts > 0; inference/design_spread.h): per particle the
-  /// agreement with the best design's solid/hollow label (empty when not explored), and the spread.
+  /// Per particle the agreement with the best design's solid/hollow label: of the designs that fit as
+  /// well as the best (restarts > 0; inference/design_spread.h) and of the linearised region uncertainty
+  /// (region below), the lower; empty when neither ran.
   std::vector<double> solid_confidence;
   DesignSpread spread;
   double setup_s = 0, optimize_s = 0, evaluation_s = 0;  ///< timings; evaluation_s = per loss+gradient
   /// What the experiments determine at the final design, and the next experiment (identifiability.h);
   /// available = false (with notes) for tasks without observations or a cancelled run.
   IdentifiabilityAnalysis identifiability;
+  /// How well the observations fix the region itself (region_uncertainty.h; available = false with a note
+  /// for large representations or tasks without observations). Its per-particle confidence is
+  /// solid_confidence when no design spread ran, and their minimum when one did.
+  RegionUncertainty region;
 };
 
 /// Called after every objective evaluation with its details (features of the design just tried).
