@@ -426,6 +426,7 @@ struct CaseResult {
   double iou_solid = 0, iou_region = 0, seconds = 0, loss_truth = NAN;
   double iou_expected = NAN;  ///< the inference's own region uncertainty: IoU expected of designs that fit
   Errors rec, base, start;    ///< recovered; the body alone (unweighed start); the optimiser's start
+  Errors truth_lattice;       ///< the true interior on the inference's lattice (the lattice's own error)
   bool pass = true;           ///< within the case's --check bounds
   bool goal = true;           ///< mass, inertia and held out within 2 %
 };
@@ -579,6 +580,11 @@ CaseResult runCase(const CaseSpec& s, bool quick, unsigned seed, const std::stri
   // and the model cannot reproduce the reference's observations to their noise.
   const ProblemEvaluation truth_eval = simulateInterior(joint, coarse, t_coarse);
   out.loss_truth = truth_eval.loss;
+  // The true interior on the inference's lattice against the fine reference: the lattice's own error
+  // (what no design on this lattice can do better than).
+  const ProblemEvaluation truth_plain = simulateInterior(full_cfg, coarse, t_coarse);
+  out.truth_lattice = errorsOf(truth_plain.task.mass, truth, full_fine, diag,
+                               featureValue(simulateInterior(held, coarse, t_coarse).task, hf), held_truth);
   for (const auto& e : truth_eval.experiments)
     for (const auto& f : e.eval.features)
       if (f.has_target)
@@ -638,6 +644,7 @@ CaseResult runCase(const CaseSpec& s, bool quick, unsigned seed, const std::stri
       "\"com_err_over_shift\": %s, \"inertia_err\": %s, \"held_out_err\": %s, \"baseline_start\": {\"mass_err\": %s, "
       "\"com_err_over_size\": %s, \"com_err_over_shift\": %s, \"inertia_err\": %s, \"held_out_err\": %s}, "
       "\"video\": [%s], \"scale_kg\": %s, \"start\": {\"design\": %s, \"mass_err\": %s, \"inertia_err\": %s, "
+      "\"held_out_err\": %s}, \"truth_on_lattice\": {\"mass_err\": %s, \"com_err_over_size\": %s, \"inertia_err\": %s, "
       "\"held_out_err\": %s}, "
       "\"held_out_pendulum_closed_form_err\": %s, \"solid_fraction_true\": %s, \"solid_fraction_recovered\": %s, "
       "\"observes\": %s, \"determined\": %s, \"region_uncertainty\": {\"iou_mean\": %s, \"iou_p10\": %s, "
@@ -654,8 +661,10 @@ CaseResult runCase(const CaseSpec& s, bool quick, unsigned seed, const std::stri
       json::num(out.base.mass).c_str(), json::num(out.base.com_size).c_str(), json::num(out.base.com_shift).c_str(),
       json::num(out.base.inertia).c_str(), json::num(out.base.held_out).c_str(), video_json.c_str(),
       json::num(scale_kg).c_str(), json::quote(result.start).c_str(), json::num(out.start.mass).c_str(),
-      json::num(out.start.inertia).c_str(), json::num(out.start.held_out).c_str(), json::num(swing_err).c_str(),
-      json::num(simulateInterior(full_cfg, coarse, t_coarse).solid_fraction).c_str(),
+      json::num(out.start.inertia).c_str(), json::num(out.start.held_out).c_str(),
+      json::num(out.truth_lattice.mass).c_str(), json::num(out.truth_lattice.com_size).c_str(),
+      json::num(out.truth_lattice.inertia).c_str(), json::num(out.truth_lattice.held_out).c_str(),
+      json::num(swing_err).c_str(), json::num(truth_plain.solid_fraction).c_str(),
       json::num(result.final.solid_fraction).c_str(), json::quote(observes).c_str(), json::quote(determined).c_str(),
       json::num(result.region.iou_mean).c_str(), json::num(result.region.iou_p10).c_str(),
       json::num(result.region.undetermined_fraction).c_str(), json::num(result.region.noise_scale).c_str(),
