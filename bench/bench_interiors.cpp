@@ -391,19 +391,27 @@ VideoObservation observeThroughVideo(TaskConfig& c, const VolumeCloud& fine, con
     // frame rate (what an exact tracker would give).
     const auto& ts = ref.task.signal_time_s;
     const auto& ys = ref.task.signal;
-    std::vector<double> y_frames;
-    double sum = 0;
-    for (std::size_t k = 0; k < f.time_s.size(); ++k) {
-      const double t = ts.front() + (f.time_s[k] - f.time_s.front());
+    const auto at = [&](double t, double* y) {  // the reference's tilt at t (linear), false outside
       const std::size_t j = std::upper_bound(ts.begin(), ts.end(), t) - ts.begin();
-      if (j == 0 || j >= ts.size()) break;
+      if (j == 0 || j >= ts.size()) return false;
       const double w = (t - ts[j - 1]) / (ts[j] - ts[j - 1]);
-      y_frames.push_back((1 - w) * ys[j - 1] + w * ys[j]);
-      const double e = std::abs(f.angle_deg[k]) - std::abs(y_frames.back());
+      *y = (1 - w) * ys[j - 1] + w * ys[j];
+      return true;
+    };
+    // The tracker's frames (times from its first frame, the clip's start; rendered frames are not lost).
+    double sum = 0, y = 0;
+    int count = 0;
+    for (std::size_t k = 0; k < f.time_s.size(); ++k) {
+      if (!at(ts.front() + (f.time_s[k] - f.time_s.front()), &y)) break;
+      const double e = std::abs(f.angle_deg[k]) - std::abs(y);
       sum += e;
+      ++count;
       v.tilt_error_max_deg = std::max(std::isfinite(v.tilt_error_max_deg) ? v.tilt_error_max_deg : 0.0, std::abs(e));
     }
-    if (!y_frames.empty()) v.tilt_error_mean_deg = sum / static_cast<double>(y_frames.size());
+    if (count > 0) v.tilt_error_mean_deg = sum / count;
+    // The clip sampled at the frame rate on its own (uniform, released at rest), by the task's rule.
+    std::vector<double> y_frames;
+    for (int k = 0; at(ts.front() + k / fps_used, &y); ++k) y_frames.push_back(y);
     const int cycles = c.has("measured_cycles") ? c.integer("measured_cycles") : 2;
     const auto clip_features = analyseOscillation(y_frames, 0.0, 1.0 / fps_used, cycles, true);
     if (clip_features.valid) v.clip_period_s = clip_features.period, v.clip_max_tilt_deg = clip_features.max_abs;
@@ -617,7 +625,10 @@ CaseResult runCase(const CaseSpec& s, bool quick, unsigned seed, const std::stri
     if (m.determined) determined += (determined.empty() ? "" : " ") + m.name;
   determined = (determined.empty() ? std::string("none") : determined) + " (" +
                std::to_string(id.determined_directions) + " of 10 combinations; undetermined volume " +
-               numberText(100.0 * result.spread.undetermined_fraction, 3) + " %)";
+               numberText(100.0 * std::max(result.spread.undetermined_fraction,
+                                           result.region.available ? result.region.undetermined_fraction : 0.0),
+                          3) +
+               " %)";
 
   std::string names;
   int hangs = 0, rocks = 0;

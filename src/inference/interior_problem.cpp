@@ -37,14 +37,6 @@ InteriorProblem::InteriorProblem(const TaskConfig& config, const VolumeCloud& cl
   ro.neural.backend = parseComputeBackend(config_.text("backend"), "task parameter backend");
   representation_ = makeRepresentation(ro, cloud_.X);
   indicator_.epsilon = config_.number("epsilon");
-  if (auto* quadric = dynamic_cast<QuadricRepresentation*>(representation_.get())) {
-    const std::string field = config_.text("quadric_field");
-    if (field == "distance" || (field == "auto" && weighedMassKg() > 0)) {
-      double w = config_.number("quadric_boundary_m");
-      if (!(w > 0)) w = 0.5 * (cloud_.spacing > 0 ? cloud_.spacing : 0.01 * task().size());
-      quadric->setDistanceUnit(w / (indicator_.epsilon * quadric->frame().scale));
-    }
-  }
   if (config_.boolean("pin_shell"))
     indicator_.pinned = boundaryShell(cloud_.X, cloud_.surface, config_.number("shell_thickness_m"));
   w_volume_ = config_.number("weight_volume");
@@ -55,6 +47,36 @@ InteriorProblem::InteriorProblem(const TaskConfig& config, const VolumeCloud& cl
     double radius = config_.number("smoothness_radius_m");
     if (radius <= 0) radius = 1.5 * (cloud_.spacing > 0 ? cloud_.spacing : 0.01 * task().size());
     neighbors_ = buildNeighborList(cloud_.X, radius);
+  }
+  // After the pinned shell: the weighed start's bisection uses the indicator.
+  if (auto* quadric = dynamic_cast<QuadricRepresentation*>(representation_.get())) {
+    const std::string field = config_.text("quadric_field");
+    if (field == "distance" || (field == "auto" && weighedMassKg() > 0)) {
+      double w = config_.number("quadric_boundary_m");
+      if (!(w > 0)) w = 0.5 * (cloud_.spacing > 0 ? cloud_.spacing : 0.01 * task().size());
+      quadric->setDistanceUnit(w / (indicator_.epsilon * quadric->frame().scale));
+      // The distance field of a constant design (A = b = 0: no surface) has no gradient: the start must
+      // have a surface. auto keeps the paper's field when the weighed start is not made.
+      const std::vector<double>& given = config_.list("initial_parameters");
+      Eigen::VectorXd start;
+      if (given.size() == QuadricRepresentation::kNumParameters)
+        start = Eigen::Map<const Eigen::VectorXd>(given.data(), static_cast<Eigen::Index>(given.size()));
+      else if (given.empty())
+        start = weighed_start_ = weighedCavityStart(&weighed_start_mass_kg_, &weighed_start_radius_);
+      if (start.size() == QuadricRepresentation::kNumParameters && start.head<9>().norm() > 0) {
+        // the distance field stands
+      } else if (field == "auto") {
+        quadric->setDistanceUnit(0.0);
+        weighed_start_.resize(0);
+      } else if (given.empty() || given.size() == QuadricRepresentation::kNumParameters) {
+        throw TopoError("quadric_field distance",
+                        "the start design has no surface (A = b = 0, a constant field), where the distance field "
+                        "has no gradient",
+                        "weigh the object (a mass_kg target) for the weighed start, give initial_parameters of a "
+                        "design with a surface (e.g. the sphere 1,1,1,0,0,0,0,0,0,-0.25), or use quadric_field "
+                        "algebraic");
+      }
+    }
   }
 }
 
@@ -156,8 +178,8 @@ std::vector<std::string> InteriorProblem::notes() const {
 Eigen::VectorXd InteriorProblem::initialParameters(std::string* note) const {
   const std::vector<double>& given = config_.list("initial_parameters");
   if (given.empty()) {
-    double mass = 0.0, radius = 0.0;
-    Eigen::VectorXd theta = weighedCavityStart(&mass, &radius);
+    double mass = weighed_start_mass_kg_, radius = weighed_start_radius_;
+    Eigen::VectorXd theta = weighed_start_.size() > 0 ? weighed_start_ : weighedCavityStart(&mass, &radius);
     if (theta.size() > 0) {
       if (note)
         *note = "start: the weighed mass " + numberText(weighedMassKg(), 6) + " kg from " +

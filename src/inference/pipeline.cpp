@@ -270,6 +270,8 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
             for (std::size_t i = 0; i < res.solid_confidence.size(); ++i)
               res.solid_confidence[i] = std::min(res.solid_confidence[i], res.region.confidence[i]);
           res.message += " " + res.region.sentence;
+        } else {
+          res.identifiability.notes.push_back("region uncertainty: " + res.region.note);
         }
       }
     } catch (const TopoError& e) {

@@ -18,10 +18,13 @@ namespace topo_gaussian::inference {
 namespace {
 
 constexpr double kRegionProposalCap = 0.5;
+/// The smallest noise σ̂ the fit may estimate, in units of the tolerances.
+constexpr double kRegionNoiseFloor = 0.01;
 /// Below this expected IoU the sentence calls the region not determined (issue 16's IoU goal).
 constexpr double kRegionDeterminedIou = 0.9;
 
-/// χ²_q(k) by Wilson–Hilferty: k (1 − 2/(9k) + z_q √(2/(9k)))³.
+/// χ²_q(k) by Wilson–Hilferty: k (1 − 2/(9k) + z_q √(2/(9k)))³. At k = 1 its lower decile is 0.0053
+/// against the exact 0.0158: σ̂ then comes out √3 too large, on the safe side.
 double chiSquareQuantile(int k, double z_q) {
   const double a = 2.0 / (9.0 * k);
   const double c = std::max(1.0 - a + z_q * std::sqrt(a), 1e-3);
@@ -64,7 +67,7 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
   int n = 0;
   for (const auto& xe : at.experiments)
     for (const auto& o : xe.eval.observations) {
-      if (!o.has_target) continue;
+      if (!o.has_target || !(xe.weight > 0)) continue;  // a weight-0 experiment's rows are zero
       const double e = (o.value - o.target) / o.noise;
       chi2 += xe.weight * e * e;
       ++n;
@@ -97,7 +100,8 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
       ++out.free_directions;
   }
   const int dof = n - out.determined_directions;
-  out.noise_scale = dof > 0 ? std::sqrt(chi2 / chiSquareLowerDecile(dof)) : 1.0;
+  // An exact fit (χ² → 0) would claim exact observations: σ̂ is floored at 1 % of the tolerances.
+  out.noise_scale = dof > 0 ? std::max(kRegionNoiseFloor, std::sqrt(chi2 / chiSquareLowerDecile(dof))) : 1.0;
 
   // The best design's labels and region (the other material: the smaller label by volume).
   const auto& V_i = problem.cloud().V;

@@ -121,7 +121,8 @@ void declareCommonParameters(TaskParameters& p) {
   p.text("quadric_field", "auto",
          "quadric: the field whose sign is the material: algebraic (s = u'Au + b'u + c, the paper's) | distance "
          "(s / |grad s|, the distance to the quadric's surface: binary beyond quadric_boundary_m, no grey spread) | "
-         "auto (distance when a mass_kg target weighs the object, algebraic otherwise)",
+         "auto (distance when a mass_kg target weighs the object and the weighed start is made, algebraic "
+         "otherwise); distance needs a start with a surface (not the constant solid start)",
          {"auto", "algebraic", "distance"});
   p.number("quadric_boundary_m", 0.0, "m",
            "quadric_field distance: the boundary's width w [m], r = sigmoid(d / w) for the distance d to the surface "

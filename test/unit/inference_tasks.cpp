@@ -14,6 +14,7 @@
 #include "topo_gaussian/inference/optimizer.h"
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/inference/task_config.h"
+#include "topo_gaussian/topology/quadric_representation.h"
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::inference;
@@ -196,6 +197,36 @@ TEST(WeighedStart, RegionOfTheOtherMaterialWithTheWeighedMass) {
   EXPECT_EQ(InteriorProblem(unweighed, cloud).weighedMassKg(), 0.0);
   const InteriorProblem plain(unweighed, cloud);
   EXPECT_EQ(plain.initialParameters(), plain.representation().initialParameters());
+}
+
+// The distance field needs a start with a surface: a constant design (A = b = 0) has no gradient there.
+// quadric_field distance from the solid start is refused with the fix; auto keeps the paper's field when
+// the weighed start cannot be made (a reading above the solid body's mass); a sphere start is accepted.
+TEST(WeighedStart, TheDistanceFieldNeedsAStartWithASurface) {
+  const VolumeCloud cloud = topo_test::boxCloud(0.2, 0.1, 0.06, 0.01);
+  TaskConfig c = TaskConfig::defaults("hanging");
+  c.set("hanging_point", "0.03,0.01,0.03");
+  c.set("quadric_field", "distance");
+  const std::string refused = errorOf([&] { InteriorProblem p(c, cloud); });
+  EXPECT_NE(refused.find("quadric_field distance"), std::string::npos) << refused;
+  EXPECT_NE(refused.find("no surface"), std::string::npos) << refused;
+  EXPECT_NE(refused.find("initial_parameters"), std::string::npos) << refused;
+  c.set("initial_parameters", "1,1,1,0,0,0,0,0,0,-0.25");
+  const InteriorProblem sphere(c, cloud);
+  const auto* q = dynamic_cast<const QuadricRepresentation*>(&sphere.representation());
+  ASSERT_NE(q, nullptr);
+  EXPECT_GT(q->distanceUnit(), 0.0);
+  Eigen::VectorXd g;
+  sphere.evaluate(sphere.initialParameters(), &g);
+  EXPECT_GT(g.head<9>().norm(), 0.0) << "a start with a surface has a gradient";
+  TaskConfig heavy = TaskConfig::defaults("hanging");
+  heavy.set("hanging_point", "0.03,0.01,0.03");
+  heavy.setNumber("mass_kg", 10.0 * 1000.0 * cloud.totalVolume());  // ten times the solid body's mass
+  const InteriorProblem fallback(heavy, cloud);
+  const auto* qa = dynamic_cast<const QuadricRepresentation*>(&fallback.representation());
+  ASSERT_NE(qa, nullptr);
+  EXPECT_EQ(qa->distanceUnit(), 0.0) << "auto without a weighed start keeps the algebraic field";
+  EXPECT_EQ(fallback.initialParameters(), fallback.representation().initialParameters());
 }
 
 // Weighed on a scale (mass_kg target): the loss gains ((m − m*)/m*)², its gradient matches central

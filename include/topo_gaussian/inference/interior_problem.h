@@ -94,6 +94,9 @@ class InteriorProblem {
   IndicatorOptions indicator_;
   NeighborList neighbors_;
   double w_volume_ = 0, target_fraction_ = -1, w_smooth_ = 0, total_volume_ = 1;
+  /// The weighed start, made once in the constructor when the distance field needs to know it has a surface.
+  Eigen::VectorXd weighed_start_;
+  double weighed_start_mass_kg_ = 0, weighed_start_radius_ = 0;
 };
 
 }  // namespace topo_gaussian::inference

@@ -10,18 +10,18 @@
 // noise are θ = θ* + σ̂ Σ_k v_k z_k / s_k, z ~ N(0, I). The rows are whitened by the tolerances σ_k (at
 // which a feature is called matched); the observations' own noise is estimated from the fit's residual,
 //   χ² = Σ_k w_e ((y_k − y*_k)/σ_k)²,   σ̂² = χ² / χ²_0.10(n − p)
-// (its 90 % upper bound; n observations, p directions; Wilson–Hilferty quantile), and σ̂ = 1 (the
-// tolerances) when n ≤ p, where the residual cannot tell the noise. The linearisation overshoots far from
-// θ* (a small cavity's moments are not linear in its shape), so a drawn design is KEPT only when its exact
-// moments p(θ) keep the observations within the noise: |J (p(θ) − p*)|² ≤ σ̂² χ²_0.95(p). Directions the
-// observations barely fix (a 1σ step above half of |θ*|) are drawn within half of |θ*|: designs near this
-// one. Draws come in rounds of `samples`; after a round that keeps fewer than a quarter, the proposal is
-// halved (at most 6 times); at most 16 rounds (none kept: not available, with a note). Each kept design
-// is labelled (r ≥ 0.5); per particle, confidence_i = the fraction of drawn designs whose label is the
-// best's; the region (the other material: the smaller of the two labels by volume) is compared by IoU.
-// A direction with s_k < 1e-9 s_max is FREE: the observations do not fix the region along it at all
-// (reported; drawn within half of |θ*| like the barely fixed ones, and iou_mean is NaN).
-// Only for representations of few parameters (the quadric); the point and neural ones are not analysed.
+// (its 90 % upper bound; n observations of experiments with weight > 0, p directions; Wilson–Hilferty
+// quantile; at least 0.01), and σ̂ = 1 (the tolerances) when n ≤ p, where the residual cannot tell the noise. The
+// linearisation overshoots far from θ* (a small cavity's moments are not linear in its shape), so a drawn design is
+// KEPT only when its exact moments p(θ) keep the observations within the noise: |J (p(θ) − p*)|² ≤ σ̂² χ²_0.95(p).
+// Directions the observations barely fix (a 1σ step above half of |θ*|) are drawn within half of |θ*|: designs near
+// this one. Draws come in rounds of `samples`; after a round that keeps fewer than a quarter, the proposal is halved
+// (at most 6 times); at most 16 rounds (none kept: not available, with a note). Each kept design is labelled (r ≥ 0.5);
+// per particle, confidence_i = the fraction of kept designs whose label is the best's; the region (the other material:
+// the smaller of the two labels by volume) is compared by IoU. A direction with s_k < 1e-9 s_max is FREE: the
+// observations do not fix the region along it at all (reported; drawn within half of |θ*| like the barely fixed ones,
+// and iou_mean is NaN). Only for representations of few parameters (the quadric); the point and neural ones are not
+// analysed.
 #pragma once
 
 #include <Eigen/Core>
