@@ -60,6 +60,7 @@
 #include "topo_gaussian/inference/motion_targets.h"
 #include "topo_gaussian/inference/oscillation.h"
 #include "topo_gaussian/inference/pipeline.h"
+#include "topo_gaussian/inference/region_uncertainty.h"
 #include "topo_gaussian/vision/figure.h"
 #include "topo_gaussian/vision/motion_features.h"
 #include "topo_gaussian/vision/slice_picture.h"
@@ -308,16 +309,6 @@ Errors errorsOf(const MassProperties& m, const MassProperties& truth, const Mass
   e.inertia = (m.inertia - truth.inertia).norm() / truth.inertia.norm();
   e.held_out = std::abs(held - held_truth) / std::abs(held_truth);
   return e;
-}
-
-/// Volume IoU of two indicator fields (fractions in [0, 1]).
-double iou(const VolumeCloud& c, const std::vector<double>& a, const std::vector<double>& b) {
-  double inter = 0, uni = 0;
-  for (std::size_t i = 0; i < c.size(); ++i) {
-    inter += c.V[i] * std::min(a[i], b[i]);
-    uni += c.V[i] * std::max(a[i], b[i]);
-  }
-  return uni > 0 ? inter / uni : 1.0;
 }
 
 /// An experiment seen through video, as a lab sees it: the reference motion on the fine cloud (a
@@ -600,8 +591,8 @@ CaseResult runCase(const CaseSpec& s, bool quick, unsigned seed, const std::stri
                      e.name.c_str(), f.name.c_str(), f.value, f.target);
   std::fprintf(stderr, "[%s] loss: found %.3e, the true interior on this lattice %.3e\n", s.name.c_str(),
                result.final.loss, out.loss_truth);
-  out.iou_solid = iou(coarse, t_coarse, rec_solid);
-  out.iou_region = iou(coarse, t_region, rec_region);
+  out.iou_solid = volumeIou(coarse.V, t_coarse, rec_solid);
+  out.iou_region = volumeIou(coarse.V, t_region, rec_region);
   out.particles = coarse.size();
 
   // True over recovered slices.

@@ -33,16 +33,21 @@ double chiSquareQuantile(int k, double z_q) {
 double chiSquareLowerDecile(int k) { return chiSquareQuantile(k, -1.2815516); }
 double chiSquareUpper95(int k) { return chiSquareQuantile(k, 1.6448536); }
 
-double regionIou(const std::vector<double>& V, const std::vector<char>& a, const std::vector<char>& b) {
+}  // namespace
+
+double volumeIou(const std::vector<double>& V, const std::vector<double>& a, const std::vector<double>& b) {
+  if (a.size() != V.size() || b.size() != V.size())
+    throw TopoError("volume IoU",
+                    "has fields of " + std::to_string(a.size()) + " and " + std::to_string(b.size()) + " values for " +
+                        std::to_string(V.size()) + " particles",
+                    "give one indicator value per particle");
   double inter = 0, uni = 0;
   for (std::size_t i = 0; i < V.size(); ++i) {
-    inter += (a[i] && b[i]) ? V[i] : 0.0;
-    uni += (a[i] || b[i]) ? V[i] : 0.0;
+    inter += V[i] * std::min(a[i], b[i]);
+    uni += V[i] * std::max(a[i], b[i]);
   }
   return uni > 0 ? inter / uni : 1.0;
 }
-
-}  // namespace
 
 RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const Eigen::VectorXd& theta,
                                            const ProblemEvaluation& at, const MomentJacobian& J_si,
@@ -116,8 +121,8 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
     total += V_i[i];
   }
   const bool region_is_solid = solid <= 0.5 * total;
-  std::vector<char> best_region(N);
-  for (std::size_t i = 0; i < N; ++i) best_region[i] = best[i] == region_is_solid;
+  std::vector<double> best_region(N);
+  for (std::size_t i = 0; i < N; ++i) best_region[i] = best[i] == region_is_solid ? 1.0 : 0.0;
   out.region_fraction = (region_is_solid ? solid : total - solid) / total;
 
   // Proposals from the linearised Gaussian; a design is kept when its exact moments (not the linearised
@@ -134,7 +139,7 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
   std::normal_distribution<double> normal(0.0, 1.0);
   std::vector<int> agree(N, 0);
   std::vector<double> ious;
-  std::vector<char> region(N);
+  std::vector<double> region(N);
   // A direction the observations barely fix (its 1σ step above half the design's own parameter norm)
   // is drawn within that half norm: the designs near this one, not any quadric at all.
   const double cap = kRegionProposalCap * theta.norm();
@@ -158,9 +163,9 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
       for (std::size_t i = 0; i < N; ++i) {
         const bool label = r[i] >= 0.5;
         agree[i] += label == static_cast<bool>(best[i]);
-        region[i] = label == region_is_solid;
+        region[i] = label == region_is_solid ? 1.0 : 0.0;
       }
-      ious.push_back(regionIou(V_i, best_region, region));
+      ious.push_back(volumeIou(V_i, best_region, region));
     }
     if (kept_round * 4 < tries && halvings < 6) step *= 0.5, ++halvings;
   }

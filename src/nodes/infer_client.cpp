@@ -282,17 +282,16 @@ int main(int argc, char** argv) {
                 iou_cavity, iou_solid);
     std::printf("[demo] (centre of mass errors relative to the object's size %.4g m)\n", size);
   }
-  {  // how sure: the share of particles whose solid/hollow label the designs that fit as well disagree on
+  {  // how sure: the share of particles whose label the designs that fit (spread, region analysis) disagree on
     bool has = false;
     for (const auto& f : res->interior.fields) has = has || f.name == "confidence";
-    if (res->message.find("(restarts = 0)") != std::string::npos) {
-      std::printf("[demo] uncertainty not measured: no other designs were searched (restarts = 0; set restarts=2)\n");
-    } else if (has && res->interior.width * res->interior.height > 0) {
+    if (has && res->interior.width * res->interior.height > 0) {
       sensor_msgs::PointCloud2ConstIterator<float> c(res->interior, "confidence");
       std::size_t n = 0, unsure = 0;
       for (; c != c.end(); ++c, ++n) unsure += *c < 0.999f;
-      std::printf("[demo] %.1f %% of the particles are uncertain (designs that fit as well disagree on them)\n",
-                  100.0 * double(unsure) / double(std::max<std::size_t>(n, 1)));
+      std::printf(
+          "[demo] %.1f %% of the particles are uncertain (designs that fit the observations disagree on them)\n",
+          100.0 * double(unsure) / double(std::max<std::size_t>(n, 1)));
     }
   }
   if (!res->identifiability.empty()) {

@@ -56,6 +56,10 @@ struct RegionUncertainty {
   std::string sentence;                  ///< for a person
 };
 
+/// Volume IoU Σ V_i min(a_i, b_i) / Σ V_i max(a_i, b_i) of two indicator fields (labels 0/1 or fractions
+/// in [0, 1]); 1 when both are empty. Throws TopoError for sizes that differ from V's.
+double volumeIou(const std::vector<double>& V, const std::vector<double>& a, const std::vector<double>& b);
+
 /// The analysis at design θ (see the header comment); J_si the whitened moment Jacobian of the measured
 /// observations (identifiability: analysis.J · diag(1/natural_units)), `at` the evaluation at θ whose
 /// observations gave it (for χ²). Throws TopoError for a Jacobian of the wrong shape.
