@@ -249,9 +249,8 @@ void implicitCase(const std::string& name, int nx, int ny, int nz, int steps, do
       "\"cpu_per_wall\": %.2f}\n",
       name.c_str(), threads(), n, sim.clampedCount(), nbr, dt, steps, implicit_s, newton_it, cg_it, per_step,
       implicit_s / std::max(1, newton_it), implicit_s / std::max(1, cg_it), double(cg_it) / std::max(1, newton_it),
-      worst_residual,
-      n <= sim.options().cholesky_max_particles ? RestStiffnessPreconditioner::backend().c_str() : "jacobi", factor_s,
-      (implicit_s - factor_s) / std::max(1, newton_it), double(n) * steps / implicit_s, ex_steps_per_dt, ex_s,
+      worst_residual, sim.preconditionerNote().empty() ? RestStiffnessPreconditioner::backend().c_str() : "jacobi",
+      factor_s, (implicit_s - factor_s) / std::max(1, newton_it), double(n) * steps / implicit_s, ex_steps_per_dt, ex_s,
       per_step / ex_s, meter.ratio());
   std::fflush(stdout);
 }

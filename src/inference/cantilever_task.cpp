@@ -92,6 +92,7 @@ class CantileverTask : public SoftTask {
     const double f_theory = 1.8751 * 1.8751 / (2.0 * M_PI * length_ * length_) * std::sqrt(E * I / (rho * A));
     const double f_modal = sim->firstNaturalFrequency(1e-6);
     const SolveReport rep = sim->solveStatic(NewtonOptions(), 2);
+    notePreconditioner(*sim);
     const double tip = -tipZ(*sim);
     ev.features = {
         Feature{"tip_deflection_m", tip, "m"},        Feature{"tip_deflection_theory_m", tip_theory, "m"},

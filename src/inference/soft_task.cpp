@@ -1,7 +1,9 @@
 // Shared soft-task machinery; see soft_task.h.
 #include "soft_task.h"
 
+#include <algorithm>
 #include <cmath>
+#include <iostream>
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
@@ -157,6 +159,14 @@ std::unique_ptr<SoftBodySimulator> SoftTask::simulator(const Materials& m) const
   auto sim = std::make_unique<SoftBodySimulator>(std::move(sph), options);
   sim->setMasses(m.mass);
   return sim;
+}
+
+void SoftTask::notePreconditioner(const SoftBodySimulator& sim) const {
+  const std::string& note = sim.preconditionerNote();
+  if (note.empty() || std::find(notes_.begin(), notes_.end(), note) != notes_.end()) return;
+  notes_.push_back(note);
+  std::cerr << "[" << name_ << "] warning: " << note
+            << " (the linear solves run on Jacobi instead: thousands of CG iterations a Newton step)\n";
 }
 
 void SoftTask::chain(const Materials& m, const SoftDesignGradient& g, bool with_chamber,

@@ -34,6 +34,10 @@ class SoftTask : public Task {
   /// (mergeContactSamples). Null when the cloud has no contact samples; then a note for a person is
   /// added to notes_ (the surface particles, the lattice staircase, carry the contact).
   std::shared_ptr<const ContactEmbedding> embedContactSamples(const VolumeCloud& cloud);
+  /// After a solve: when its linear solves ran on Jacobi instead of the rest stiffness's Cholesky
+  /// factor (a limit refused the factor: SoftBodySimulator::preconditionerNote()), says so once,
+  /// in notes_ and on stderr, since every Newton step then takes thousands of CG iterations.
+  void notePreconditioner(const SoftBodySimulator& sim) const;
 
   /// The task's `backend`, resolved (cuda/backend.h): Cuda only when a GPU is present; backend cuda
   /// without one is refused when the task is built.

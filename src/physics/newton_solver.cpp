@@ -78,8 +78,8 @@ std::string newtonAdvice(const NewtonResult& r, const NewtonOptions& opt) {
     s << " The last linear solve reached only relative residual " << sci(r.last_cg_residual) << " in "
       << opt.cg_max_iterations
       << " CG iterations: the stiffness is ill-conditioned for the preconditioner (material contrast, a slender "
-         "body, or more particles than the Cholesky preconditioner's limit); raise cg_max_iterations or "
-         "SoftBodyOptions::cholesky_max_particles.";
+         "body, or a Cholesky factor refused by its limits: SoftBodySimulator::preconditionerNote()); raise "
+         "cg_max_iterations, SoftBodyOptions::cholesky_max_particles or cholesky_max_factor_bytes.";
   if (r.roundoff_floor > 0.0 && r.residual < 100.0 * r.roundoff_floor)
     s << " The residual is within 100x of the gradient's round-off floor " << sci(r.roundoff_floor)
       << " (relative to the load): raise the tolerance (newton_tolerance) to about " << sci(10.0 * r.roundoff_floor)

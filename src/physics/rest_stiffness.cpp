@@ -3,11 +3,13 @@
 
 #include <algorithm>
 #include <chrono>
+#include <fstream>
 #include <mutex>
 #include <string>
 #include <utility>
 
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 
 #ifdef TOPO_HAVE_CHOLMOD
 #include <Eigen/CholmodSupport>
@@ -189,6 +191,7 @@ struct RestStiffnessPreconditioner::Factor {
       if (m_cholmodFactor) cholmod_change_factor(CHOLMOD_PATTERN, 1, 1, 1, 1, m_cholmodFactor, &this->cholmod());
       m_factorizationIsOk = false;
     }
+    double entries() const { return m_cholmodFactor ? static_cast<double>(m_cholmodFactor->xsize) : 0.0; }
   };
   SupernodalLLT llt;
   /// Keeps the symbolic analysis only (the numerical factor is freed); true: worth keeping.
@@ -200,6 +203,8 @@ struct RestStiffnessPreconditioner::Factor {
     if (openblas_set_num_threads) openblas_set_num_threads(n);
   }
   void analyze(const Eigen::SparseMatrix<double>& K) { llt.analyzePattern(K); }
+  /// Entries of the numerical factor the analysis laid out (supernodal: L->xsize).
+  double entries() const { return llt.entries(); }
   bool factorize(const Eigen::SparseMatrix<double>& K) {
 #ifdef _OPENMP
     blasThreads(omp_get_max_threads());
@@ -213,10 +218,15 @@ struct RestStiffnessPreconditioner::Factor {
 std::string RestStiffnessPreconditioner::backend() { return "cholmod-supernodal"; }
 #else
 struct RestStiffnessPreconditioner::Factor {
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> ldlt;
+  /// Eigen's LDLT, plus the column counts its analysis computed.
+  struct Ldlt : Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> {
+    double entries() const { return m_nonZerosPerCol.size() ? static_cast<double>(m_nonZerosPerCol.sum()) : 0.0; }
+  };
+  Ldlt ldlt;
   /// Eigen's SimplicialLDLT cannot free its values alone: not kept (its AMD analysis is cheap).
   bool release() { return false; }
   void analyze(const Eigen::SparseMatrix<double>& K) { ldlt.analyzePattern(K); }
+  double entries() const { return ldlt.entries(); }
   bool factorize(const Eigen::SparseMatrix<double>& K) {
     ldlt.factorize(K);
     return ldlt.info() == Eigen::Success && ldlt.vectorD().minCoeff() > 0.0;
@@ -250,7 +260,8 @@ Eigen::SparseMatrix<double> restStiffness(const CorotatedSph& sph) {
 }
 
 RestStiffnessPreconditioner::RestStiffnessPreconditioner(const CorotatedSph& sph, const Eigen::VectorXd& shift,
-                                                         const std::vector<std::uint8_t>& fixed) {
+                                                         const std::vector<std::uint8_t>& fixed,
+                                                         double max_factor_bytes) {
   const auto t0 = std::chrono::steady_clock::now();
   const std::size_t n = sph.size();
   if (shift.size() != 0 && static_cast<std::size_t>(shift.size()) != 3 * n)
@@ -274,10 +285,30 @@ RestStiffnessPreconditioner::RestStiffnessPreconditioner(const CorotatedSph& sph
     factor_->analyze(K);
   }
   pattern_ = std::move(pattern);
+  factor_bytes_ = 8.0 * factor_->entries();
+  if (max_factor_bytes > 0.0 && factor_bytes_ > max_factor_bytes) {
+    factor_.reset();  // the analysis is not worth keeping either
+    pattern_.reset();
+    throw TopoError("rest-stiffness preconditioner",
+                    "its Cholesky factor for " + std::to_string(n) + " particles would take " +
+                        numberText(factor_bytes_ / 1e9, 3) + " GB, above the limit of " +
+                        numberText(max_factor_bytes / 1e9, 3) + " GB",
+                    "raise SoftBodyOptions::cholesky_max_factor_bytes where the memory is free, or use a coarser "
+                    "spacing (the factor grows about as the particle count to the power 4/3)");
+  }
   if (!factor_->factorize(K))
     throw TopoError("rest-stiffness preconditioner", "the rest stiffness is singular or not positive definite",
                     "clamp the body, add contact or inertia (an unsupported body has rigid modes)");
   seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+double availableMemoryBytes() {
+  std::ifstream meminfo("/proc/meminfo");
+  std::string key, unit;
+  double kb = 0.0;
+  while (meminfo >> key >> kb >> unit)
+    if (key == "MemAvailable:") return 1024.0 * kb;
+  return 0.0;
 }
 
 void RestStiffnessPreconditioner::apply(const Eigen::VectorXd& r, Eigen::VectorXd* z) const { *z = factor_->solve(r); }

@@ -263,15 +263,25 @@ Eigen::VectorXd SoftBodySimulator::systemDiagonal(double inertia) const {
 }
 
 LinearOperator SoftBodySimulator::systemPreconditioner(double inertia) const {
-  if (size() > opt_.cholesky_max_particles) return jacobiPreconditioner(systemDiagonal(inertia));
+  if (size() > opt_.cholesky_max_particles) {
+    preconditioner_note_ = "Jacobi preconditioner: " + std::to_string(size()) +
+                           " particles are above SoftBodyOptions::cholesky_max_particles (" +
+                           std::to_string(opt_.cholesky_max_particles) + ")";
+    return jacobiPreconditioner(systemDiagonal(inertia));
+  }
   if (rest_factor_inertia_ != inertia) {
     Eigen::VectorXd shift(3 * size());
     for (std::size_t i = 0; i < size(); ++i) shift.segment<3>(3 * i).setConstant(inertia * m_[i]);
     rest_factor_inertia_ = inertia;
+    rest_factor_.reset();  // its memory back before the next factor is sized
+    preconditioner_note_.clear();
+    const double max_bytes =
+        opt_.cholesky_max_factor_bytes > 0.0 ? opt_.cholesky_max_factor_bytes : 0.5 * availableMemoryBytes();
     try {
-      rest_factor_ = std::make_shared<const RestStiffnessPreconditioner>(sph_, shift, clamped_);
-    } catch (const TopoError&) {
-      rest_factor_.reset();  // unsupported at rest (held by contact only): Jacobi
+      rest_factor_ = std::make_shared<const RestStiffnessPreconditioner>(sph_, shift, clamped_, max_bytes);
+    } catch (const TopoError& e) {
+      // unsupported at rest (held by contact only) or above the memory limit: Jacobi
+      preconditioner_note_ = std::string("Jacobi preconditioner: ") + e.what();
     }
   }
   if (!rest_factor_) return jacobiPreconditioner(systemDiagonal(inertia));

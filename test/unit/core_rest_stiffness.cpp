@@ -143,3 +143,34 @@ TEST(RestStiffness, PreconditionerReusesTheAnalysisOfTheSamePattern) {
   const RestStiffnessPreconditioner Q(sph, shift, other);
   EXPECT_FALSE(Q.reusedAnalysis());
 }
+
+// Memory is the Cholesky preconditioner's limit, not a particle count: the symbolic analysis
+// predicts the factor's size before any value is computed. The prediction lies between the
+// matrix's own lower triangle (fill only adds) and a dense square (supernodes store their columns
+// as dense rectangles), and a byte limit below it is refused, before factorising, with the sizes
+// and the fix.
+TEST(RestStiffness, FactorSizeIsPredictedAndALimitBelowItIsRefused) {
+  const CorotatedSph sph = makeSph(SphEnergyModel::StVK, 1);
+  const std::size_t n = sph.size();
+  std::vector<std::uint8_t> fixed(n, 0);
+  for (std::size_t i = 0; i < n; ++i) fixed[i] = sph.restPositions()[i].x() < 1e-9;
+  const Eigen::VectorXd shift = Eigen::VectorXd::Constant(3 * n, 10.0);
+  const RestStiffnessPreconditioner P(sph, shift, fixed);
+  const Eigen::SparseMatrix<double> K = restStiffness(sph);
+  const double lower = 0.5 * (static_cast<double>(K.nonZeros()) + 3.0 * n);
+  const double dense = 9.0 * n * n;
+  std::printf("[rest stiffness] factor %.0f bytes predicted (lower triangle of K0 %.0f, dense %.0f entries)\n",
+              P.factorBytes(), lower, dense);
+  EXPECT_GE(P.factorBytes(), 8.0 * lower * 0.99);
+  EXPECT_LE(P.factorBytes(), 8.0 * dense);
+  EXPECT_NO_THROW(RestStiffnessPreconditioner(sph, shift, fixed, 1.01 * P.factorBytes()));
+  try {
+    RestStiffnessPreconditioner refused(sph, shift, fixed, 0.5 * P.factorBytes());
+    ADD_FAILURE() << "a limit at half the factor's size must be refused";
+  } catch (const TopoError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(std::to_string(n) + " particles would take"), std::string::npos) << what;
+    EXPECT_NE(what.find("cholesky_max_factor_bytes"), std::string::npos) << what;
+  }
+  EXPECT_GT(availableMemoryBytes(), 0.0) << "/proc/meminfo has no MemAvailable";
+}

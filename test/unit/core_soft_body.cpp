@@ -270,6 +270,32 @@ TEST(SoftBody, StaticSolveConvergesAtTheGradientRoundoffFloor) {
   EXPECT_NEAR(tip[1], tip[0], 1e-5 * std::abs(tip[0]));
 }
 
+// A factor above the memory limit is not built: the simulator preconditions with Jacobi, says why
+// (preconditionerNote()), and still reaches the same equilibrium; within the limit the note is empty.
+TEST(SoftBody, CholeskyAboveTheMemoryLimitFallsBackToJacobiAndSaysWhy) {
+  const double dx = 0.005;
+  double tip[2];
+  for (int refused = 0; refused < 2; ++refused) {
+    Beam B = makeBeam(0.1, kB, kT, dx, kClampLayers);
+    SoftBodyOptions so;
+    so.cholesky_max_factor_bytes = refused ? 1e3 : 0.0;  // 1 kB: below any factor here
+    SoftBodySimulator sim(CorotatedSph(B.X, B.V, lameFromYoung(kE, kNu), beamOptions(dx)), so);
+    sim.setClamped(B.clamp);
+    NewtonOptions no;
+    no.cg_max_iterations = 5000;
+    const SolveReport rep = sim.solveStatic(no);
+    EXPECT_TRUE(rep.newton.converged) << rep.newton.message;
+    if (refused) {
+      EXPECT_NE(sim.preconditionerNote().find("Jacobi preconditioner: "), std::string::npos);
+      EXPECT_NE(sim.preconditionerNote().find("above the limit of"), std::string::npos) << sim.preconditionerNote();
+    } else {
+      EXPECT_EQ(sim.preconditionerNote(), "");
+    }
+    tip[refused] = layerZ(sim, B, static_cast<int>(std::lround(0.1 / dx)) - 1);
+  }
+  EXPECT_NEAR(tip[1], tip[0], 1e-6 * std::abs(tip[0]));
+}
+
 // A Newton solve that cannot converge says why and what to change: a gradient with noise above the
 // tolerance stalls (and converges once the caller names that noise as the round-off floor); inner
 // solves cut short on an ill-conditioned Hessian are named as such.

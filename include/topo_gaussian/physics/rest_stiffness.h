@@ -16,7 +16,9 @@
 // contact): tens of iterations instead of thousands. Its cost is one sparse factorisation per
 // material: CHOLMOD's supernodal Cholesky (with BLAS) when the build found SuiteSparse, else
 // Eigen's SimplicialLDLT (AMD ordering), same result, several times slower. Memory grows with the
-// fill, so the simulator uses it only up to a size limit (SoftBodyOptions::cholesky_max_particles).
+// fill: the symbolic analysis predicts the factor's size before any value is computed, and a factor
+// above the caller's byte limit is refused (SoftBodyOptions::cholesky_max_factor_bytes; the
+// simulator then falls back to Jacobi and says why in preconditionerNote()).
 #pragma once
 
 #include <Eigen/Core>
@@ -38,13 +40,17 @@ class RestStiffnessPreconditioner {
   /// Factorises K0 + diag(shift) with the rows and columns of fixed particles (fixed[i] != 0)
   /// replaced by the identity. shift: 3N entries ≥ 0 (e.g. inertia m_i/dt²) or empty. Throws
   /// TopoError when the factorisation fails (K0 singular: a body with no support and no shift).
+  /// max_factor_bytes > 0: throws TopoError, before factorising, when the symbolic analysis
+  /// predicts a factor larger than that (its numerical values, 8 bytes an entry).
   RestStiffnessPreconditioner(const CorotatedSph& sph, const Eigen::VectorXd& shift,
-                              const std::vector<std::uint8_t>& fixed);
+                              const std::vector<std::uint8_t>& fixed, double max_factor_bytes = 0.0);
   ~RestStiffnessPreconditioner();
   /// z = (K0 + diag(shift))⁻¹ r.
   void apply(const Eigen::VectorXd& r, Eigen::VectorXd* z) const;
   std::size_t nonZeros() const { return nnz_; }
   double factorSeconds() const { return seconds_; }
+  /// The factor's numerical values [bytes], as the symbolic analysis predicted them.
+  double factorBytes() const { return factor_bytes_; }
   /// "cholmod-supernodal" or "eigen-simplicial-ldlt".
   static std::string backend();
   /// True when the symbolic analysis (ordering) was taken over from a destroyed preconditioner of
@@ -60,6 +66,10 @@ class RestStiffnessPreconditioner {
   bool reused_analysis_ = false;
   std::size_t nnz_ = 0;
   double seconds_ = 0.0;
+  double factor_bytes_ = 0.0;
 };
+
+/// Physical memory available to this process now [bytes] (Linux MemAvailable; 0 when unknown).
+double availableMemoryBytes();
 
 }  // namespace topo_gaussian

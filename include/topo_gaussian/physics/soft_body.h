@@ -43,10 +43,14 @@ struct SoftBodyOptions {
   /// CFL factor of stableTimeStep() (see the header comment).
   double cfl = 0.8;
   /// Preconditioner of every linear solve (Newton steps, adjoints, modal analysis): the Cholesky
-  /// factor of the rest stiffness (+ inertia), rest_stiffness.h, for bodies of up to this many
-  /// particles (factorised once per material and inertia; memory grows with the fill), Jacobi
-  /// above it. 0 = always Jacobi.
-  std::size_t cholesky_max_particles = 20000;
+  /// factor of the rest stiffness (+ inertia), rest_stiffness.h, factorised once per material and
+  /// inertia, for bodies of up to this many particles whose factor fits cholesky_max_factor_bytes;
+  /// Jacobi otherwise (thousands of CG iterations a Newton step on a slender body: preconditionerNote()
+  /// says why). 0 = always Jacobi.
+  std::size_t cholesky_max_particles = 500000;
+  /// Largest Cholesky factor [bytes], as its symbolic analysis predicts it before any value is
+  /// computed. ≤ 0 (default): half the memory available when it is factorised (/proc/meminfo).
+  double cholesky_max_factor_bytes = 0.0;
   /// Polled every step (explicit, implicit), every Newton line-search evaluation, FIRE iteration and
   /// SoftRollout step; true throws SimulationCancelled (physics/run_limits.h).
   StopCheck should_stop;
@@ -153,8 +157,12 @@ class SoftBodySimulator {
   Eigen::VectorXd systemDiagonal(double inertia) const;
   /// Preconditioner of that system: (K0 + inertia·M)⁻¹ by the rest stiffness's Cholesky factor
   /// (cached per material, masses, clamps and inertia; contact is left to CG) when the body has at
-  /// most options().cholesky_max_particles particles, else Jacobi on systemDiagonal().
+  /// most options().cholesky_max_particles particles and the factor fits
+  /// options().cholesky_max_factor_bytes, else Jacobi on systemDiagonal().
   LinearOperator systemPreconditioner(double inertia) const;
+  /// Why the last systemPreconditioner() is Jacobi and not the Cholesky factor (the limit that
+  /// refused it, with the fix); empty when it is the factor or none was built yet.
+  const std::string& preconditionerNote() const { return preconditioner_note_; }
   /// Friction forces at the current positions for velocities v.
   std::vector<Eigen::Vector3d> frictionForces(const std::vector<Eigen::Vector3d>& v) const;
   /// Lowest natural frequency [Hz] of small vibrations about the current state (clamps respected):
@@ -231,6 +239,7 @@ class SoftBodySimulator {
   /// is singular, Jacobi is used). Reset when masses, materials or clamps change.
   mutable std::shared_ptr<const RestStiffnessPreconditioner> rest_factor_;
   mutable double rest_factor_inertia_ = -1.0;
+  mutable std::string preconditioner_note_;
 };
 
 }  // namespace topo_gaussian
