@@ -259,6 +259,13 @@ Eigen::SparseMatrix<double> restStiffness(const CorotatedSph& sph) {
   return toSparse(assembleRows(sph, nullptr, nullptr));
 }
 
+double RestStiffnessPreconditioner::assemblyBytesEstimate(const CorotatedSph& sph) {
+  const std::size_t n = sph.size();
+  const NeighborList& nb = sph.neighbors();
+  const double mean_neighbours = n > 0 ? static_cast<double>(nb.offsets[n]) / static_cast<double>(n) : 0.0;
+  return 21.0 * 4.5 * static_cast<double>(n) * std::min(static_cast<double>(n), 8.0 * (mean_neighbours + 1.0));
+}
+
 RestStiffnessPreconditioner::RestStiffnessPreconditioner(const CorotatedSph& sph, const Eigen::VectorXd& shift,
                                                          const std::vector<std::uint8_t>& fixed,
                                                          double max_factor_bytes) {
@@ -270,6 +277,22 @@ RestStiffnessPreconditioner::RestStiffnessPreconditioner(const CorotatedSph& sph
                     "pass 3N entries or none");
   if (!fixed.empty() && fixed.size() != n)
     throw TopoError("rest-stiffness preconditioner", "fixed flags have the wrong size", "pass one flag per particle");
+  // Before assembling: K0 couples two neighbourhoods, about 8 × one neighbourhood's particles (twice its
+  // radius); its lower triangle holds half of 9 entries a coupled pair, ~21 bytes each while assembled
+  // (12 in K, 80 per 3 × 3 block in the rows).
+  const NeighborList& nb = sph.neighbors();
+  const double mean_neighbours = n > 0 ? static_cast<double>(nb.offsets[n]) / static_cast<double>(n) : 0.0;
+  const double assembly_bytes = assemblyBytesEstimate(sph);
+  const auto refuse = [&](const std::string& what, double bytes) {
+    throw TopoError("rest-stiffness preconditioner",
+                    what + " for " + std::to_string(n) + " particles would take " + numberText(bytes / 1e9, 3) +
+                        " GB, above the limit of " + numberText(max_factor_bytes / 1e9, 3) + " GB",
+                    "raise SoftBodyOptions::cholesky_max_factor_bytes where the memory is free, or use a coarser "
+                    "spacing (the factor grows about as the particle count to the power 1.5: measured on the finger)");
+  };
+  if (max_factor_bytes > 0.0 && assembly_bytes > max_factor_bytes)
+    refuse("assembling its rest stiffness (about " + numberText(mean_neighbours, 3) + " neighbours a particle)",
+           assembly_bytes);
   const Eigen::SparseMatrix<double> K = toSparse(assembleRows(sph, &shift, &fixed, true), true);
   nnz_ = static_cast<std::size_t>(K.nonZeros());
   auto pattern = std::make_unique<Pattern>(Pattern::of(K));
@@ -286,15 +309,11 @@ RestStiffnessPreconditioner::RestStiffnessPreconditioner(const CorotatedSph& sph
   }
   pattern_ = std::move(pattern);
   factor_bytes_ = 8.0 * factor_->entries();
-  if (max_factor_bytes > 0.0 && factor_bytes_ > max_factor_bytes) {
+  matrix_bytes_ = 12.0 * static_cast<double>(nnz_);
+  if (max_factor_bytes > 0.0 && factor_bytes_ + matrix_bytes_ > max_factor_bytes) {
     factor_.reset();  // the analysis is not worth keeping either
     pattern_.reset();
-    throw TopoError("rest-stiffness preconditioner",
-                    "its Cholesky factor for " + std::to_string(n) + " particles would take " +
-                        numberText(factor_bytes_ / 1e9, 3) + " GB, above the limit of " +
-                        numberText(max_factor_bytes / 1e9, 3) + " GB",
-                    "raise SoftBodyOptions::cholesky_max_factor_bytes where the memory is free, or use a coarser "
-                    "spacing (the factor grows about as the particle count to the power 4/3)");
+    refuse("its Cholesky factor (with the rest stiffness)", factor_bytes_ + matrix_bytes_);
   }
   if (!factor_->factorize(K))
     throw TopoError("rest-stiffness preconditioner", "the rest stiffness is singular or not positive definite",

@@ -15,17 +15,18 @@ using namespace topo_gaussian;
 
 namespace {
 
-// A 7×4×3 block of a 5 mm lattice with one corner cut (irregular boundary) and random materials.
-CorotatedSph makeSph(SphEnergyModel model, int order) {
+// A 7×4×3 block (or nx × ny × nz) of a 5 mm lattice with one corner cut (irregular boundary) and
+// random materials.
+CorotatedSph makeSph(SphEnergyModel model, int order, int nx = 7, int ny = 4, int nz = 3) {
   std::vector<Eigen::Vector3d> X;
   std::vector<double> V, mu, la;
   const double dx = 0.005;
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(0.2, 1.0);
-  for (int k = 0; k < 3; ++k)
-    for (int j = 0; j < 4; ++j)
-      for (int i = 0; i < 7; ++i) {
-        if (i == 6 && j == 3 && k == 2) continue;
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        if (i == nx - 1 && j == ny - 1 && k == nz - 1) continue;
         X.push_back(dx * Eigen::Vector3d(i, j, k));
         V.push_back(dx * dx * dx);
         const LameParameters m = lameFromYoung(1e6 * u(rng), 0.45 * u(rng));
@@ -147,10 +148,10 @@ TEST(RestStiffness, PreconditionerReusesTheAnalysisOfTheSamePattern) {
 // Memory is the Cholesky preconditioner's limit, not a particle count: the symbolic analysis
 // predicts the factor's size before any value is computed. The prediction lies between the
 // matrix's own lower triangle (fill only adds) and a dense square (supernodes store their columns
-// as dense rectangles), and a byte limit below it is refused, before factorising, with the sizes
-// and the fix.
+// as dense rectangles). A byte limit below the factor and K0 together is refused before factorising,
+// one below the estimate of K0 alone before assembling, each with the sizes and the fix.
 TEST(RestStiffness, FactorSizeIsPredictedAndALimitBelowItIsRefused) {
-  const CorotatedSph sph = makeSph(SphEnergyModel::StVK, 1);
+  const CorotatedSph sph = makeSph(SphEnergyModel::StVK, 1, 20, 8, 6);  // 959 particles
   const std::size_t n = sph.size();
   std::vector<std::uint8_t> fixed(n, 0);
   for (std::size_t i = 0; i < n; ++i) fixed[i] = sph.restPositions()[i].x() < 1e-9;
@@ -163,14 +164,29 @@ TEST(RestStiffness, FactorSizeIsPredictedAndALimitBelowItIsRefused) {
               P.factorBytes(), lower, dense);
   EXPECT_GE(P.factorBytes(), 8.0 * lower * 0.99);
   EXPECT_LE(P.factorBytes(), 8.0 * dense);
-  EXPECT_NO_THROW(RestStiffnessPreconditioner(sph, shift, fixed, 1.01 * P.factorBytes()));
-  try {
-    RestStiffnessPreconditioner refused(sph, shift, fixed, 0.5 * P.factorBytes());
-    ADD_FAILURE() << "a limit at half the factor's size must be refused";
-  } catch (const TopoError& e) {
-    const std::string what = e.what();
-    EXPECT_NE(what.find(std::to_string(n) + " particles would take"), std::string::npos) << what;
-    EXPECT_NE(what.find("cholesky_max_factor_bytes"), std::string::npos) << what;
+  EXPECT_DOUBLE_EQ(P.memoryBytes() - P.factorBytes(), 12.0 * P.nonZeros());  // the assembled lower triangle
+  // The estimate of assembling K0 bounds what was assembled.
+  const double assembly = RestStiffnessPreconditioner::assemblyBytesEstimate(sph);
+  std::printf("[rest stiffness] assembly estimate %.0f bytes, K0 %.0f, factor %.0f\n", assembly,
+              P.memoryBytes() - P.factorBytes(), P.factorBytes());
+  EXPECT_GE(assembly, P.memoryBytes() - P.factorBytes());
+  EXPECT_NO_THROW(RestStiffnessPreconditioner(sph, shift, fixed, 1.01 * std::max(P.memoryBytes(), assembly)));
+  // Refused after the analysis (the factor and K0 above the limit, the estimate below it), and before
+  // assembling (the estimate above it).
+  ASSERT_LT(assembly, 0.99 * P.memoryBytes()) << "this body must let the analysis run before the limit";
+  for (const double limit : {0.99 * P.memoryBytes(), 1e3}) {
+    try {
+      RestStiffnessPreconditioner refused(sph, shift, fixed, limit);
+      ADD_FAILURE() << "a limit of " << limit << " bytes must be refused";
+    } catch (const TopoError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(limit > 1e4 ? "its Cholesky factor (with the rest stiffness) for "
+                                      : "assembling its rest stiffness (about "),
+                std::string::npos)
+          << what;
+      EXPECT_NE(what.find(std::to_string(n) + " particles would take"), std::string::npos) << what;
+      EXPECT_NE(what.find("cholesky_max_factor_bytes"), std::string::npos) << what;
+    }
   }
   EXPECT_GT(availableMemoryBytes(), 0.0) << "/proc/meminfo has no MemAvailable";
 }

@@ -16,9 +16,10 @@
 // contact): tens of iterations instead of thousands. Its cost is one sparse factorisation per
 // material: CHOLMOD's supernodal Cholesky (with BLAS) when the build found SuiteSparse, else
 // Eigen's SimplicialLDLT (AMD ordering), same result, several times slower. Memory grows with the
-// fill: the symbolic analysis predicts the factor's size before any value is computed, and a factor
-// above the caller's byte limit is refused (SoftBodyOptions::cholesky_max_factor_bytes; the
-// simulator then falls back to Jacobi and says why in preconditionerNote()).
+// fill: the symbolic analysis predicts the factor's size before any value is computed, and a
+// preconditioner whose K0 and factor would exceed the caller's byte limit is refused, K0 already
+// before it is assembled (SoftBodyOptions::cholesky_max_factor_bytes; the simulator then falls back
+// to Jacobi and says why in preconditionerNote()).
 #pragma once
 
 #include <Eigen/Core>
@@ -40,8 +41,10 @@ class RestStiffnessPreconditioner {
   /// Factorises K0 + diag(shift) with the rows and columns of fixed particles (fixed[i] != 0)
   /// replaced by the identity. shift: 3N entries ≥ 0 (e.g. inertia m_i/dt²) or empty. Throws
   /// TopoError when the factorisation fails (K0 singular: a body with no support and no shift).
-  /// max_factor_bytes > 0: throws TopoError, before factorising, when the symbolic analysis
-  /// predicts a factor larger than that (its numerical values, 8 bytes an entry).
+  /// max_factor_bytes > 0: throws TopoError when the preconditioner would take more memory than
+  /// that: before assembling, when K0 alone would (estimated from the mean neighbour count: K0
+  /// couples about 8 × one neighbourhood); before factorising, when K0 (12 bytes an entry) and the
+  /// factor the symbolic analysis predicts (8 bytes an entry) would.
   RestStiffnessPreconditioner(const CorotatedSph& sph, const Eigen::VectorXd& shift,
                               const std::vector<std::uint8_t>& fixed, double max_factor_bytes = 0.0);
   ~RestStiffnessPreconditioner();
@@ -51,6 +54,12 @@ class RestStiffnessPreconditioner {
   double factorSeconds() const { return seconds_; }
   /// The factor's numerical values [bytes], as the symbolic analysis predicted them.
   double factorBytes() const { return factor_bytes_; }
+  /// Peak memory of assembling K0's lower triangle [bytes], estimated before it is assembled: 21
+  /// bytes (12 in K0, the rest in the rows being built) for each of 4.5 entries a particle pair within
+  /// two neighbourhoods, taken as min(N, 8 × (mean neighbours + 1)) pairs a particle.
+  static double assemblyBytesEstimate(const CorotatedSph& sph);
+  /// The factor and the assembled K0 [bytes]: what max_factor_bytes bounds.
+  double memoryBytes() const { return factor_bytes_ + matrix_bytes_; }
   /// "cholmod-supernodal" or "eigen-simplicial-ldlt".
   static std::string backend();
   /// True when the symbolic analysis (ordering) was taken over from a destroyed preconditioner of
@@ -67,6 +76,7 @@ class RestStiffnessPreconditioner {
   std::size_t nnz_ = 0;
   double seconds_ = 0.0;
   double factor_bytes_ = 0.0;
+  double matrix_bytes_ = 0.0;
 };
 
 /// Physical memory available to this process now [bytes] (Linux MemAvailable; 0 when unknown).

@@ -48,8 +48,9 @@ struct SoftBodyOptions {
   /// Jacobi otherwise (thousands of CG iterations a Newton step on a slender body: preconditionerNote()
   /// says why). 0 = always Jacobi.
   std::size_t cholesky_max_particles = 500000;
-  /// Largest Cholesky factor [bytes], as its symbolic analysis predicts it before any value is
-  /// computed. ≤ 0 (default): half the memory available when it is factorised (/proc/meminfo).
+  /// Most memory of the Cholesky preconditioner [bytes]: the assembled rest stiffness and its factor,
+  /// predicted before they are computed (rest_stiffness.h). ≤ 0 (default): half the memory available
+  /// when it is built (/proc/meminfo).
   double cholesky_max_factor_bytes = 0.0;
   /// Polled every step (explicit, implicit), every Newton line-search evaluation, FIRE iteration and
   /// SoftRollout step; true throws SimulationCancelled (physics/run_limits.h).
