@@ -259,11 +259,16 @@ Eigen::SparseMatrix<double> restStiffness(const CorotatedSph& sph) {
   return toSparse(assembleRows(sph, nullptr, nullptr));
 }
 
-double RestStiffnessPreconditioner::assemblyBytesEstimate(const CorotatedSph& sph) {
+namespace {
+double meanNeighbours(const CorotatedSph& sph) {
   const std::size_t n = sph.size();
-  const NeighborList& nb = sph.neighbors();
-  const double mean_neighbours = n > 0 ? static_cast<double>(nb.offsets[n]) / static_cast<double>(n) : 0.0;
-  return 21.0 * 4.5 * static_cast<double>(n) * std::min(static_cast<double>(n), 8.0 * (mean_neighbours + 1.0));
+  return n > 0 ? static_cast<double>(sph.neighbors().offsets[n]) / static_cast<double>(n) : 0.0;
+}
+}  // namespace
+
+double RestStiffnessPreconditioner::assemblyBytesEstimate(const CorotatedSph& sph) {
+  const double n = static_cast<double>(sph.size());
+  return 21.0 * 4.5 * n * std::min(n, 8.0 * (meanNeighbours(sph) + 1.0));
 }
 
 RestStiffnessPreconditioner::RestStiffnessPreconditioner(const CorotatedSph& sph, const Eigen::VectorXd& shift,
@@ -280,8 +285,6 @@ RestStiffnessPreconditioner::RestStiffnessPreconditioner(const CorotatedSph& sph
   // Before assembling: K0 couples two neighbourhoods, about 8 × one neighbourhood's particles (twice its
   // radius); its lower triangle holds half of 9 entries a coupled pair, ~21 bytes each while assembled
   // (12 in K, 80 per 3 × 3 block in the rows).
-  const NeighborList& nb = sph.neighbors();
-  const double mean_neighbours = n > 0 ? static_cast<double>(nb.offsets[n]) / static_cast<double>(n) : 0.0;
   const double assembly_bytes = assemblyBytesEstimate(sph);
   const auto refuse = [&](const std::string& what, double bytes) {
     throw TopoError("rest-stiffness preconditioner",
@@ -291,7 +294,7 @@ RestStiffnessPreconditioner::RestStiffnessPreconditioner(const CorotatedSph& sph
                     "spacing (the factor grows about as the particle count to the power 1.5: measured on the finger)");
   };
   if (max_factor_bytes > 0.0 && assembly_bytes > max_factor_bytes)
-    refuse("assembling its rest stiffness (about " + numberText(mean_neighbours, 3) + " neighbours a particle)",
+    refuse("assembling its rest stiffness (about " + numberText(meanNeighbours(sph), 3) + " neighbours a particle)",
            assembly_bytes);
   const Eigen::SparseMatrix<double> K = toSparse(assembleRows(sph, &shift, &fixed, true), true);
   nnz_ = static_cast<std::size_t>(K.nonZeros());

@@ -264,9 +264,10 @@ Eigen::VectorXd SoftBodySimulator::systemDiagonal(double inertia) const {
 
 LinearOperator SoftBodySimulator::systemPreconditioner(double inertia) const {
   if (size() > opt_.cholesky_max_particles) {
-    preconditioner_note_ = "Jacobi preconditioner: " + std::to_string(size()) +
-                           " particles are above SoftBodyOptions::cholesky_max_particles (" +
-                           std::to_string(opt_.cholesky_max_particles) + ")";
+    if (preconditioner_note_.empty())  // once: this runs at every Newton step
+      preconditioner_note_ = "Jacobi preconditioner: " + std::to_string(size()) +
+                             " particles are above SoftBodyOptions::cholesky_max_particles (" +
+                             std::to_string(opt_.cholesky_max_particles) + ")";
     return jacobiPreconditioner(systemDiagonal(inertia));
   }
   if (rest_factor_inertia_ != inertia) {

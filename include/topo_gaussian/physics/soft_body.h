@@ -50,7 +50,7 @@ struct SoftBodyOptions {
   std::size_t cholesky_max_particles = 500000;
   /// Most memory of the Cholesky preconditioner [bytes]: the assembled rest stiffness and its factor,
   /// predicted before they are computed (rest_stiffness.h). ≤ 0 (default): half the memory available
-  /// when it is built (/proc/meminfo).
+  /// when it is built (/proc/meminfo; no limit where the system does not say).
   double cholesky_max_factor_bytes = 0.0;
   /// Polled every step (explicit, implicit), every Newton line-search evaluation, FIRE iteration and
   /// SoftRollout step; true throws SimulationCancelled (physics/run_limits.h).
