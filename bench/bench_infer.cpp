@@ -5,17 +5,25 @@
 // finger_quadric: the pneumatic finger's inference at about 10k particles (goal: under 10 minutes on
 // 2 CPU cores), set up as the finger recovery test (inference_soft) but at 1.5 mm (quick: 3 mm) and
 // with the default (paper) materials.
-// Usage: bench_infer [--quick] [CASE_SUBSTRING]
+// --backend auto|cpu|cuda: every case's task parameter `backend` (default: the task's, auto); the
+// neural 8 × 512 case runs end to end where the backend resolves to a GPU (one evaluation on the CPU).
+// The core build (-DTOPO_CORE_ONLY=ON with the inference libraries: a GPU machine, bench/gpu/README.md)
+// runs inference::runInference without the run folder (run_folder_s 0).
+// Usage: bench_infer [--quick] [--backend B] [CASE_SUBSTRING]
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
 #include <string>
 
 #include "../test/unit/test_clouds.h"
+#include "topo_gaussian/cuda/backend.h"
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/physics/default_shapes.h"
+#ifndef TOPO_BENCH_CORE_ONLY
 #include "topo_gaussian/workflow/inference_run.h"
+#endif
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::inference;
@@ -32,10 +40,12 @@ std::vector<double> cavity(const VolumeCloud& c, const Eigen::Vector3d& centre, 
   return r;
 }
 
-const char* g_only = nullptr;  // run only the cases whose name contains this
+const char* g_only = nullptr;     // run only the cases whose name contains this
+const char* g_backend = nullptr;  // --backend: every case's task parameter backend
 
-void runCase(const std::string& name, const TaskConfig& c, const VolumeCloud& cloud, bool run_inference, int fd_limit) {
+void runCase(const std::string& name, TaskConfig c, const VolumeCloud& cloud, bool run_inference, int fd_limit) {
   if (g_only && name.find(g_only) == std::string::npos) return;
+  if (g_backend) c.set("backend", g_backend);
   const InteriorProblem p(c, cloud);
   const Eigen::VectorXd theta = p.initialParameters();
   Eigen::VectorXd g;
@@ -46,6 +56,8 @@ void runCase(const std::string& name, const TaskConfig& c, const VolumeCloud& cl
   p.evaluate(theta, nullptr);
   const double loss_s = seconds(t);
   const int P = p.numParameters();
+  std::fprintf(stderr, "[bench_infer] %s: %d parameters, loss + gradient %.3f s, loss %.3f s\n", name.c_str(), P,
+               grad_s, loss_s);
   double fd_s;
   bool projected = false;
   if (P <= fd_limit) {
@@ -68,6 +80,20 @@ void runCase(const std::string& name, const TaskConfig& c, const VolumeCloud& cl
   std::string message;
   double run_folder_s = 0;
   if (run_inference) {
+    t = Clock::now();
+    // Progress on stderr every 10 evaluations (long cases: the neural network, the finger).
+    const ProgressCallback progress = [&name](const IterationInfo& it) {
+      if (it.iteration % 10 == 0)
+        std::fprintf(stderr, "[bench_infer] %s: evaluation %d, loss %.3e, %.1f s\n", name.c_str(), it.iteration,
+                     it.loss, it.elapsed_s);
+      return true;
+    };
+#ifdef TOPO_BENCH_CORE_ONLY
+    const InferenceResult r = runInference(c, cloud, progress);
+    total_s = r.setup_s + r.optimize_s;
+    std::fprintf(stderr, "[bench_infer] %s: setup %.2f s, optimisation %.2f s, after it (analyses) %.2f s\n",
+                 name.c_str(), r.setup_s, r.optimize_s, seconds(t) - total_s);
+#else
     // The run as a user gets it (workflow::runInference, as topo infer and the node): the inference,
     // then its run folder without the pictures; end_to_end_s is the inference alone, comparable
     // across versions, run_folder_s the files around it.
@@ -76,11 +102,12 @@ void runCase(const std::string& name, const TaskConfig& c, const VolumeCloud& cl
     rq.volume = std::make_shared<VolumeCloud>(cloud);
     rq.output_dir = "/tmp/topo_bench_infer/" + name;
     rq.export_files = false;
-    t = Clock::now();
+    rq.progress = progress;
     const workflow::InferenceRunOutcome run = workflow::runInference(rq);
     const InferenceResult& r = run.result;
     total_s = r.setup_s + r.optimize_s;
     run_folder_s = seconds(t) - total_s;
+#endif
     iterations = r.optimizer.iterations;
     loss0 = r.initial.loss;
     loss1 = r.final.loss;
@@ -93,10 +120,11 @@ void runCase(const std::string& name, const TaskConfig& c, const VolumeCloud& cl
       "{\"case\": \"%s\", \"task\": \"%s\", \"representation\": \"%s\", \"particles\": %zu, \"parameters\": %d, "
       "\"iterations\": %d, \"end_to_end_s\": %.4f, \"loss_gradient_s\": %.5f, \"loss_only_s\": %.5f, "
       "\"fd_gradient_s\": %.4f, \"fd_projected\": %s, \"analytic_over_fd\": %.3g, \"loss_initial\": %.3e, "
-      "\"loss_final\": %.3e, \"targets_reached\": %s, \"run_folder_s\": %.3f, \"stopped\": \"%s\"}\n",
+      "\"loss_final\": %.3e, \"targets_reached\": %s, \"run_folder_s\": %.3f, \"backend\": \"%s\", "
+      "\"stopped\": \"%s\"}\n",
       name.c_str(), c.task().c_str(), c.text("representation").c_str(), cloud.size(), P, iterations, total_s, grad_s,
       loss_s, fd_s, projected ? "true" : "false", grad_s / fd_s, loss0, loss1, reached ? "true" : "false", run_folder_s,
-      message.c_str());
+      c.text("backend").c_str(), message.c_str());
   std::fflush(stdout);
 }
 
@@ -107,6 +135,8 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--quick") == 0)
       quick = true;
+    else if (std::strcmp(argv[i], "--backend") == 0 && i + 1 < argc)
+      g_backend = argv[++i];
     else
       g_only = argv[i];
   }
@@ -130,8 +160,9 @@ int main(int argc, char** argv) {
     runCase("hanging_neural_4x32", cn, box, true, 0);
     if (!quick) {
       TaskConfig cd = c;
-      cd.set("representation", "neural");  // the paper's default 8 x 512: one evaluation only
-      runCase("hanging_neural_8x512_one_evaluation", cd, box, false, 0);
+      cd.set("representation", "neural");  // the paper's default 8 x 512: end to end on a GPU, else one evaluation
+      const bool gpu = resolveBackend(parseComputeBackend(g_backend ? g_backend : "auto")) == ComputeBackend::Cuda;
+      runCase(gpu ? "hanging_neural_8x512" : "hanging_neural_8x512_one_evaluation", cd, box, gpu, 0);
     }
   }
   {
@@ -151,6 +182,30 @@ int main(int argc, char** argv) {
     c.set("target_tilts_deg", "10, 5, -20");
     c.set("max_iterations", quick ? "5" : "40");
     runCase("qiqi_quadric", c, vessel, true, 1000);
+  }
+  if (!g_only || std::string("pear_quadric").find(g_only) != std::string::npos) {
+    // The pear bouncing on the ground (its rollout and gradient run on the GPU under backend cuda): ground
+    // truth a stiff spherical insert in the bulb, its pivot trajectories the target (as the recovery test,
+    // inference_soft), the start r = 0.5 everywhere.
+    const VolumeCloud pear = defaultShapeCloud("pear", quick ? 0.01 : 0.005);
+    TaskConfig c = TaskConfig::defaults("pear");
+    c.set("duration_s", "0.08");
+    std::vector<double> gt(pear.size(), 0.0);
+    for (std::size_t i = 0; i < pear.size(); ++i)
+      if ((pear.X[i] - Eigen::Vector3d(0, 0, 0.04)).norm() < 0.022) gt[i] = 1.0;
+    const ProblemEvaluation truth = simulateInterior(c, pear, gt);
+    const std::string csv = "/tmp/bench_infer_pear_target.csv";
+    {
+      std::ofstream out(csv);
+      for (const auto& row : truth.task.trajectory_rows) {
+        for (std::size_t k = 0; k < row.size(); ++k) out << (k ? "," : "") << row[k];
+        out << "\n";
+      }
+    }
+    c.set("target_trajectory_file", csv);
+    c.set("max_iterations", quick ? "5" : "40");
+    c.set("initial_field", "0.0");
+    runCase("pear_quadric", c, pear, true, 0);
   }
   {
     const VolumeCloud finger = defaultShapeCloud("finger", quick ? 0.003 : 0.0015);

@@ -14,8 +14,7 @@
 #if TOPO_HAVE_CUDA
 #include <cublas_v2.h>
 #include <cuda_runtime_api.h>
-#include <dlfcn.h>
-
+#include "cuda_library.h"
 #include "mlp_kernels.h"
 #include "soft_body_cuda_impl.h"  // check, DeviceBuffer
 #endif
@@ -45,24 +44,14 @@ struct Cublas {
 
 template <class F>
 bool resolve(void* lib, const char* name, F* f) {
-  std::string n = std::string(name) + "_v2";
-  void* p = dlsym(lib, n.c_str());
-  if (!p) p = dlsym(lib, name);
-  *f = reinterpret_cast<F>(p);
-  return p != nullptr;
+  return cuda_detail::resolveSymbol(lib, name, f, true);
 }
 
 const Cublas& cublas() {
   static const Cublas c = [] {
     Cublas c;
-    void* lib = nullptr;
-    for (const char* name : {"libcublas.so.13", "libcublas.so.12", "libcublas.so"})
-      if ((lib = dlopen(name, RTLD_NOW | RTLD_LOCAL))) break;
-    if (!lib) {
-      const char* e = dlerror();
-      c.error = std::string("libcublas could not be loaded (") + (e ? e : "not found") + ")";
-      return c;
-    }
+    void* lib = cuda_detail::openCudaLibrary({"libcublas.so.13", "libcublas.so.12", "libcublas.so"}, &c.error);
+    if (!lib) return c;
     const bool ok = resolve(lib, "cublasCreate", &c.create) && resolve(lib, "cublasDestroy", &c.destroy) &&
                     resolve(lib, "cublasSetStream", &c.setStream) && resolve(lib, "cublasDgemm", &c.dgemm) &&
                     resolve(lib, "cublasSgemm", &c.sgemm) && resolve(lib, "cublasDgemv", &c.dgemv) &&

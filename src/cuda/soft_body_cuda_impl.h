@@ -38,7 +38,13 @@ struct DeviceBuffer {
   ~DeviceBuffer() {
     if (ptr) cudaFree(ptr);
   }
+  void free() {
+    if (ptr) cudaFree(ptr);
+    ptr = nullptr;
+    bytes = 0;
+  }
   void allocate(std::size_t b) {
+    free();
     bytes = b;
     check(cudaMalloc(&ptr, b == 0 ? 1 : b), "cudaMalloc");
   }

@@ -63,6 +63,7 @@ class CantileverTask : public SoftTask {
                 << numberText(thinnest, 4) << " m); tip deflection and frequency are held within 5 % of CalculiX "
                 << "only from " << kLayersHeld << " (fill with --spacing " << numberText(thinnest / kLayersHeld, 4)
                 << " or finer)\n";
+    usePreconditionerOnGpu();
   }
 
   double tipZ(const SoftBodySimulator& sim) const {

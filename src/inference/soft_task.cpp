@@ -7,6 +7,7 @@
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/cuda/dense_cholesky_cuda.h"
 
 namespace topo_gaussian::inference {
 
@@ -161,12 +162,35 @@ std::unique_ptr<SoftBodySimulator> SoftTask::simulator(const Materials& m) const
   return sim;
 }
 
+void SoftTask::usePreconditionerOnGpu() {
+  if (backend_ != ComputeBackend::Cuda) return;
+  const std::size_t unknowns = 3 * sph_.size();
+  const std::string refused = denseCholeskyRefusal(unknowns);
+  if (!refused.empty()) {
+    if (backend_requested_ == ComputeBackend::Cuda)
+      throw GpuMemoryError("task parameter backend (cuda), " + name_ + " task", refused,
+                           "use a coarser particle spacing, free the GPU, or backend auto (the factor on the host)");
+    notes_.push_back("backend auto: the rest stiffness's Cholesky factor on the host, not the GPU: " + refused);
+    std::cerr << "[" << name_ << "] " << notes_.back() << "\n";
+    return;
+  }
+  sim_options_.cholesky_external = [] { return makeDenseCholeskyCuda(); };
+  sim_options_.cholesky_external_required = backend_requested_ == ComputeBackend::Cuda;
+  std::cerr << "[" << name_ << "] backend " << toString(backend_requested_)
+            << ": the rest stiffness's Cholesky factor on the GPU (dense, " << unknowns << " unknowns, "
+            << numberText(denseCholeskyBytes(unknowns) / 1e9, 3)
+            << " GB); the forces and Hessian products of the Newton solves on the host\n";
+}
+
 void SoftTask::notePreconditioner(const SoftBodySimulator& sim) const {
   const std::string& note = sim.preconditionerNote();
   if (note.empty() || std::find(notes_.begin(), notes_.end(), note) != notes_.end()) return;
   notes_.push_back(note);
   std::cerr << "[" << name_ << "] warning: " << note
-            << " (the linear solves run on Jacobi instead: thousands of CG iterations a Newton step)\n";
+            << (note.rfind("Jacobi", 0) == 0
+                    ? " (the linear solves run on Jacobi instead: thousands of CG iterations a "
+                      "Newton step)\n"
+                    : "\n");
 }
 
 void SoftTask::chain(const Materials& m, const SoftDesignGradient& g, bool with_chamber,

@@ -38,6 +38,11 @@ class SoftTask : public Task {
   /// factor (a limit refused the factor: SoftBodySimulator::preconditionerNote()), says so once,
   /// in notes_ and on stderr, since every Newton step then takes thousands of CG iterations.
   void notePreconditioner(const SoftBodySimulator& sim) const;
+  /// Tasks with Newton solves (finger, cantilever) call this once built: under a resolved backend cuda,
+  /// the rest stiffness's Cholesky factor is computed and applied on the GPU (cuda/dense_cholesky_cuda.h)
+  /// when its dense factor fits the GPU's free memory; otherwise backend cuda asked for explicitly is
+  /// refused (GpuMemoryError naming the particles that fit) and auto keeps it on the host with a note.
+  void usePreconditionerOnGpu();
 
   /// The task's `backend`, resolved (cuda/backend.h): Cuda only when a GPU is present; backend cuda
   /// without one is refused when the task is built.

@@ -273,7 +273,8 @@ double RestStiffnessPreconditioner::assemblyBytesEstimate(const CorotatedSph& sp
 
 RestStiffnessPreconditioner::RestStiffnessPreconditioner(const CorotatedSph& sph, const Eigen::VectorXd& shift,
                                                          const std::vector<std::uint8_t>& fixed,
-                                                         double max_factor_bytes) {
+                                                         double max_factor_bytes, const CholeskySolverFactory& external,
+                                                         bool external_required) {
   const auto t0 = std::chrono::steady_clock::now();
   const std::size_t n = sph.size();
   if (shift.size() != 0 && static_cast<std::size_t>(shift.size()) != 3 * n)
@@ -298,6 +299,19 @@ RestStiffnessPreconditioner::RestStiffnessPreconditioner(const CorotatedSph& sph
            assembly_bytes);
   const Eigen::SparseMatrix<double> K = toSparse(assembleRows(sph, &shift, &fixed, true), true);
   nnz_ = static_cast<std::size_t>(K.nonZeros());
+  matrix_bytes_ = 12.0 * static_cast<double>(nnz_);
+  if (external) {
+    try {
+      std::unique_ptr<CholeskySolver> solver = external();
+      solver->factorize(K);
+      external_ = std::move(solver);
+      seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      return;
+    } catch (const TopoError& e) {
+      if (external_required) throw;
+      external_note_ = e.what();
+    }
+  }
   auto pattern = std::make_unique<Pattern>(Pattern::of(K));
   {
     std::lock_guard<std::mutex> lock(g_spare_mutex);
@@ -312,7 +326,6 @@ RestStiffnessPreconditioner::RestStiffnessPreconditioner(const CorotatedSph& sph
   }
   pattern_ = std::move(pattern);
   factor_bytes_ = 8.0 * factor_->entries();
-  matrix_bytes_ = 12.0 * static_cast<double>(nnz_);
   if (max_factor_bytes > 0.0 && factor_bytes_ + matrix_bytes_ > max_factor_bytes) {
     factor_.reset();  // the analysis is not worth keeping either
     pattern_.reset();
@@ -333,6 +346,13 @@ double availableMemoryBytes() {
   return 0.0;
 }
 
-void RestStiffnessPreconditioner::apply(const Eigen::VectorXd& r, Eigen::VectorXd* z) const { *z = factor_->solve(r); }
+void RestStiffnessPreconditioner::apply(const Eigen::VectorXd& r, Eigen::VectorXd* z) const {
+  if (external_)
+    external_->solve(r, z);
+  else
+    *z = factor_->solve(r);
+}
+
+std::string RestStiffnessPreconditioner::where() const { return external_ ? external_->name() : "host: " + backend(); }
 
 }  // namespace topo_gaussian

@@ -279,8 +279,16 @@ LinearOperator SoftBodySimulator::systemPreconditioner(double inertia) const {
     const double max_bytes =
         opt_.cholesky_max_factor_bytes > 0.0 ? opt_.cholesky_max_factor_bytes : 0.5 * availableMemoryBytes();
     try {
-      rest_factor_ = std::make_shared<const RestStiffnessPreconditioner>(sph_, shift, clamped_, max_bytes);
+      rest_factor_ = std::make_shared<const RestStiffnessPreconditioner>(
+          sph_, shift, clamped_, max_bytes, opt_.cholesky_external, opt_.cholesky_external_required);
+      if (!rest_factor_->externalNote().empty())
+        preconditioner_note_ =
+            "the rest stiffness's Cholesky factor on the host, not the GPU: " + rest_factor_->externalNote();
     } catch (const TopoError& e) {
+      if (opt_.cholesky_external && opt_.cholesky_external_required) {
+        rest_factor_inertia_ = -1.0;  // no factor: the next call tries again (and fails) rather than use Jacobi
+        throw;
+      }
       // unsupported at rest (held by contact only) or above the memory limit: Jacobi
       preconditioner_note_ = std::string("Jacobi preconditioner: ") + e.what();
     }

@@ -25,6 +25,7 @@
 #include <Eigen/Core>
 #include <Eigen/Sparse>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -36,6 +37,24 @@ namespace topo_gaussian {
 /// K0 (3N × 3N, symmetric, both triangles stored) for the sph's current Lamé parameters.
 Eigen::SparseMatrix<double> restStiffness(const CorotatedSph& sph);
 
+/// A Cholesky factorisation computed outside this library: the GPU's dense one under backend cuda
+/// (cuda/dense_cholesky_cuda.h), which the physics cannot call itself (module layering).
+class CholeskySolver {
+ public:
+  virtual ~CholeskySolver() = default;
+  /// Factorises the SPD matrix whose lower triangle (row ≥ column, compressed columns) is given.
+  /// Throws TopoError when it cannot (too little memory, naming how many particles fit; not positive
+  /// definite; a device error).
+  virtual void factorize(const Eigen::SparseMatrix<double>& lower) = 0;
+  /// z = A⁻¹ r.
+  virtual void solve(const Eigen::VectorXd& r, Eigen::VectorXd* z) const = 0;
+  /// Where it runs, for notes: e.g. "dense Cholesky (cuSOLVER) on NVIDIA H100 80GB HBM3".
+  virtual std::string name() const = 0;
+  /// Memory its factor takes where it runs [bytes].
+  virtual double bytes() const = 0;
+};
+using CholeskySolverFactory = std::function<std::unique_ptr<CholeskySolver>()>;
+
 class RestStiffnessPreconditioner {
  public:
   /// Factorises K0 + diag(shift) with the rows and columns of fixed particles (fixed[i] != 0)
@@ -45,8 +64,11 @@ class RestStiffnessPreconditioner {
   /// that: before assembling, when K0 alone would (estimated from the mean neighbour count: K0
   /// couples about 8 × one neighbourhood); before factorising, when K0 (12 bytes an entry) and the
   /// factor the symbolic analysis predicts (8 bytes an entry) would.
+  /// external (optional): factorise there instead (the GPU); when it throws, the host factorises
+  /// as without it and externalNote() says why (external_required: the error is rethrown instead).
   RestStiffnessPreconditioner(const CorotatedSph& sph, const Eigen::VectorXd& shift,
-                              const std::vector<std::uint8_t>& fixed, double max_factor_bytes = 0.0);
+                              const std::vector<std::uint8_t>& fixed, double max_factor_bytes = 0.0,
+                              const CholeskySolverFactory& external = nullptr, bool external_required = false);
   ~RestStiffnessPreconditioner();
   /// z = (K0 + diag(shift))⁻¹ r.
   void apply(const Eigen::VectorXd& r, Eigen::VectorXd* z) const;
@@ -58,8 +80,13 @@ class RestStiffnessPreconditioner {
   /// bytes (12 in K0, the rest in the rows being built) for each of 4.5 entries a particle pair within
   /// two neighbourhoods, taken as min(N, 8 × (mean neighbours + 1)) pairs a particle.
   static double assemblyBytesEstimate(const CorotatedSph& sph);
-  /// The factor and the assembled K0 [bytes]: what max_factor_bytes bounds.
+  /// The factor and the assembled K0 [bytes] in host memory: what max_factor_bytes bounds (an external
+  /// factor is not counted: it lives where it runs).
   double memoryBytes() const { return factor_bytes_ + matrix_bytes_; }
+  /// Where the factor is: "host: cholmod-supernodal" or the external solver's name().
+  std::string where() const;
+  /// Why the external factorisation was refused (the host's was used instead); empty otherwise.
+  const std::string& externalNote() const { return external_note_; }
   /// "cholmod-supernodal" or "eigen-simplicial-ldlt".
   static std::string backend();
   /// True when the symbolic analysis (ordering) was taken over from a destroyed preconditioner of
@@ -72,6 +99,8 @@ class RestStiffnessPreconditioner {
  private:
   std::unique_ptr<Factor> factor_;
   std::unique_ptr<Pattern> pattern_;
+  std::unique_ptr<CholeskySolver> external_;
+  std::string external_note_;
   bool reused_analysis_ = false;
   std::size_t nnz_ = 0;
   double seconds_ = 0.0;

@@ -52,6 +52,12 @@ struct SoftBodyOptions {
   /// predicted before they are computed (rest_stiffness.h). ≤ 0 (default): half the memory available
   /// when it is built (/proc/meminfo; no limit where the system does not say).
   double cholesky_max_factor_bytes = 0.0;
+  /// Where the rest stiffness's factor is computed and applied instead of the host (backend cuda: a
+  /// dense Cholesky on the GPU, cuda/dense_cholesky_cuda.h; the tasks set it). Empty: the host. When it
+  /// refuses (too little GPU memory), the host factorises and preconditionerNote() says why, unless
+  /// cholesky_external_required (backend cuda asked for explicitly): then the refusal is the error.
+  CholeskySolverFactory cholesky_external;
+  bool cholesky_external_required = false;
   /// Polled every step (explicit, implicit), every Newton line-search evaluation, FIRE iteration and
   /// SoftRollout step; true throws SimulationCancelled (physics/run_limits.h).
   StopCheck should_stop;
@@ -162,8 +168,12 @@ class SoftBodySimulator {
   /// options().cholesky_max_factor_bytes, else Jacobi on systemDiagonal().
   LinearOperator systemPreconditioner(double inertia) const;
   /// Why the last systemPreconditioner() is Jacobi and not the Cholesky factor (the limit that
-  /// refused it, with the fix); empty when it is the factor or none was built yet.
+  /// refused it, with the fix), or why the factor is on the host and not where
+  /// options().cholesky_external puts it; empty when it is the factor where asked or none was built yet.
   const std::string& preconditionerNote() const { return preconditioner_note_; }
+  /// Where the last systemPreconditioner()'s factor is (RestStiffnessPreconditioner::where()); empty
+  /// for Jacobi or before the first.
+  std::string preconditionerWhere() const { return rest_factor_ ? rest_factor_->where() : std::string(); }
   /// Friction forces at the current positions for velocities v.
   std::vector<Eigen::Vector3d> frictionForces(const std::vector<Eigen::Vector3d>& v) const;
   /// Lowest natural frequency [Hz] of small vibrations about the current state (clamps respected):

@@ -1,0 +1,56 @@
+// Dense Cholesky on the GPU (cuSOLVER): the soft body's rest-stiffness preconditioner under
+// backend cuda (issue 20 §1, the implicit/static path).
+//
+//   A = L Lᵀ  (cusolverDnXpotrf, float64, lower),   z = A⁻¹ r = L⁻ᵀ (L⁻¹ r)  (cusolverDnXpotrs)
+//
+// A is the matrix of rest_stiffness.h: K0 + diag(shift), fixed particles' rows and columns the
+// identity, 3N × 3N, given as its sparse lower triangle; it is scattered into a dense column-major
+// matrix on the device and factorised there. The factor is exact (the same matrix as the host's
+// sparse Cholesky, other round-off), so the Newton–PCG iterations match the CPU path's.
+//
+// Why dense: the GPU machine has no sparse direct solver (CHOLMOD is the host's), and a dense
+// float64 factorisation runs near the GPU's float64 peak: ~(3N)³/3 flops, 0.2 s for the 9212-particle
+// finger (27 636 unknowns) on an H100. Its memory is (3N)² × 8 bytes (6.1 GB for that finger):
+// about 28 000 particles fit in 80 GB, 40 000 in 141 GB. Above what the GPU has free the factory's
+// factorize() throws GpuMemoryError naming the particles that would fit; the simulator then
+// factorises on the host (backend auto, with a note) or stops (backend cuda).
+//
+// cuSOLVER is loaded with dlopen at the first factorisation (libcusolver.so.12/.11): programs that
+// never factorise on the GPU do not pay its load time.
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <string>
+
+#include "topo_gaussian/physics/rest_stiffness.h"
+
+namespace topo_gaussian {
+
+/// Device bytes of a dense factor of n unknowns (n² float64 values; the workspace comes on top).
+double denseCholeskyBytes(std::size_t unknowns);
+
+/// The particles (3 unknowns each) whose dense factor fits in `bytes`.
+std::size_t denseCholeskyParticlesFitting(double bytes);
+
+/// Why a dense factor of `unknowns` (its lower triangle `lower_nonzeros` sparse entries, for the
+/// upload) cannot be made on the first CUDA device now: no backend or device, or more memory than 90 %
+/// of the free memory (or max_bytes > 0), naming the MiB and the particles that would fit. Empty when
+/// it fits.
+std::string denseCholeskyRefusal(std::size_t unknowns, double lower_nonzeros = 0.0, double max_bytes = 0.0);
+
+/// How a solve applies the factor: two triangular solves (cusolverDnXpotrs: exact to round-off, but a
+/// solve with one right-hand side is a chain of n/block dependent steps), or the explicit inverse A⁻¹
+/// (cusolverDnDpotri after the factor, about twice the factor's flops once) times r: cuBLAS dsymv on
+/// its lower triangle or dgemv on the mirrored full matrix, which read the matrix at the memory's
+/// speed; the inverse carries cond(A) × ε of relative error (a preconditioner's worth) and takes at
+/// most 46 340 unknowns.
+enum class DenseCholeskyApply { Triangular, InverseSymv, InverseGemv };
+
+/// A CholeskySolver on the first CUDA device. max_bytes > 0: refuse a factor above it too (tests;
+/// the device's free memory always bounds it). Without the CUDA backend or a device, factorize()
+/// throws TopoError with the reason.
+std::unique_ptr<CholeskySolver> makeDenseCholeskyCuda(double max_bytes = 0.0,
+                                                      DenseCholeskyApply apply = DenseCholeskyApply::Triangular);
+
+}  // namespace topo_gaussian

@@ -1,0 +1,341 @@
+// Dense Cholesky on the GPU; see include/topo_gaussian/cuda/dense_cholesky_cuda.h.
+#include "topo_gaussian/cuda/dense_cholesky_cuda.h"
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <string>
+
+#include "topo_gaussian/common/error.h"
+#include "topo_gaussian/cuda/backend.h"
+
+#if TOPO_HAVE_CUDA
+#include <cublas_v2.h>
+#include <cuda_runtime_api.h>
+#include <cusolverDn.h>
+#include "cuda_library.h"
+#include "dense_cholesky_kernels.h"
+#include "soft_body_cuda_impl.h"  // check, DeviceBuffer
+#endif
+
+namespace topo_gaussian {
+
+double denseCholeskyBytes(std::size_t unknowns) {
+  const double n = static_cast<double>(unknowns);
+  return 8.0 * n * n;
+}
+
+std::size_t denseCholeskyParticlesFitting(double bytes) {
+  return bytes > 0.0 ? static_cast<std::size_t>(std::sqrt(bytes / 8.0) / 3.0) : 0;
+}
+
+#if TOPO_HAVE_CUDA
+
+std::string denseCholeskyRefusal(std::size_t unknowns, double lower_nonzeros, double max_bytes) {
+  const CudaDeviceInfo& dev = cudaDeviceInfo();
+  if (!dev.available) return "no CUDA device: " + dev.reason;
+  // the factor, the sparse triangle while it is scattered (12 bytes an entry), 64 MiB of workspace
+  const double need = denseCholeskyBytes(unknowns) + 12.0 * lower_nonzeros + double(64 << 20);
+  std::size_t free_b = 0, total_b = 0;
+  if (cudaMemGetInfo(&free_b, &total_b) != cudaSuccess) {
+    cudaGetLastError();
+    return "the CUDA runtime could not report the GPU's free memory";
+  }
+  double usable = 0.9 * static_cast<double>(free_b);
+  if (max_bytes > 0.0) usable = std::min(usable, max_bytes);
+  if (need <= usable) return "";
+  std::ostringstream s;
+  s << "a dense factor of " << unknowns << " unknowns (" << unknowns / 3 << " particles) needs "
+    << static_cast<long long>(need / (1024.0 * 1024.0)) << " MiB on " << dev.name << " but "
+    << static_cast<long long>(usable / (1024.0 * 1024.0)) << " MiB are usable ("
+    << static_cast<long long>(free_b / (1024.0 * 1024.0)) << " MiB free): about "
+    << denseCholeskyParticlesFitting(usable) << " particles would fit";
+  return s.str();
+}
+
+namespace {
+
+/// The cuSOLVER functions used here, resolved once from libcusolver.
+struct Cusolver {
+  cusolverStatus_t (*create)(cusolverDnHandle_t*) = nullptr;
+  cusolverStatus_t (*destroy)(cusolverDnHandle_t) = nullptr;
+  cusolverStatus_t (*setStream)(cusolverDnHandle_t, cudaStream_t) = nullptr;
+  cusolverStatus_t (*createParams)(cusolverDnParams_t*) = nullptr;
+  cusolverStatus_t (*destroyParams)(cusolverDnParams_t) = nullptr;
+  cusolverStatus_t (*potrfBufferSize)(cusolverDnHandle_t, cusolverDnParams_t, cublasFillMode_t, int64_t, cudaDataType,
+                                      const void*, int64_t, cudaDataType, size_t*, size_t*) = nullptr;
+  cusolverStatus_t (*potrf)(cusolverDnHandle_t, cusolverDnParams_t, cublasFillMode_t, int64_t, cudaDataType, void*,
+                            int64_t, cudaDataType, void*, size_t, void*, size_t, int*) = nullptr;
+  cusolverStatus_t (*potrs)(cusolverDnHandle_t, cusolverDnParams_t, cublasFillMode_t, int64_t, int64_t, cudaDataType,
+                            const void*, int64_t, cudaDataType, void*, int64_t, int*) = nullptr;
+  cusolverStatus_t (*potriBufferSize)(cusolverDnHandle_t, cublasFillMode_t, int, double*, int, int*) = nullptr;
+  cusolverStatus_t (*potri)(cusolverDnHandle_t, cublasFillMode_t, int, double*, int, double*, int, int*) = nullptr;
+  std::string error;
+};
+
+/// The cuBLAS products of the explicit inverse (DenseCholeskyApply::Inverse*), resolved once.
+struct CublasMv {
+  cublasStatus_t (*create)(cublasHandle_t*) = nullptr;
+  cublasStatus_t (*destroy)(cublasHandle_t) = nullptr;
+  cublasStatus_t (*setStream)(cublasHandle_t, cudaStream_t) = nullptr;
+  cublasStatus_t (*dsymv)(cublasHandle_t, cublasFillMode_t, int, const double*, const double*, int, const double*, int,
+                          const double*, double*, int) = nullptr;
+  cublasStatus_t (*dgemv)(cublasHandle_t, cublasOperation_t, int, int, const double*, const double*, int, const double*,
+                          int, const double*, double*, int) = nullptr;
+  std::string error;
+};
+
+using cuda_detail::resolveSymbol;
+
+const Cusolver& cusolver() {
+  static const Cusolver c = [] {
+    Cusolver c;
+    void* lib = cuda_detail::openCudaLibrary({"libcusolver.so.12", "libcusolver.so.11", "libcusolver.so"}, &c.error);
+    if (!lib) return c;
+    const bool ok =
+        resolveSymbol(lib, "cusolverDnCreate", &c.create) && resolveSymbol(lib, "cusolverDnDestroy", &c.destroy) &&
+        resolveSymbol(lib, "cusolverDnSetStream", &c.setStream) &&
+        resolveSymbol(lib, "cusolverDnCreateParams", &c.createParams) &&
+        resolveSymbol(lib, "cusolverDnDestroyParams", &c.destroyParams) &&
+        resolveSymbol(lib, "cusolverDnXpotrf_bufferSize", &c.potrfBufferSize) &&
+        resolveSymbol(lib, "cusolverDnXpotrf", &c.potrf) && resolveSymbol(lib, "cusolverDnXpotrs", &c.potrs);
+    if (!ok) c.error = "libcusolver lacks the 64-bit potrf/potrs API (a cuSOLVER older than CUDA 11.1?)";
+    resolveSymbol(lib, "cusolverDnDpotri_bufferSize", &c.potriBufferSize);
+    resolveSymbol(lib, "cusolverDnDpotri", &c.potri);
+    return c;
+  }();
+  return c;
+}
+
+const CublasMv& cublasMv() {
+  static const CublasMv c = [] {
+    CublasMv c;
+    void* lib = cuda_detail::openCudaLibrary({"libcublas.so.13", "libcublas.so.12", "libcublas.so"}, &c.error);
+    if (!lib) return c;
+    const bool ok = resolveSymbol(lib, "cublasCreate_v2", &c.create) &&
+                    resolveSymbol(lib, "cublasDestroy_v2", &c.destroy) &&
+                    resolveSymbol(lib, "cublasSetStream_v2", &c.setStream) &&
+                    resolveSymbol(lib, "cublasDsymv_v2", &c.dsymv) && resolveSymbol(lib, "cublasDgemv_v2", &c.dgemv);
+    if (!ok) c.error = "libcublas lacks cublasDsymv_v2 or cublasDgemv_v2";
+    return c;
+  }();
+  return c;
+}
+
+const char* const kMemoryFix =
+    "use a coarser particle spacing, free the GPU, or use backend cpu (backend auto factorises on the host)";
+
+void checkSolver(cusolverStatus_t s, const char* what) {
+  if (s != CUSOLVER_STATUS_SUCCESS)
+    throw TopoError("GPU dense Cholesky",
+                    std::string(what) + " failed with cuSOLVER status " + std::to_string(static_cast<int>(s)),
+                    "check the GPU's free memory; backend cpu factorises on the host");
+}
+
+class DenseCholeskyCuda : public CholeskySolver {
+ public:
+  DenseCholeskyCuda(double max_bytes, DenseCholeskyApply apply) : max_bytes_(max_bytes), apply_(apply) {}
+  ~DenseCholeskyCuda() override {
+    if (blas_) cublasMv().destroy(blas_);
+    if (params_) cusolver().destroyParams(params_);
+    if (handle_) cusolver().destroy(handle_);
+    if (stream_) cudaStreamDestroy(stream_);
+    if (pinned_) cudaFreeHost(pinned_);
+  }
+
+  void factorize(const Eigen::SparseMatrix<double>& lower) override {
+    const CudaDeviceInfo& dev = cudaDeviceInfo();
+    if (!dev.available)
+      throw TopoError("GPU dense Cholesky", "no CUDA device: " + dev.reason,
+                      "use backend cpu or auto (the host's sparse Cholesky)");
+    if (!cusolver().error.empty())
+      throw TopoError("GPU dense Cholesky", cusolver().error,
+                      "install the CUDA toolkit's cuSOLVER (it comes with CUDA), or use backend cpu or auto");
+    const std::string refused =
+        denseCholeskyRefusal(static_cast<std::size_t>(lower.rows()), static_cast<double>(lower.nonZeros()), max_bytes_);
+    if (!refused.empty()) throw GpuMemoryError("GPU dense Cholesky", refused, kMemoryFix);
+    release();
+    n_ = lower.rows();
+    const Cusolver& cs = cusolver();
+    if (!stream_) {
+      check(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate");
+      checkSolver(cs.create(&handle_), "cusolverDnCreate");
+      checkSolver(cs.setStream(handle_, stream_), "cusolverDnSetStream");
+      checkSolver(cs.createParams(&params_), "cusolverDnCreateParams");
+    }
+    A_.allocate(static_cast<std::size_t>(denseCholeskyBytes(static_cast<std::size_t>(n_))));
+    check(cudaMemsetAsync(A_.ptr, 0, A_.bytes, stream_), "cudaMemset");
+    {
+      Eigen::SparseMatrix<double> copy;  // only an uncompressed matrix is copied (rest_stiffness.cpp's is compressed)
+      if (!lower.isCompressed()) {
+        copy = lower;
+        copy.makeCompressed();
+      }
+      const Eigen::SparseMatrix<double>& L = lower.isCompressed() ? lower : copy;
+      const long long nnz = L.nonZeros();
+      cuda_detail::DeviceBuffer outer, inner, values;
+      outer.allocate(sizeof(int) * static_cast<std::size_t>(n_ + 1));
+      inner.allocate(sizeof(int) * static_cast<std::size_t>(nnz));
+      values.allocate(sizeof(double) * static_cast<std::size_t>(nnz));
+      check(cudaMemcpyAsync(outer.ptr, L.outerIndexPtr(), outer.bytes, cudaMemcpyHostToDevice, stream_), "upload");
+      check(cudaMemcpyAsync(inner.ptr, L.innerIndexPtr(), inner.bytes, cudaMemcpyHostToDevice, stream_), "upload");
+      check(cudaMemcpyAsync(values.ptr, L.valuePtr(), values.bytes, cudaMemcpyHostToDevice, stream_), "upload");
+      cuda_detail::launchScatterLowerCsc(n_, static_cast<const int*>(outer.ptr), static_cast<const int*>(inner.ptr),
+                                         static_cast<const double*>(values.ptr), static_cast<double*>(A_.ptr), stream_);
+      check(cudaGetLastError(), "scatter kernel");
+      check(cudaStreamSynchronize(stream_), "scatter");
+    }
+    std::size_t dev_ws = 0, host_ws = 0;
+    checkSolver(cs.potrfBufferSize(handle_, params_, CUBLAS_FILL_MODE_LOWER, n_, CUDA_R_64F, A_.ptr, n_, CUDA_R_64F,
+                                   &dev_ws, &host_ws),
+                "cusolverDnXpotrf_bufferSize");
+    cuda_detail::DeviceBuffer work;
+    work.allocate(std::max<std::size_t>(dev_ws, 8));
+    std::vector<char> host_work(std::max<std::size_t>(host_ws, 8));
+    if (!info_.ptr) info_.allocate(sizeof(int));
+    checkSolver(cs.potrf(handle_, params_, CUBLAS_FILL_MODE_LOWER, n_, CUDA_R_64F, A_.ptr, n_, CUDA_R_64F, work.ptr,
+                         dev_ws, host_work.data(), host_ws, static_cast<int*>(info_.ptr)),
+                "cusolverDnXpotrf");
+    int info = 0;
+    check(cudaMemcpyAsync(&info, info_.ptr, sizeof(int), cudaMemcpyDeviceToHost, stream_), "download");
+    check(cudaStreamSynchronize(stream_), "cusolverDnXpotrf");
+    if (info != 0)
+      throw TopoError("GPU dense Cholesky",
+                      "the matrix is not positive definite (leading minor " + std::to_string(info) + " of " +
+                          std::to_string(n_) + ")",
+                      "clamp the body, add contact or inertia (an unsupported body has rigid modes)");
+    if (apply_ != DenseCholeskyApply::Triangular) invert(cs, &work);
+    if (!pinned_) check(cudaMallocHost(&pinned_, sizeof(double) * static_cast<std::size_t>(n_)), "cudaMallocHost");
+    if (!rhs_.ptr) rhs_.allocate(sizeof(double) * static_cast<std::size_t>(n_));
+    if (!out_.ptr) out_.allocate(sizeof(double) * static_cast<std::size_t>(n_));
+    name_ = std::string("dense Cholesky (cuSOLVER, float64") +
+            (apply_ == DenseCholeskyApply::Triangular ? "" : ", explicit inverse") + ") on " + dev.name;
+  }
+
+  /// A⁻¹ from the factor (potri: its lower triangle), the upper mirrored for a general product.
+  void invert(const Cusolver& cs, cuda_detail::DeviceBuffer* work) {
+    if (!cs.potri || !cs.potriBufferSize || !cublasMv().error.empty())
+      throw TopoError("GPU dense Cholesky", "this CUDA lacks cusolverDnDpotri or cuBLAS: " + cublasMv().error,
+                      "use the triangular solves (DenseCholeskyApply::Triangular)");
+    if (n_ > 46340)
+      throw TopoError("GPU dense Cholesky", "the explicit inverse takes at most 46340 unknowns (32-bit potri)",
+                      "use the triangular solves (DenseCholeskyApply::Triangular)");
+    const int n = static_cast<int>(n_);
+    int lwork = 0;
+    checkSolver(cs.potriBufferSize(handle_, CUBLAS_FILL_MODE_LOWER, n, static_cast<double*>(A_.ptr), n, &lwork),
+                "cusolverDnDpotri_bufferSize");
+    if (work->bytes < sizeof(double) * static_cast<std::size_t>(lwork))
+      work->allocate(sizeof(double) * static_cast<std::size_t>(std::max(lwork, 1)));
+    checkSolver(cs.potri(handle_, CUBLAS_FILL_MODE_LOWER, n, static_cast<double*>(A_.ptr), n,
+                         static_cast<double*>(work->ptr), lwork, static_cast<int*>(info_.ptr)),
+                "cusolverDnDpotri");
+    if (apply_ == DenseCholeskyApply::InverseGemv)
+      cuda_detail::launchMirrorLower(n_, static_cast<double*>(A_.ptr), stream_);
+    check(cudaGetLastError(), "mirror kernel");
+    int info = 0;
+    check(cudaMemcpyAsync(&info, info_.ptr, sizeof(int), cudaMemcpyDeviceToHost, stream_), "download");
+    check(cudaStreamSynchronize(stream_), "cusolverDnDpotri");
+    if (info != 0)
+      throw TopoError("GPU dense Cholesky", "the inverse failed (potri info " + std::to_string(info) + ")",
+                      "use the triangular solves (DenseCholeskyApply::Triangular)");
+    if (!blas_) {
+      if (cublasMv().create(&blas_) != CUBLAS_STATUS_SUCCESS)
+        throw TopoError("GPU dense Cholesky", "cublasCreate failed", "check the GPU's free memory");
+      cublasMv().setStream(blas_, stream_);
+    }
+  }
+
+  /// The device and pinned memory of an earlier factorisation.
+  void release() {
+    A_.free();
+    rhs_.free();
+    out_.free();
+    if (pinned_) cudaFreeHost(pinned_);
+    pinned_ = nullptr;
+  }
+
+  void solve(const Eigen::VectorXd& r, Eigen::VectorXd* z) const override {
+    if (r.size() != n_)
+      throw TopoError(
+          "GPU dense Cholesky",
+          "right-hand side of " + std::to_string(r.size()) + " entries for " + std::to_string(n_) + " unknowns",
+          "factorise the matching matrix first");
+    const std::size_t bytes = sizeof(double) * static_cast<std::size_t>(n_);
+    std::copy(r.data(), r.data() + n_, static_cast<double*>(pinned_));
+    check(cudaMemcpyAsync(rhs_.ptr, pinned_, bytes, cudaMemcpyHostToDevice, stream_), "upload");
+    void* result = rhs_.ptr;
+    const double one = 1.0, zero = 0.0;
+    const int n = static_cast<int>(n_);
+    if (apply_ == DenseCholeskyApply::Triangular) {
+      checkSolver(cusolver().potrs(handle_, params_, CUBLAS_FILL_MODE_LOWER, n_, 1, CUDA_R_64F, A_.ptr, n_, CUDA_R_64F,
+                                   rhs_.ptr, n_, static_cast<int*>(info_.ptr)),
+                  "cusolverDnXpotrs");
+    } else {
+      const cublasStatus_t st =
+          apply_ == DenseCholeskyApply::InverseSymv
+              ? cublasMv().dsymv(blas_, CUBLAS_FILL_MODE_LOWER, n, &one, static_cast<const double*>(A_.ptr), n,
+                                 static_cast<const double*>(rhs_.ptr), 1, &zero, static_cast<double*>(out_.ptr), 1)
+              : cublasMv().dgemv(blas_, CUBLAS_OP_N, n, n, &one, static_cast<const double*>(A_.ptr), n,
+                                 static_cast<const double*>(rhs_.ptr), 1, &zero, static_cast<double*>(out_.ptr), 1);
+      if (st != CUBLAS_STATUS_SUCCESS)
+        throw TopoError("GPU dense Cholesky", "the inverse's product failed with cuBLAS status " + std::to_string(st),
+                        "check the GPU's free memory");
+      result = out_.ptr;
+    }
+    check(cudaMemcpyAsync(pinned_, result, bytes, cudaMemcpyDeviceToHost, stream_), "download");
+    check(cudaStreamSynchronize(stream_), "cusolverDnXpotrs");
+    z->resize(n_);
+    std::copy(static_cast<const double*>(pinned_), static_cast<const double*>(pinned_) + n_, z->data());
+  }
+
+  std::string name() const override { return name_; }
+  double bytes() const override { return static_cast<double>(A_.bytes); }
+
+ private:
+  double max_bytes_ = 0.0;
+  DenseCholeskyApply apply_ = DenseCholeskyApply::Triangular;
+  cublasHandle_t blas_ = nullptr;
+  long long n_ = 0;
+  cudaStream_t stream_ = nullptr;
+  cusolverDnHandle_t handle_ = nullptr;
+  cusolverDnParams_t params_ = nullptr;
+  cuda_detail::DeviceBuffer A_, info_;
+  mutable cuda_detail::DeviceBuffer rhs_, out_;
+  void* pinned_ = nullptr;
+  std::string name_;
+};
+
+}  // namespace
+
+std::unique_ptr<CholeskySolver> makeDenseCholeskyCuda(double max_bytes, DenseCholeskyApply apply) {
+  return std::make_unique<DenseCholeskyCuda>(max_bytes, apply);
+}
+
+#else  // no CUDA backend in this build
+
+std::string denseCholeskyRefusal(std::size_t, double, double) {
+  return "this build has no CUDA backend (nvcc was not found when it was configured)";
+}
+
+namespace {
+class NoCudaCholesky : public CholeskySolver {
+ public:
+  void factorize(const Eigen::SparseMatrix<double>&) override {
+    throw TopoError("GPU dense Cholesky", "this build has no CUDA backend (nvcc was not found when it was configured)",
+                    "use backend cpu or auto, or rebuild with the CUDA toolkit");
+  }
+  void solve(const Eigen::VectorXd&, Eigen::VectorXd*) const override {
+    throw TopoError("GPU dense Cholesky", "nothing was factorised", "call factorize first");
+  }
+  std::string name() const override { return "none (no CUDA backend)"; }
+  double bytes() const override { return 0.0; }
+};
+}  // namespace
+
+std::unique_ptr<CholeskySolver> makeDenseCholeskyCuda(double, DenseCholeskyApply) {
+  return std::make_unique<NoCudaCholesky>();
+}
+
+#endif
+
+}  // namespace topo_gaussian
