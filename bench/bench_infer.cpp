@@ -135,9 +135,13 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--quick") == 0)
       quick = true;
-    else if (std::strcmp(argv[i], "--backend") == 0 && i + 1 < argc)
+    else if (std::strcmp(argv[i], "--backend") == 0) {
+      if (i + 1 >= argc || argv[i + 1][0] == '-') {
+        std::fprintf(stderr, "bench_infer: --backend needs a value: auto, cpu or cuda\n");
+        return 2;
+      }
       g_backend = argv[++i];
-    else
+    } else
       g_only = argv[i];
   }
   // ~100k particles: a 0.4 × 0.2 × 0.12 m box at 4 mm spacing (quick: 8 mm).
@@ -190,6 +194,7 @@ int main(int argc, char** argv) {
     const VolumeCloud pear = defaultShapeCloud("pear", quick ? 0.01 : 0.005);
     TaskConfig c = TaskConfig::defaults("pear");
     c.set("duration_s", "0.08");
+    if (g_backend) c.set("backend", g_backend);  // the truth on the same backend as the inference
     std::vector<double> gt(pear.size(), 0.0);
     for (std::size_t i = 0; i < pear.size(); ++i)
       if ((pear.X[i] - Eigen::Vector3d(0, 0, 0.04)).norm() < 0.022) gt[i] = 1.0;

@@ -40,7 +40,7 @@ struct CountingSolver : CholeskySolver {
   std::unique_ptr<CholeskySolver> inner;
   long* solves;
   CountingSolver(long* counter, DenseCholeskyApply apply) : inner(makeDenseCholeskyCuda(0.0, apply)), solves(counter) {}
-  void factorize(const Eigen::SparseMatrix<double>& lower) override { inner->factorize(lower); }
+  bool factorize(const Eigen::SparseMatrix<double>& lower) override { return inner->factorize(lower); }
   void solve(const Eigen::VectorXd& r, Eigen::VectorXd* z) const override {
     ++*solves;
     inner->solve(r, z);

@@ -3,7 +3,7 @@
 # with the inference layer (bench_infer: the tasks end to end), runs the CUDA tests and the GPU
 # benchmarks, and profiles the step kernels with Nsight Compute. Eigen, GoogleTest, and the inference
 # layer's and CHOLMOD's libraries come from Debian's .debs, extracted on a Debian machine into .deps/
-# and packed as .deps.tar.xz (9.5 MB; both ignored; the tarball is what is carried to the GPU machine,
+# and packed as .deps.tar.xz (9.7 MB; both ignored; the tarball is what is carried to the GPU machine,
 # the folder is 64 MB; bench/gpu/README.md):
 #   mkdir -p .deps/dl && cd .deps/dl && apt-get download libeigen3-dev googletest nlohmann-json3-dev \
 #     libnlopt-dev libnlopt0 libnlopt-cxx-dev libyaml-cpp-dev libyaml-cpp0.7 libsuitesparse-dev libcholmod3 libamd2 libcamd2 \
@@ -15,7 +15,7 @@
 #   infer: bench_infer's finger (9212 particles) and neural hanging (150k points, 8 x 512) with backend
 #   cuda; infer-cpu: the finger with backend cpu on the same machine (CHOLMOD on its cores).
 set -euo pipefail
-out=${1:?usage: bench/gpu/run.sh OUT_DIR [test|bench|neural|lanes|ncu|all]...}
+out=${1:?usage: bench/gpu/run.sh OUT_DIR [test|bench|neural|static|infer|infer-cpu|lanes|ncu|all]...}
 shift
 steps=${*:-all}
 root=$(cd "$(dirname "$0")/../.." && pwd)

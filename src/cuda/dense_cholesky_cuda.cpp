@@ -122,6 +122,8 @@ const CublasMv& cublasMv() {
   return c;
 }
 
+constexpr const char* kInput = "GPU dense Cholesky";
+
 const char* const kMemoryFix =
     "use a coarser particle spacing, free the GPU, or use backend cpu (backend auto factorises on the host)";
 
@@ -143,7 +145,9 @@ class DenseCholeskyCuda : public CholeskySolver {
     if (pinned_) cudaFreeHost(pinned_);
   }
 
-  void factorize(const Eigen::SparseMatrix<double>& lower) override {
+  bool factorize(const Eigen::SparseMatrix<double>& lower) override {
+    factored_ = false;
+    release();  // an earlier factor's memory is not counted against this one
     const CudaDeviceInfo& dev = cudaDeviceInfo();
     if (!dev.available)
       throw TopoError("GPU dense Cholesky", "no CUDA device: " + dev.reason,
@@ -154,17 +158,16 @@ class DenseCholeskyCuda : public CholeskySolver {
     const std::string refused =
         denseCholeskyRefusal(static_cast<std::size_t>(lower.rows()), static_cast<double>(lower.nonZeros()), max_bytes_);
     if (!refused.empty()) throw GpuMemoryError("GPU dense Cholesky", refused, kMemoryFix);
-    release();
     n_ = lower.rows();
     const Cusolver& cs = cusolver();
     if (!stream_) {
-      check(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate");
+      check(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate", kInput);
       checkSolver(cs.create(&handle_), "cusolverDnCreate");
       checkSolver(cs.setStream(handle_, stream_), "cusolverDnSetStream");
       checkSolver(cs.createParams(&params_), "cusolverDnCreateParams");
     }
-    A_.allocate(static_cast<std::size_t>(denseCholeskyBytes(static_cast<std::size_t>(n_))));
-    check(cudaMemsetAsync(A_.ptr, 0, A_.bytes, stream_), "cudaMemset");
+    A_.allocate(static_cast<std::size_t>(denseCholeskyBytes(static_cast<std::size_t>(n_))), kInput);
+    check(cudaMemsetAsync(A_.ptr, 0, A_.bytes, stream_), "cudaMemset", kInput);
     {
       Eigen::SparseMatrix<double> copy;  // only an uncompressed matrix is copied (rest_stiffness.cpp's is compressed)
       if (!lower.isCompressed()) {
@@ -174,42 +177,46 @@ class DenseCholeskyCuda : public CholeskySolver {
       const Eigen::SparseMatrix<double>& L = lower.isCompressed() ? lower : copy;
       const long long nnz = L.nonZeros();
       cuda_detail::DeviceBuffer outer, inner, values;
-      outer.allocate(sizeof(int) * static_cast<std::size_t>(n_ + 1));
-      inner.allocate(sizeof(int) * static_cast<std::size_t>(nnz));
-      values.allocate(sizeof(double) * static_cast<std::size_t>(nnz));
-      check(cudaMemcpyAsync(outer.ptr, L.outerIndexPtr(), outer.bytes, cudaMemcpyHostToDevice, stream_), "upload");
-      check(cudaMemcpyAsync(inner.ptr, L.innerIndexPtr(), inner.bytes, cudaMemcpyHostToDevice, stream_), "upload");
-      check(cudaMemcpyAsync(values.ptr, L.valuePtr(), values.bytes, cudaMemcpyHostToDevice, stream_), "upload");
+      outer.allocate(sizeof(int) * static_cast<std::size_t>(n_ + 1), kInput);
+      inner.allocate(sizeof(int) * static_cast<std::size_t>(nnz), kInput);
+      values.allocate(sizeof(double) * static_cast<std::size_t>(nnz), kInput);
+      check(cudaMemcpyAsync(outer.ptr, L.outerIndexPtr(), outer.bytes, cudaMemcpyHostToDevice, stream_), "upload",
+            kInput);
+      check(cudaMemcpyAsync(inner.ptr, L.innerIndexPtr(), inner.bytes, cudaMemcpyHostToDevice, stream_), "upload",
+            kInput);
+      check(cudaMemcpyAsync(values.ptr, L.valuePtr(), values.bytes, cudaMemcpyHostToDevice, stream_), "upload", kInput);
       cuda_detail::launchScatterLowerCsc(n_, static_cast<const int*>(outer.ptr), static_cast<const int*>(inner.ptr),
                                          static_cast<const double*>(values.ptr), static_cast<double*>(A_.ptr), stream_);
-      check(cudaGetLastError(), "scatter kernel");
-      check(cudaStreamSynchronize(stream_), "scatter");
+      check(cudaGetLastError(), "scatter kernel", kInput);
+      check(cudaStreamSynchronize(stream_), "scatter", kInput);
     }
     std::size_t dev_ws = 0, host_ws = 0;
     checkSolver(cs.potrfBufferSize(handle_, params_, CUBLAS_FILL_MODE_LOWER, n_, CUDA_R_64F, A_.ptr, n_, CUDA_R_64F,
                                    &dev_ws, &host_ws),
                 "cusolverDnXpotrf_bufferSize");
     cuda_detail::DeviceBuffer work;
-    work.allocate(std::max<std::size_t>(dev_ws, 8));
+    work.allocate(std::max<std::size_t>(dev_ws, 8), kInput);
     std::vector<char> host_work(std::max<std::size_t>(host_ws, 8));
-    if (!info_.ptr) info_.allocate(sizeof(int));
+    if (!info_.ptr) info_.allocate(sizeof(int), kInput);
     checkSolver(cs.potrf(handle_, params_, CUBLAS_FILL_MODE_LOWER, n_, CUDA_R_64F, A_.ptr, n_, CUDA_R_64F, work.ptr,
                          dev_ws, host_work.data(), host_ws, static_cast<int*>(info_.ptr)),
                 "cusolverDnXpotrf");
     int info = 0;
-    check(cudaMemcpyAsync(&info, info_.ptr, sizeof(int), cudaMemcpyDeviceToHost, stream_), "download");
-    check(cudaStreamSynchronize(stream_), "cusolverDnXpotrf");
-    if (info != 0)
-      throw TopoError("GPU dense Cholesky",
-                      "the matrix is not positive definite (leading minor " + std::to_string(info) + " of " +
-                          std::to_string(n_) + ")",
-                      "clamp the body, add contact or inertia (an unsupported body has rigid modes)");
+    check(cudaMemcpyAsync(&info, info_.ptr, sizeof(int), cudaMemcpyDeviceToHost, stream_), "download", kInput);
+    check(cudaStreamSynchronize(stream_), "cusolverDnXpotrf", kInput);
+    if (info < 0)
+      throw TopoError("GPU dense Cholesky", "cusolverDnXpotrf rejected its argument " + std::to_string(-info),
+                      "report this: the matrix of " + std::to_string(n_) + " unknowns was passed wrongly");
+    if (info > 0) return false;  // not positive definite (leading minor `info`): the caller refuses it
     if (apply_ != DenseCholeskyApply::Triangular) invert(cs, &work);
-    if (!pinned_) check(cudaMallocHost(&pinned_, sizeof(double) * static_cast<std::size_t>(n_)), "cudaMallocHost");
-    if (!rhs_.ptr) rhs_.allocate(sizeof(double) * static_cast<std::size_t>(n_));
-    if (!out_.ptr) out_.allocate(sizeof(double) * static_cast<std::size_t>(n_));
+    if (!pinned_)
+      check(cudaMallocHost(&pinned_, sizeof(double) * static_cast<std::size_t>(n_)), "cudaMallocHost", kInput);
+    if (!rhs_.ptr) rhs_.allocate(sizeof(double) * static_cast<std::size_t>(n_), kInput);
+    if (!out_.ptr) out_.allocate(sizeof(double) * static_cast<std::size_t>(n_), kInput);
     name_ = std::string("dense Cholesky (cuSOLVER, float64") +
             (apply_ == DenseCholeskyApply::Triangular ? "" : ", explicit inverse") + ") on " + dev.name;
+    factored_ = true;
+    return true;
   }
 
   /// A⁻¹ from the factor (potri: its lower triangle), the upper mirrored for a general product.
@@ -225,23 +232,25 @@ class DenseCholeskyCuda : public CholeskySolver {
     checkSolver(cs.potriBufferSize(handle_, CUBLAS_FILL_MODE_LOWER, n, static_cast<double*>(A_.ptr), n, &lwork),
                 "cusolverDnDpotri_bufferSize");
     if (work->bytes < sizeof(double) * static_cast<std::size_t>(lwork))
-      work->allocate(sizeof(double) * static_cast<std::size_t>(std::max(lwork, 1)));
+      work->allocate(sizeof(double) * static_cast<std::size_t>(std::max(lwork, 1)), kInput);
     checkSolver(cs.potri(handle_, CUBLAS_FILL_MODE_LOWER, n, static_cast<double*>(A_.ptr), n,
                          static_cast<double*>(work->ptr), lwork, static_cast<int*>(info_.ptr)),
                 "cusolverDnDpotri");
-    if (apply_ == DenseCholeskyApply::InverseGemv)
+    if (apply_ == DenseCholeskyApply::InverseGemv) {
       cuda_detail::launchMirrorLower(n_, static_cast<double*>(A_.ptr), stream_);
-    check(cudaGetLastError(), "mirror kernel");
+      check(cudaGetLastError(), "mirror kernel", kInput);
+    }
     int info = 0;
-    check(cudaMemcpyAsync(&info, info_.ptr, sizeof(int), cudaMemcpyDeviceToHost, stream_), "download");
-    check(cudaStreamSynchronize(stream_), "cusolverDnDpotri");
+    check(cudaMemcpyAsync(&info, info_.ptr, sizeof(int), cudaMemcpyDeviceToHost, stream_), "download", kInput);
+    check(cudaStreamSynchronize(stream_), "cusolverDnDpotri", kInput);
     if (info != 0)
       throw TopoError("GPU dense Cholesky", "the inverse failed (potri info " + std::to_string(info) + ")",
                       "use the triangular solves (DenseCholeskyApply::Triangular)");
     if (!blas_) {
       if (cublasMv().create(&blas_) != CUBLAS_STATUS_SUCCESS)
         throw TopoError("GPU dense Cholesky", "cublasCreate failed", "check the GPU's free memory");
-      cublasMv().setStream(blas_, stream_);
+      if (cublasMv().setStream(blas_, stream_) != CUBLAS_STATUS_SUCCESS)
+        throw TopoError("GPU dense Cholesky", "cublasSetStream failed", "check the GPU's free memory");
     }
   }
 
@@ -255,6 +264,9 @@ class DenseCholeskyCuda : public CholeskySolver {
   }
 
   void solve(const Eigen::VectorXd& r, Eigen::VectorXd* z) const override {
+    if (!factored_)
+      throw TopoError("GPU dense Cholesky", "solve() without a factor (the last factorize() failed or was not called)",
+                      "factorise first");
     if (r.size() != n_)
       throw TopoError(
           "GPU dense Cholesky",
@@ -262,7 +274,7 @@ class DenseCholeskyCuda : public CholeskySolver {
           "factorise the matching matrix first");
     const std::size_t bytes = sizeof(double) * static_cast<std::size_t>(n_);
     std::copy(r.data(), r.data() + n_, static_cast<double*>(pinned_));
-    check(cudaMemcpyAsync(rhs_.ptr, pinned_, bytes, cudaMemcpyHostToDevice, stream_), "upload");
+    check(cudaMemcpyAsync(rhs_.ptr, pinned_, bytes, cudaMemcpyHostToDevice, stream_), "upload", kInput);
     void* result = rhs_.ptr;
     const double one = 1.0, zero = 0.0;
     const int n = static_cast<int>(n_);
@@ -282,8 +294,8 @@ class DenseCholeskyCuda : public CholeskySolver {
                         "check the GPU's free memory");
       result = out_.ptr;
     }
-    check(cudaMemcpyAsync(pinned_, result, bytes, cudaMemcpyDeviceToHost, stream_), "download");
-    check(cudaStreamSynchronize(stream_), "cusolverDnXpotrs");
+    check(cudaMemcpyAsync(pinned_, result, bytes, cudaMemcpyDeviceToHost, stream_), "download", kInput);
+    check(cudaStreamSynchronize(stream_), "cusolverDnXpotrs", kInput);
     z->resize(n_);
     std::copy(static_cast<const double*>(pinned_), static_cast<const double*>(pinned_) + n_, z->data());
   }
@@ -296,6 +308,7 @@ class DenseCholeskyCuda : public CholeskySolver {
   DenseCholeskyApply apply_ = DenseCholeskyApply::Triangular;
   cublasHandle_t blas_ = nullptr;
   long long n_ = 0;
+  bool factored_ = false;
   cudaStream_t stream_ = nullptr;
   cusolverDnHandle_t handle_ = nullptr;
   cusolverDnParams_t params_ = nullptr;
@@ -320,7 +333,7 @@ std::string denseCholeskyRefusal(std::size_t, double, double) {
 namespace {
 class NoCudaCholesky : public CholeskySolver {
  public:
-  void factorize(const Eigen::SparseMatrix<double>&) override {
+  bool factorize(const Eigen::SparseMatrix<double>&) override {
     throw TopoError("GPU dense Cholesky", "this build has no CUDA backend (nvcc was not found when it was configured)",
                     "use backend cpu or auto, or rebuild with the CUDA toolkit");
   }

@@ -21,11 +21,15 @@ namespace topo_gaussian {
 
 namespace cuda_detail {
 
-inline void check(cudaError_t err, const char* what) {
-  if (err != cudaSuccess)
-    throw TopoError("CUDA soft body", std::string(what) + " failed: " + cudaGetErrorString(err),
-                    "check that the GPU has enough free memory (deviceBytes()) and is not in use by a crashed "
-                    "process; backend cpu runs without it");
+/// Throws TopoError naming `input` when err is not cudaSuccess; the runtime's last error is cleared
+/// first, so a later launch check does not report this one again.
+inline void check(cudaError_t err, const char* what, const char* input = "CUDA soft body") {
+  if (err != cudaSuccess) {
+    cudaGetLastError();
+    throw TopoError(input, std::string(what) + " failed: " + cudaGetErrorString(err),
+                    "check that the GPU has enough free memory and is not in use by a crashed process; backend cpu "
+                    "runs without it");
+  }
 }
 
 /// A device allocation freed with its owner.
@@ -43,10 +47,10 @@ struct DeviceBuffer {
     ptr = nullptr;
     bytes = 0;
   }
-  void allocate(std::size_t b) {
+  void allocate(std::size_t b, const char* input = "CUDA soft body") {
     free();
     bytes = b;
-    check(cudaMalloc(&ptr, b == 0 ? 1 : b), "cudaMalloc");
+    check(cudaMalloc(&ptr, b == 0 ? 1 : b), "cudaMalloc", input);
   }
 };
 

@@ -200,7 +200,8 @@ DesignSpread exploreDesignSpread(const TaskConfig& config, const VolumeCloud& cl
       // (the unbounded parameters' range once: recomputed per parameter it was quadratic, 2.5e12 operations
       // for the 1.6M-parameter neural network)
       Eigen::VectorXd start = best_theta;
-      const double unbounded_range = 2.0 * std::max(1.0, best_theta.cwiseAbs().maxCoeff());
+      const double unbounded_range =
+          2.0 * std::max(1.0, best_theta.size() > 0 ? best_theta.cwiseAbs().maxCoeff() : 0.0);
       for (Eigen::Index k = 0; k < start.size(); ++k) {
         const double range = std::isfinite(hi[k] - lo[k]) ? hi[k] - lo[k] : unbounded_range;
         start[k] = std::clamp(start[k] + 0.05 * range * normal(rng), lo[k], hi[k]);

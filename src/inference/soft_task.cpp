@@ -184,7 +184,11 @@ void SoftTask::usePreconditionerOnGpu() {
 
 void SoftTask::notePreconditioner(const SoftBodySimulator& sim) const {
   const std::string& note = sim.preconditionerNote();
-  if (note.empty() || std::find(notes_.begin(), notes_.end(), note) != notes_.end()) return;
+  if (note.empty()) return;
+  // once per kind: the text before its first ':' (the numbers after it, e.g. the GPU's free MiB, vary)
+  const std::string kind = note.substr(0, note.find(':'));
+  for (const std::string& n : notes_)
+    if (n.compare(0, kind.size(), kind) == 0) return;
   notes_.push_back(note);
   std::cerr << "[" << name_ << "] warning: " << note
             << (note.rfind("Jacobi", 0) == 0

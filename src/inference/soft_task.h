@@ -35,8 +35,9 @@ class SoftTask : public Task {
   /// added to notes_ (the surface particles, the lattice staircase, carry the contact).
   std::shared_ptr<const ContactEmbedding> embedContactSamples(const VolumeCloud& cloud);
   /// After a solve: when its linear solves ran on Jacobi instead of the rest stiffness's Cholesky
-  /// factor (a limit refused the factor: SoftBodySimulator::preconditionerNote()), says so once,
-  /// in notes_ and on stderr, since every Newton step then takes thousands of CG iterations.
+  /// factor (a limit refused the factor: SoftBodySimulator::preconditionerNote()), or on the host's
+  /// factor where the GPU's was asked for, says so once per kind, in notes_ and on stderr (Jacobi:
+  /// every Newton step then takes thousands of CG iterations).
   void notePreconditioner(const SoftBodySimulator& sim) const;
   /// Tasks with Newton solves (finger, cantilever) call this once built: under a resolved backend cuda,
   /// the rest stiffness's Cholesky factor is computed and applied on the GPU (cuda/dense_cholesky_cuda.h)

@@ -300,16 +300,27 @@ RestStiffnessPreconditioner::RestStiffnessPreconditioner(const CorotatedSph& sph
   const Eigen::SparseMatrix<double> K = toSparse(assembleRows(sph, &shift, &fixed, true), true);
   nnz_ = static_cast<std::size_t>(K.nonZeros());
   matrix_bytes_ = 12.0 * static_cast<double>(nnz_);
+  const auto notPositiveDefinite = [] {
+    return TopoError("rest-stiffness preconditioner", "the rest stiffness is singular or not positive definite",
+                     "clamp the body, add contact or inertia (an unsupported body has rigid modes)");
+  };
   if (external) {
+    std::unique_ptr<CholeskySolver> solver;
+    bool positive_definite = true;
     try {
-      std::unique_ptr<CholeskySolver> solver = external();
-      solver->factorize(K);
+      solver = external();
+      positive_definite = solver->factorize(K);
+    } catch (const TopoError& e) {
+      if (external_required) throw ExternalFactorRefused(e.what());
+      external_note_ = e.what();
+      solver.reset();
+    }
+    if (solver) {
+      if (!positive_definite) throw notPositiveDefinite();
       external_ = std::move(solver);
+      matrix_bytes_ = 0.0;  // K0 is freed when this returns: only the external factor remains
       seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       return;
-    } catch (const TopoError& e) {
-      if (external_required) throw;
-      external_note_ = e.what();
     }
   }
   auto pattern = std::make_unique<Pattern>(Pattern::of(K));
@@ -331,9 +342,7 @@ RestStiffnessPreconditioner::RestStiffnessPreconditioner(const CorotatedSph& sph
     pattern_.reset();
     refuse("its Cholesky factor (with the rest stiffness)", factor_bytes_ + matrix_bytes_);
   }
-  if (!factor_->factorize(K))
-    throw TopoError("rest-stiffness preconditioner", "the rest stiffness is singular or not positive definite",
-                    "clamp the body, add contact or inertia (an unsupported body has rigid modes)");
+  if (!factor_->factorize(K)) throw notPositiveDefinite();
   seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 

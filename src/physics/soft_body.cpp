@@ -284,13 +284,15 @@ LinearOperator SoftBodySimulator::systemPreconditioner(double inertia) const {
       if (!rest_factor_->externalNote().empty())
         preconditioner_note_ =
             "the rest stiffness's Cholesky factor on the host, not the GPU: " + rest_factor_->externalNote();
+    } catch (const ExternalFactorRefused&) {
+      rest_factor_inertia_ = -1.0;  // no factor: the next call tries again (and fails) rather than use Jacobi
+      throw;
     } catch (const TopoError& e) {
-      if (opt_.cholesky_external && opt_.cholesky_external_required) {
-        rest_factor_inertia_ = -1.0;  // no factor: the next call tries again (and fails) rather than use Jacobi
-        throw;
-      }
       // unsupported at rest (held by contact only) or above the memory limit: Jacobi
       preconditioner_note_ = std::string("Jacobi preconditioner: ") + e.what();
+    } catch (...) {  // e.g. bad_alloc while assembling: nothing is cached
+      rest_factor_inertia_ = -1.0;
+      throw;
     }
   }
   if (!rest_factor_) return jacobiPreconditioner(systemDiagonal(inertia));

@@ -159,6 +159,34 @@ TEST(DenseCholeskyCuda, StaticSolveMatchesTheHost) {
   EXPECT_NEAR(rg.newton.cg_iterations, rh.newton.cg_iterations, 1);
 }
 
+TEST(DenseCholeskyCuda, AMatrixThatIsNotPositiveDefiniteIsRefusedAsOnTheHost) {
+  SKIP_WITHOUT_GPU();
+  // K0 − 1e12 I is negative definite: neither factor exists. The GPU's says so as the host's does (the
+  // same TopoError, which the simulator turns into Jacobi), also where the GPU factor is required: that
+  // is not a refusal of the GPU (ExternalFactorRefused), which would stop the solve.
+  auto sim = makeFinger(SoftBodyOptions());
+  const Eigen::VectorXd shift = Eigen::VectorXd::Constant(3 * static_cast<Eigen::Index>(sim->size()), -1e12);
+  std::string host_text;
+  try {
+    RestStiffnessPreconditioner host(sim->sph(), shift, sim->clamped());
+    FAIL() << "the host factorised a negative definite matrix";
+  } catch (const TopoError& e) {
+    host_text = e.what();
+  }
+  EXPECT_NE(host_text.find("not positive definite"), std::string::npos) << host_text;
+  for (const bool required : {false, true}) {
+    try {
+      RestStiffnessPreconditioner gpu(
+          sim->sph(), shift, sim->clamped(), 0.0, [] { return makeDenseCholeskyCuda(); }, required);
+      FAIL() << "the GPU factorised a negative definite matrix";
+    } catch (const ExternalFactorRefused& e) {
+      FAIL() << "refused as a GPU failure: " << e.what();
+    } catch (const TopoError& e) {
+      EXPECT_EQ(std::string(e.what()), host_text);
+    }
+  }
+}
+
 TEST(DenseCholeskyCuda, AboveTheMemoryLimitAutoFactorisesOnTheHostAndCudaStops) {
   SKIP_WITHOUT_GPU();
   NewtonOptions newton;

@@ -37,7 +37,10 @@ TEST(FingerOnGpu, LossBendAndGradientAgreeWithTheCpu) {
   c.set("backend", "cpu");
   const auto cpu = makeTask(c, cloud);
   c.set("backend", "cuda");
+  ::testing::internal::CaptureStderr();
   const auto gpu = makeTask(c, cloud);
+  const std::string said = ::testing::internal::GetCapturedStderr();
+  EXPECT_NE(said.find("the rest stiffness's Cholesky factor on the GPU (dense"), std::string::npos) << said;
   std::vector<double> gc, gg;
   const TaskEvaluation ec = cpu->evaluate(r, &gc), eg = gpu->evaluate(r, &gg);
   ASSERT_EQ(gc.size(), gg.size());

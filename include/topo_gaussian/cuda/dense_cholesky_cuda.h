@@ -9,9 +9,10 @@
 // sparse Cholesky, other round-off), so the Newton–PCG iterations match the CPU path's.
 //
 // Why dense: the GPU machine has no sparse direct solver (CHOLMOD is the host's), and a dense
-// float64 factorisation runs near the GPU's float64 peak: ~(3N)³/3 flops, 0.2 s for the 9212-particle
-// finger (27 636 unknowns) on an H100. Its memory is (3N)² × 8 bytes (6.1 GB for that finger):
-// about 28 000 particles fit in 80 GB, 40 000 in 141 GB. Above what the GPU has free the factory's
+// float64 factorisation runs near the GPU's float64 peak: ~(3N)³/3 flops, 0.18 s for the 9212-particle
+// finger (27 636 unknowns) on an H100 (issue 20's reference probe). Its memory is (3N)² × 8 bytes (6.1 GB for that finger):
+// about 32 000 particles fit on an 80 GB H100 and 43 000 on a
+// 141 GB H200 (90 % of their free memory). Above what the GPU has free the factory's
 // factorize() throws GpuMemoryError naming the particles that would fit; the simulator then
 // factorises on the host (backend auto, with a note) or stops (backend cuda).
 //

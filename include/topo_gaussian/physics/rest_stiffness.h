@@ -30,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/physics/corotated_sph.h"
 
 namespace topo_gaussian {
@@ -42,10 +43,10 @@ Eigen::SparseMatrix<double> restStiffness(const CorotatedSph& sph);
 class CholeskySolver {
  public:
   virtual ~CholeskySolver() = default;
-  /// Factorises the SPD matrix whose lower triangle (row ≥ column, compressed columns) is given.
-  /// Throws TopoError when it cannot (too little memory, naming how many particles fit; not positive
-  /// definite; a device error).
-  virtual void factorize(const Eigen::SparseMatrix<double>& lower) = 0;
+  /// Factorises the symmetric matrix whose lower triangle (row ≥ column, compressed columns) is given;
+  /// false when it is not positive definite (as the host's factor would find). Throws TopoError when it
+  /// cannot try (too little memory, naming how many particles fit; no device; a device error).
+  virtual bool factorize(const Eigen::SparseMatrix<double>& lower) = 0;
   /// z = A⁻¹ r.
   virtual void solve(const Eigen::VectorXd& r, Eigen::VectorXd* z) const = 0;
   /// Where it runs, for notes: e.g. "dense Cholesky (cuSOLVER) on NVIDIA H100 80GB HBM3".
@@ -54,6 +55,13 @@ class CholeskySolver {
   virtual double bytes() const = 0;
 };
 using CholeskySolverFactory = std::function<std::unique_ptr<CholeskySolver>()>;
+
+/// The external factorisation was required (RestStiffnessPreconditioner's external_required) and could
+/// not be made: its TopoError's text. The simulator stops on it instead of falling back.
+class ExternalFactorRefused : public TopoError {
+ public:
+  using TopoError::TopoError;
+};
 
 class RestStiffnessPreconditioner {
  public:
@@ -65,7 +73,8 @@ class RestStiffnessPreconditioner {
   /// couples about 8 × one neighbourhood); before factorising, when K0 (12 bytes an entry) and the
   /// factor the symbolic analysis predicts (8 bytes an entry) would.
   /// external (optional): factorise there instead (the GPU); when it throws, the host factorises
-  /// as without it and externalNote() says why (external_required: the error is rethrown instead).
+  /// as without it and externalNote() says why (external_required: ExternalFactorRefused with its text
+  /// instead). A matrix it finds not positive definite is refused as the host's factor refuses one.
   RestStiffnessPreconditioner(const CorotatedSph& sph, const Eigen::VectorXd& shift,
                               const std::vector<std::uint8_t>& fixed, double max_factor_bytes = 0.0,
                               const CholeskySolverFactory& external = nullptr, bool external_required = false);
