@@ -1,8 +1,8 @@
-// The finger task with backend cuda (issue 20 §1): its static solves precondition with the rest
-// stiffness's dense Cholesky factor on the GPU (cuda/dense_cholesky_cuda.h); the loss, the bend and
-// the whole-task gradient dL/dr agree with backend cpu (the host's sparse factor) to 1e-8, and the
-// task says where the factor is. Built in the catkin package and in the core build where the
-// inference libraries are found (a GPU machine: bench/gpu/README.md); skips without a device.
+// The finger and cantilever tasks with backend cuda (issue 20 §1): their Newton solves precondition with
+// the rest stiffness's dense Cholesky factor on the GPU (cuda/dense_cholesky_cuda.h); the finger's loss,
+// bend and whole-task gradient dL/dr, the cantilever's tip and first frequency agree with backend cpu
+// (the host's sparse factor) to 1e-8, and the tasks say where the factor is. Built in the catkin package and in the
+// core build where the inference libraries are found (a GPU machine: bench/gpu/README.md); skips without a device.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -64,3 +64,30 @@ TEST(FingerOnGpu, LossBendAndGradientAgreeWithTheCpu) {
 }
 
 }  // namespace
+
+// The cantilever's static solve and its inverse iteration for the first frequency (each CG
+// preconditioned by the GPU's factor under backend cuda) give the CPU's tip and frequency.
+TEST(CantileverOnGpu, TipAndFrequencyAgreeWithTheCpu) {
+  if (!cudaDeviceInfo().available) GTEST_SKIP() << "no CUDA device: " << cudaDeviceInfo().reason;
+  const VolumeCloud cloud = defaultShapeCloud("beam", 0.005);
+  TaskConfig c = TaskConfig::defaults("cantilever");
+  c.set("vibration", "false");
+  c.set("backend", "cpu");
+  const TaskEvaluation ec = makeTask(c, cloud)->evaluate(std::vector<double>(cloud.size(), 1.0), nullptr);
+  c.set("backend", "cuda");
+  ::testing::internal::CaptureStderr();
+  const auto gpu = makeTask(c, cloud);
+  const std::string said = ::testing::internal::GetCapturedStderr();
+  EXPECT_NE(said.find("the rest stiffness's Cholesky factor on the GPU (dense"), std::string::npos) << said;
+  const TaskEvaluation eg = gpu->evaluate(std::vector<double>(cloud.size(), 1.0), nullptr);
+  for (const char* name : {"tip_deflection_m", "modal_frequency_hz"}) {
+    double vc = NAN, vg = NAN;
+    for (const auto& f : ec.features)
+      if (f.name == name) vc = f.value;
+    for (const auto& f : eg.features)
+      if (f.name == name) vg = f.value;
+    std::printf("[cantilever gpu] %zu particles: %s %.12g (cpu) %.12g (cuda)\n", cloud.size(), name, vc, vg);
+    EXPECT_TRUE(std::isfinite(vc) && vc != 0.0) << name;
+    EXPECT_NEAR(vg, vc, 1e-8 * std::abs(vc)) << name;
+  }
+}
