@@ -8,7 +8,8 @@
 //       product and one force evaluation on the host (mean of 20), the whole static solve, its
 //       gradient (staticEquilibriumGradient: one adjoint solve) and, for the GPU, how many
 //       preconditioner applications the solve and the gradient made. The GPU's factor is applied three
-//       ways (DenseCholeskyApply): triangular solves, the explicit inverse by dsymv, and by dgemv.
+//       ways (DenseCholeskyApply): triangular solves, the explicit inverse by dsymv, and by dgemv; on the
+//       GPU the stiffness products (hessian_product_ms) are the GPU's too (cuda/soft_stiffness_cuda.h).
 // Without a CUDA device it prints one line {"case": "gpu", "skipped": reason} and exits 0.
 // Usage: bench_gpu_static [--quick] [CASE_SUBSTRING]
 #include <chrono>
@@ -24,6 +25,7 @@
 
 #include "topo_gaussian/cuda/backend.h"
 #include "topo_gaussian/cuda/dense_cholesky_cuda.h"
+#include "topo_gaussian/cuda/soft_stiffness_cuda.h"
 #include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/physics/soft_body.h"
 #include "topo_gaussian/physics/soft_rollout.h"
@@ -89,6 +91,7 @@ void runCase(const std::string& name, double spacing) {
     if (gpu) {
       const auto apply = static_cast<DenseCholeskyApply>(mode);
       so.cholesky_external = [&solves, apply] { return std::make_unique<CountingSolver>(&solves, apply); };
+      so.stiffness_external = [](const SoftBodySimulator& body) { return makeStiffnessCuda(body); };
       so.cholesky_external_required = true;
     }
     auto sim = makeFinger(cloud, so);

@@ -344,6 +344,32 @@ void launchHessianRow(const SoftDeviceBody<T>& b, const T* a, T* dFt, T* dM, T* 
   hessianRowKernel<T, L><<<blocks(static_cast<long long>(b.n) * L), kBlock, 0, s>>>(b, a, dFt, dM, d_mu, d_la, d_ch);
 }
 
+/// launchHessianRow with the body's lanes per particle.
+template <class T>
+void launchHessianRowLanes(const SoftDeviceBody<T>& b, const T* a, T* dFt, T* dM, T* d_mu, T* d_la, T* d_ch,
+                           cudaStream_t s) {
+  switch (b.lanes) {
+    case 1:
+      launchHessianRow<T, 1>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
+      break;
+    case 2:
+      launchHessianRow<T, 2>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
+      break;
+    case 4:
+      launchHessianRow<T, 4>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
+      break;
+    case 16:
+      launchHessianRow<T, 16>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
+      break;
+    case 32:
+      launchHessianRow<T, 32>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
+      break;
+    default:
+      launchHessianRow<T, 8>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
+      break;
+  }
+}
+
 }  // namespace
 
 template <class T>
@@ -368,26 +394,7 @@ void launchAdjointStep(const SoftDeviceBody<T>& b, const T* f, double dt, T* xb,
   T* d_la = d_mu + n;
   T* d_ch = d_la + n;
   adjointPrepareKernel<T><<<blocks(b.n), kBlock, 0, s>>>(b, f, static_cast<T>(dt), xb, vb, w, a, g_mass);
-  switch (b.lanes) {
-    case 1:
-      launchHessianRow<T, 1>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
-      break;
-    case 2:
-      launchHessianRow<T, 2>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
-      break;
-    case 4:
-      launchHessianRow<T, 4>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
-      break;
-    case 16:
-      launchHessianRow<T, 16>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
-      break;
-    case 32:
-      launchHessianRow<T, 32>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
-      break;
-    default:
-      launchHessianRow<T, 8>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
-      break;
-  }
+  launchHessianRowLanes(b, a, dFt, dM, d_mu, d_la, d_ch, s);
   // −H a: the force gather over (a, dF̃, dM), written to mHa.
   SoftDeviceBody<T> lin = b;
   lin.x = a;
@@ -397,6 +404,21 @@ void launchAdjointStep(const SoftDeviceBody<T>& b, const T* f, double dt, T* xb,
   launchGatherForces(lin, stream);
   adjointFinishKernel<T><<<blocks(b.n), kBlock, 0, s>>>(b, static_cast<T>(dt), w, mHa, d_mu, d_la, d_ch, xb, vb, g_mu,
                                                         g_lambda, b.chamber ? g_chamber : nullptr);
+}
+
+template <class T>
+void launchStiffnessProduct(const SoftDeviceBody<T>& b, const T* a, T* out, T* work, void* stream) {
+  cudaStream_t s = static_cast<cudaStream_t>(stream);
+  const std::size_t n = static_cast<std::size_t>(b.n);
+  T* dFt = work;
+  T* dM = dFt + 9 * n;
+  launchHessianRowLanes(b, a, dFt, dM, static_cast<T*>(nullptr), static_cast<T*>(nullptr), static_cast<T*>(nullptr), s);
+  SoftDeviceBody<T> lin = b;
+  lin.x = const_cast<T*>(a);
+  lin.Ft = dFt;
+  lin.M = dM;
+  lin.f = out;
+  launchGatherForces(lin, stream);
 }
 
 void launchSetClock(double* time, double t, void* stream) {
@@ -414,6 +436,8 @@ template void launchAdjointStep<double>(const SoftDeviceBody<double>&, const dou
                                         double*, double*, double*, double*, void*);
 template void launchAdjointStep<float>(const SoftDeviceBody<float>&, const float*, double, float*, float*, float*,
                                        float*, float*, float*, float*, void*);
+template void launchStiffnessProduct<double>(const SoftDeviceBody<double>&, const double*, double*, double*, void*);
+template void launchStiffnessProduct<float>(const SoftDeviceBody<float>&, const float*, float*, float*, void*);
 template void launchAdd<double>(double*, const double*, int, void*);
 template void launchAdd<float>(float*, const float*, int, void*);
 

@@ -150,6 +150,12 @@ template <class T>
 void launchAdjointStep(const SoftDeviceBody<T>& body, const T* f, double dt, T* xb, T* vb, T* g_mass, T* g_mu,
                        T* g_lambda, T* g_chamber, T* work, void* stream);
 
+/// out = −K a at the evaluated state (body.Ft, body.R at body.x): the adjoint's per-particle pass
+/// (dF̃, dM; no material derivatives) and the force gather over (a, dF̃, dM). a: clamped rows zero;
+/// work: 18n values.
+template <class T>
+void launchStiffnessProduct(const SoftDeviceBody<T>& body, const T* a, T* out, T* work, void* stream);
+
 /// Contact at x: per point the normal force and the friction force for velocities v (both at x),
 /// scattered to the particles: f += normal (when add_normal), pfr = friction.
 template <class T>

@@ -8,6 +8,7 @@
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/cuda/dense_cholesky_cuda.h"
+#include "topo_gaussian/cuda/soft_stiffness_cuda.h"
 
 namespace topo_gaussian::inference {
 
@@ -175,11 +176,12 @@ void SoftTask::usePreconditionerOnGpu() {
     return;
   }
   sim_options_.cholesky_external = [] { return makeDenseCholeskyCuda(); };
+  sim_options_.stiffness_external = [](const SoftBodySimulator& sim) { return makeStiffnessCuda(sim); };
   sim_options_.cholesky_external_required = backend_requested_ == ComputeBackend::Cuda;
   std::cerr << "[" << name_ << "] backend " << toString(backend_requested_)
             << ": the rest stiffness's Cholesky factor on the GPU (dense, " << unknowns << " unknowns, "
             << numberText(denseCholeskyBytes(unknowns) / 1e9, 3)
-            << " GB); the forces and Hessian products of the Newton solves on the host\n";
+            << " GB) and the stiffness products of the linear solves; the forces and energies on the host\n";
 }
 
 void SoftTask::notePreconditioner(const SoftBodySimulator& sim) const {

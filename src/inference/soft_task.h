@@ -40,7 +40,8 @@ class SoftTask : public Task {
   /// every Newton step then takes thousands of CG iterations).
   void notePreconditioner(const SoftBodySimulator& sim) const;
   /// Tasks with Newton solves (finger, cantilever) call this once built: under a resolved backend cuda,
-  /// the rest stiffness's Cholesky factor is computed and applied on the GPU (cuda/dense_cholesky_cuda.h)
+  /// the rest stiffness's Cholesky factor is computed and applied on the GPU (cuda/dense_cholesky_cuda.h),
+  /// and the linear solves' stiffness products run there too (cuda/soft_stiffness_cuda.h),
   /// when its dense factor fits the GPU's free memory; otherwise backend cuda asked for explicitly is
   /// refused (GpuMemoryError naming the particles that fit) and auto keeps it on the host with a note.
   void usePreconditionerOnGpu();

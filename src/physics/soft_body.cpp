@@ -92,6 +92,7 @@ void SoftBodySimulator::setMaterial(const std::vector<double>& mu, const std::ve
 void SoftBodySimulator::setActuation(const PneumaticActuation& a) {
   a.validate(size());
   act_ = a;
+  ext_stiffness_.reset();  // the chamber's weights are part of the external body
   refreshForces("setActuation");
 }
 
@@ -184,6 +185,7 @@ void SoftBodySimulator::setVelocities(const std::vector<Eigen::Vector3d>& v) {
 }
 
 void SoftBodySimulator::refreshForces(const std::string& where, const std::vector<Eigen::Vector3d>* known_forces) {
+  ++state_version_;
   try {
     if (known_forces)
       sph_.updateState(x_);
@@ -241,6 +243,33 @@ std::vector<Eigen::Vector3d> SoftBodySimulator::stiffnessProduct(const std::vect
 
 void SoftBodySimulator::systemProduct(const Eigen::VectorXd& p, double inertia, Eigen::VectorXd* out) const {
   const std::size_t n = size();
+  if (opt_.stiffness_external && contact_.empty() && !ext_failed_) {
+    try {
+      if (!ext_stiffness_) {
+        ext_stiffness_ = opt_.stiffness_external(*this);
+        ext_version_ = -1;
+      }
+      if (ext_version_ != state_version_) {
+        ext_stiffness_->setState(x_, time_, act_.pressure_pa, act_.ramp_s);
+        ext_version_ = state_version_;
+      }
+      Eigen::VectorXd q = p;
+      for (std::size_t i = 0; i < n; ++i)
+        if (clamped_[i]) q.segment<3>(3 * i).setZero();
+      ext_stiffness_->product(q, out);
+      for (std::size_t i = 0; i < n; ++i)
+        out->segment<3>(3 * i) = clamped_[i]
+                                     ? Eigen::Vector3d::Zero()
+                                     : Eigen::Vector3d(out->segment<3>(3 * i) + inertia * m_[i] * q.segment<3>(3 * i));
+      return;
+    } catch (const TopoError& e) {
+      ext_stiffness_.reset();
+      ext_version_ = -1;
+      if (opt_.cholesky_external_required) throw ExternalFactorRefused(e.what());
+      ext_failed_ = true;  // the host from now on, said once
+      preconditioner_note_ = std::string("the stiffness products on the host, not the GPU: ") + e.what();
+    }
+  }
   std::vector<Eigen::Vector3d> dx(n);
   for (std::size_t i = 0; i < n; ++i) dx[i] = p.segment<3>(3 * i);
   const auto h = stiffnessProduct(dx);

@@ -28,7 +28,9 @@
 // With contact (physics/soft_contact.h: obstacles, on embedded surface samples or on the particles)
 // a step is five kernels: friction at (x_n, v_n), kick + drift, evaluate, gather + the normal force
 // at x_{n+1} with friction at (x_{n+1}, v_{n+½}), kick (soft_contact_kernels.cu).
-// Not on the GPU yet: implicit steps and static solves (SoftBodySimulator::stepImplicit, solveStatic).
+// Implicit steps and static solves (SoftBodySimulator::stepImplicit, solveStatic) stay Newton on the
+// host; under backend cuda their linear solves run the stiffness products (cuda/soft_stiffness_cuda.h)
+// and the preconditioner (cuda/dense_cholesky_cuda.h) on the GPU.
 #pragma once
 
 #include <Eigen/Core>

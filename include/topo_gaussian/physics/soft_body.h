@@ -23,6 +23,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -35,6 +36,24 @@
 #include "topo_gaussian/physics/soft_contact.h"
 
 namespace topo_gaussian {
+
+class SoftBodySimulator;
+
+/// The stiffness product computed outside this library (the GPU under backend cuda:
+/// cuda/soft_stiffness_cuda.h), which the physics cannot call itself (module layering).
+class ExternalStiffness {
+ public:
+  virtual ~ExternalStiffness() = default;
+  /// The state the products are taken at: positions (clamped particles at rest), the clock, and the
+  /// chamber's pressure schedule now (pressure_pa reached after ramp_s; PneumaticActuation).
+  virtual void setState(const std::vector<Eigen::Vector3d>& x, double time_s, double pressure_pa, double ramp_s) = 0;
+  /// out = (∂²(E_el + E_a)/∂x²) p at that state (elastic, hourglass and chamber terms; no contact);
+  /// the rows and columns of clamped particles are the caller's business.
+  virtual void product(const Eigen::VectorXd& p, Eigen::VectorXd* out) = 0;
+};
+/// Builds one for a simulator's body (masses, materials, clamps, chamber): called again after any of
+/// them changes. Throws TopoError when it cannot (no device, too little memory).
+using ExternalStiffnessFactory = std::function<std::unique_ptr<ExternalStiffness>(const SoftBodySimulator&)>;
 
 struct SoftBodyOptions {
   Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);  ///< [m/s²], world z-up
@@ -58,6 +77,12 @@ struct SoftBodyOptions {
   /// cholesky_external_required (backend cuda asked for explicitly): then the refusal is the error.
   CholeskySolverFactory cholesky_external;
   bool cholesky_external_required = false;
+  /// Where the linear solves' stiffness products (systemProduct: Newton's CG, the adjoints) are
+  /// computed instead of the host (backend cuda: cuda/soft_stiffness_cuda.h); the forces and energies
+  /// stay on the host. Not used while the body has contact (its Hessian is the host's). When it fails,
+  /// the host computes them from then on and preconditionerNote() says why, unless
+  /// cholesky_external_required: then the failure is the error (ExternalFactorRefused).
+  ExternalStiffnessFactory stiffness_external;
   /// Polled every step (explicit, implicit), every Newton line-search evaluation, FIRE iteration and
   /// SoftRollout step; true throws SimulationCancelled (physics/run_limits.h).
   StopCheck should_stop;
@@ -228,6 +253,8 @@ class SoftBodySimulator {
   void invalidateRestFactor() {
     rest_factor_.reset();
     rest_factor_inertia_ = -1.0;
+    ext_stiffness_.reset();
+    ext_version_ = -1;
   }
   void enforceClamp();
   double residual() const;
@@ -249,6 +276,12 @@ class SoftBodySimulator {
   /// Cholesky factor for rest_factor_inertia_ (< 0: none yet; null with inertia ≥ 0: K0 + inertia·M
   /// is singular, Jacobi is used). Reset when masses, materials or clamps change.
   mutable std::shared_ptr<const RestStiffnessPreconditioner> rest_factor_;
+  /// The external stiffness product (options().stiffness_external), built at the first product after
+  /// the body changed; ext_version_ is the state_version_ it was last given (−1: none).
+  mutable std::unique_ptr<ExternalStiffness> ext_stiffness_;
+  mutable long ext_version_ = -1;
+  mutable bool ext_failed_ = false;
+  long state_version_ = 0;  ///< bumped whenever the state (x, time, loads) is re-evaluated
   mutable double rest_factor_inertia_ = -1.0;
   mutable std::string preconditioner_note_;
 };
