@@ -26,7 +26,7 @@ class StiffnessCuda : public ExternalStiffness {
  public:
   explicit StiffnessCuda(const SoftBodySimulator& sim)
       : gpu_(sim, CudaPrecision::Float64), I_(gpu_.impl()), b_(I_.body64), n_(sim.size()) {
-    requireDeviceMemory(kInput, 8.0 * 30.0 * double(n_), 8.0 * 30.0);
+    requireDeviceMemory(kInput, 8.0 * 33.0 * double(n_), 8.0 * 33.0);  // R, a, out, work: 9 + 3 + 3 + 18 values
     R_ = I_.allocate<double>(9 * n_);
     a_ = I_.allocate<double>(3 * n_);
     out_ = I_.allocate<double>(3 * n_);

@@ -94,7 +94,7 @@ class FingerTask : public SoftTask {
       throw TopoError("finger volume", "has no particles in the clamp, the tip or the segment before it",
                       "check finger_axis, clamp_length_m and tip_fraction against the shape");
     geometry_.has_point = false;
-    usePreconditionerOnGpu();
+    usePreconditionerOnGpu(has_obstacle_);
   }
 
   /// The obstacle plane (obstacle plane): validated against the rest shape, which must lie on its

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iostream>
+#include <sstream>
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
@@ -163,25 +164,32 @@ std::unique_ptr<SoftBodySimulator> SoftTask::simulator(const Materials& m) const
   return sim;
 }
 
-void SoftTask::usePreconditionerOnGpu() {
+void SoftTask::usePreconditionerOnGpu(bool with_contact) {
   if (backend_ != ComputeBackend::Cuda) return;
   const std::size_t unknowns = 3 * sph_.size();
   const std::string refused = denseCholeskyRefusal(unknowns);
-  if (!refused.empty()) {
-    if (backend_requested_ == ComputeBackend::Cuda)
-      throw GpuMemoryError("task parameter backend (cuda), " + name_ + " task", refused,
-                           "use a coarser particle spacing, free the GPU, or backend auto (the factor on the host)");
-    notes_.push_back("backend auto: the rest stiffness's Cholesky factor on the host, not the GPU: " + refused);
-    std::cerr << "[" << name_ << "] " << notes_.back() << "\n";
-    return;
-  }
-  sim_options_.cholesky_external = [] { return makeDenseCholeskyCuda(); };
-  sim_options_.stiffness_external = [](const SoftBodySimulator& sim) { return makeStiffnessCuda(sim); };
+  if (!refused.empty() && backend_requested_ == ComputeBackend::Cuda)
+    throw GpuMemoryError("task parameter backend (cuda), " + name_ + " task", refused,
+                         "use a coarser particle spacing, free the GPU, or backend auto (the factor on the host)");
   sim_options_.cholesky_external_required = backend_requested_ == ComputeBackend::Cuda;
-  std::cerr << "[" << name_ << "] backend " << toString(backend_requested_)
-            << ": the rest stiffness's Cholesky factor on the GPU (dense, " << unknowns << " unknowns, "
-            << numberText(denseCholeskyBytes(unknowns) / 1e9, 3)
-            << " GB) and the stiffness products of the linear solves; the forces and energies on the host\n";
+  // The products need ~33 values a particle on the device; a body with contact keeps them on the host
+  // (the contact's Hessian is the host's).
+  if (!with_contact)
+    sim_options_.stiffness_external = [](const SoftBodySimulator& sim) { return makeStiffnessCuda(sim); };
+  std::ostringstream said;
+  said << "backend " << toString(backend_requested_) << ": ";
+  if (refused.empty()) {
+    sim_options_.cholesky_external = [] { return makeDenseCholeskyCuda(); };
+    said << "the rest stiffness's Cholesky factor on the GPU (dense, " << unknowns << " unknowns, "
+         << numberText(denseCholeskyBytes(unknowns) / 1e9, 3) << " GB)";
+  } else {
+    notes_.push_back("backend auto: the rest stiffness's Cholesky factor on the host, not the GPU: " + refused);
+    said << "the rest stiffness's Cholesky factor on the host (" << refused << ")";
+  }
+  said << (with_contact ? "; the stiffness products on the host (the body has contact)"
+                        : " and the stiffness products of the linear solves on the GPU")
+       << "; the forces and energies on the host";
+  std::cerr << "[" << name_ << "] " << said.str() << "\n";
 }
 
 void SoftTask::notePreconditioner(const SoftBodySimulator& sim) const {

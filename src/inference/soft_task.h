@@ -44,7 +44,8 @@ class SoftTask : public Task {
   /// and the linear solves' stiffness products run there too (cuda/soft_stiffness_cuda.h),
   /// when its dense factor fits the GPU's free memory; otherwise backend cuda asked for explicitly is
   /// refused (GpuMemoryError naming the particles that fit) and auto keeps it on the host with a note.
-  void usePreconditionerOnGpu();
+  /// with_contact: the body has contact (an obstacle), whose Hessian is the host's: the products stay there.
+  void usePreconditionerOnGpu(bool with_contact = false);
 
   /// The task's `backend`, resolved (cuda/backend.h): Cuda only when a GPU is present; backend cuda
   /// without one is refused when the task is built.

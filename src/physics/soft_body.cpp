@@ -249,9 +249,15 @@ void SoftBodySimulator::systemProduct(const Eigen::VectorXd& p, double inertia, 
         ext_stiffness_ = opt_.stiffness_external(*this);
         ext_version_ = -1;
       }
-      if (ext_version_ != state_version_) {
+      // the state it was given, and the loads the host reads at product time (solveStatic and
+      // stepImplicit set the pressure and the clock without re-evaluating until Newton's first value)
+      if (ext_version_ != state_version_ || ext_time_ != time_ || ext_pressure_ != act_.pressure_pa ||
+          ext_ramp_ != act_.ramp_s) {
         ext_stiffness_->setState(x_, time_, act_.pressure_pa, act_.ramp_s);
         ext_version_ = state_version_;
+        ext_time_ = time_;
+        ext_pressure_ = act_.pressure_pa;
+        ext_ramp_ = act_.ramp_s;
       }
       Eigen::VectorXd q = p;
       for (std::size_t i = 0; i < n; ++i)
@@ -267,7 +273,8 @@ void SoftBodySimulator::systemProduct(const Eigen::VectorXd& p, double inertia, 
       ext_version_ = -1;
       if (opt_.cholesky_external_required) throw ExternalFactorRefused(e.what());
       ext_failed_ = true;  // the host from now on, said once
-      preconditioner_note_ = std::string("the stiffness products on the host, not the GPU: ") + e.what();
+      preconditioner_note_ += (preconditioner_note_.empty() ? "" : "; ") +
+                              std::string("the stiffness products on the host, not the GPU: ") + e.what();
     }
   }
   std::vector<Eigen::Vector3d> dx(n);
@@ -568,6 +575,11 @@ SolveReport SoftBodySimulator::solveStatic(const NewtonOptions& newton, int load
           << rep.newton.iterations << " iterations";
         last_failure = o.str();
       }
+    } catch (const ExternalFactorRefused&) {  // the GPU that was required failed: not a load to halve
+      x_ = x_ok;
+      restoreLoads();
+      refreshForces("restore after a refused external solve");
+      throw;
     } catch (const TopoError& e) {
       last_failure = e.what();
     }

@@ -280,8 +280,9 @@ class SoftBodySimulator {
   /// the body changed; ext_version_ is the state_version_ it was last given (−1: none).
   mutable std::unique_ptr<ExternalStiffness> ext_stiffness_;
   mutable long ext_version_ = -1;
+  mutable double ext_time_ = 0.0, ext_pressure_ = 0.0, ext_ramp_ = 0.0;
   mutable bool ext_failed_ = false;
-  long state_version_ = 0;  ///< bumped whenever the state (x, time, loads) is re-evaluated
+  long state_version_ = 0;  ///< bumped whenever the forces are re-evaluated (refreshForces)
   mutable double rest_factor_inertia_ = -1.0;
   mutable std::string preconditioner_note_;
 };
