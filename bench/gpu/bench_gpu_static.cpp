@@ -23,6 +23,7 @@
 #include <omp.h>
 #endif
 
+#include "../../test/unit/test_soft_bodies.h"
 #include "topo_gaussian/cuda/backend.h"
 #include "topo_gaussian/cuda/dense_cholesky_cuda.h"
 #include "topo_gaussian/cuda/soft_stiffness_cuda.h"
@@ -52,34 +53,16 @@ struct CountingSolver : CholeskySolver {
 };
 
 std::unique_ptr<SoftBodySimulator> makeFinger(const VolumeCloud& cloud, const SoftBodyOptions& so) {
-  CorotatedSphOptions o;
-  o.spacing = cloud.spacing;
-  o.model = SphEnergyModel::StVK;
-  o.rotation = SphRotationSource::CorrectedGradient;
-  CorotatedSph sph = CorotatedSph::fromCloud(cloud, lameFromYoung(1e7, 0.45), o);
-  std::vector<double> mu = sph.shearModuli(), lambda = sph.lameLambdas();
   double xmin = 1e300;
   for (const auto& X : cloud.X) xmin = std::min(xmin, X.x());
-  std::vector<std::uint8_t> clamp(cloud.size(), 0);
-  PneumaticActuation a;
-  a.chamber.assign(cloud.size(), 0.0);
-  const LameParameters soft = lameFromYoung(1e6, 0.0);
+  std::vector<std::uint8_t> clamp(cloud.size(), 0), chamber(cloud.size(), 0);
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     const Eigen::Vector3d& X = cloud.X[i];
     clamp[i] = X.x() < xmin + 0.01;
-    if (!cloud.surface[i] && X.x() > xmin + 0.02 && X.x() < xmin + 0.085 && X.z() > -0.006 && X.z() < -0.0005 &&
-        std::abs(X.y()) < 0.006) {
-      a.chamber[i] = 1.0;
-      mu[i] = soft.mu;
-      lambda[i] = soft.lambda;
-    }
+    chamber[i] = !cloud.surface[i] && X.x() > xmin + 0.02 && X.x() < xmin + 0.085 && X.z() > -0.006 &&
+                 X.z() < -0.0005 && std::abs(X.y()) < 0.006;
   }
-  sph.setMaterial(mu, lambda);
-  auto sim = std::make_unique<SoftBodySimulator>(std::move(sph), so);
-  sim->setClamped(clamp);
-  a.pressure_pa = 5e5;
-  sim->setActuation(a);
-  return sim;
+  return topo_test::pneumaticBody(cloud, clamp, chamber, lameFromYoung(1e7, 0.45), lameFromYoung(1e6, 0.0), 5e5, so);
 }
 
 void runCase(const std::string& name, double spacing) {

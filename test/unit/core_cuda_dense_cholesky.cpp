@@ -8,7 +8,9 @@
 
 #include <random>
 
+#include "gpu_test.h"
 #include "test_clouds.h"
+#include "test_soft_bodies.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/cuda/backend.h"
 #include "topo_gaussian/cuda/dense_cholesky_cuda.h"
@@ -19,45 +21,22 @@ using namespace topo_gaussian;
 
 namespace {
 
-#define SKIP_WITHOUT_GPU()                                                                          \
-  do {                                                                                              \
-    if (!cudaDeviceInfo().available) GTEST_SKIP() << "no CUDA device: " << cudaDeviceInfo().reason; \
-  } while (0)
-
 constexpr double kSpacing = 0.005;
 
 /// A 16 × 4 × 4-cell cantilever (5 mm lattice), E 1e7 with a soft (1e5) pressurised core, ν 0.45,
 /// StVK, clamped at x = min, under gravity and 2e4 Pa: the finger's kind of problem, 256 particles.
 std::unique_ptr<SoftBodySimulator> makeFinger(const SoftBodyOptions& so) {
   const VolumeCloud cloud = topo_test::boxCloud(16 * kSpacing, 4 * kSpacing, 4 * kSpacing, kSpacing);
-  CorotatedSphOptions o;
-  o.spacing = kSpacing;
-  o.model = SphEnergyModel::StVK;
-  o.rotation = SphRotationSource::CorrectedGradient;
-  CorotatedSph sph = CorotatedSph::fromCloud(cloud, lameFromYoung(1e7, 0.45), o);
-  std::vector<double> mu = sph.shearModuli(), lambda = sph.lameLambdas();
   double xmin = 1e300;
   for (const auto& X : cloud.X) xmin = std::min(xmin, X.x());
-  std::vector<std::uint8_t> clamp(cloud.size(), 0);
-  PneumaticActuation a;
-  a.chamber.assign(cloud.size(), 0.0);
-  const LameParameters soft = lameFromYoung(1e5, 0.45);
+  std::vector<std::uint8_t> clamp(cloud.size(), 0), chamber(cloud.size(), 0);
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     const Eigen::Vector3d& X = cloud.X[i];
     clamp[i] = X.x() < xmin + 1.5 * kSpacing;
-    if (!clamp[i] && std::abs(X.y()) < kSpacing && X.z() > -kSpacing && X.z() < kSpacing &&
-        X.x() < xmin + 13 * kSpacing) {
-      a.chamber[i] = 1.0;
-      mu[i] = soft.mu;
-      lambda[i] = soft.lambda;
-    }
+    chamber[i] = !clamp[i] && std::abs(X.y()) < kSpacing && X.z() > -kSpacing && X.z() < kSpacing &&
+                 X.x() < xmin + 13 * kSpacing;
   }
-  sph.setMaterial(mu, lambda);
-  auto sim = std::make_unique<SoftBodySimulator>(std::move(sph), so);
-  sim->setClamped(clamp);
-  a.pressure_pa = 2e4;
-  sim->setActuation(a);
-  return sim;
+  return topo_test::pneumaticBody(cloud, clamp, chamber, lameFromYoung(1e7, 0.45), lameFromYoung(1e5, 0.45), 2e4, so);
 }
 
 TEST(DenseCholeskyCuda, ParticlesThatFitFollowTheDenseSize) {

@@ -7,6 +7,7 @@
 #include <random>
 #include <string>
 
+#include "gpu_test.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/cuda/backend.h"
 #include "topo_gaussian/cuda/mlp_cuda.h"
@@ -15,11 +16,6 @@
 using namespace topo_gaussian;
 
 namespace {
-
-#define SKIP_WITHOUT_GPU()                                                                          \
-  do {                                                                                              \
-    if (!cudaDeviceInfo().available) GTEST_SKIP() << "no CUDA device: " << cudaDeviceInfo().reason; \
-  } while (0)
 
 std::vector<Eigen::Vector3d> randomPoints(int n, unsigned seed) {
   std::mt19937 rng(seed);

@@ -9,6 +9,7 @@
 #include <Eigen/SVD>
 #include <random>
 
+#include "gpu_test.h"
 #include "test_clouds.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/cuda/backend.h"
@@ -19,11 +20,6 @@ using namespace topo_gaussian;
 using Vec3s = std::vector<Eigen::Vector3d>;
 
 namespace {
-
-#define SKIP_WITHOUT_GPU()                                                                          \
-  do {                                                                                              \
-    if (!cudaDeviceInfo().available) GTEST_SKIP() << "no CUDA device: " << cudaDeviceInfo().reason; \
-  } while (0)
 
 constexpr double kSpacing = 0.005;
 

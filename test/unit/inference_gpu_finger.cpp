@@ -7,6 +7,8 @@
 
 #include <cmath>
 
+#include "gpu_test.h"
+#include "test_clouds.h"
 #include "topo_gaussian/cuda/backend.h"
 #include "topo_gaussian/inference/task.h"
 #include "topo_gaussian/physics/default_shapes.h"
@@ -16,32 +18,27 @@ using namespace topo_gaussian::inference;
 
 namespace {
 
-/// The chamber (r = 0) below the finger's axis, everything else solid: it bends the finger.
-std::vector<double> chamberBelow(const VolumeCloud& c) {
-  std::vector<double> r(c.size(), 1.0);
-  for (std::size_t i = 0; i < c.size(); ++i) {
-    const auto& p = c.X[i];
-    if (!c.surface[i] && p.x() > 0.02 && p.x() < 0.085 && p.z() > -0.006 && p.z() < -0.0005 && std::abs(p.y()) < 0.006)
-      r[i] = 0.0;
-  }
-  return r;
+/// The task with backend cuda; checks that it says the factor and the products run on the GPU.
+std::unique_ptr<Task> makeTaskOnGpu(TaskConfig c, const VolumeCloud& cloud) {
+  c.set("backend", "cuda");
+  ::testing::internal::CaptureStderr();
+  auto task = makeTask(c, cloud);
+  const std::string said = ::testing::internal::GetCapturedStderr();
+  EXPECT_NE(said.find("the rest stiffness's Cholesky factor on the GPU (dense"), std::string::npos) << said;
+  EXPECT_NE(said.find("the stiffness products of the linear solves on the GPU"), std::string::npos) << said;
+  return task;
 }
 
 TEST(FingerOnGpu, LossBendAndGradientAgreeWithTheCpu) {
-  if (!cudaDeviceInfo().available) GTEST_SKIP() << "no CUDA device: " << cudaDeviceInfo().reason;
+  SKIP_WITHOUT_GPU();
   const VolumeCloud cloud = defaultShapeCloud("finger", 0.003);
-  std::vector<double> r = chamberBelow(cloud);
+  std::vector<double> r = topo_test::fingerChamberBelowAxis(cloud);
   for (std::size_t i = 0; i < r.size(); ++i) r[i] = 0.2 + 0.6 * r[i];  // intermediate materials: every term moves
   TaskConfig c = TaskConfig::defaults("finger");
   c.setNumber("bend_angle_deg", 1.0);
   c.set("backend", "cpu");
   const auto cpu = makeTask(c, cloud);
-  c.set("backend", "cuda");
-  ::testing::internal::CaptureStderr();
-  const auto gpu = makeTask(c, cloud);
-  const std::string said = ::testing::internal::GetCapturedStderr();
-  EXPECT_NE(said.find("the rest stiffness's Cholesky factor on the GPU (dense"), std::string::npos) << said;
-  EXPECT_NE(said.find("the stiffness products of the linear solves on the GPU"), std::string::npos) << said;
+  const auto gpu = makeTaskOnGpu(c, cloud);
   std::vector<double> gc, gg;
   const TaskEvaluation ec = cpu->evaluate(r, &gc), eg = gpu->evaluate(r, &gg);
   ASSERT_EQ(gc.size(), gg.size());
@@ -69,18 +66,13 @@ TEST(FingerOnGpu, LossBendAndGradientAgreeWithTheCpu) {
 // The cantilever's static solve and its inverse iteration for the first frequency (each CG
 // preconditioned by the GPU's factor under backend cuda) give the CPU's tip and frequency.
 TEST(CantileverOnGpu, TipAndFrequencyAgreeWithTheCpu) {
-  if (!cudaDeviceInfo().available) GTEST_SKIP() << "no CUDA device: " << cudaDeviceInfo().reason;
+  SKIP_WITHOUT_GPU();
   const VolumeCloud cloud = defaultShapeCloud("beam", 0.005);
   TaskConfig c = TaskConfig::defaults("cantilever");
   c.set("vibration", "false");
   c.set("backend", "cpu");
   const TaskEvaluation ec = makeTask(c, cloud)->evaluate(std::vector<double>(cloud.size(), 1.0), nullptr);
-  c.set("backend", "cuda");
-  ::testing::internal::CaptureStderr();
-  const auto gpu = makeTask(c, cloud);
-  const std::string said = ::testing::internal::GetCapturedStderr();
-  EXPECT_NE(said.find("the rest stiffness's Cholesky factor on the GPU (dense"), std::string::npos) << said;
-  EXPECT_NE(said.find("the stiffness products of the linear solves on the GPU"), std::string::npos) << said;
+  const auto gpu = makeTaskOnGpu(c, cloud);
   const TaskEvaluation eg = gpu->evaluate(std::vector<double>(cloud.size(), 1.0), nullptr);
   for (const char* name : {"tip_deflection_m", "modal_frequency_hz"}) {
     double vc = NAN, vg = NAN;

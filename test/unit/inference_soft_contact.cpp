@@ -14,6 +14,8 @@
 //    the plane touched against central differences; bad obstacle input named.
 #include <gtest/gtest.h>
 
+#include "test_clouds.h"
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -159,16 +161,6 @@ TEST(SoftContactTask, WithoutContactSamplesTheTaskSaysSo) {
 // the finger bends further. A plane out of reach leaves the bend exactly as it was.
 namespace {
 
-std::vector<double> fingerChamberBelowAxis(const VolumeCloud& c) {
-  std::vector<double> r(c.size(), 1.0);
-  for (std::size_t i = 0; i < c.size(); ++i) {
-    const auto& p = c.X[i];
-    if (!c.surface[i] && p.x() > 0.02 && p.x() < 0.085 && p.z() > -0.006 && p.z() < -0.0005 && std::abs(p.y()) < 0.006)
-      r[i] = 0.0;
-  }
-  return r;
-}
-
 /// The default finger, its walls at 1 MPa (as soft as its chamber) so that it bends by degrees.
 TaskConfig softFinger() {
   TaskConfig c = TaskConfig::defaults("finger");
@@ -190,7 +182,7 @@ TEST(SoftContactTask, FingerStopsAtTheObstacleOnItsTrueSurface) {
   const VolumeCloud embedded = defaultShapeCloud("finger", h);
   const VolumeCloud stairs = staircase(embedded);
   ASSERT_FALSE(embedded.contact.empty());
-  const std::vector<double> r = fingerChamberBelowAxis(embedded);
+  const std::vector<double> r = topo_test::fingerChamberBelowAxis(embedded);
   const TaskEvaluation free = makeTask(softFinger(), embedded)->evaluate(r, nullptr);
   const double bend_free = feature(free, "bend_angle_deg"), tip_free = feature(free, "tip_displacement_m");
   ASSERT_GT(bend_free, 0.1);
@@ -230,7 +222,7 @@ TEST(SoftContactTask, FingerStopsAtTheObstacleOnItsTrueSurface) {
 // and its adjoint) against central differences.
 TEST(SoftContactTask, FingerAgainstThePlaneGradientMatchesFiniteDifferences) {
   const VolumeCloud cloud = defaultShapeCloud("finger", 0.004);
-  std::vector<double> r = fingerChamberBelowAxis(cloud);
+  std::vector<double> r = topo_test::fingerChamberBelowAxis(cloud);
   // the paper's walls (E 1e7): a grey design with the softer walls (1e6) bends too far for a tight solve
   const TaskEvaluation free = makeTask(TaskConfig::defaults("finger"), cloud)->evaluate(r, nullptr);
   double top = -1e300;
@@ -265,7 +257,7 @@ TEST(SoftContactTask, FingerAgainstThePlaneGradientMatchesFiniteDifferences) {
 TEST(SoftContactTask, FingerAgainstThePlaneInImplicitMode) {
   const double h = 0.004;
   const VolumeCloud cloud = defaultShapeCloud("finger", h);
-  const std::vector<double> r = fingerChamberBelowAxis(cloud);
+  const std::vector<double> r = topo_test::fingerChamberBelowAxis(cloud);
   const TaskEvaluation free = makeTask(softFinger(), cloud)->evaluate(r, nullptr);
   double top = -1e300;
   for (const auto& y : cloud.contact.X) top = std::max(top, y.z());

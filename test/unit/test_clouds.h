@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <cmath>
 #include <functional>
+#include <vector>
 
 #include "topo_gaussian/physics/volume_cloud.h"
 
@@ -43,6 +44,19 @@ inline topo_gaussian::VolumeCloud tumblerCloud(double R, double cut, double h) {
 inline topo_gaussian::VolumeCloud boxCloud(double a, double b, double c, double h) {
   const Eigen::Vector3d half(a / 2, b / 2, c / 2);
   return latticeCloud([&](const Eigen::Vector3d& x) { return (x.cwiseAbs() - half).maxCoeff() <= 0; }, -half, half, h);
+}
+
+/// r for the default finger (defaultShapeCloud("finger", h), x in [0, 0.1] m): a chamber (r = 0) below
+/// its axis, 0.02 < x < 0.085, −6 < z < −0.5 mm, |y| < 6 mm, inside the skin; solid elsewhere. It
+/// bends the finger towards +z under pressure.
+inline std::vector<double> fingerChamberBelowAxis(const topo_gaussian::VolumeCloud& c) {
+  std::vector<double> r(c.size(), 1.0);
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    const Eigen::Vector3d& p = c.X[i];
+    if (!c.surface[i] && p.x() > 0.02 && p.x() < 0.085 && p.z() > -0.006 && p.z() < -0.0005 && std::abs(p.y()) < 0.006)
+      r[i] = 0.0;
+  }
+  return r;
 }
 
 }  // namespace topo_test
