@@ -29,6 +29,10 @@ std::size_t denseCholeskyParticlesFitting(double bytes) {
   return bytes > 0.0 ? static_cast<std::size_t>(std::sqrt(bytes / 8.0) / 3.0) : 0;
 }
 
+long denseCholeskyInverseBreakEven(std::size_t unknowns) {
+  return static_cast<long>(std::ceil(180.0 * static_cast<double>(unknowns) / 27636.0));
+}
+
 #if TOPO_HAVE_CUDA
 
 std::string denseCholeskyRefusal(std::size_t unknowns, double lower_nonzeros, double max_bytes) {
@@ -136,7 +140,10 @@ void checkSolver(cusolverStatus_t s, const char* what) {
 
 class DenseCholeskyCuda : public CholeskySolver {
  public:
-  DenseCholeskyCuda(double max_bytes, DenseCholeskyApply apply) : max_bytes_(max_bytes), apply_(apply) {}
+  DenseCholeskyCuda(double max_bytes, DenseCholeskyApply apply, long inverse_after)
+      : max_bytes_(max_bytes),
+        apply_(apply),
+        inverse_after_(apply == DenseCholeskyApply::Triangular ? inverse_after : 0) {}
   ~DenseCholeskyCuda() override {
     if (blas_) cublasMv().destroy(blas_);
     if (params_) cusolver().destroyParams(params_);
@@ -148,6 +155,8 @@ class DenseCholeskyCuda : public CholeskySolver {
   bool factorize(const Eigen::SparseMatrix<double>& lower) override {
     factored_ = false;
     release();  // an earlier factor's memory is not counted against this one
+    if (inverse_after_ > 0) apply_ = DenseCholeskyApply::Triangular;
+    applications_ = 0;
     const CudaDeviceInfo& dev = cudaDeviceInfo();
     if (!dev.available)
       throw TopoError("GPU dense Cholesky", "no CUDA device: " + dev.reason,
@@ -213,10 +222,30 @@ class DenseCholeskyCuda : public CholeskySolver {
       check(cudaMallocHost(&pinned_, sizeof(double) * static_cast<std::size_t>(n_)), "cudaMallocHost", kInput);
     if (!rhs_.ptr) rhs_.allocate(sizeof(double) * static_cast<std::size_t>(n_), kInput);
     if (!out_.ptr) out_.allocate(sizeof(double) * static_cast<std::size_t>(n_), kInput);
-    name_ = std::string("dense Cholesky (cuSOLVER, float64") +
-            (apply_ == DenseCholeskyApply::Triangular ? "" : ", explicit inverse") + ") on " + dev.name;
+    nameFactor();
     factored_ = true;
     return true;
+  }
+
+  void nameFactor() {
+    name_ = std::string("dense Cholesky (cuSOLVER, float64") +
+            (apply_ == DenseCholeskyApply::Triangular ? "" : ", explicit inverse") +
+            (inverse_after_ > 0 && apply_ != DenseCholeskyApply::Triangular
+                 ? " after " + std::to_string(inverse_after_) + " triangular solves"
+                 : "") +
+            ") on " + cudaDeviceInfo().name;
+  }
+
+  /// The triangular solves' factor inverted in place, the inverse applied from now on (inverse_after).
+  void takeTheInverse() {
+    if (n_ > 46340 || !cusolver().potri || !cusolver().potriBufferSize || !cublasMv().error.empty()) {
+      inverse_after_ = 0;  // the triangular solves go on
+      return;
+    }
+    apply_ = DenseCholeskyApply::InverseGemv;
+    cuda_detail::DeviceBuffer work;
+    invert(cusolver(), &work);
+    nameFactor();
   }
 
   /// A⁻¹ from the factor (potri: its lower triangle), the upper mirrored for a general product.
@@ -272,6 +301,9 @@ class DenseCholeskyCuda : public CholeskySolver {
           "GPU dense Cholesky",
           "right-hand side of " + std::to_string(r.size()) + " entries for " + std::to_string(n_) + " unknowns",
           "factorise the matching matrix first");
+    // Logically const: the inverse replaces the factor in place and applies the same A⁻¹.
+    if (inverse_after_ > 0 && apply_ == DenseCholeskyApply::Triangular && ++applications_ > inverse_after_)
+      const_cast<DenseCholeskyCuda*>(this)->takeTheInverse();
     const std::size_t bytes = sizeof(double) * static_cast<std::size_t>(n_);
     std::copy(r.data(), r.data() + n_, static_cast<double*>(pinned_));
     check(cudaMemcpyAsync(rhs_.ptr, pinned_, bytes, cudaMemcpyHostToDevice, stream_), "upload", kInput);
@@ -306,6 +338,8 @@ class DenseCholeskyCuda : public CholeskySolver {
  private:
   double max_bytes_ = 0.0;
   DenseCholeskyApply apply_ = DenseCholeskyApply::Triangular;
+  long inverse_after_ = 0;
+  mutable long applications_ = 0;
   cublasHandle_t blas_ = nullptr;
   long long n_ = 0;
   bool factored_ = false;
@@ -320,8 +354,8 @@ class DenseCholeskyCuda : public CholeskySolver {
 
 }  // namespace
 
-std::unique_ptr<CholeskySolver> makeDenseCholeskyCuda(double max_bytes, DenseCholeskyApply apply) {
-  return std::make_unique<DenseCholeskyCuda>(max_bytes, apply);
+std::unique_ptr<CholeskySolver> makeDenseCholeskyCuda(double max_bytes, DenseCholeskyApply apply, long inverse_after) {
+  return std::make_unique<DenseCholeskyCuda>(max_bytes, apply, inverse_after);
 }
 
 #else  // no CUDA backend in this build
@@ -345,7 +379,7 @@ class NoCudaCholesky : public CholeskySolver {
 };
 }  // namespace
 
-std::unique_ptr<CholeskySolver> makeDenseCholeskyCuda(double, DenseCholeskyApply) {
+std::unique_ptr<CholeskySolver> makeDenseCholeskyCuda(double, DenseCholeskyApply, long) {
   return std::make_unique<NoCudaCholesky>();
 }
 

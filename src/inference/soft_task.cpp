@@ -117,6 +117,9 @@ SoftTask::SoftTask(const TaskConfig& c, const VolumeCloud& cloud)
   lambda_interp_.validate("Lame lambda (youngs_modulus, poisson_ratio)");
   sim_options_.gravity = geometry_.gravity;
   sim_options_.damping = c.number("damping_per_s");
+  // One design after another of this body: an earlier design's factor preconditions the next until a
+  // new one costs less than the extra iterations (rest_factor_reuse.h).
+  sim_options_.rest_factor_reuse = std::make_shared<RestFactorReuse>();
 }
 
 std::shared_ptr<const ContactEmbedding> SoftTask::embedContactSamples(const VolumeCloud& cloud) {
@@ -179,7 +182,12 @@ void SoftTask::usePreconditionerOnGpu(bool with_contact) {
   std::ostringstream said;
   said << "backend " << toString(backend_requested_) << ": ";
   if (refused.empty()) {
-    sim_options_.cholesky_external = [] { return makeDenseCholeskyCuda(); };
+    // The start design's solve and gradient take ~230 applications (the finger); a factor applied
+    // twice its break-even is one kept for the designs after it: inverted then.
+    const long inverse_after = 2 * denseCholeskyInverseBreakEven(unknowns);
+    sim_options_.cholesky_external = [inverse_after] {
+      return makeDenseCholeskyCuda(0.0, DenseCholeskyApply::Triangular, inverse_after);
+    };
     said << "the rest stiffness's Cholesky factor on the GPU (dense, " << unknowns << " unknowns, "
          << numberText(denseCholeskyBytes(unknowns) / 1e9, 3) << " GB)";
   } else {

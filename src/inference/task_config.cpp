@@ -156,8 +156,9 @@ void declareCommonParameters(TaskParameters& p) {
          "where the particle kernels run: auto (a CUDA GPU when this build has the CUDA backend and the driver "
          "reports one, else the CPU) | cpu | cuda (refused without a GPU, with the reason). On the GPU now: the "
          "pear's explicit rollout and its gradient (contact included), the neural representation, and the Cholesky "
-         "factor that preconditions the finger's and cantilever's Newton solves (their forces and Hessian products on "
-         "the host; auto keeps it on the host when the GPU lacks the memory); the rigid tasks' physics runs on the CPU",
+         "factor that preconditions the finger's and cantilever's Newton solves with the Hessian products of those "
+         "solves (their forces on the host; auto keeps the factor on the host when the GPU lacks the memory); the "
+         "rigid tasks' physics runs on the CPU",
          {"auto", "cpu", "cuda"});
   p.vector3("gravity", &g, "m/s^2", "gravity in the world frame [m/s^2]");
   // how sure is the interior (inference/design_spread.h)

@@ -356,10 +356,13 @@ double availableMemoryBytes() {
 }
 
 void RestStiffnessPreconditioner::apply(const Eigen::VectorXd& r, Eigen::VectorXd* z) const {
+  const auto t0 = std::chrono::steady_clock::now();
   if (external_)
     external_->solve(r, z);
   else
     *z = factor_->solve(r);
+  ++applications_;
+  apply_ns_ += std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t0).count();
 }
 
 std::string RestStiffnessPreconditioner::where() const { return external_ ? external_->name() : "host: " + backend(); }

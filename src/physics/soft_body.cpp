@@ -3,6 +3,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -23,6 +24,8 @@ constexpr long long kParallelUpdateMin = 8192;
 
 SoftBodySimulator::SoftBodySimulator(CorotatedSph sph, const SoftBodyOptions& options)
     : sph_(std::move(sph)), opt_(options) {
+  static std::atomic<std::uint64_t> serials{0};
+  serial_ = ++serials;
   const std::size_t n = sph_.size();
   if (n == 0) throw TopoError("SoftBodySimulator", "the particle set is empty", "pass a non-empty CorotatedSph");
   if (!finite3(opt_.gravity))
@@ -298,6 +301,12 @@ Eigen::VectorXd SoftBodySimulator::systemDiagonal(double inertia) const {
   return d;
 }
 
+namespace {
+LinearOperator preconditionerOf(std::shared_ptr<const RestStiffnessPreconditioner> f) {
+  return [f](const Eigen::VectorXd& r, Eigen::VectorXd* z) { f->apply(r, z); };
+}
+}  // namespace
+
 LinearOperator SoftBodySimulator::systemPreconditioner(double inertia) const {
   if (size() > opt_.cholesky_max_particles) {
     if (preconditioner_note_.empty())  // once: this runs at every Newton step
@@ -315,8 +324,12 @@ LinearOperator SoftBodySimulator::systemPreconditioner(double inertia) const {
     const double max_bytes =
         opt_.cholesky_max_factor_bytes > 0.0 ? opt_.cholesky_max_factor_bytes : 0.5 * availableMemoryBytes();
     try {
-      rest_factor_ = std::make_shared<const RestStiffnessPreconditioner>(
-          sph_, shift, clamped_, max_bytes, opt_.cholesky_external, opt_.cholesky_external_required);
+      if (opt_.rest_factor_reuse) rest_factor_ = opt_.rest_factor_reuse->find(serial_, sph_, clamped_, inertia);
+      if (!rest_factor_) {
+        rest_factor_ = std::make_shared<const RestStiffnessPreconditioner>(
+            sph_, shift, clamped_, max_bytes, opt_.cholesky_external, opt_.cholesky_external_required);
+        if (opt_.rest_factor_reuse) opt_.rest_factor_reuse->store(serial_, rest_factor_, sph_, clamped_, inertia);
+      }
       if (!rest_factor_->externalNote().empty())
         preconditioner_note_ =
             "the rest stiffness's Cholesky factor on the host, not the GPU: " + rest_factor_->externalNote();
@@ -332,8 +345,7 @@ LinearOperator SoftBodySimulator::systemPreconditioner(double inertia) const {
     }
   }
   if (!rest_factor_) return jacobiPreconditioner(systemDiagonal(inertia));
-  std::shared_ptr<const RestStiffnessPreconditioner> f = rest_factor_;
-  return [f](const Eigen::VectorXd& r, Eigen::VectorXd* z) { f->apply(r, z); };
+  return preconditionerOf(rest_factor_);
 }
 
 std::vector<Eigen::Vector3d> SoftBodySimulator::frictionForces(const std::vector<Eigen::Vector3d>& v) const {

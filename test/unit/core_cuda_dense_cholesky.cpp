@@ -21,22 +21,9 @@ using namespace topo_gaussian;
 
 namespace {
 
-constexpr double kSpacing = 0.005;
-
-/// A 16 × 4 × 4-cell cantilever (5 mm lattice), E 1e7 with a soft (1e5) pressurised core, ν 0.45,
-/// StVK, clamped at x = min, under gravity and 2e4 Pa: the finger's kind of problem, 256 particles.
+/// A 16 × 4 × 4-cell cantilever with a soft (1e5) pressurised core, 256 particles.
 std::unique_ptr<SoftBodySimulator> makeFinger(const SoftBodyOptions& so) {
-  const VolumeCloud cloud = topo_test::boxCloud(16 * kSpacing, 4 * kSpacing, 4 * kSpacing, kSpacing);
-  double xmin = 1e300;
-  for (const auto& X : cloud.X) xmin = std::min(xmin, X.x());
-  std::vector<std::uint8_t> clamp(cloud.size(), 0), chamber(cloud.size(), 0);
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const Eigen::Vector3d& X = cloud.X[i];
-    clamp[i] = X.x() < xmin + 1.5 * kSpacing;
-    chamber[i] = !clamp[i] && std::abs(X.y()) < kSpacing && X.z() > -kSpacing && X.z() < kSpacing &&
-                 X.x() < xmin + 13 * kSpacing;
-  }
-  return topo_test::pneumaticBody(cloud, clamp, chamber, lameFromYoung(1e7, 0.45), lameFromYoung(1e5, 0.45), 2e4, so);
+  return topo_test::pneumaticCantilever(16, 1e5, 13, so);
 }
 
 TEST(DenseCholeskyCuda, ParticlesThatFitFollowTheDenseSize) {
@@ -44,6 +31,35 @@ TEST(DenseCholeskyCuda, ParticlesThatFitFollowTheDenseSize) {
   EXPECT_NEAR(denseCholeskyBytes(3 * 9212) / 1e9, 6.110, 0.001);
   EXPECT_EQ(denseCholeskyParticlesFitting(denseCholeskyBytes(3 * 9212) + 1.0), 9212u);
   EXPECT_EQ(denseCholeskyParticlesFitting(0.0), 0u);
+}
+
+TEST(DenseCholeskyCuda, TheInversesBreakEvenGrowsWithTheUnknowns) {
+  // 180 applications at the finger's 27 636 unknowns (measured on an H200), in proportion elsewhere.
+  EXPECT_EQ(denseCholeskyInverseBreakEven(27636), 180);
+  EXPECT_EQ(denseCholeskyInverseBreakEven(13818), 90);
+  EXPECT_EQ(denseCholeskyInverseBreakEven(768), 6);  // 5.0 rounded up
+}
+
+TEST(DenseCholeskyCuda, AFactorAppliedBeyondItsLimitTakesTheInverseInPlace) {
+  SKIP_WITHOUT_GPU();
+  auto sim = makeFinger(SoftBodyOptions());
+  const RestStiffnessPreconditioner host(sim->sph(), Eigen::VectorXd(), sim->clamped());
+  const RestStiffnessPreconditioner gpu(
+      sim->sph(), Eigen::VectorXd(), sim->clamped(), 0.0,
+      [] { return makeDenseCholeskyCuda(0.0, DenseCholeskyApply::Triangular, 5); }, true);
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n01;
+  for (int k = 1; k <= 8; ++k) {
+    Eigen::VectorXd r(3 * sim->size()), zh, zg;
+    for (Eigen::Index j = 0; j < r.size(); ++j) r[j] = n01(rng);
+    host.apply(r, &zh);
+    gpu.apply(r, &zg);
+    EXPECT_LT((zg - zh).norm(), 1e-9 * zh.norm()) << "application " << k << " on " << gpu.where();
+    EXPECT_EQ(gpu.where().find("explicit inverse after 5 triangular solves") != std::string::npos, k > 5)
+        << "application " << k << ": " << gpu.where();
+  }
+  EXPECT_EQ(gpu.applications(), 8);
+  EXPECT_GT(gpu.applySeconds(), 0.0);
 }
 
 TEST(DenseCholeskyCuda, WithoutADeviceItIsRefusedWithTheReason) {

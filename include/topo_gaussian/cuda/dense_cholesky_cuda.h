@@ -10,11 +10,10 @@
 //
 // Why dense: the GPU machine has no sparse direct solver (CHOLMOD is the host's), and a dense
 // float64 factorisation runs near the GPU's float64 peak: ~(3N)³/3 flops, 0.18 s for the 9212-particle
-// finger (27 636 unknowns) on an H100 (issue 20's reference probe). Its memory is (3N)² × 8 bytes (6.1 GB for that finger):
-// about 32 000 particles fit on an 80 GB H100 and 43 000 on a
-// 141 GB H200 (90 % of their free memory). Above what the GPU has free the factory's
-// factorize() throws GpuMemoryError naming the particles that would fit; the simulator then
-// factorises on the host (backend auto, with a note) or stops (backend cuda).
+// finger (27 636 unknowns) on an H100 (issue 20's reference probe). Its memory is (3N)² × 8 bytes (6.1 GB for that
+// finger): about 32 000 particles fit on an 80 GB H100 and 43 000 on a 141 GB H200 (90 % of their free memory). Above
+// what the GPU has free the factory's factorize() throws GpuMemoryError naming the particles that would fit; the
+// simulator then factorises on the host (backend auto, with a note) or stops (backend cuda).
 //
 // cuSOLVER is loaded with dlopen at the first factorisation (libcusolver.so.12/.11): programs that
 // never factorise on the GPU do not pay its load time.
@@ -50,8 +49,18 @@ enum class DenseCholeskyApply { Triangular, InverseSymv, InverseGemv };
 
 /// A CholeskySolver on the first CUDA device. max_bytes > 0: refuse a factor above it too (tests;
 /// the device's free memory always bounds it). Without the CUDA backend or a device, factorize()
-/// throws TopoError with the reason.
+/// throws TopoError with the reason. inverse_after > 0 with the triangular solves: once the factor has
+/// been applied that many times it is inverted in place (potri) and applied as InverseGemv from then
+/// on (a factor kept for many solves: rest_factor_reuse.h); where the inverse cannot be made (above
+/// 46 340 unknowns, no potri or cuBLAS) the triangular solves go on.
 std::unique_ptr<CholeskySolver> makeDenseCholeskyCuda(double max_bytes = 0.0,
-                                                      DenseCholeskyApply apply = DenseCholeskyApply::Triangular);
+                                                      DenseCholeskyApply apply = DenseCholeskyApply::Triangular,
+                                                      long inverse_after = 0);
+
+/// Applications of one factor from which its explicit inverse pays: the inverse costs about one more
+/// factorisation (potri: 0.55 s at 27 636 unknowns on an H200) and saves ~3.1 ms an application (4.5 →
+/// 1.44 ms), so ~180 applications at that size; the first cost grows as the unknowns cubed, the
+/// saving as their square, so the break-even grows in proportion to the unknowns.
+long denseCholeskyInverseBreakEven(std::size_t unknowns);
 
 }  // namespace topo_gaussian

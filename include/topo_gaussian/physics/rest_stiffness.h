@@ -24,6 +24,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Sparse>
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -83,6 +84,9 @@ class RestStiffnessPreconditioner {
   void apply(const Eigen::VectorXd& r, Eigen::VectorXd* z) const;
   std::size_t nonZeros() const { return nnz_; }
   double factorSeconds() const { return seconds_; }
+  /// How often apply() ran, and its seconds in all (rest_factor_reuse.h weighs them against a new factor).
+  long applications() const { return applications_.load(); }
+  double applySeconds() const { return 1e-9 * static_cast<double>(apply_ns_.load()); }
   /// The factor's numerical values [bytes], as the symbolic analysis predicted them.
   double factorBytes() const { return factor_bytes_; }
   /// Peak memory of assembling K0's lower triangle [bytes], estimated before it is assembled: 21
@@ -115,6 +119,8 @@ class RestStiffnessPreconditioner {
   double seconds_ = 0.0;
   double factor_bytes_ = 0.0;
   double matrix_bytes_ = 0.0;
+  mutable std::atomic<long> applications_{0};
+  mutable std::atomic<long long> apply_ns_{0};
 };
 
 /// Physical memory available to this process now [bytes] (Linux MemAvailable; 0 when unknown).

@@ -31,6 +31,7 @@
 #include "topo_gaussian/physics/corotated_sph.h"
 #include "topo_gaussian/physics/newton_solver.h"
 #include "topo_gaussian/physics/pneumatic_actuation.h"
+#include "topo_gaussian/physics/rest_factor_reuse.h"
 #include "topo_gaussian/physics/rest_stiffness.h"
 #include "topo_gaussian/physics/run_limits.h"
 #include "topo_gaussian/physics/soft_contact.h"
@@ -83,6 +84,10 @@ struct SoftBodyOptions {
   /// the host computes them from then on and preconditionerNote() says why, unless
   /// cholesky_external_required: then the failure is the error (ExternalFactorRefused).
   ExternalStiffnessFactory stiffness_external;
+  /// Shared by the simulators of one body's designs (an inference's tasks set it): the rest stiffness's
+  /// factor of an earlier design preconditions the next one's solves until a new factor costs less than
+  /// the extra iterations (rest_factor_reuse.h). Null: every simulator factorises its own.
+  std::shared_ptr<RestFactorReuse> rest_factor_reuse;
   /// Polled every step (explicit, implicit), every Newton line-search evaluation, FIRE iteration and
   /// SoftRollout step; true throws SimulationCancelled (physics/run_limits.h).
   StopCheck should_stop;
@@ -284,6 +289,8 @@ class SoftBodySimulator {
   mutable bool ext_failed_ = false;
   long state_version_ = 0;  ///< bumped whenever the forces are re-evaluated (refreshForces)
   mutable double rest_factor_inertia_ = -1.0;
+  /// This simulator among all (RestFactorReuse tells one use of a kept factor from the next by it).
+  std::uint64_t serial_ = 0;
   mutable std::string preconditioner_note_;
 };
 

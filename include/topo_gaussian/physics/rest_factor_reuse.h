@@ -1,0 +1,70 @@
+// The rest stiffness's Cholesky factor kept from one design to the next (an inference's evaluations),
+// and when to factorise again.
+//
+//   P = K0(θ_f) + diag(s_f)   (rest_stiffness.h), kept for the simulators of designs θ after θ_f
+//
+// An inference evaluates design after design of one body: the same particles, neighbours, clamp and
+// shift pattern, other Lamé parameters and masses. The factor of an earlier design is still a
+// preconditioner of the new design's linear systems: PCG converges to the same tolerance, with more
+// iterations the further the materials moved (the Newton iterates and the answer agree within the
+// solver's tolerances; the preconditioner is not part of the model). Factorising anew costs t_f (the
+// finger's 27 636 unknowns: 0.6 s on an H200's dense cuSOLVER, 9 s on 16 host cores with CHOLMOD);
+// applying a stale factor more often costs t_a a time. The rule, evaluated when a new simulator
+// (a use) asks for the factor:
+//
+//   refactorise when  (a_last − a_first) · t_a  >  t_f
+//
+// a_first: the applications in the factor's first use (the design it was made for), a_last: in the
+// use just finished, t_a: this factor's mean seconds an application, t_f: its factorisation's seconds.
+// A factor held by another live simulator is not shared (the solvers are not re-entrant): that
+// simulator keeps it, the new one gets its own.
+//
+// Issue 20 §2 (the finger ≤ 30 s end to end): the factor was ~40 % of an evaluation.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "topo_gaussian/physics/rest_stiffness.h"
+
+namespace topo_gaussian {
+
+class RestFactorReuse {
+ public:
+  /// The kept factor for the simulator `user` (SoftBodySimulator::serial()) of this body (the sph's
+  /// rest positions and smoothing length, the fixed mask) and shift value `inertia`, when the rule keeps
+  /// it; null when the caller must factorise (and store() what it made). A user that asks again gets
+  /// the same factor without a new use being counted.
+  std::shared_ptr<const RestStiffnessPreconditioner> find(std::uint64_t user, const CorotatedSph& sph,
+                                                          const std::vector<std::uint8_t>& fixed, double inertia);
+  /// Keeps `factor` (made for `user`'s body) as the one to reuse; its first use is `user`'s.
+  void store(std::uint64_t user, std::shared_ptr<const RestStiffnessPreconditioner> factor, const CorotatedSph& sph,
+             const std::vector<std::uint8_t>& fixed, double inertia);
+  /// The rule above: true when a factor whose first use took `first_use` applications and whose last
+  /// took `last_use`, at `seconds_per_application` each, should be made anew (it took `factor_seconds`).
+  static bool refactorise(long first_use, long last_use, double seconds_per_application, double factor_seconds);
+
+  struct Counts {
+    long factors = 0;  ///< factors stored
+    long reuses = 0;   ///< uses served by a kept factor
+  };
+  Counts counts() const;
+  /// Why the last find() returned null while a factor was kept (empty: it returned one, or none was kept).
+  std::string lastRefusal() const;
+
+ private:
+  mutable std::mutex m_;
+  std::shared_ptr<const RestStiffnessPreconditioner> factor_;
+  std::vector<Eigen::Vector3d> X_;
+  std::vector<std::uint8_t> fixed_;
+  double h_ = 0.0, inertia_ = -1.0;
+  std::uint64_t user_ = 0;  ///< the simulator of the current use
+  long applications_at_use_ = 0, first_use_ = -1, uses_ = 0;
+  Counts counts_;
+  std::string refusal_;
+};
+
+}  // namespace topo_gaussian

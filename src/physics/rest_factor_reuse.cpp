@@ -1,0 +1,76 @@
+#include "topo_gaussian/physics/rest_factor_reuse.h"
+
+#include <sstream>
+#include <utility>
+
+#include "topo_gaussian/common/number_text.h"
+
+namespace topo_gaussian {
+
+bool RestFactorReuse::refactorise(long first_use, long last_use, double seconds_per_application,
+                                  double factor_seconds) {
+  return static_cast<double>(last_use - first_use) * seconds_per_application > factor_seconds;
+}
+
+std::shared_ptr<const RestStiffnessPreconditioner> RestFactorReuse::find(std::uint64_t user, const CorotatedSph& sph,
+                                                                         const std::vector<std::uint8_t>& fixed,
+                                                                         double inertia) {
+  std::lock_guard<std::mutex> lock(m_);
+  refusal_.clear();
+  if (!factor_) return nullptr;
+  if (inertia != inertia_ || sph.smoothingLength() != h_ || fixed != fixed_ || sph.restPositions() != X_) {
+    refusal_ = "another body, clamp or inertia";
+    factor_.reset();
+    return nullptr;
+  }
+  if (user == user_) return factor_;  // the same use
+  if (factor_.use_count() > 1) {      // still held by the simulator of the last use: not shared
+    refusal_ = "held by another simulator";
+    return nullptr;
+  }
+  const long now = factor_->applications();
+  const long last = now - applications_at_use_;
+  if (first_use_ < 0) first_use_ = last;
+  const double per_application = now > 0 ? factor_->applySeconds() / static_cast<double>(now) : 0.0;
+  if (uses_ > 1 && refactorise(first_use_, last, per_application, factor_->factorSeconds())) {
+    std::ostringstream s;
+    s << "its last use took " << last << " applications against " << first_use_ << " in its first, "
+      << numberText(static_cast<double>(last - first_use_) * per_application, 3) << " s more than a new factor's "
+      << numberText(factor_->factorSeconds(), 3) << " s";
+    refusal_ = s.str();
+    factor_.reset();  // its memory back before the next factor is made
+    return nullptr;
+  }
+  user_ = user;
+  applications_at_use_ = now;
+  ++uses_;
+  ++counts_.reuses;
+  return factor_;
+}
+
+void RestFactorReuse::store(std::uint64_t user, std::shared_ptr<const RestStiffnessPreconditioner> factor,
+                            const CorotatedSph& sph, const std::vector<std::uint8_t>& fixed, double inertia) {
+  std::lock_guard<std::mutex> lock(m_);
+  factor_ = std::move(factor);
+  X_ = sph.restPositions();
+  h_ = sph.smoothingLength();
+  fixed_ = fixed;
+  inertia_ = inertia;
+  user_ = user;
+  applications_at_use_ = factor_ ? factor_->applications() : 0;
+  first_use_ = -1;
+  uses_ = 1;
+  ++counts_.factors;
+}
+
+RestFactorReuse::Counts RestFactorReuse::counts() const {
+  std::lock_guard<std::mutex> lock(m_);
+  return counts_;
+}
+
+std::string RestFactorReuse::lastRefusal() const {
+  std::lock_guard<std::mutex> lock(m_);
+  return refusal_;
+}
+
+}  // namespace topo_gaussian
