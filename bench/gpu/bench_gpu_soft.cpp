@@ -12,7 +12,8 @@
 //   rollout_<N>  the explicit rollout with its gradient (runSoftRolloutCuda against SoftRollout, float64,
 //       checkpoints every ⌈√steps⌉, a host loss called every step on both): forward and backward
 //       seconds, backward / forward, and the speed-up of forward + backward over the CPU;
-//       *_loss_every_100: the loss counts every 100th step only (SoftRolloutOptions::loss_at).
+//       *_loss_every_100: the loss counts every 100th step only (SoftRolloutOptions::loss_at);
+//       *_keep_all: the default checkpointing, every state kept on the GPU (they fit), no recomputation.
 // Without a CUDA device it prints one line {"case": "gpu", "skipped": reason} and exits 0.
 // Usage: bench_gpu_soft [--quick] [--lanes L] [CASE_SUBSTRING]    (bench/README.md: building on a GPU machine)
 #include <algorithm>
@@ -121,9 +122,10 @@ void gpuCase(const std::string& base, int nx, int ny, int nz, double hfac, int g
   }
 }
 
-/// SoftRollout (explicit, with gradient, checkpoints every ⌈√steps⌉) on the GPU and on the CPU from
-/// the same state; the loss is Σ_k Σ_i (z_i − Z_i) (host callback, called every step on both).
-void rolloutCase(const std::string& name, int nx, int ny, int nz, int steps, int loss_every = 1) {
+/// SoftRollout (explicit, with gradient) on the GPU and on the CPU from the same state; the loss is
+/// Σ_k Σ_i (z_i − Z_i) (host callback). keep_all: the default checkpointing (every state kept on the
+/// GPU when they fit, no recomputation); else checkpoints every ⌈√steps⌉ and each segment recomputed.
+void rolloutCase(const std::string& name, int nx, int ny, int nz, int steps, int loss_every, bool keep_all) {
   if (g_only && name.find(g_only) == std::string::npos) return;
   auto loss = [](int, double, const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>&,
                  std::vector<Eigen::Vector3d>* dx, std::vector<Eigen::Vector3d>*) {
@@ -139,6 +141,7 @@ void rolloutCase(const std::string& name, int nx, int ny, int nz, int steps, int
   o.dt = 0.5 * cpu->stableTimeStep();
   o.steps = steps;
   if (loss_every > 1) o.loss_at = [loss_every](int k) { return k % loss_every == 0; };
+  o.checkpoint_every = keep_all ? 0 : static_cast<int>(std::ceil(std::sqrt(double(steps))));
   runSoftRolloutCuda(
       makeBody(nx, ny, nz, 1.0).get(),
       [&] {
@@ -151,13 +154,13 @@ void rolloutCase(const std::string& name, int nx, int ny, int nz, int steps, int
   const SoftRolloutResult c = SoftRollout(cpu.get(), o).run(loss, true);
   const double n = double(cpu->size());
   std::printf(
-      "{\"case\": \"%s\", \"device\": \"%s\", \"particles\": %.0f, \"steps\": %d, \"loss_every\": %d, \"precision\": "
-      "\"float64\", "
+      "{\"case\": \"%s\", \"device\": \"%s\", \"particles\": %.0f, \"steps\": %d, \"loss_every\": %d, "
+      "\"checkpoint_every\": %d, \"gpu_peak_states\": %zu, \"precision\": \"float64\", "
       "\"gpu_forward_s\": %.4f, \"gpu_backward_s\": %.4f, \"gpu_backward_over_forward\": %.2f, "
       "\"baseline\": \"cpu_soft_rollout\", \"cpu_threads\": %d, \"cpu_forward_s\": %.4f, \"cpu_backward_s\": %.4f, "
       "\"gpu_over_cpu_forward_plus_backward\": %.1f, \"loss_relative_difference\": %.2e}\n",
-      name.c_str(), cudaDeviceInfo().name.c_str(), n, steps, loss_every, g.forward_s, g.backward_s,
-      g.backward_s / g.forward_s, threads(), c.forward_s, c.backward_s,
+      name.c_str(), cudaDeviceInfo().name.c_str(), n, steps, loss_every, o.checkpoint_every, g.peak_states, g.forward_s,
+      g.backward_s, g.backward_s / g.forward_s, threads(), c.forward_s, c.backward_s,
       (c.forward_s + c.backward_s) / (g.forward_s + g.backward_s), std::abs(g.loss - c.loss) / std::abs(c.loss));
   std::fflush(stdout);
 }
@@ -189,12 +192,16 @@ int main(int argc, char** argv) {
     gpuCase("explicit_100k_h1.0", 80, 50, 25, 1.0, 2000 / s, 10 / s + 2);
     gpuCase("explicit_100k_h1.5", 80, 50, 25, 1.5, 2000 / s, 10 / s + 2);
     if (!quick) gpuCase("explicit_1m_h1.0", 160, 100, 63, 1.0, 200, 3);
-    // Rollouts with gradient: 9k and 100k particles.
-    rolloutCase("rollout_9k", 30, 18, 16, quick ? 50 : 400);
-    rolloutCase("rollout_100k", 80, 50, 25, quick ? 20 : 100);
-    // The loss at every 100th step only (SoftRolloutOptions::loss_at: the other states stay on the GPU).
-    rolloutCase("rollout_9k_loss_every_100", 30, 18, 16, quick ? 100 : 400, 100);
-    rolloutCase("rollout_100k_loss_every_100", 80, 50, 25, quick ? 100 : 200, 100);
+    // Rollouts with gradient: 9k and 100k particles, checkpoints every ⌈√steps⌉ and (_keep_all, the
+    // default where the states fit) every state kept.
+    for (const bool all : {false, true}) {
+      const std::string tail = all ? "_keep_all" : "";
+      rolloutCase("rollout_9k" + tail, 30, 18, 16, quick ? 50 : 400, 1, all);
+      rolloutCase("rollout_100k" + tail, 80, 50, 25, quick ? 20 : 100, 1, all);
+      // The loss at every 100th step only (SoftRolloutOptions::loss_at: the other states stay on the GPU).
+      rolloutCase("rollout_9k_loss_every_100" + tail, 30, 18, 16, quick ? 100 : 400, 100, all);
+      rolloutCase("rollout_100k_loss_every_100" + tail, 80, 50, 25, quick ? 100 : 200, 100, all);
+    }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "bench_gpu_soft: %s\n", e.what());
     return 1;

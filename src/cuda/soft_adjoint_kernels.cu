@@ -19,14 +19,26 @@ using namespace device;
 
 inline int blocks(long long threads) { return static_cast<int>((threads + kBlock - 1) / kBlock); }
 
+/// v ← v + dt (f/m + g − c v), x ← x + dt v of b's free particles into (x_out, v_out), the clock into
+/// *time_out: in place when they are b's own, else out of place (clamped particles copied).
 template <class T>
-__global__ void symplecticKickDriftKernel(SoftDeviceBody<T> b, T dt, double dt_clock) {
+__global__ void symplecticKickDriftKernel(SoftDeviceBody<T> b, T* x_out, T* v_out, double* time_out, T dt,
+                                          double dt_clock) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i == 0) {
-    *b.time += dt_clock;
+    *time_out = *b.time + dt_clock;
     *b.step += 1;
   }
-  if (i >= b.n || b.clamped[i]) return;
+  if (i >= b.n) return;
+  if (b.clamped[i]) {
+    if (x_out != b.x)
+#pragma unroll
+      for (int d = 0; d < 3; ++d) {
+        x_out[3 * i + d] = b.x[3 * i + d];
+        v_out[3 * i + d] = b.v[3 * i + d];
+      }
+    return;
+  }
   const T m = b.mass[i];
   bool finite = true;
 #pragma unroll
@@ -34,9 +46,9 @@ __global__ void symplecticKickDriftKernel(SoftDeviceBody<T> b, T dt, double dt_c
     const T v = b.v[3 * i + d];
     const T f = b.contact.points ? b.f[3 * i + d] + b.contact.pfr[3 * i + d] : b.f[3 * i + d];
     const T vn = v + dt * (f / m + b.gravity[d] - b.damping * v);
-    b.v[3 * i + d] = vn;
-    b.x[3 * i + d] += dt * vn;
-    finite = finite && isfinite(vn) && isfinite(b.x[3 * i + d]);
+    v_out[3 * i + d] = vn;
+    x_out[3 * i + d] = b.x[3 * i + d] + dt * vn;
+    finite = finite && isfinite(vn) && isfinite(x_out[3 * i + d]);
   }
   if (!finite) encodeFirst<T>(&b.status[1], 0, i);  // the host checks after every step and names it
 }
@@ -376,8 +388,16 @@ template <class T>
 void launchSymplecticStep(const SoftDeviceBody<T>& b, double dt, void* stream) {
   cudaStream_t s = static_cast<cudaStream_t>(stream);
   launchContact(b, false, stream);  // friction at (x_k, v_k)
-  symplecticKickDriftKernel<T><<<blocks(b.n), kBlock, 0, s>>>(b, static_cast<T>(dt), dt);
+  symplecticKickDriftKernel<T><<<blocks(b.n), kBlock, 0, s>>>(b, b.x, b.v, b.time, static_cast<T>(dt), dt);
   launchEvaluateForces(b, stream);
+}
+
+template <class T>
+void launchSymplecticStepInto(const SoftDeviceBody<T>& in, const SoftDeviceBody<T>& out, double dt, void* stream) {
+  cudaStream_t s = static_cast<cudaStream_t>(stream);
+  launchContact(in, false, stream);  // friction at (x_k, v_k)
+  symplecticKickDriftKernel<T><<<blocks(in.n), kBlock, 0, s>>>(in, out.x, out.v, out.time, static_cast<T>(dt), dt);
+  launchEvaluateForces(out, stream);
 }
 
 template <class T>
@@ -432,6 +452,10 @@ void launchAdd(T* y, const T* x, int n3, void* stream) {
 
 template void launchSymplecticStep<double>(const SoftDeviceBody<double>&, double, void*);
 template void launchSymplecticStep<float>(const SoftDeviceBody<float>&, double, void*);
+template void launchSymplecticStepInto<double>(const SoftDeviceBody<double>&, const SoftDeviceBody<double>&, double,
+                                               void*);
+template void launchSymplecticStepInto<float>(const SoftDeviceBody<float>&, const SoftDeviceBody<float>&, double,
+                                              void*);
 template void launchAdjointStep<double>(const SoftDeviceBody<double>&, const double*, double, double*, double*, double*,
                                         double*, double*, double*, double*, void*);
 template void launchAdjointStep<float>(const SoftDeviceBody<float>&, const float*, double, float*, float*, float*,

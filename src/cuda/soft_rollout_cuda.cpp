@@ -101,7 +101,6 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
                           bool with_gradient, CudaPrecision precision) {
   const std::size_t n = sim->size();
   const int N = opt.steps;
-  const int K = opt.checkpoint_every > 0 ? opt.checkpoint_every : static_cast<int>(std::ceil(std::sqrt(double(N))));
   const double dt = opt.dt, t0 = sim->time();
   SoftBodyCuda gpu(*sim, precision);
   SoftBodyCuda::Impl& I = gpu.impl();
@@ -111,13 +110,64 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
   auto copy = [&](T* dst, const T* src) {
     check(cudaMemcpyAsync(dst, src, bytes3, cudaMemcpyDeviceToDevice, s), "device copy");
   };
+  // A stored state: x, v, f (9n values), its evaluation (F̃, R and the gather's record or M: what the
+  // adjoint step reads at x_k) and its clock.
+  const std::size_t aux = b.L ? static_cast<std::size_t>(cuda_detail::kRecord) * n : 9 * n;
+  const std::size_t eval_values = 18 * n + aux;
+  const double state_bytes = static_cast<double>((9 * n + eval_values) * sizeof(T) + sizeof(double));
+  // With checkpoint_every ≤ 0 every state is kept when they fit in half of the free memory (then the
+  // backward recomputes nothing); else checkpoints every K = ⌈√N⌉ steps (or checkpoint_every) and
+  // each segment recomputed.
+  bool keep_all = false;
+  if (with_gradient && opt.checkpoint_every <= 0) {
+    std::size_t free_b = 0, total_b = 0;
+    if (cudaMemGetInfo(&free_b, &total_b) == cudaSuccess)
+      keep_all = (N + 1.0) * state_bytes + 46.0 * sizeof(T) * n <= 0.5 * static_cast<double>(free_b);
+    else
+      cudaGetLastError();
+  }
+  const int K = keep_all                   ? N
+                : opt.checkpoint_every > 0 ? opt.checkpoint_every
+                                           : static_cast<int>(std::ceil(std::sqrt(double(N))));
+  // The segment's states (one segment of K steps, or all N with keep_all).
+  T* seg = nullptr;
+  T* seg_eval = nullptr;
+  double* seg_time = nullptr;
+  if (with_gradient) {
+    seg = I.allocate<T>(static_cast<std::size_t>(K + 1) * 9 * n);
+    seg_eval = I.allocate<T>(static_cast<std::size_t>(K + 1) * eval_values);
+    seg_time = I.allocate<double>(static_cast<std::size_t>(K + 1));
+  }
+  // The body at segment state q: its x, v, f, evaluation and clock.
+  auto at = [&](int q) {
+    cuda_detail::SoftDeviceBody<T> bq = b;
+    bq.x = seg + static_cast<std::size_t>(q) * 9 * n;
+    bq.v = bq.x + 3 * n;
+    bq.f = bq.x + 6 * n;
+    T* e = seg_eval + static_cast<std::size_t>(q) * eval_values;
+    bq.Ft = e;
+    bq.R = e + 9 * n;
+    if (b.L)
+      bq.rec = e + 18 * n;
+    else
+      bq.M = e + 18 * n;
+    bq.time = seg_time + q;
+    return bq;
+  };
 
   SoftRolloutResult res;
   auto tf = std::chrono::steady_clock::now();
-  // Checkpoints (x, v, f) in device memory.
+  // Checkpoints (x, v, f) in device memory, one allocation for all (9n values each).
   std::vector<T*> checkpoints;
-  // One allocation for every checkpoint (x, v, f: 9n values each).
-  T* checkpoint_store = with_gradient ? I.allocate<T>(static_cast<std::size_t>((N + K - 1) / K) * 9 * n) : nullptr;
+  T* checkpoint_store =
+      with_gradient && !keep_all ? I.allocate<T>(static_cast<std::size_t>((N + K - 1) / K) * 9 * n) : nullptr;
+  if (keep_all) {  // state 0: the body's x, v, f, its evaluation and clock
+    copy(seg, b.x);
+    copy(seg + 3 * n, b.v);
+    copy(seg + 6 * n, b.f);
+    cuda_detail::launchSetClock(seg_time, t0, s);
+    cuda_detail::launchEvaluateState(at(0), s);
+  }
   auto counts = [&](int k) { return !opt.loss_at || opt.loss_at(k); };
   Vec3s x, v;
   if (counts(0)) {
@@ -126,23 +176,27 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
     res.loss = loss(0, t0, x, v, nullptr, nullptr);
   }
   for (int k = 0; k < N; ++k) {
-    if (with_gradient && k % K == 0) {
+    if (checkpoint_store && k % K == 0) {
       T* c = checkpoint_store + checkpoints.size() * 9 * n;
       copy(c, b.x);
       copy(c + 3 * n, b.v);
       copy(c + 6 * n, b.f);
       checkpoints.push_back(c);
     }
-    cuda_detail::launchSymplecticStep(b, dt, s);
+    if (keep_all)
+      cuda_detail::launchSymplecticStepInto(at(k), at(k + 1), dt, s);
+    else
+      cuda_detail::launchSymplecticStep(b, dt, s);
     check(cudaGetLastError(), "kernel launch");
     if (!counts(k + 1) && k + 1 < N) continue;  // no host copy: the loss is zero at this step
     checkStatus(I, "the explicit steps up to " + std::to_string(k + 1));
-    toHost(b.x, n, s, &x);
-    toHost(b.v, n, s, &v);
+    const T* xs = keep_all ? seg + static_cast<std::size_t>(k + 1) * 9 * n : b.x;
+    toHost(xs, n, s, &x);
+    toHost(keep_all ? xs + 3 * n : b.v, n, s, &v);
     if (counts(k + 1)) res.loss += loss(k + 1, t0 + (k + 1) * dt, x, v, nullptr, nullptr);
   }
   res.forward_s = since(tf);
-  res.peak_states = checkpoints.size();
+  res.peak_states = keep_all ? static_cast<std::size_t>(N + 1) : checkpoints.size();
   res.peak_state_bytes = checkpoints.size() * n * 6 * sizeof(double);
   const Vec3s x_end = x, v_end = v;
   const double t_end = t0 + N * dt;
@@ -153,16 +207,13 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
   }
 
   auto tb = std::chrono::steady_clock::now();
-  // Segment states (x, v, f) and the adjoint's work space.
-  T* seg = I.allocate<T>(static_cast<std::size_t>(K + 1) * 9 * n);
+  // The adjoint's work space.
   T* xb = I.allocate<T>(3 * n);
   T* vb = I.allocate<T>(3 * n);
   T* dl = I.allocate<T>(6 * n);
   T* G = I.allocate<T>(4 * n);  // mass, mu, lambda, chamber
   T* work = I.allocate<T>(30 * n);
-  T* R = I.allocate<T>(9 * n);
   check(cudaMemsetAsync(G, 0, 4 * n * sizeof(T), s), "memset");
-  b.R = R;
   {
     Vec3s xb0(n, Eigen::Vector3d::Zero()), vb0(n, Eigen::Vector3d::Zero());
     if (counts(N)) loss(N, t_end, x_end, v_end, &xb0, &vb0);
@@ -170,32 +221,28 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
     toDevice(vb0, vb, s);
   }
   const bool chamber = b.chamber != nullptr;
-  for (int sg = static_cast<int>(checkpoints.size()) - 1; sg >= 0; --sg) {
+  // keep_all: one segment, every state kept by the forward; else each checkpoint's segment recomputed.
+  const int segments = keep_all ? 1 : static_cast<int>(checkpoints.size());
+  for (int sg = segments - 1; sg >= 0; --sg) {
     const int k0 = sg * K, k1 = std::min(k0 + K, N);
-    // Recompute the segment from its checkpoint, keeping every state's x, v and f.
-    copy(b.x, checkpoints[sg]);
-    copy(b.v, checkpoints[sg] + 3 * n);
-    copy(b.f, checkpoints[sg] + 6 * n);
-    cuda_detail::launchSetClock(b.time, t0 + k0 * dt, s);
-    for (int q = 0; q < 3; ++q) copy(seg + q * 3 * n, checkpoints[sg] + q * 3 * n);
-    for (int k = k0; k < k1; ++k) {
-      cuda_detail::launchSymplecticStep(b, dt, s);
-      T* st = seg + static_cast<std::size_t>(k - k0 + 1) * 9 * n;
-      copy(st, b.x);
-      copy(st + 3 * n, b.v);
-      copy(st + 6 * n, b.f);
+    if (!keep_all) {
+      // Recompute the segment from its checkpoint, each step out of place into the next state's slot
+      // (x, v, f, the evaluation at x, the clock): no copies, no clock set from the host.
+      check(cudaMemcpyAsync(seg, checkpoints[sg], 9 * n * sizeof(T), cudaMemcpyDeviceToDevice, s), "device copy");
+      cuda_detail::launchSetClock(seg_time, t0 + k0 * dt, s);
+      cuda_detail::launchEvaluateState(at(0), s);  // F̃, R at the checkpoint (its f is kept)
+      for (int k = k0; k < k1; ++k) cuda_detail::launchSymplecticStepInto(at(k - k0), at(k - k0 + 1), dt, s);
+      check(cudaGetLastError(), "kernel launch");
+      checkStatus(I, "the recomputed segment from step " + std::to_string(k0));
+      res.peak_states = std::max(res.peak_states, checkpoints.size() + static_cast<std::size_t>(k1 - k0 + 1));
     }
-    check(cudaGetLastError(), "kernel launch");
-    checkStatus(I, "the recomputed segment from step " + std::to_string(k0));
     for (int k = k1 - 1; k >= k0; --k) {
       const T* st = seg + static_cast<std::size_t>(k - k0) * 9 * n;
-      copy(b.x, st);
-      copy(b.v, st + 3 * n);  // v_k: the friction adjoint's velocity
-      cuda_detail::launchSetClock(b.time, t0 + k * dt, s);
-      cuda_detail::launchEvaluateState(b, s);  // F̃, R at x_k (the forces are st + 6n)
-      cuda_detail::launchAdjointStep(b, st + 6 * n, dt, xb, vb, G, G + n, G + 2 * n, chamber ? G + 3 * n : nullptr,
+      // x_k, v_k (the friction adjoint's velocity), f_k and F̃, R at x_k: all kept by the recomputation
+      const cuda_detail::SoftDeviceBody<T> bk = at(k - k0);
+      cuda_detail::launchAdjointStep(bk, st + 6 * n, dt, xb, vb, G, G + n, G + 2 * n, chamber ? G + 3 * n : nullptr,
                                      work, s);
-      cuda_detail::launchContactAdjoint(b, xb, vb, G, work, s);  // a = work[0, 3n)
+      cuda_detail::launchContactAdjoint(bk, xb, vb, G, work, s);  // a = work[0, 3n)
       check(cudaGetLastError(), "kernel launch");
       // ∂ℓ_k/∂x_k and ∂ℓ_k/∂v_k from the host loss.
       if (!counts(k)) continue;
@@ -210,9 +257,7 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
       cuda_detail::launchAdd(xb, dl, static_cast<int>(3 * n), s);
       cuda_detail::launchAdd(vb, dl + 3 * n, static_cast<int>(3 * n), s);
     }
-    res.peak_states = std::max(res.peak_states, checkpoints.size() + static_cast<std::size_t>(k1 - k0 + 1));
   }
-  b.R = nullptr;
   SoftDesignGradient& g = res.gradient;
   g.mass = scalarsToHost(G, n, s);
   g.mu = scalarsToHost(G + n, n, s);
@@ -222,7 +267,8 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
   toHost(vb, n, s, &g.v0);
   for (std::size_t i = 0; i < n; ++i)
     if (sim->clamped()[i]) g.x0[i].setZero(), g.v0[i].setZero();
-  res.peak_state_bytes = res.peak_states * n * 9 * sizeof(T);
+  // the checkpoints and one segment's states with their evaluations
+  res.peak_state_bytes = (res.peak_states * 9 * n + static_cast<std::size_t>(K + 1) * eval_values) * sizeof(T);
   sim->evaluateAt(x_end, t_end);
   sim->setVelocities(v_end);
   res.backward_s = since(tb);
@@ -238,13 +284,16 @@ SoftRolloutResult runSoftRolloutCuda(SoftBodySimulator* sim, const SoftRolloutOp
   if (!info.available) throw TopoError("CUDA soft rollout", info.reason, "use backend cpu (or auto) on this machine");
   checkOptions(*sim, options);
   {
-    // The body, the checkpoints, one recomputed segment and the adjoint's arrays (55 values a particle).
+    // The body, the checkpoints, one recomputed segment with each state's evaluation (18 values and the
+    // gather's 24-value record a particle) and the adjoint's arrays (46 values a particle).
     const double T = precision == CudaPrecision::Float64 ? 8.0 : 4.0;
     const int N = options.steps;
     const int K =
         options.checkpoint_every > 0 ? options.checkpoint_every : static_cast<int>(std::ceil(std::sqrt(double(N))));
     const double states = std::ceil(double(N) / K) + (with_gradient ? K + 1 : 0);
-    const double bpp = softBodyBytesPerParticle(*sim, T) + T * (9.0 * states + (with_gradient ? 55.0 : 0.0));
+    const double evaluations = with_gradient ? (K + 1) * 42.0 : 0.0;
+    const double bpp =
+        softBodyBytesPerParticle(*sim, T) + T * (9.0 * states + evaluations + (with_gradient ? 46.0 : 0.0));
     requireDeviceMemory(
         "CUDA soft rollout (" + std::to_string(sim->size()) + " particles, " + std::to_string(N) + " steps)",
         bpp * double(sim->size()), bpp);

@@ -133,6 +133,12 @@ void launchEvaluateForces(const SoftDeviceBody<T>& body, void* stream);
 template <class T>
 void launchSymplecticStep(const SoftDeviceBody<T>& body, double dt, void* stream);
 
+/// The same step out of place: from `in`'s x, v, f and clock into `out`'s x, v and clock (clamped
+/// particles copied), then the state and forces at the new x into `out`'s f, F̃, R, M or record (the
+/// adjoint's recomputed segment: each state's evaluation kept for its adjoint step, no copies).
+template <class T>
+void launchSymplecticStepInto(const SoftDeviceBody<T>& in, const SoftDeviceBody<T>& out, double dt, void* stream);
+
 /// The SPH state at x and *time (F̃, M and, with body.R set, R) without the forces.
 template <class T>
 void launchEvaluateState(const SoftDeviceBody<T>& body, void* stream);

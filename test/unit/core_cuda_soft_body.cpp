@@ -421,46 +421,50 @@ TEST(CudaSoftBody, LaneCountsAgree) {
 
 TEST(CudaSoftRollout, GradientOfA100StepRolloutMatchesTheCpuInFloat64) {
   SKIP_WITHOUT_GPU();
-  for (int variant = 0; variant < 2; ++variant) {
-    // 0: StVK, A_pq rotations (Hessian with R held, as on the CPU), h = 1.5; 1: corotated linear with
-    // corrected-gradient rotations (exact rotation derivative), damping, ramped chamber, h = 1.0.
-    auto make = [&] {
-      return variant == 0
-                 ? makeBeam(SphEnergyModel::StVK, SphRotationSource::ShapeMatchingApq, 1.5, false, 0.0)
-                 : makeBeam(SphEnergyModel::CorotatedLinear, SphRotationSource::CorrectedGradient, 1.0, true, 2.0);
-    };
-    Beam cpu = make(), gpu = make();
-    SoftRolloutOptions o;
-    o.dt = 0.5 * cpu.sim->stableTimeStep();
-    o.steps = 100;
-    o.checkpoint_every = 7;  // segments of unequal length
-    const SoftRolloutResult rc = SoftRollout(cpu.sim.get(), o).run(testLoss(cpu.cloud), true);
-    const SoftRolloutResult rg = runSoftRolloutCuda(gpu.sim.get(), o, testLoss(gpu.cloud), true);
-    EXPECT_NEAR(rg.loss, rc.loss, 1e-9 * std::abs(rc.loss)) << variant;
-    const SoftDesignGradient &a = rg.gradient, &c = rc.gradient;
-    const double dm = relDiff(a.mass, c.mass), dmu = relDiff(a.mu, c.mu), dla = relDiff(a.lambda, c.lambda);
-    const double dx0 = maxDiff(a.x0, c.x0) / maxNorm(c.x0), dv0 = maxDiff(a.v0, c.v0) / maxNorm(c.v0);
-    EXPECT_LT(dm, 1e-6) << variant;
-    EXPECT_LT(dmu, 1e-6) << variant;
-    EXPECT_LT(dla, 1e-6) << variant;
-    EXPECT_LT(dx0, 1e-6) << variant;
-    EXPECT_LT(dv0, 1e-6) << variant;
-    double dch = 0.0;
-    if (variant == 1) {
-      dch = relDiff(a.chamber, c.chamber);
-      EXPECT_LT(dch, 1e-6);
+  // every 7: checkpoints and recomputed segments of unequal length; 0 (auto): the 101 states fit, all kept
+  for (const int every : {7, 0})
+    for (int variant = 0; variant < 2; ++variant) {
+      // 0: StVK, A_pq rotations (Hessian with R held, as on the CPU), h = 1.5; 1: corotated linear with
+      // corrected-gradient rotations (exact rotation derivative), damping, ramped chamber, h = 1.0.
+      auto make = [&] {
+        return variant == 0
+                   ? makeBeam(SphEnergyModel::StVK, SphRotationSource::ShapeMatchingApq, 1.5, false, 0.0)
+                   : makeBeam(SphEnergyModel::CorotatedLinear, SphRotationSource::CorrectedGradient, 1.0, true, 2.0);
+      };
+      Beam cpu = make(), gpu = make();
+      SoftRolloutOptions o;
+      o.dt = 0.5 * cpu.sim->stableTimeStep();
+      o.steps = 100;
+      o.checkpoint_every = every;
+      const SoftRolloutResult rc = SoftRollout(cpu.sim.get(), o).run(testLoss(cpu.cloud), true);
+      const SoftRolloutResult rg = runSoftRolloutCuda(gpu.sim.get(), o, testLoss(gpu.cloud), true);
+      EXPECT_NEAR(rg.loss, rc.loss, 1e-9 * std::abs(rc.loss)) << variant;
+      EXPECT_EQ(rg.peak_states, every == 0 ? 101u : 15u + 8u) << "checkpoint every " << every;
+      const SoftDesignGradient &a = rg.gradient, &c = rc.gradient;
+      const double dm = relDiff(a.mass, c.mass), dmu = relDiff(a.mu, c.mu), dla = relDiff(a.lambda, c.lambda);
+      const double dx0 = maxDiff(a.x0, c.x0) / maxNorm(c.x0), dv0 = maxDiff(a.v0, c.v0) / maxNorm(c.v0);
+      EXPECT_LT(dm, 1e-6) << variant;
+      EXPECT_LT(dmu, 1e-6) << variant;
+      EXPECT_LT(dla, 1e-6) << variant;
+      EXPECT_LT(dx0, 1e-6) << variant;
+      EXPECT_LT(dv0, 1e-6) << variant;
+      double dch = 0.0;
+      if (variant == 1) {
+        dch = relDiff(a.chamber, c.chamber);
+        EXPECT_LT(dch, 1e-6);
+      }
+      // The simulator is left at the final state, as SoftRollout leaves it.
+      EXPECT_LT(
+          maxDiff(displacement(gpu.sim->positions(), gpu.cloud.X), displacement(cpu.sim->positions(), cpu.cloud.X)) /
+              maxNorm(displacement(cpu.sim->positions(), cpu.cloud.X)),
+          1e-9);
+      std::printf(
+          "[ parity   ] rollout gradient, checkpoint every %d, variant %d: loss %.2e, mass %.2e, mu %.2e, lambda %.2e, "
+          "chamber %.2e, x0 %.2e, "
+          "v0 %.2e; forward %.3f s / backward %.3f s (CPU %.3f / %.3f s)\n",
+          every, variant, std::abs(rg.loss - rc.loss) / std::abs(rc.loss), dm, dmu, dla, dch, dx0, dv0, rg.forward_s,
+          rg.backward_s, rc.forward_s, rc.backward_s);
     }
-    // The simulator is left at the final state, as SoftRollout leaves it.
-    EXPECT_LT(
-        maxDiff(displacement(gpu.sim->positions(), gpu.cloud.X), displacement(cpu.sim->positions(), cpu.cloud.X)) /
-            maxNorm(displacement(cpu.sim->positions(), cpu.cloud.X)),
-        1e-9);
-    std::printf(
-        "[ parity   ] rollout gradient, variant %d: loss %.2e, mass %.2e, mu %.2e, lambda %.2e, chamber %.2e, x0 %.2e, "
-        "v0 %.2e; forward %.3f s / backward %.3f s (CPU %.3f / %.3f s)\n",
-        variant, std::abs(rg.loss - rc.loss) / std::abs(rc.loss), dm, dmu, dla, dch, dx0, dv0, rg.forward_s,
-        rg.backward_s, rc.forward_s, rc.backward_s);
-  }
 }
 
 TEST(CudaSoftRollout, RefusesWhatIsNotOnTheGpu) {

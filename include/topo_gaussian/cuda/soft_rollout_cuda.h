@@ -4,9 +4,12 @@
 //   forward   v' = v + dt (f(x)/m + g − c v),  x' = x + dt v'        (free particles)
 //   adjoint   w = v̄' + dt x̄',  a = dt w / m,  x̄ = x̄' − H(x) a,  v̄ = (1 − c dt) w,
 //             m̄_i −= a_i·f_i/m_i,  μ̄, λ̄, w̄ −= aᵀ ∂f/∂(μ, λ, w)
-// with checkpoints every K steps (K = ⌈√steps⌉ by default) kept in device memory and each segment
-// recomputed from its checkpoint (states and forces of one segment on the device), so the device
-// holds steps/K + K + 1 states. H a is the force gather applied to (a, dF̃(a), dM(a)) (soft_body_cuda.h).
+// Every state is kept in device memory when they fit in half of its free memory and
+// checkpoint_every ≤ 0 (the default): the backward then recomputes nothing. Otherwise checkpoints every
+// K steps (K = checkpoint_every, or ⌈√steps⌉) and each segment recomputed from its checkpoint, so the
+// device holds steps/K + K + 1 states. A stored state is x, v, f and the evaluation at x that its
+// adjoint step reads (F̃, R, the gather's record): 42 + 9 values a particle; each step of a segment
+// runs out of place into the next state's slot (no copies, the clock on the device). H a is the force gather applied to (a, dF̃(a), dM(a)) (soft_body_cuda.h).
 // The loss is the same host callback as SoftRollout's: each state is copied to the host for it (2 × 3N
 // values a step, forward and backward).
 //
