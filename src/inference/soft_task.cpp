@@ -117,9 +117,6 @@ SoftTask::SoftTask(const TaskConfig& c, const VolumeCloud& cloud)
   lambda_interp_.validate("Lame lambda (youngs_modulus, poisson_ratio)");
   sim_options_.gravity = geometry_.gravity;
   sim_options_.damping = c.number("damping_per_s");
-  // One design after another of this body: an earlier design's factor preconditions the next until a
-  // new one costs less than the extra iterations (rest_factor_reuse.h).
-  sim_options_.rest_factor_reuse = std::make_shared<RestFactorReuse>();
 }
 
 std::shared_ptr<const ContactEmbedding> SoftTask::embedContactSamples(const VolumeCloud& cloud) {
@@ -188,8 +185,14 @@ void SoftTask::usePreconditionerOnGpu(bool with_contact) {
     sim_options_.cholesky_external = [inverse_after] {
       return makeDenseCholeskyCuda(0.0, DenseCholeskyApply::Triangular, inverse_after);
     };
+    // One design after another of this body: an earlier design's GPU factor preconditions the next
+    // until a new one costs less than the extra iterations (rest_factor_reuse.h). On the GPU a factor
+    // costs ~400-800 applications (0.6-1.2 s against 1.4-4.5 ms): the finger inference 21-22 s instead
+    // of 34 s. Not on the host: there an application costs more against a factor (CHOLMOD on 2 cores:
+    // the same inference 628 s with it, 543 s without).
+    sim_options_.rest_factor_reuse = std::make_shared<RestFactorReuse>();
     said << "the rest stiffness's Cholesky factor on the GPU (dense, " << unknowns << " unknowns, "
-         << numberText(denseCholeskyBytes(unknowns) / 1e9, 3) << " GB)";
+         << numberText(denseCholeskyBytes(unknowns) / 1e9, 3) << " GB, kept from one design to the next while it pays)";
   } else {
     notes_.push_back("backend auto: the rest stiffness's Cholesky factor on the host, not the GPU: " + refused);
     said << "the rest stiffness's Cholesky factor on the host (" << refused << ")";
