@@ -157,6 +157,7 @@ class DenseCholeskyCuda : public CholeskySolver {
     release();  // an earlier factor's memory is not counted against this one
     if (inverse_after_ > 0) apply_ = DenseCholeskyApply::Triangular;
     applications_ = 0;
+    extra_seconds_ = 0.0;
     const CudaDeviceInfo& dev = cudaDeviceInfo();
     if (!dev.available)
       throw TopoError("GPU dense Cholesky", "no CUDA device: " + dev.reason,
@@ -217,7 +218,10 @@ class DenseCholeskyCuda : public CholeskySolver {
       throw TopoError("GPU dense Cholesky", "cusolverDnXpotrf rejected its argument " + std::to_string(-info),
                       "report this: the matrix of " + std::to_string(n_) + " unknowns was passed wrongly");
     if (info > 0) return false;  // not positive definite (leading minor `info`): the caller refuses it
-    if (apply_ != DenseCholeskyApply::Triangular) invert(cs, &work);
+    if (apply_ != DenseCholeskyApply::Triangular) {
+      prepareInverse(cs, &work);
+      invertInPlace(cs, work, apply_);
+    }
     if (!pinned_)
       check(cudaMallocHost(&pinned_, sizeof(double) * static_cast<std::size_t>(n_)), "cudaMallocHost", kInput);
     if (!rhs_.ptr) rhs_.allocate(sizeof(double) * static_cast<std::size_t>(n_), kInput);
@@ -238,34 +242,56 @@ class DenseCholeskyCuda : public CholeskySolver {
 
   /// The triangular solves' factor inverted in place, the inverse applied from now on (inverse_after).
   void takeTheInverse() {
-    if (n_ > 46340 || !cusolver().potri || !cusolver().potriBufferSize || !cublasMv().error.empty()) {
-      inverse_after_ = 0;  // the triangular solves go on
+    const auto t0 = std::chrono::steady_clock::now();
+    cuda_detail::DeviceBuffer work;
+    try {
+      prepareInverse(cusolver(), &work);  // nothing is changed yet: on failure the triangular solves go on
+    } catch (const TopoError&) {
+      inverse_after_ = 0;
       return;
     }
+    try {
+      invertInPlace(cusolver(), work, DenseCholeskyApply::InverseGemv);
+    } catch (...) {
+      factored_ = false;  // the factor is overwritten: no further solve with it
+      throw;
+    }
     apply_ = DenseCholeskyApply::InverseGemv;
-    cuda_detail::DeviceBuffer work;
-    invert(cusolver(), &work);
+    extra_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     nameFactor();
   }
 
-  /// A⁻¹ from the factor (potri: its lower triangle), the upper mirrored for a general product.
-  void invert(const Cusolver& cs, cuda_detail::DeviceBuffer* work) {
+  /// What the explicit inverse needs before the factor is overwritten: potri and cuBLAS, at most 46 340
+  /// unknowns, the cuBLAS handle and potri's workspace. Throws TopoError with the reason.
+  void prepareInverse(const Cusolver& cs, cuda_detail::DeviceBuffer* work) {
     if (!cs.potri || !cs.potriBufferSize || !cublasMv().error.empty())
       throw TopoError("GPU dense Cholesky", "this CUDA lacks cusolverDnDpotri or cuBLAS: " + cublasMv().error,
                       "use the triangular solves (DenseCholeskyApply::Triangular)");
     if (n_ > 46340)
       throw TopoError("GPU dense Cholesky", "the explicit inverse takes at most 46340 unknowns (32-bit potri)",
                       "use the triangular solves (DenseCholeskyApply::Triangular)");
+    if (!blas_) {
+      if (cublasMv().create(&blas_) != CUBLAS_STATUS_SUCCESS)
+        throw TopoError("GPU dense Cholesky", "cublasCreate failed", "check the GPU's free memory");
+      if (cublasMv().setStream(blas_, stream_) != CUBLAS_STATUS_SUCCESS)
+        throw TopoError("GPU dense Cholesky", "cublasSetStream failed", "check the GPU's free memory");
+    }
     const int n = static_cast<int>(n_);
     int lwork = 0;
     checkSolver(cs.potriBufferSize(handle_, CUBLAS_FILL_MODE_LOWER, n, static_cast<double*>(A_.ptr), n, &lwork),
                 "cusolverDnDpotri_bufferSize");
-    if (work->bytes < sizeof(double) * static_cast<std::size_t>(lwork))
-      work->allocate(sizeof(double) * static_cast<std::size_t>(std::max(lwork, 1)), kInput);
+    lwork_ = std::max(lwork, 1);
+    if (work->bytes < sizeof(double) * static_cast<std::size_t>(lwork_))
+      work->allocate(sizeof(double) * static_cast<std::size_t>(lwork_), kInput);
+  }
+
+  /// A⁻¹ from the factor in place (potri: its lower triangle), the upper mirrored for InverseGemv.
+  void invertInPlace(const Cusolver& cs, const cuda_detail::DeviceBuffer& work, DenseCholeskyApply mode) {
+    const int n = static_cast<int>(n_);
     checkSolver(cs.potri(handle_, CUBLAS_FILL_MODE_LOWER, n, static_cast<double*>(A_.ptr), n,
-                         static_cast<double*>(work->ptr), lwork, static_cast<int*>(info_.ptr)),
+                         static_cast<double*>(work.ptr), lwork_, static_cast<int*>(info_.ptr)),
                 "cusolverDnDpotri");
-    if (apply_ == DenseCholeskyApply::InverseGemv) {
+    if (mode == DenseCholeskyApply::InverseGemv) {
       cuda_detail::launchMirrorLower(n_, static_cast<double*>(A_.ptr), stream_);
       check(cudaGetLastError(), "mirror kernel", kInput);
     }
@@ -275,12 +301,6 @@ class DenseCholeskyCuda : public CholeskySolver {
     if (info != 0)
       throw TopoError("GPU dense Cholesky", "the inverse failed (potri info " + std::to_string(info) + ")",
                       "use the triangular solves (DenseCholeskyApply::Triangular)");
-    if (!blas_) {
-      if (cublasMv().create(&blas_) != CUBLAS_STATUS_SUCCESS)
-        throw TopoError("GPU dense Cholesky", "cublasCreate failed", "check the GPU's free memory");
-      if (cublasMv().setStream(blas_, stream_) != CUBLAS_STATUS_SUCCESS)
-        throw TopoError("GPU dense Cholesky", "cublasSetStream failed", "check the GPU's free memory");
-    }
   }
 
   /// The device and pinned memory of an earlier factorisation.
@@ -334,11 +354,14 @@ class DenseCholeskyCuda : public CholeskySolver {
 
   std::string name() const override { return name_; }
   double bytes() const override { return static_cast<double>(A_.bytes); }
+  double extraSeconds() const override { return extra_seconds_; }
 
  private:
   double max_bytes_ = 0.0;
   DenseCholeskyApply apply_ = DenseCholeskyApply::Triangular;
   long inverse_after_ = 0;
+  int lwork_ = 1;
+  double extra_seconds_ = 0.0;
   mutable long applications_ = 0;
   cublasHandle_t blas_ = nullptr;
   long long n_ = 0;

@@ -110,10 +110,9 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
   auto copy = [&](T* dst, const T* src) {
     check(cudaMemcpyAsync(dst, src, bytes3, cudaMemcpyDeviceToDevice, s), "device copy");
   };
-  // A stored state: x, v, f (9n values), its evaluation (F̃, R and the gather's record or M: what the
-  // adjoint step reads at x_k) and its clock.
-  const std::size_t aux = b.L ? static_cast<std::size_t>(cuda_detail::kRecord) * n : 9 * n;
-  const std::size_t eval_values = 18 * n + aux;
+  // A stored state: x, v, f (9n values), the evaluation its adjoint step reads at x_k (F̃, R: 18n; the
+  // gather's record or M is only the step's own scratch, in the body's buffers) and its clock.
+  const std::size_t eval_values = 18 * n;
   const double state_bytes = static_cast<double>((9 * n + eval_values) * sizeof(T) + sizeof(double));
   // With checkpoint_every ≤ 0 every state is kept when they fit in half of the free memory (then the
   // backward recomputes nothing); else checkpoints every K = ⌈√N⌉ steps (or checkpoint_every) and
@@ -127,7 +126,7 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
       cudaGetLastError();
   }
   const int K = keep_all                   ? N
-                : opt.checkpoint_every > 0 ? opt.checkpoint_every
+                : opt.checkpoint_every > 0 ? std::min(opt.checkpoint_every, N)
                                            : static_cast<int>(std::ceil(std::sqrt(double(N))));
   // The segment's states (one segment of K steps, or all N with keep_all).
   T* seg = nullptr;
@@ -147,25 +146,26 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
     T* e = seg_eval + static_cast<std::size_t>(q) * eval_values;
     bq.Ft = e;
     bq.R = e + 9 * n;
-    if (b.L)
-      bq.rec = e + 18 * n;
-    else
-      bq.M = e + 18 * n;
     bq.time = seg_time + q;
     return bq;
   };
 
   SoftRolloutResult res;
   auto tf = std::chrono::steady_clock::now();
-  // Checkpoints (x, v, f) in device memory, one allocation for all (9n values each).
+  // Checkpoints (x, v, f) in device memory, one allocation for all (9n values each), and their clocks
+  // (the recomputation continues the forward's clock, not t0 + k dt from the host).
   std::vector<T*> checkpoints;
-  T* checkpoint_store =
-      with_gradient && !keep_all ? I.allocate<T>(static_cast<std::size_t>((N + K - 1) / K) * 9 * n) : nullptr;
+  const std::size_t checkpoint_count = static_cast<std::size_t>((N + K - 1) / K);
+  T* checkpoint_store = with_gradient && !keep_all ? I.allocate<T>(checkpoint_count * 9 * n) : nullptr;
+  double* checkpoint_time = checkpoint_store ? I.allocate<double>(checkpoint_count) : nullptr;
+  auto copyClock = [&](double* dst, const double* src) {
+    check(cudaMemcpyAsync(dst, src, sizeof(double), cudaMemcpyDeviceToDevice, s), "device copy");
+  };
   if (keep_all) {  // state 0: the body's x, v, f, its evaluation and clock
     copy(seg, b.x);
     copy(seg + 3 * n, b.v);
     copy(seg + 6 * n, b.f);
-    cuda_detail::launchSetClock(seg_time, t0, s);
+    copyClock(seg_time, b.time);
     cuda_detail::launchEvaluateState(at(0), s);
   }
   auto counts = [&](int k) { return !opt.loss_at || opt.loss_at(k); };
@@ -181,6 +181,7 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
       copy(c, b.x);
       copy(c + 3 * n, b.v);
       copy(c + 6 * n, b.f);
+      copyClock(checkpoint_time + checkpoints.size(), b.time);
       checkpoints.push_back(c);
     }
     if (keep_all)
@@ -197,7 +198,7 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
   }
   res.forward_s = since(tf);
   res.peak_states = keep_all ? static_cast<std::size_t>(N + 1) : checkpoints.size();
-  res.peak_state_bytes = checkpoints.size() * n * 6 * sizeof(double);
+  res.peak_state_bytes = res.peak_states * 9 * n * sizeof(T);
   const Vec3s x_end = x, v_end = v;
   const double t_end = t0 + N * dt;
   if (!with_gradient) {
@@ -229,7 +230,7 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
       // Recompute the segment from its checkpoint, each step out of place into the next state's slot
       // (x, v, f, the evaluation at x, the clock): no copies, no clock set from the host.
       check(cudaMemcpyAsync(seg, checkpoints[sg], 9 * n * sizeof(T), cudaMemcpyDeviceToDevice, s), "device copy");
-      cuda_detail::launchSetClock(seg_time, t0 + k0 * dt, s);
+      copyClock(seg_time, checkpoint_time + sg);
       cuda_detail::launchEvaluateState(at(0), s);  // F̃, R at the checkpoint (its f is kept)
       for (int k = k0; k < k1; ++k) cuda_detail::launchSymplecticStepInto(at(k - k0), at(k - k0 + 1), dt, s);
       check(cudaGetLastError(), "kernel launch");
@@ -284,14 +285,14 @@ SoftRolloutResult runSoftRolloutCuda(SoftBodySimulator* sim, const SoftRolloutOp
   if (!info.available) throw TopoError("CUDA soft rollout", info.reason, "use backend cpu (or auto) on this machine");
   checkOptions(*sim, options);
   {
-    // The body, the checkpoints, one recomputed segment with each state's evaluation (18 values and the
-    // gather's 24-value record a particle) and the adjoint's arrays (46 values a particle).
+    // The body, the checkpoints, one recomputed segment with each state's evaluation (F̃, R: 18 values a
+    // particle) and the adjoint's arrays (46 values a particle).
     const double T = precision == CudaPrecision::Float64 ? 8.0 : 4.0;
     const int N = options.steps;
-    const int K =
-        options.checkpoint_every > 0 ? options.checkpoint_every : static_cast<int>(std::ceil(std::sqrt(double(N))));
+    const int K = options.checkpoint_every > 0 ? std::min(options.checkpoint_every, N)
+                                               : static_cast<int>(std::ceil(std::sqrt(double(N))));
     const double states = std::ceil(double(N) / K) + (with_gradient ? K + 1 : 0);
-    const double evaluations = with_gradient ? (K + 1) * 42.0 : 0.0;
+    const double evaluations = with_gradient ? (K + 1) * 18.0 : 0.0;
     const double bpp =
         softBodyBytesPerParticle(*sim, T) + T * (9.0 * states + evaluations + (with_gradient ? 46.0 : 0.0));
     requireDeviceMemory(

@@ -119,6 +119,10 @@ SoftTask::SoftTask(const TaskConfig& c, const VolumeCloud& cloud)
   sim_options_.damping = c.number("damping_per_s");
 }
 
+SoftTask::~SoftTask() {
+  if (sim_options_.rest_factor_reuse) sim_options_.rest_factor_reuse->clear();
+}
+
 std::shared_ptr<const ContactEmbedding> SoftTask::embedContactSamples(const VolumeCloud& cloud) {
   if (cloud.contact.empty()) {
     std::size_t n = 0;
@@ -187,10 +191,11 @@ void SoftTask::usePreconditionerOnGpu(bool with_contact) {
     };
     // One design after another of this body: an earlier design's GPU factor preconditions the next
     // until a new one costs less than the extra iterations (rest_factor_reuse.h). On the GPU a factor
-    // costs ~400-800 applications (0.6-1.2 s against 1.4-4.5 ms): the finger inference 21-22 s instead
+    // costs ~400-800 applications (0.6-1.2 s against 1.4-4.5 ms): the finger inference 21-23 s instead
     // of 34 s. Not on the host: there an application costs more against a factor (CHOLMOD on 2 cores:
-    // the same inference 628 s with it, 543 s without).
-    sim_options_.rest_factor_reuse = std::make_shared<RestFactorReuse>();
+    // the same inference 628 s with it, 543 s without). One kept factor for all tasks of the process:
+    // no more GPU memory held than without keeping it.
+    sim_options_.rest_factor_reuse = RestFactorReuse::gpuShared();
     said << "the rest stiffness's Cholesky factor on the GPU (dense, " << unknowns << " unknowns, "
          << numberText(denseCholeskyBytes(unknowns) / 1e9, 3) << " GB, kept from one design to the next while it pays)";
   } else {

@@ -16,6 +16,10 @@
 namespace topo_gaussian::inference {
 
 class SoftTask : public Task {
+ public:
+  /// Frees the GPU factor kept for the next design (RestFactorReuse::gpuShared()), if any.
+  ~SoftTask() override;
+
  protected:
   SoftTask(const TaskConfig& config, const VolumeCloud& cloud);
 

@@ -12,12 +12,22 @@ bool RestFactorReuse::refactorise(long first_use, long last_use, double seconds_
   return static_cast<double>(last_use - first_use) * seconds_per_application > factor_seconds;
 }
 
+std::shared_ptr<RestFactorReuse> RestFactorReuse::gpuShared() {
+  static const std::shared_ptr<RestFactorReuse> shared = std::make_shared<RestFactorReuse>();
+  return shared;
+}
+
 std::shared_ptr<const RestStiffnessPreconditioner> RestFactorReuse::find(std::uint64_t user, const CorotatedSph& sph,
                                                                          const std::vector<std::uint8_t>& fixed,
                                                                          double inertia) {
   std::lock_guard<std::mutex> lock(m_);
   refusal_.clear();
   if (!factor_) return nullptr;
+  if (factor_->failed()) {
+    refusal_ = "its application failed";
+    factor_.reset();
+    return nullptr;
+  }
   if (inertia != inertia_ || sph.smoothingLength() != h_ || fixed != fixed_ || sph.restPositions() != X_) {
     refusal_ = "another body, clamp or inertia";
     factor_.reset();
@@ -29,20 +39,24 @@ std::shared_ptr<const RestStiffnessPreconditioner> RestFactorReuse::find(std::ui
     return nullptr;
   }
   const long now = factor_->applications();
+  const double now_s = factor_->applySeconds();
   const long last = now - applications_at_use_;
   if (first_use_ < 0) first_use_ = last;
-  const double per_application = now > 0 ? factor_->applySeconds() / static_cast<double>(now) : 0.0;
-  if (uses_ > 1 && refactorise(first_use_, last, per_application, factor_->factorSeconds())) {
+  const double per_application = last > 0 ? (now_s - seconds_at_use_) / static_cast<double>(last) : 0.0;
+  const double new_factor =
+      factor_seconds_ >= 0.0 ? factor_seconds_ : factor_->factorSeconds() + factor_->extraSeconds();
+  if (uses_ > 1 && refactorise(first_use_, last, per_application, new_factor)) {
     std::ostringstream s;
     s << "its last use took " << last << " applications against " << first_use_ << " in its first, "
       << numberText(static_cast<double>(last - first_use_) * per_application, 3) << " s more than a new factor's "
-      << numberText(factor_->factorSeconds(), 3) << " s";
+      << numberText(new_factor, 3) << " s";
     refusal_ = s.str();
     factor_.reset();  // its memory back before the next factor is made
     return nullptr;
   }
   user_ = user;
   applications_at_use_ = now;
+  seconds_at_use_ = now_s;
   ++uses_;
   ++counts_.reuses;
   return factor_;
@@ -50,17 +64,26 @@ std::shared_ptr<const RestStiffnessPreconditioner> RestFactorReuse::find(std::ui
 
 void RestFactorReuse::store(std::uint64_t user, std::shared_ptr<const RestStiffnessPreconditioner> factor,
                             const CorotatedSph& sph, const std::vector<std::uint8_t>& fixed, double inertia) {
+  std::vector<Eigen::Vector3d> X = sph.restPositions();  // copied before anything is replaced
+  std::vector<std::uint8_t> mask = fixed;
   std::lock_guard<std::mutex> lock(m_);
+  X_.swap(X);
+  fixed_.swap(mask);
   factor_ = std::move(factor);
-  X_ = sph.restPositions();
   h_ = sph.smoothingLength();
-  fixed_ = fixed;
   inertia_ = inertia;
   user_ = user;
   applications_at_use_ = factor_ ? factor_->applications() : 0;
+  seconds_at_use_ = factor_ ? factor_->applySeconds() : 0.0;
   first_use_ = -1;
   uses_ = 1;
   ++counts_.factors;
+}
+
+void RestFactorReuse::clear() {
+  std::lock_guard<std::mutex> lock(m_);
+  factor_.reset();
+  user_ = 0;
 }
 
 RestFactorReuse::Counts RestFactorReuse::counts() const {

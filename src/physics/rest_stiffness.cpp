@@ -357,10 +357,15 @@ double availableMemoryBytes() {
 
 void RestStiffnessPreconditioner::apply(const Eigen::VectorXd& r, Eigen::VectorXd* z) const {
   const auto t0 = std::chrono::steady_clock::now();
-  if (external_)
-    external_->solve(r, z);
-  else
-    *z = factor_->solve(r);
+  try {
+    if (external_)
+      external_->solve(r, z);
+    else
+      *z = factor_->solve(r);
+  } catch (...) {
+    failed_ = true;
+    throw;
+  }
   ++applications_;
   apply_ns_ += std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t0).count();
 }

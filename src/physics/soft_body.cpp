@@ -328,7 +328,9 @@ LinearOperator SoftBodySimulator::systemPreconditioner(double inertia) const {
       if (!rest_factor_) {
         rest_factor_ = std::make_shared<const RestStiffnessPreconditioner>(
             sph_, shift, clamped_, max_bytes, opt_.cholesky_external, opt_.cholesky_external_required);
-        if (opt_.rest_factor_reuse) opt_.rest_factor_reuse->store(serial_, rest_factor_, sph_, clamped_, inertia);
+        // kept for the next design unless it is the host's fallback for a refused external factor
+        if (opt_.rest_factor_reuse && rest_factor_->externalNote().empty())
+          opt_.rest_factor_reuse->store(serial_, rest_factor_, sph_, clamped_, inertia);
       }
       if (!rest_factor_->externalNote().empty())
         preconditioner_note_ =

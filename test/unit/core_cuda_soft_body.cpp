@@ -372,27 +372,43 @@ TEST(CudaSoftBody, ContactMatchesTheCpuInFloat64) {
   }
 }
 
+namespace {
+/// The rollout with its gradient on the CPU and on the GPU from the same state (dt half the stable step).
+void runBoth(SoftBodySimulator* cpu, SoftBodySimulator* gpu, const SoftStepLoss& loss_cpu, const SoftStepLoss& loss_gpu,
+             int steps, int checkpoint_every, SoftRolloutResult* rc, SoftRolloutResult* rg) {
+  SoftRolloutOptions o;
+  o.dt = 0.5 * cpu->stableTimeStep();
+  o.steps = steps;
+  o.checkpoint_every = checkpoint_every;
+  *rc = SoftRollout(cpu, o).run(loss_cpu, true);
+  *rg = runSoftRolloutCuda(gpu, o, loss_gpu, true);
+}
+}  // namespace
+
 TEST(CudaSoftRollout, GradientWithContactMatchesTheCpuInFloat64) {
   SKIP_WITHOUT_GPU();
-  for (bool embedded : {false, true}) {
-    Block cpu = makeBlock(embedded), gpu = makeBlock(embedded);
-    SoftRolloutOptions o;
-    o.dt = 0.5 * cpu.sim->stableTimeStep();
-    o.steps = 150;
-    const SoftRolloutResult rc = SoftRollout(cpu.sim.get(), o).run(testLoss(cpu.cloud), true);
-    const SoftRolloutResult rg = runSoftRolloutCuda(gpu.sim.get(), o, testLoss(gpu.cloud), true);
-    const SoftDesignGradient &a = rg.gradient, &c = rc.gradient;
-    const double dm = relDiff(a.mass, c.mass), dmu = relDiff(a.mu, c.mu), dla = relDiff(a.lambda, c.lambda);
-    const double dx0 = maxDiff(a.x0, c.x0) / maxNorm(c.x0), dv0 = maxDiff(a.v0, c.v0) / maxNorm(c.v0);
-    EXPECT_NEAR(rg.loss, rc.loss, 1e-9 * std::abs(rc.loss));
-    EXPECT_LT(dm, 1e-6);
-    EXPECT_LT(dmu, 1e-6);
-    EXPECT_LT(dla, 1e-6);
-    EXPECT_LT(dx0, 1e-6);
-    EXPECT_LT(dv0, 1e-6);
-    std::printf("[ parity   ] rollout gradient with contact on %s: mass %.2e mu %.2e lambda %.2e x0 %.2e v0 %.2e\n",
-                embedded ? "embedded samples" : "particles", dm, dmu, dla, dx0, dv0);
-  }
+  // every 0 (auto): the 151 states kept; 7: checkpoints and segments recomputed through the contact
+  for (const int every : {0, 7})
+    for (bool embedded : {false, true}) {
+      Block cpu = makeBlock(embedded), gpu = makeBlock(embedded);
+      SoftRolloutResult rc, rg;
+      runBoth(cpu.sim.get(), gpu.sim.get(), testLoss(cpu.cloud), testLoss(gpu.cloud), 150, every, &rc, &rg);
+      const SoftDesignGradient &a = rg.gradient, &c = rc.gradient;
+      const double dm = relDiff(a.mass, c.mass), dmu = relDiff(a.mu, c.mu), dla = relDiff(a.lambda, c.lambda);
+      const double dx0 = maxDiff(a.x0, c.x0) / maxNorm(c.x0), dv0 = maxDiff(a.v0, c.v0) / maxNorm(c.v0);
+      EXPECT_NEAR(rg.loss, rc.loss, 1e-9 * std::abs(rc.loss));
+      EXPECT_LT(dm, 1e-6);
+      EXPECT_LT(dmu, 1e-6);
+      EXPECT_LT(dla, 1e-6);
+      EXPECT_LT(dx0, 1e-6);
+      EXPECT_LT(dv0, 1e-6);
+      EXPECT_EQ(rg.peak_states, every == 0 ? 151u : 22u + 8u) << "checkpoint every " << every;
+      std::printf(
+          "[ parity   ] rollout gradient with contact on %s, checkpoint every %d: mass %.2e mu %.2e lambda %.2e x0 "
+          "%.2e "
+          "v0 %.2e\n",
+          embedded ? "embedded samples" : "particles", every, dm, dmu, dla, dx0, dv0);
+    }
 }
 
 TEST(CudaSoftBody, LaneCountsAgree) {
@@ -432,12 +448,8 @@ TEST(CudaSoftRollout, GradientOfA100StepRolloutMatchesTheCpuInFloat64) {
                    : makeBeam(SphEnergyModel::CorotatedLinear, SphRotationSource::CorrectedGradient, 1.0, true, 2.0);
       };
       Beam cpu = make(), gpu = make();
-      SoftRolloutOptions o;
-      o.dt = 0.5 * cpu.sim->stableTimeStep();
-      o.steps = 100;
-      o.checkpoint_every = every;
-      const SoftRolloutResult rc = SoftRollout(cpu.sim.get(), o).run(testLoss(cpu.cloud), true);
-      const SoftRolloutResult rg = runSoftRolloutCuda(gpu.sim.get(), o, testLoss(gpu.cloud), true);
+      SoftRolloutResult rc, rg;
+      runBoth(cpu.sim.get(), gpu.sim.get(), testLoss(cpu.cloud), testLoss(gpu.cloud), 100, every, &rc, &rg);
       EXPECT_NEAR(rg.loss, rc.loss, 1e-9 * std::abs(rc.loss)) << variant;
       EXPECT_EQ(rg.peak_states, every == 0 ? 101u : 15u + 8u) << "checkpoint every " << every;
       const SoftDesignGradient &a = rg.gradient, &c = rc.gradient;

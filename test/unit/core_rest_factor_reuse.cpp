@@ -1,7 +1,9 @@
 // The rest stiffness's factor kept from one design to the next (rest_factor_reuse.h): a next design
 // solved with the earlier design's factor reaches the equilibrium a fresh factor gives (to Newton's
 // tolerance); another clamp or inertia, or a factor a live simulator holds, gets its own; the rule
-// that renews a factor weighs the extra applications against a new factor's cost.
+// that renews a factor weighs the extra applications against a new factor's cost (also through
+// find()); a factor whose application failed is dropped, and the host's fallback for a refused
+// external factor is not kept.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -9,6 +11,7 @@
 
 #include "test_clouds.h"
 #include "test_soft_bodies.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/physics/rest_factor_reuse.h"
 #include "topo_gaussian/physics/soft_body.h"
 
@@ -21,6 +24,24 @@ std::unique_ptr<SoftBodySimulator> makeDesign(double chamber_young, int chamber_
                                               int clamp_cells = 1) {
   return topo_test::pneumaticCantilever(12, chamber_young, chamber_cells, so, clamp_cells);
 }
+
+/// An external factor that refuses to factorise (the GPU without memory) or to solve (a device error).
+class FailingSolver : public CholeskySolver {
+ public:
+  explicit FailingSolver(bool at_factorize) : at_factorize_(at_factorize) {}
+  bool factorize(const Eigen::SparseMatrix<double>&) override {
+    if (at_factorize_) throw TopoError("test solver", "no memory", "none");
+    return true;
+  }
+  void solve(const Eigen::VectorXd&, Eigen::VectorXd*) const override {
+    throw TopoError("test solver", "a device error", "none");
+  }
+  std::string name() const override { return "test solver"; }
+  double bytes() const override { return 0.0; }
+
+ private:
+  bool at_factorize_;
+};
 
 double largestDifference(const SoftBodySimulator& a, const SoftBodySimulator& b) {
   double d = 0.0;
@@ -45,7 +66,7 @@ TEST(RestFactorReuse, RenewsAFactorWhenTheExtraApplicationsCostMoreThanANewOne) 
 
 TEST(RestFactorReuse, ANextDesignReachesTheEquilibriumOfAFreshFactor) {
   SoftBodyOptions so;
-  so.rest_factor_reuse = std::make_shared<RestFactorReuse>();
+  so.rest_factor_reuse = std::make_shared<RestFactorReuse>(1e9);  // a new factor "costs" 1e9 s: always kept
   NewtonOptions newton;
   newton.tolerance = 1e-10;
   {
@@ -89,4 +110,54 @@ TEST(RestFactorReuse, AnotherClampOrAFactorStillHeldGetsItsOwn) {
   clamped_more->systemPreconditioner(1e6);  // an implicit step's inertia: its own factor too
   EXPECT_EQ(so.rest_factor_reuse->counts().factors, 4);
   EXPECT_EQ(so.rest_factor_reuse->counts().reuses, 0);
+}
+
+TEST(RestFactorReuse, RenewsThroughFindWhenTheLastUseTookMoreApplications) {
+  SoftBodyOptions so;
+  so.rest_factor_reuse = std::make_shared<RestFactorReuse>(0.0);  // a new factor "costs" nothing
+  Eigen::VectorXd r, z;
+  {
+    auto first = makeDesign(1e5, 8, so);  // its first use: one application
+    r = Eigen::VectorXd::Ones(3 * static_cast<Eigen::Index>(first->size()));
+    first->systemPreconditioner(0.0)(r, &z);
+  }
+  {
+    auto second = makeDesign(1e5, 10, so);  // kept; a static solve: many applications
+    ASSERT_TRUE(second->solveStatic(NewtonOptions(), 2).newton.converged);
+  }
+  EXPECT_EQ(so.rest_factor_reuse->counts().reuses, 1);
+  auto third = makeDesign(1e5, 10, so);
+  third->systemPreconditioner(0.0);
+  const std::string why = so.rest_factor_reuse->lastRefusal();
+  EXPECT_NE(why.find("its last use took"), std::string::npos) << why;
+  EXPECT_NE(why.find("against 1 in its first"), std::string::npos) << why;
+  EXPECT_EQ(so.rest_factor_reuse->counts().factors, 2);
+  third->systemPreconditioner(0.0);  // the same simulator again: the same use, nothing counted
+  EXPECT_EQ(so.rest_factor_reuse->counts().factors, 2);
+  EXPECT_EQ(so.rest_factor_reuse->counts().reuses, 1);
+}
+
+TEST(RestFactorReuse, AFailedFactorIsDroppedAndAHostFallbackIsNotKept) {
+  SoftBodyOptions so;
+  so.rest_factor_reuse = std::make_shared<RestFactorReuse>(1e9);
+  so.cholesky_external = [] { return std::make_unique<FailingSolver>(false); };
+  {
+    auto a = makeDesign(1e5, 8, so);
+    Eigen::VectorXd r = Eigen::VectorXd::Ones(3 * static_cast<Eigen::Index>(a->size())), z;
+    EXPECT_THROW(a->systemPreconditioner(0.0)(r, &z), TopoError);
+  }
+  {
+    auto b = makeDesign(1e5, 9, so);
+    b->systemPreconditioner(0.0);
+    EXPECT_EQ(so.rest_factor_reuse->lastRefusal(), "its application failed");
+    EXPECT_EQ(so.rest_factor_reuse->counts().factors, 2);
+  }
+  // The external factor refused (the GPU's memory): the host's factor, with a note, is not kept.
+  SoftBodyOptions fallback = so;
+  fallback.rest_factor_reuse = std::make_shared<RestFactorReuse>(1e9);
+  fallback.cholesky_external = [] { return std::make_unique<FailingSolver>(true); };
+  auto c = makeDesign(1e5, 8, fallback);
+  c->systemPreconditioner(0.0);
+  EXPECT_NE(c->preconditionerNote().find("on the host, not the GPU"), std::string::npos) << c->preconditionerNote();
+  EXPECT_EQ(fallback.rest_factor_reuse->counts().factors, 0);
 }

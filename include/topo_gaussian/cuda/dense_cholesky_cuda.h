@@ -52,7 +52,8 @@ enum class DenseCholeskyApply { Triangular, InverseSymv, InverseGemv };
 /// throws TopoError with the reason. inverse_after > 0 with the triangular solves: once the factor has
 /// been applied that many times it is inverted in place (potri) and applied as InverseGemv from then
 /// on (a factor kept for many solves: rest_factor_reuse.h); where the inverse cannot be made (above
-/// 46 340 unknowns, no potri or cuBLAS) the triangular solves go on.
+/// 46 340 unknowns, no potri or cuBLAS, no memory for its workspace) the triangular solves go on; a
+/// failure of potri itself (the factor overwritten) makes that solve and every later one throw.
 std::unique_ptr<CholeskySolver> makeDenseCholeskyCuda(double max_bytes = 0.0,
                                                       DenseCholeskyApply apply = DenseCholeskyApply::Triangular,
                                                       long inverse_after = 0);

@@ -8,10 +8,10 @@
 // checkpoint_every ≤ 0 (the default): the backward then recomputes nothing. Otherwise checkpoints every
 // K steps (K = checkpoint_every, or ⌈√steps⌉) and each segment recomputed from its checkpoint, so the
 // device holds steps/K + K + 1 states. A stored state is x, v, f and the evaluation at x that its
-// adjoint step reads (F̃, R, the gather's record): 42 + 9 values a particle; each step of a segment
-// runs out of place into the next state's slot (no copies, the clock on the device). H a is the force gather applied to (a, dF̃(a), dM(a)) (soft_body_cuda.h).
-// The loss is the same host callback as SoftRollout's: each state is copied to the host for it (2 × 3N
-// values a step, forward and backward).
+// adjoint step reads (F̃, R): 27 values a particle, and its clock; each step of a segment runs out of
+// place into the next state's slot (no copies), from its checkpoint's clock. H a is the force gather applied to (a,
+// dF̃(a), dM(a)) (soft_body_cuda.h). The loss is the same host callback as SoftRollout's: each state is copied to the
+// host for it (2 × 3N values a step, forward and backward).
 //
 // Contact and friction (embedded samples or particles) are included: their Hessian k ω n nᵀ and the
 // friction adjoint through the embedding weights, as SoftContact's. Not on the GPU (refused by name):

@@ -15,11 +15,14 @@
 //   refactorise when  (a_last − a_first) · t_a  >  t_f
 //
 // a_first: the applications in the factor's first use (the design it was made for), a_last: in the
-// use just finished, t_a: this factor's mean seconds an application, t_f: its factorisation's seconds.
+// use just finished, t_a: the mean seconds of an application in that last use, t_f: what a new factor
+// costs, its factorisation's seconds and the solver's other one-off work (the GPU's in-place inverse).
 // A factor held by another live simulator is not shared (the solvers are not re-entrant): that
-// simulator keeps it, the new one gets its own.
+// simulator keeps it, the new one gets its own. A factor whose application failed is dropped.
 //
-// Issue 20 §2 (the finger ≤ 30 s end to end): the factor was ~40 % of an evaluation.
+// Issue 20 §2 (the finger ≤ 30 s end to end): the factor was ~40 % of an evaluation. Measured to pay
+// on the GPU only (rest_factor_reuse is set by the soft tasks there; the host keeps a factor per
+// design: README "Preconditioner").
 #pragma once
 
 #include <cstdint>
@@ -34,6 +37,13 @@ namespace topo_gaussian {
 
 class RestFactorReuse {
  public:
+  /// factor_seconds ≥ 0: take t_f as this instead of measuring it (tests: 0 renews at any extra
+  /// application, a large value never).
+  explicit RestFactorReuse(double factor_seconds = -1.0) : factor_seconds_(factor_seconds) {}
+  /// One instance for the process's GPU factors: the soft tasks of one inference (several experiments
+  /// of one body) share its kept factor, and a factor for another body frees it first, so no more GPU
+  /// memory is held than one factor (as without keeping it).
+  static std::shared_ptr<RestFactorReuse> gpuShared();
   /// The kept factor for the simulator `user` (SoftBodySimulator::serial()) of this body (the sph's
   /// rest positions and smoothing length, the fixed mask) and shift value `inertia`, when the rule keeps
   /// it; null when the caller must factorise (and store() what it made). A user that asks again gets
@@ -52,6 +62,8 @@ class RestFactorReuse {
     long reuses = 0;   ///< uses served by a kept factor
   };
   Counts counts() const;
+  /// Drops the kept factor (its memory is freed when no simulator holds it).
+  void clear();
   /// Why the last find() returned null while a factor was kept (empty: it returned one, or none was kept).
   std::string lastRefusal() const;
 
@@ -62,7 +74,9 @@ class RestFactorReuse {
   std::vector<std::uint8_t> fixed_;
   double h_ = 0.0, inertia_ = -1.0;
   std::uint64_t user_ = 0;  ///< the simulator of the current use
+  double factor_seconds_ = -1.0;
   long applications_at_use_ = 0, first_use_ = -1, uses_ = 0;
+  double seconds_at_use_ = 0.0;
   Counts counts_;
   std::string refusal_;
 };

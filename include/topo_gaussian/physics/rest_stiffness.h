@@ -54,6 +54,8 @@ class CholeskySolver {
   virtual std::string name() const = 0;
   /// Memory its factor takes where it runs [bytes].
   virtual double bytes() const = 0;
+  /// Seconds solve() spent on other work than applying the factor (e.g. inverting it in place once).
+  virtual double extraSeconds() const { return 0.0; }
 };
 using CholeskySolverFactory = std::function<std::unique_ptr<CholeskySolver>()>;
 
@@ -84,9 +86,14 @@ class RestStiffnessPreconditioner {
   void apply(const Eigen::VectorXd& r, Eigen::VectorXd* z) const;
   std::size_t nonZeros() const { return nnz_; }
   double factorSeconds() const { return seconds_; }
-  /// How often apply() ran, and its seconds in all (rest_factor_reuse.h weighs them against a new factor).
+  /// How often apply() ran, and its seconds in all without the external solver's other work
+  /// (extraSeconds(): rest_factor_reuse.h weighs them against a new factor).
   long applications() const { return applications_.load(); }
-  double applySeconds() const { return 1e-9 * static_cast<double>(apply_ns_.load()); }
+  double applySeconds() const { return 1e-9 * static_cast<double>(apply_ns_.load()) - extraSeconds(); }
+  /// The external solver's seconds on other work than applications (its in-place inverse); 0 on the host.
+  double extraSeconds() const { return external_ ? external_->extraSeconds() : 0.0; }
+  /// True once an apply() threw: the factor is not to be used again (a kept factor is dropped).
+  bool failed() const { return failed_.load(); }
   /// The factor's numerical values [bytes], as the symbolic analysis predicted them.
   double factorBytes() const { return factor_bytes_; }
   /// Peak memory of assembling K0's lower triangle [bytes], estimated before it is assembled: 21
@@ -120,6 +127,7 @@ class RestStiffnessPreconditioner {
   double factor_bytes_ = 0.0;
   double matrix_bytes_ = 0.0;
   mutable std::atomic<long> applications_{0};
+  mutable std::atomic<bool> failed_{false};
   mutable std::atomic<long long> apply_ns_{0};
 };
 

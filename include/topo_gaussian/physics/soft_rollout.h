@@ -30,8 +30,10 @@ struct SoftRolloutOptions {
   SoftIntegrator integrator = SoftIntegrator::SymplecticEuler;
   double dt = 0.0;  ///< [s]; explicit steps must satisfy dt ≤ stableTimeStep()
   int steps = 0;
-  int checkpoint_every = 0;  ///< K; ≤ 0 = ⌈√steps⌉
-  NewtonOptions newton;      ///< implicit steps
+  /// K; ≤ 0 = ⌈√steps⌉ (on the GPU, runSoftRolloutCuda: every state kept where they fit in half of its
+  /// free memory, else ⌈√steps⌉)
+  int checkpoint_every = 0;
+  NewtonOptions newton;  ///< implicit steps
   double adjoint_cg_tolerance = 1e-11;
   int adjoint_cg_max_iterations = 20000;
   /// The steps k at which the loss may be nonzero (empty: every step). Elsewhere the loss is not
