@@ -377,6 +377,12 @@ class DenseCholeskyCuda : public CholeskySolver {
 
 }  // namespace
 
+std::string denseCholeskyLibraryError() {
+  if (!cusolver().error.empty()) return cusolver().error;
+  cublasMv();  // the inverse's products: loaded now too (it is optional: its absence keeps the triangular solves)
+  return "";
+}
+
 std::unique_ptr<CholeskySolver> makeDenseCholeskyCuda(double max_bytes, DenseCholeskyApply apply, long inverse_after) {
   return std::make_unique<DenseCholeskyCuda>(max_bytes, apply, inverse_after);
 }
@@ -384,6 +390,10 @@ std::unique_ptr<CholeskySolver> makeDenseCholeskyCuda(double max_bytes, DenseCho
 #else  // no CUDA backend in this build
 
 std::string denseCholeskyRefusal(std::size_t, double, double) {
+  return "this build has no CUDA backend (nvcc was not found when it was configured)";
+}
+
+std::string denseCholeskyLibraryError() {
   return "this build has no CUDA backend (nvcc was not found when it was configured)";
 }
 

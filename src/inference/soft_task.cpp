@@ -171,10 +171,16 @@ std::unique_ptr<SoftBodySimulator> SoftTask::simulator(const Materials& m) const
 void SoftTask::usePreconditionerOnGpu(bool with_contact) {
   if (backend_ != ComputeBackend::Cuda) return;
   const std::size_t unknowns = 3 * sph_.size();
-  const std::string refused = denseCholeskyRefusal(unknowns);
-  if (!refused.empty() && backend_requested_ == ComputeBackend::Cuda)
-    throw GpuMemoryError("task parameter backend (cuda), " + name_ + " task", refused,
-                         "use a coarser particle spacing, free the GPU, or backend auto (the factor on the host)");
+  std::string refused = denseCholeskyRefusal(unknowns);
+  const bool memory = !refused.empty();
+  if (!memory) refused = denseCholeskyLibraryError();  // cuSOLVER loaded now, not at the first evaluation
+  if (!refused.empty() && backend_requested_ == ComputeBackend::Cuda) {
+    if (memory)
+      throw GpuMemoryError("task parameter backend (cuda), " + name_ + " task", refused,
+                           "use a coarser particle spacing, free the GPU, or backend auto (the factor on the host)");
+    throw TopoError("task parameter backend (cuda), " + name_ + " task", refused,
+                    "install the CUDA toolkit's cuSOLVER, or use backend auto (the factor on the host) or cpu");
+  }
   sim_options_.cholesky_external_required = backend_requested_ == ComputeBackend::Cuda;
   // The products need ~33 values a particle on the device; a body with contact keeps them on the host
   // (the contact's Hessian is the host's).

@@ -39,6 +39,11 @@ std::size_t denseCholeskyParticlesFitting(double bytes);
 /// it fits.
 std::string denseCholeskyRefusal(std::size_t unknowns, double lower_nonzeros = 0.0, double max_bytes = 0.0);
 
+/// Loads cuSOLVER (and cuBLAS) now, as the first factorisation would: a task calls it when it is built,
+/// so that a missing library is said then and its load time is not the first evaluation's. Empty when
+/// cuSOLVER loads, else why not.
+std::string denseCholeskyLibraryError();
+
 /// How a solve applies the factor: two triangular solves (cusolverDnXpotrs: exact to round-off, but a
 /// solve with one right-hand side is a chain of n/block dependent steps), or the explicit inverse A⁻¹
 /// (cusolverDnDpotri after the factor, about twice the factor's flops once) times r: cuBLAS dsymv on
