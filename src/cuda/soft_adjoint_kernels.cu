@@ -360,26 +360,7 @@ void launchHessianRow(const SoftDeviceBody<T>& b, const T* a, T* dFt, T* dM, T* 
 template <class T>
 void launchHessianRowLanes(const SoftDeviceBody<T>& b, const T* a, T* dFt, T* dM, T* d_mu, T* d_la, T* d_ch,
                            cudaStream_t s) {
-  switch (b.lanes) {
-    case 1:
-      launchHessianRow<T, 1>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
-      break;
-    case 2:
-      launchHessianRow<T, 2>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
-      break;
-    case 4:
-      launchHessianRow<T, 4>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
-      break;
-    case 16:
-      launchHessianRow<T, 16>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
-      break;
-    case 32:
-      launchHessianRow<T, 32>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
-      break;
-    default:
-      launchHessianRow<T, 8>(b, a, dFt, dM, d_mu, d_la, d_ch, s);
-      break;
-  }
+  withLanes(b.lanes, [&](auto L) { launchHessianRow<T, decltype(L)::value>(b, a, dFt, dM, d_mu, d_la, d_ch, s); });
 }
 
 }  // namespace

@@ -442,31 +442,6 @@ void launchGatherOnly(const SoftDeviceBody<T>& b, cudaStream_t s) {
       <<<blocks(static_cast<long long>(b.n) * L), kBlock, 0, s>>>(b, T(0), false, DriftTarget<T>());
 }
 
-/// f(std::integral_constant<int, L>()) for L = lanes (1, 2, 4, 8, 16 or 32; anything else 8).
-template <class F>
-void withLanes(int lanes, F&& f) {
-  switch (lanes) {
-    case 1:
-      f(std::integral_constant<int, 1>());
-      break;
-    case 2:
-      f(std::integral_constant<int, 2>());
-      break;
-    case 4:
-      f(std::integral_constant<int, 4>());
-      break;
-    case 16:
-      f(std::integral_constant<int, 16>());
-      break;
-    case 32:
-      f(std::integral_constant<int, 32>());
-      break;
-    default:
-      f(std::integral_constant<int, 8>());
-      break;
-  }
-}
-
 /// Evaluation, then gather + kick, with b.lanes lanes a particle.
 template <class T>
 void launchForcesLanes(const SoftDeviceBody<T>& b, T h, bool kick, cudaStream_t s,

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <type_traits>
 
 namespace topo_gaussian {
 namespace cuda_detail {
@@ -112,6 +113,31 @@ struct SoftDeviceBody {
   long long* step_alt = nullptr;         // 1
   unsigned long long* status = nullptr;  // kStatusWords
 };
+
+/// f(std::integral_constant<int, L>()) for L = lanes (1, 2, 4, 8, 16 or 32; anything else 8).
+template <class F>
+void withLanes(int lanes, F&& f) {
+  switch (lanes) {
+    case 1:
+      f(std::integral_constant<int, 1>());
+      break;
+    case 2:
+      f(std::integral_constant<int, 2>());
+      break;
+    case 4:
+      f(std::integral_constant<int, 4>());
+      break;
+    case 16:
+      f(std::integral_constant<int, 16>());
+      break;
+    case 32:
+      f(std::integral_constant<int, 32>());
+      break;
+    default:
+      f(std::integral_constant<int, 8>());
+      break;
+  }
+}
 
 /// One leapfrog step (three kernels) on `stream` (a cudaStream_t).
 template <class T>

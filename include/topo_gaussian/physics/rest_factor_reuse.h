@@ -44,7 +44,7 @@ class RestFactorReuse {
   /// of one body) share its kept factor, and a factor for another body frees it first, so no more GPU
   /// memory is held than one factor (as without keeping it).
   static std::shared_ptr<RestFactorReuse> gpuShared();
-  /// The kept factor for the simulator `user` (SoftBodySimulator::serial()) of this body (the sph's
+  /// The kept factor for the simulator `user` (its serial number, unique in the process) of this body (the sph's
   /// rest positions and smoothing length, the fixed mask) and shift value `inertia`, when the rule keeps
   /// it; null when the caller must factorise (and store() what it made). A user that asks again gets
   /// the same factor without a new use being counted.
