@@ -61,7 +61,12 @@
 // their partial derivatives, summed over the points as 3×3 matrices and 3×3×3 moments, and multiplied
 // with the state's derivative parts once per evaluation (RigidSim::addContactDual): same values and
 // derivatives as dual numbers point by point, 2.3× faster on 5000 points and 2.9× on a doll's 0.4 mm
-// samples (RigidSpeed.Tumbler5000Points, `topo simulate --task tumbler`).
+// samples (RigidSpeed.Tumbler5000Points, `topo simulate --task tumbler`). eval, advance and
+// addContactDual are flattened (every Eigen call inlined: GCC left the 10-vector assignments as
+// out-of-line calls, ~30 % of the time) and the 3×9 · 9×10 product is coefficient-based (Eigen sent it
+// to its blocked GEMM): the tumbler's loss + gradient 64.7 → 26.5 ms, the same values up to that
+// product's summation order (`bench_infer tumbler_quadric_2s`, 2 cores; 22.3 ms with -march=native,
+// CMakeLists.txt).
 #include "topo_gaussian/physics/rigid_body.h"
 
 #include <algorithm>
@@ -497,7 +502,7 @@ class RigidSim {
 
   /// Time derivative at s. When update_anchors, first brings the friction anchors up to date
   /// (new contacts anchor where they are, lost contacts are released, slipping anchors follow).
-  Deriv<S> eval(const RigidState<S>& s, const std::vector<int>& cand, bool update_anchors) {
+  __attribute__((flatten)) Deriv<S> eval(const RigidState<S>& s, const std::vector<int>& cand, bool update_anchors) {
     const Mat3<S> R = s.orientation.toRotationMatrix();
     const Vec3<S>& p = s.position;
     const Vec3<S>& v = s.velocity;
@@ -632,8 +637,9 @@ class RigidSim {
   /// one product with the state's derivative parts:
   ///   dx_i = dp + dR u_i − R dc,   dv_i = dv + dω × r_i + ω × dr_i,   dτ_i = −[f_i]× dρ_i + [ρ_i]× df_i
   /// (ρ_i = x_i − reference point). Same values as addContactGeneric; derivatives to rounding.
-  void addContactDual(const Mat3<S>& R, const RigidState<S>& s, const Vec3<S>& ref, const std::vector<int>& cand,
-                      bool update_anchors, Vec3<S>* F_out, Vec3<S>* tau_out) {
+  __attribute__((flatten)) void addContactDual(const Mat3<S>& R, const RigidState<S>& s, const Vec3<S>& ref,
+                                               const std::vector<int>& cand, bool update_anchors, Vec3<S>* F_out,
+                                               Vec3<S>* tau_out) {
     using M3 = Eigen::Matrix3d;
     using V3 = Eigen::Vector3d;
     using D10 = Eigen::Matrix<double, 3, 10>;
@@ -792,7 +798,7 @@ class RigidSim {
     D10 dF = anchor_F, dT = anchor_T;
     D10* out[2] = {&dF, &dT};
     for (int t = 0; t < 2; ++t) {
-      *out[t] += SA[t] * DP + SB[t] * DV - SBr[t] * DW + Sk[t] * dk + Sc[t] * dc + T[t] * DR - SP[t] * RDC;
+      *out[t] += SA[t] * DP + SB[t] * DV - SBr[t] * DW + Sk[t] * dk + Sc[t] * dc + T[t].lazyProduct(DR) - SP[t] * RDC;
     }
     for (int a = 0; a < 3; ++a) {
       (*F_out)(a) += S(Fv(a), Eigen::Matrix<double, 10, 1>(dF.row(a).transpose()));
@@ -800,7 +806,7 @@ class RigidSim {
     }
   }
 
-  RigidState<S> advance(const RigidState<S>& s, const Deriv<S>& d, double h) const {
+  __attribute__((flatten)) RigidState<S> advance(const RigidState<S>& s, const Deriv<S>& d, double h) const {
     RigidState<S> out;
     const S hs(h);
     out.position = s.position + hs * d.dp;
