@@ -11,11 +11,12 @@
 #   for f in *.deb; do dpkg -x "$f" ../root; done && cd .. && rm -rf dl &&
 #   find root -name '*.a' -delete && rm -rf root/usr/share/doc root/usr/share/man && cd .. &&
 #   tar -C .deps -cJf .deps.tar.xz root
-# Usage: bench/gpu/run.sh OUT_DIR [test|bench|neural|static|infer|infer-cpu|lanes|ncu|all]...   (default: all)
+# Usage: bench/gpu/run.sh OUT_DIR [test|bench|neural|static|infer|infer-cpu|rigid|lanes|ncu|all]...   (default: all)
 #   infer: bench_infer's finger (9212 particles) and neural hanging (150k points, 8 x 512) with backend
-#   cuda; infer-cpu: the finger with backend cpu on the same machine (CHOLMOD on its cores).
+#   cuda; infer-cpu: the finger with backend cpu on the same machine (CHOLMOD on its cores); rigid: the
+#   tumbler inference (bench_infer tumbler_quadric_2s, its rigid simulation on one host core), 3 runs.
 set -euo pipefail
-out=${1:?usage: bench/gpu/run.sh OUT_DIR [test|bench|neural|static|infer|infer-cpu|lanes|ncu|all]...}
+out=${1:?usage: bench/gpu/run.sh OUT_DIR [test|bench|neural|static|infer|infer-cpu|rigid|lanes|ncu|all]...}
 shift
 steps=${*:-all}
 root=$(cd "$(dirname "$0")/../.." && pwd)
@@ -55,6 +56,9 @@ if has infer; then
   "$build/bench_infer" --backend cuda finger_quadric 2>"$out/infer_cuda.err" | tee "$out/bench_infer_cuda.jsonl"
   "$build/bench_infer" --backend cuda hanging_neural_8x512 2>>"$out/infer_cuda.err" | tee -a "$out/bench_infer_cuda.jsonl"
   grep -v "warning: spacing" "$out/infer_cuda.err" | tail -5
+fi
+if has rigid; then  # the rigid tumbler inference: its simulation runs on the host's CPU (one core)
+  for k in 1 2 3; do "$build/bench_infer" tumbler_quadric_2s 2>>"$out/rigid.err" | tee -a "$out/bench_infer_rigid.jsonl"; done
 fi
 if [[ " $steps " == *" infer-cpu "* ]]; then
   "$build/bench_infer" --backend cpu finger_quadric 2>"$out/infer_cpu.err" | tee "$out/bench_infer_cpu.jsonl"

@@ -78,7 +78,13 @@ std::string spreadSentence(const DesignSpread& s) {
   };
   const int others = s.tried;
   if (!s.computed) return "The design spread was not explored.";
-  if (s.accepted <= 1) {
+  if (s.accepted <= 1 && !s.best_reached) {
+    // The best misses its targets: that no other design fits as well says nothing about how well fitting
+    // observations would determine the interior.
+    o << "No other design found fits the observations as well as the best (" << others << " of " << s.restarts
+      << " searches from other solid fractions finished); the best misses its targets, so this does not show that "
+         "the observations determine the interior.";
+  } else if (s.accepted <= 1) {
     o << "No other design found fits the observations as well as the best (" << others << " of " << s.restarts
       << " searches from other solid fractions finished): the interior looks determined by these observations, as "
          "far as this search can tell.";
@@ -136,6 +142,7 @@ DesignSpread exploreDesignSpread(const TaskConfig& config, const VolumeCloud& cl
   s.computed = true;
   s.restarts = std::max(0, o.restarts);
   const bool best_reached = allTargetsReached(best);
+  s.best_reached = best_reached;
   s.rule = best_reached ? "every target reached (as by the best design)"
                         : "task loss <= " + numberText(kSpreadLossFactor) +
                               " x the best design's, or every targeted feature within its tolerance of the best "

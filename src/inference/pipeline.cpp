@@ -79,6 +79,13 @@ void exploreSpread(const TaskConfig& config, const VolumeCloud& cloud, const Pro
   }
   *message << " " << res->spread.sentence;
 }
+/// What the design spread says about a local minimum, for the message of a run that misses its targets.
+std::string localMinimumHint(const DesignSpread& spread) {
+  if (!spread.computed)
+    return " (searches from other solid fractions were not run: set restarts=2 or more to look for a better fit)";
+  return " (what the searches from other solid fractions found follows; more restarts, or a start from another "
+         "design, may find a better fit)";
+}
 /// Grey designs: the drawn interior (solid where r ≥ 0.5) against the simulated one (grey r).
 void checkBinarised(const TaskConfig& config, const VolumeCloud& cloud, const InteriorProblem& problem,
                     InferenceResult* res, std::ostringstream* message) {
@@ -230,14 +237,18 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   if (res.targets_reached) {
     head << "All targets reached.";
   } else if (res.optimizer.converged && res.final.experiments.size() > 1) {
-    head << msg.str() << "The optimiser converged, so no single interior of this representation fits all "
-         << res.final.experiments.size() << " experiments together: they may contradict each other (another object, "
-         << "material, hanging point or release), or need more material contrast; the per-experiment losses below "
-         << "show which one disagrees (lower its weight or check its targets).";
+    // A gradient search that stops has found a local minimum, not proved that nothing fits better.
+    head << msg.str() << "The optimiser stopped at a minimum that misses them: either no single interior of this "
+         << "representation fits all " << res.final.experiments.size()
+         << " experiments together (they may contradict each other: another object, material, hanging point or "
+         << "release; or they need more material contrast), or the search is caught in a local minimum"
+         << localMinimumHint(res.spread) << "; the per-experiment losses below show which one disagrees (lower its "
+         << "weight or check its targets).";
   } else if (res.optimizer.converged) {
-    head << msg.str() << "The optimiser converged, so no interior of this representation within the material bounds "
-         << "reaches the target: the value above is the nearest reachable one (check the target, the hanging/support "
-         << "point, or allow more material contrast).";
+    head << msg.str() << "The optimiser stopped at a minimum that misses the target: either no interior of this "
+         << "representation within the material bounds reaches it (check the target, the hanging/support point, or "
+         << "allow more material contrast), or one does and the search is caught in a local minimum"
+         << localMinimumHint(res.spread) << ".";
   } else {
     head << msg.str() << "Not converged: raise max_iterations or try another optimizer/representation.";
   }

@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 #include <cmath>
 
+#include "topo_gaussian/common/block_sum.h"
 #include "topo_gaussian/common/error.h"
 
 namespace topo_gaussian {
@@ -64,21 +65,21 @@ MassMoments computeMassMoments(const std::vector<Eigen::Vector3d>& X, const std:
         "size " + std::to_string(masses.size()) + " differs from " + std::to_string(X.size()) + " positions",
         "give one mass per particle");
   }
-  const long n = static_cast<long>(X.size());
-  double m0 = 0.0;
-  double s[3] = {0, 0, 0};
-  double j[6] = {0, 0, 0, 0, 0, 0};
-#pragma omp parallel for reduction(+ : m0, s[:3], j[:6]) schedule(static)
-  for (long i = 0; i < n; ++i) {
-    const double mi = masses[i];
-    const Eigen::Vector3d& x = X[i];
-    m0 += mi;
-    for (int a = 0; a < 3; ++a) s[a] += mi * x[a];
-    for (int k = 0; k < 6; ++k) j[k] += mi * x[kSymRow[k]] * x[kSymCol[k]];
-  }
+  // Summed in fixed blocks, added in block order: the same bits on any number of threads (block_sum.h).
+  const Vec10 acc =
+      blockSum<Vec10>(static_cast<std::ptrdiff_t>(X.size()), Vec10::Zero(), [&](Vec10* a, std::ptrdiff_t i) {
+        const double mi = masses[i];
+        const Eigen::Vector3d& x = X[i];
+        (*a)[0] += mi;
+        for (int k = 0; k < 3; ++k) (*a)[1 + k] += mi * x[k];
+        for (int k = 0; k < 6; ++k) (*a)[4 + k] += mi * x[kSymRow[k]] * x[kSymCol[k]];
+      });
+  const double m0 = acc[0];
+  double j[6];
+  for (int k = 0; k < 6; ++k) j[k] = acc[4 + k];
   MassMoments m;
   m.m0 = m0;
-  m.m1 = Eigen::Vector3d(s[0], s[1], s[2]);
+  m.m1 = Eigen::Vector3d(acc[1], acc[2], acc[3]);
   for (int k = 0; k < 3; ++k) j[k] += m0 * cell_variance_m2;  // Σ m_i Σ_cell (diagonal)
   for (int k = 0; k < 6; ++k) {
     m.m2(kSymRow[k], kSymCol[k]) = j[k];

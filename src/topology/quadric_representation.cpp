@@ -1,12 +1,9 @@
 #include "topo_gaussian/topology/quadric_representation.h"
 
-#include <Eigen/StdVector>
 #include <cmath>
 #include <vector>
-#ifdef _OPENMP
-#include <omp.h>
-#endif
 
+#include "topo_gaussian/common/block_sum.h"
 #include "topo_gaussian/common/error.h"
 
 namespace topo_gaussian {
@@ -94,43 +91,26 @@ void QuadricRepresentation::fieldBackward(const Eigen::VectorXd& theta, const st
   checkParameters(theta);
   checkFieldGradient(dL_ds);
   // Algebraic: s is linear in θ, dL/dθ = Σ_i dL/ds_i · basis(u_i). Distance field s_d = s / (√q · unit):
-  // ds_d/dθ = (basis/√q − s ∂q/∂θ / (2 q^{3/2})) / unit, ∂q/∂θ = 2 (∂g/∂θ)ᵀ g + 2κ² θ_{A,b}. Per-thread
-  // partial sums, added in thread order so the result does not depend on scheduling.
+  // ds_d/dθ = (basis/√q − s ∂q/∂θ / (2 q^{3/2})) / unit, ∂q/∂θ = 2 (∂g/∂θ)ᵀ g + 2κ² θ_{A,b}. Summed in
+  // fixed blocks added in block order: the same bits on any number of threads (common/block_sum.h).
   using Vec10 = Eigen::Matrix<double, 10, 1>;
-  int threads = 1;
-#ifdef _OPENMP
-  threads = omp_get_max_threads();
-#endif
-  std::vector<Vec10, Eigen::aligned_allocator<Vec10>> partial(threads, Vec10::Zero());
-  const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(n_);
-#pragma omp parallel num_threads(threads) if (n > 8192)
-  {
-    int t = 0;
-#ifdef _OPENMP
-    t = omp_get_thread_num();
-#endif
-    Vec10 local = Vec10::Zero();
-#pragma omp for schedule(static)
-    for (std::ptrdiff_t i = 0; i < n; ++i) {
-      if (distance_unit_ <= 0.0) {
-        local += dL_ds[i] * basis(U_[i]);
-        continue;
-      }
-      const Eigen::Vector3d& u = U_[i];
-      Eigen::Vector3d g;
-      const double q = gradientSquare(theta, u, &g);
-      if (!(q > 0.0) || dL_ds[i] == 0.0) continue;
-      const double x = u.x(), y = u.y(), z = u.z(), sq = std::sqrt(q), s = evaluate(theta, u);
-      Vec10 dq;
-      dq << 4.0 * x * g.x(), 4.0 * y * g.y(), 4.0 * z * g.z(), 4.0 * (y * g.x() + x * g.y()),
-          4.0 * (z * g.x() + x * g.z()), 4.0 * (z * g.y() + y * g.z()), 2.0 * g.x(), 2.0 * g.y(), 2.0 * g.z(), 0.0;
-      dq.head<9>() += 2.0 * kDistanceKappa * kDistanceKappa * theta.head<9>();
-      local += (dL_ds[i] / distance_unit_) * (basis(u) / sq - (s / (2.0 * q * sq)) * dq);
-    }
-    partial[t] = local;
-  }
-  Vec10 total = Vec10::Zero();
-  for (const Vec10& p : partial) total += p;
+  const Vec10 total =
+      blockSum<Vec10>(static_cast<std::ptrdiff_t>(n_), Vec10::Zero(), [&](Vec10* local, std::ptrdiff_t i) {
+        if (distance_unit_ <= 0.0) {
+          *local += dL_ds[i] * basis(U_[i]);
+          return;
+        }
+        const Eigen::Vector3d& u = U_[i];
+        Eigen::Vector3d g;
+        const double q = gradientSquare(theta, u, &g);
+        if (!(q > 0.0) || dL_ds[i] == 0.0) return;
+        const double x = u.x(), y = u.y(), z = u.z(), sq = std::sqrt(q), s = evaluate(theta, u);
+        Vec10 dq;
+        dq << 4.0 * x * g.x(), 4.0 * y * g.y(), 4.0 * z * g.z(), 4.0 * (y * g.x() + x * g.y()),
+            4.0 * (z * g.x() + x * g.z()), 4.0 * (z * g.y() + y * g.z()), 2.0 * g.x(), 2.0 * g.y(), 2.0 * g.z(), 0.0;
+        dq.head<9>() += 2.0 * kDistanceKappa * kDistanceKappa * theta.head<9>();
+        *local += (dL_ds[i] / distance_unit_) * (basis(u) / sq - (s / (2.0 * q * sq)) * dq);
+      });
   *dL_dtheta = total;
 }
 

@@ -309,3 +309,40 @@ TEST(DesignSpread, InteriorCloudCarriesConfidenceAndSlicesHatchTheUndetermined) 
   EXPECT_NE(errorOf([&] { vision::drawInteriorSlices(cloud.X, r, cloud.spacing, "t", so); }).find("confidence"),
             std::string::npos);
 }
+
+// A stop is not a proof. The tumbler of bench_infer (a 25 mm cavity above the centre of a 5000 kg/m³
+// doll, its period and max tilt simulated on the same lattice, so the truth reaches both targets
+// exactly): the quadric search from the default start stalls at a nearly solid design 1.6 % off in
+// period (a local minimum; the searches from other solid fractions find nothing better). The message
+// used to say that no interior of the representation reaches the target, and that the interior looked
+// determined: both false. Now: either unreachable or a local minimum, and the spread's note does not
+// call an interior that misses its targets determined.
+TEST(DesignSpread, ALocalMinimumThatMissesTheTargetIsNotCalledTheNearestReachable) {
+  const VolumeCloud tumbler = topo_test::tumblerCloud(0.05, 0.6, 0.0033);
+  inference::TaskConfig c = inference::TaskConfig::defaults("tumbler");
+  c.set("density_solid", "5000");
+  c.set("duration_s", "2.0");
+  std::vector<double> truth(tumbler.size(), 1.0);
+  for (std::size_t i = 0; i < tumbler.size(); ++i)
+    if (!tumbler.surface[i] && (tumbler.X[i] - Eigen::Vector3d(0, 0.012, 0.008)).norm() < 0.025) truth[i] = 0.0;
+  const inference::ProblemEvaluation gt = inference::simulateInterior(c, tumbler, truth);
+  c.setNumber("period_s", gt.task.features[0].value);
+  c.setNumber("max_tilt_deg", gt.task.features[1].value);
+  c.setNumber("restarts", 2);
+  c.set("max_iterations", "60");
+  // The truth reaches both targets: a claim that nothing does would be false.
+  const inference::ProblemEvaluation at_truth = inference::simulateInterior(c, tumbler, truth);
+  ASSERT_TRUE(inference::allTargetsReached(at_truth));
+  const inference::InferenceResult res = inference::runInference(c, tumbler);
+  std::printf("[ message  ] %s\n", res.message.c_str());
+  if (res.targets_reached) {  // a better optimiser escapes the minimum: then the message says so
+    EXPECT_NE(res.message.find("All targets reached"), std::string::npos) << res.message;
+    return;
+  }
+  EXPECT_TRUE(res.optimizer.converged) << res.optimizer.message;  // stalled: counted as converged
+  EXPECT_EQ(res.message.find("nearest reachable"), std::string::npos) << res.message;
+  EXPECT_EQ(res.message.find("looks determined"), std::string::npos) << res.message;
+  EXPECT_NE(res.message.find("local minimum"), std::string::npos) << res.message;
+  EXPECT_NE(res.spread.sentence.find("misses its targets"), std::string::npos) << res.spread.sentence;
+  EXPECT_FALSE(res.spread.best_reached);
+}

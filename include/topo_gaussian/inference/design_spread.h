@@ -61,9 +61,10 @@ struct SpreadDesign {
 struct DesignSpread {
   bool computed = false;  ///< false: not run (restarts = 0, or the main run was cancelled)
   bool cancelled = false;
-  int restarts = 0;  ///< asked for
-  int tried = 0;     ///< restarts finished
-  int accepted = 0;  ///< accepted designs, the best included
+  int restarts = 0;           ///< asked for
+  int tried = 0;              ///< restarts finished
+  int accepted = 0;           ///< accepted designs, the best included
+  bool best_reached = false;  ///< the best design reached every target (acceptance: reach them too)
   std::vector<SpreadDesign> designs;
   std::vector<double> p_solid, confidence;  ///< per particle (empty when not computed)
   double undetermined_fraction = 0;         ///< Σ V_i over confidence_i < 1, / Σ V_i
