@@ -85,9 +85,11 @@ std::string spreadSentence(const DesignSpread& s) {
       << " searches from other solid fractions finished); the best misses its targets, so this does not show that "
          "the observations determine the interior.";
   } else if (s.accepted <= 1) {
+    // Searches that end elsewhere without fitting are no evidence that nothing else fits (two rocking
+    // features leave most of a quadric's ten parameters free): no claim either way.
     o << "No other design found fits the observations as well as the best (" << others << " of " << s.restarts
-      << " searches from other solid fractions finished): the interior looks determined by these observations, as "
-         "far as this search can tell.";
+      << " searches from other solid fractions finished); that no search found a second interior does not show "
+         "that there is none.";
   } else if (s.undetermined_fraction <= 0) {
     o << s.accepted << " designs fit the observations equally well (solid fraction "
       << range(s.solid_fraction_min, s.solid_fraction_max, 3)
@@ -259,6 +261,7 @@ DesignSpread exploreDesignSpread(const TaskConfig& config, const VolumeCloud& cl
     s.better_evaluation = evaluations[lowest];
     const ProblemEvaluation& ref = evaluations[lowest];
     const bool ref_reached = allTargetsReached(ref);
+    s.best_reached = ref_reached;
     accepted_r.assign(1, {});
     problem.indicator(thetas[lowest], &accepted_r.front());
     for (std::size_t k = 0; k < evaluations.size(); ++k) {
