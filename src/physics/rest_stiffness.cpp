@@ -81,6 +81,11 @@ std::vector<std::vector<Block>> assembleRows(const CorotatedSph& sph, const Eige
     for (long long kk = 0; kk < static_cast<long long>(n); ++kk) {
       const std::size_t k = static_cast<std::size_t>(kk);
       std::vector<Block>& row = rows[k];
+      // A row holds the particles within two neighbourhoods (the finger: ~16 × (neighbours + 1), half of
+      // them in the lower triangle): reserved about once instead of grown by doubling (each growth
+      // copied the row's 80-byte blocks; with many threads, malloc's arenas contended).
+      const std::size_t ring = static_cast<std::size_t>(nb.offsets[k + 1] - nb.offsets[k] + 1);
+      row.reserve(std::min<std::size_t>(n, (lower ? 10 : 18) * ring));
       if (isFixed(k)) {
         row.emplace_back(static_cast<int>(k), Eigen::Matrix3d::Identity());
         continue;
@@ -149,21 +154,40 @@ std::vector<std::vector<Block>> assembleRows(const CorotatedSph& sph, const Eige
 /// triangle (row ≥ column).
 Eigen::SparseMatrix<double> toSparse(const std::vector<std::vector<Block>>& rows, bool lower = false) {
   const std::size_t n = rows.size();
-  std::size_t nnz = 0;
-  for (const auto& r : rows) nnz += 9 * r.size();
-  Eigen::SparseMatrix<double> K(3 * n, 3 * n);
-  K.reserve(static_cast<Eigen::Index>(nnz));
-  // Column 3k+a holds K(3l+b, 3k+a) = block(k,l)(a,b) (K is symmetric).
-  for (std::size_t k = 0; k < n; ++k)
+  // Column 3k+a holds K(3l+b, 3k+a) = block(k,l)(a,b) (K is symmetric): its entries are the row's blocks'
+  // columns c ≥ c0 (c0 = a on the diagonal block of the lower triangle, else 0). The columns' sizes and
+  // offsets first, then every particle's three columns filled in parallel into the compressed arrays.
+  std::vector<Eigen::Index> start(3 * n + 1, 0);
+  for (std::size_t k = 0; k < n; ++k) {
+    const bool diag = lower && !rows[k].empty();
     for (int a = 0; a < 3; ++a) {
-      K.startVec(static_cast<Eigen::Index>(3 * k + a));
+      Eigen::Index count = 3 * static_cast<Eigen::Index>(rows[k].size());
+      if (diag)
+        for (const Block& b : rows[k])
+          if (b.first == static_cast<int>(k)) count -= a;
+      start[3 * k + a + 1] = start[3 * k + a] + count;
+    }
+  }
+  Eigen::SparseMatrix<double> K(3 * n, 3 * n);
+  K.resizeNonZeros(start[3 * n]);
+  auto* outer = K.outerIndexPtr();
+  for (std::size_t c = 0; c <= 3 * n; ++c) outer[c] = static_cast<int>(start[c]);
+  auto* inner = K.innerIndexPtr();
+  double* values = K.valuePtr();
+#pragma omp parallel for schedule(dynamic, 256)
+  for (long long kk = 0; kk < static_cast<long long>(n); ++kk) {
+    const std::size_t k = static_cast<std::size_t>(kk);
+    for (int a = 0; a < 3; ++a) {
+      Eigen::Index e = start[3 * k + a];
       for (const Block& b : rows[k]) {
         const int c0 = lower && b.first == static_cast<int>(k) ? a : 0;
-        for (int c = c0; c < 3; ++c)
-          K.insertBack(3 * b.first + c, static_cast<Eigen::Index>(3 * k + a)) = b.second(a, c);
+        for (int c = c0; c < 3; ++c) {
+          inner[e] = 3 * b.first + c;
+          values[e++] = b.second(a, c);
+        }
       }
     }
-  K.finalize();
+  }
   return K;
 }
 
