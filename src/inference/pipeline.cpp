@@ -80,8 +80,10 @@ void exploreSpread(const TaskConfig& config, const VolumeCloud& cloud, const Pro
   *message << " " << res->spread.sentence;
 }
 /// What the design spread says about a local minimum, for the message of a run that misses its targets.
-std::string localMinimumHint(const DesignSpread& spread) {
-  if (!spread.computed)
+std::string localMinimumHint(const DesignSpread& spread, int restarts, bool cancelled) {
+  if (!spread.computed && cancelled)
+    return " (the searches from other solid fractions were skipped: the run was cancelled)";
+  if (!spread.computed || restarts <= 0)
     return " (searches from other solid fractions were not run: set restarts=2 or more to look for a better fit)";
   return " (what the searches from other solid fractions found follows; more restarts, or a start from another "
          "design, may find a better fit)";
@@ -242,13 +244,14 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
          << "representation fits all " << res.final.experiments.size()
          << " experiments together (they may contradict each other: another object, material, hanging point or "
          << "release; or they need more material contrast), or the search is caught in a local minimum"
-         << localMinimumHint(res.spread) << "; the per-experiment losses below show which one disagrees (lower its "
+         << localMinimumHint(res.spread, config.integer("restarts"), res.cancelled)
+         << "; the per-experiment losses below show which one disagrees (lower its "
          << "weight or check its targets).";
   } else if (res.optimizer.converged) {
     head << msg.str() << "The optimiser stopped at a minimum that misses the target: either no interior of this "
          << "representation within the material bounds reaches it (check the target, the hanging/support point, or "
          << "allow more material contrast), or one does and the search is caught in a local minimum"
-         << localMinimumHint(res.spread) << ".";
+         << localMinimumHint(res.spread, config.integer("restarts"), res.cancelled) << ".";
   } else {
     head << msg.str() << "Not converged: raise max_iterations or try another optimizer/representation.";
   }

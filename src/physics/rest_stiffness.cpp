@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <fstream>
+#include <limits>
 #include <mutex>
 #include <string>
 #include <utility>
@@ -84,12 +85,12 @@ std::vector<std::vector<Block>> assembleRows(const CorotatedSph& sph, const Eige
       // A row holds the particles within two neighbourhoods (the finger: ~16 × (neighbours + 1), half of
       // them in the lower triangle): reserved about once instead of grown by doubling (each growth
       // copied the row's 80-byte blocks; with many threads, malloc's arenas contended).
-      const std::size_t ring = static_cast<std::size_t>(nb.offsets[k + 1] - nb.offsets[k] + 1);
-      row.reserve(std::min<std::size_t>(n, (lower ? 10 : 18) * ring));
       if (isFixed(k)) {
         row.emplace_back(static_cast<int>(k), Eigen::Matrix3d::Identity());
         continue;
       }
+      const std::size_t ring = static_cast<std::size_t>(nb.offsets[k + 1] - nb.offsets[k] + 1);
+      row.reserve(std::min<std::size_t>(n, (lower ? 10 : 18) * ring));
       auto add = [&](int l, const Eigen::Matrix3d& B) {
         if (slot[l] < 0) {
           slot[l] = static_cast<int>(row.size());
@@ -168,6 +169,9 @@ Eigen::SparseMatrix<double> toSparse(const std::vector<std::vector<Block>>& rows
       start[3 * k + a + 1] = start[3 * k + a] + count;
     }
   }
+  if (start[3 * n] > std::numeric_limits<int>::max())
+    throw TopoError("rest stiffness", std::to_string(start[3 * n]) + " entries exceed the sparse matrix's 32-bit index",
+                    "use a coarser spacing (fewer particles or neighbours)");
   Eigen::SparseMatrix<double> K(3 * n, 3 * n);
   K.resizeNonZeros(start[3 * n]);
   auto* outer = K.outerIndexPtr();
