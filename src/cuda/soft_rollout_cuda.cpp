@@ -1,6 +1,7 @@
 // The explicit rollout and its adjoint on the GPU; see include/topo_gaussian/cuda/soft_rollout_cuda.h.
 #include "topo_gaussian/cuda/soft_rollout_cuda.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <sstream>
@@ -121,7 +122,7 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
   if (with_gradient && opt.checkpoint_every <= 0) {
     std::size_t free_b = 0, total_b = 0;
     if (cudaMemGetInfo(&free_b, &total_b) == cudaSuccess)
-      keep_all = (N + 1.0) * state_bytes + 46.0 * sizeof(T) * n <= 0.5 * static_cast<double>(free_b);
+      keep_all = (N + 1.0) * state_bytes + 70.0 * sizeof(T) * n <= 0.5 * static_cast<double>(free_b);
     else
       cudaGetLastError();
   }
@@ -152,22 +153,25 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
 
   SoftRolloutResult res;
   auto tf = std::chrono::steady_clock::now();
+  // The last segment [last0, N) runs in the forward into the segment's slots, so the backward starts
+  // without recomputing it (keep_all: the whole rollout is that segment). The segments before it end
+  // where the next begins, counted back from last0 in steps of K (the first one the shortest):
+  // checkpoints at their starts, each segment recomputed once.
+  const int last0 = !with_gradient ? N : keep_all ? 0 : std::max(0, N - K);
+  std::vector<int> starts;  // ascending, all < last0
+  if (with_gradient && !keep_all && last0 > 0) {
+    for (int p = last0 - K; p > 0; p -= K) starts.push_back(p);
+    starts.push_back(0);
+    std::reverse(starts.begin(), starts.end());
+  }
   // Checkpoints (x, v, f) in device memory, one allocation for all (9n values each), and their clocks
   // (the recomputation continues the forward's clock, not t0 + k dt from the host).
   std::vector<T*> checkpoints;
-  const std::size_t checkpoint_count = static_cast<std::size_t>((N + K - 1) / K);
-  T* checkpoint_store = with_gradient && !keep_all ? I.allocate<T>(checkpoint_count * 9 * n) : nullptr;
-  double* checkpoint_time = checkpoint_store ? I.allocate<double>(checkpoint_count) : nullptr;
+  T* checkpoint_store = starts.empty() ? nullptr : I.allocate<T>(starts.size() * 9 * n);
+  double* checkpoint_time = checkpoint_store ? I.allocate<double>(starts.size()) : nullptr;
   auto copyClock = [&](double* dst, const double* src) {
     check(cudaMemcpyAsync(dst, src, sizeof(double), cudaMemcpyDeviceToDevice, s), "device copy");
   };
-  if (keep_all) {  // state 0: the body's x, v, f, its evaluation and clock
-    copy(seg, b.x);
-    copy(seg + 3 * n, b.v);
-    copy(seg + 6 * n, b.f);
-    copyClock(seg_time, b.time);
-    cuda_detail::launchEvaluateState(at(0), s);
-  }
   auto counts = [&](int k) { return !opt.loss_at || opt.loss_at(k); };
   Vec3s x, v;
   if (counts(0)) {
@@ -176,7 +180,7 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
     res.loss = loss(0, t0, x, v, nullptr, nullptr);
   }
   for (int k = 0; k < N; ++k) {
-    if (checkpoint_store && k % K == 0) {
+    if (checkpoints.size() < starts.size() && k == starts[checkpoints.size()]) {
       T* c = checkpoint_store + checkpoints.size() * 9 * n;
       copy(c, b.x);
       copy(c + 3 * n, b.v);
@@ -184,20 +188,27 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
       copyClock(checkpoint_time + checkpoints.size(), b.time);
       checkpoints.push_back(c);
     }
-    if (keep_all)
-      cuda_detail::launchSymplecticStepInto(at(k), at(k + 1), dt, s);
+    if (k == last0) {  // the last segment's first state: the body's x, v, f, its evaluation and clock
+      copy(seg, b.x);
+      copy(seg + 3 * n, b.v);
+      copy(seg + 6 * n, b.f);
+      copyClock(seg_time, b.time);
+      cuda_detail::launchEvaluateState(at(0), s);
+    }
+    if (k >= last0)
+      cuda_detail::launchSymplecticStepInto(at(k - last0), at(k - last0 + 1), dt, s);
     else
       cuda_detail::launchSymplecticStep(b, dt, s);
     check(cudaGetLastError(), "kernel launch");
     if (!counts(k + 1) && k + 1 < N) continue;  // no host copy: the loss is zero at this step
     checkStatus(I, "the explicit steps up to " + std::to_string(k + 1));
-    const T* xs = keep_all ? seg + static_cast<std::size_t>(k + 1) * 9 * n : b.x;
+    const T* xs = k + 1 > last0 ? seg + static_cast<std::size_t>(k + 1 - last0) * 9 * n : b.x;
     toHost(xs, n, s, &x);
-    toHost(keep_all ? xs + 3 * n : b.v, n, s, &v);
+    toHost(xs == b.x ? b.v : xs + 3 * n, n, s, &v);
     if (counts(k + 1)) res.loss += loss(k + 1, t0 + (k + 1) * dt, x, v, nullptr, nullptr);
   }
   res.forward_s = since(tf);
-  res.peak_states = keep_all ? static_cast<std::size_t>(N + 1) : checkpoints.size();
+  res.peak_states = checkpoints.size() + (with_gradient ? static_cast<std::size_t>(N - last0 + 1) : 0);
   res.peak_state_bytes = res.peak_states * 9 * n * sizeof(T);
   const Vec3s x_end = x, v_end = v;
   const double t_end = t0 + N * dt;
@@ -213,7 +224,7 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
   T* vb = I.allocate<T>(3 * n);
   T* dl = I.allocate<T>(6 * n);
   T* G = I.allocate<T>(4 * n);  // mass, mu, lambda, chamber
-  T* work = I.allocate<T>(30 * n);
+  T* work = I.allocate<T>((30 + cuda_detail::kRecord) * n);
   check(cudaMemsetAsync(G, 0, 4 * n * sizeof(T), s), "memset");
   {
     Vec3s xb0(n, Eigen::Vector3d::Zero()), vb0(n, Eigen::Vector3d::Zero());
@@ -222,11 +233,13 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
     toDevice(vb0, vb, s);
   }
   const bool chamber = b.chamber != nullptr;
-  // keep_all: one segment, every state kept by the forward; else each checkpoint's segment recomputed.
-  const int segments = keep_all ? 1 : static_cast<int>(checkpoints.size());
+  // From the last segment (its states kept by the forward) back to the first, each earlier one
+  // recomputed from its checkpoint.
+  const int segments = static_cast<int>(starts.size()) + 1;
   for (int sg = segments - 1; sg >= 0; --sg) {
-    const int k0 = sg * K, k1 = std::min(k0 + K, N);
-    if (!keep_all) {
+    const bool kept = sg == segments - 1;
+    const int k0 = kept ? last0 : starts[sg], k1 = kept ? N : sg + 1 < segments - 1 ? starts[sg + 1] : last0;
+    if (!kept) {
       // Recompute the segment from its checkpoint, each step out of place into the next state's slot
       // (x, v, f, the evaluation at x, the clock): no copies, no clock set from the host.
       check(cudaMemcpyAsync(seg, checkpoints[sg], 9 * n * sizeof(T), cudaMemcpyDeviceToDevice, s), "device copy");
@@ -235,7 +248,6 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
       for (int k = k0; k < k1; ++k) cuda_detail::launchSymplecticStepInto(at(k - k0), at(k - k0 + 1), dt, s);
       check(cudaGetLastError(), "kernel launch");
       checkStatus(I, "the recomputed segment from step " + std::to_string(k0));
-      res.peak_states = std::max(res.peak_states, checkpoints.size() + static_cast<std::size_t>(k1 - k0 + 1));
     }
     for (int k = k1 - 1; k >= k0; --k) {
       const T* st = seg + static_cast<std::size_t>(k - k0) * 9 * n;
@@ -286,7 +298,8 @@ SoftRolloutResult runSoftRolloutCuda(SoftBodySimulator* sim, const SoftRolloutOp
   checkOptions(*sim, options);
   {
     // The body, the checkpoints, one recomputed segment with each state's evaluation (F̃, R: 18 values a
-    // particle) and the adjoint's arrays (46 values a particle).
+    // particle) and the adjoint's arrays (70 values a particle: x̄, v̄, the loss gradient, the design gradients and the
+    // step's work, its gather record included).
     const double T = precision == CudaPrecision::Float64 ? 8.0 : 4.0;
     const int N = options.steps;
     const int K = options.checkpoint_every > 0 ? std::min(options.checkpoint_every, N)
@@ -294,7 +307,7 @@ SoftRolloutResult runSoftRolloutCuda(SoftBodySimulator* sim, const SoftRolloutOp
     const double states = std::ceil(double(N) / K) + (with_gradient ? K + 1 : 0);
     const double evaluations = with_gradient ? (K + 1) * 18.0 : 0.0;
     const double bpp =
-        softBodyBytesPerParticle(*sim, T) + T * (9.0 * states + evaluations + (with_gradient ? 46.0 : 0.0));
+        softBodyBytesPerParticle(*sim, T) + T * (9.0 * states + evaluations + (with_gradient ? 70.0 : 0.0));
     requireDeviceMemory(
         "CUDA soft rollout (" + std::to_string(sim->size()) + " particles, " + std::to_string(N) + " steps)",
         bpp * double(sim->size()), bpp);

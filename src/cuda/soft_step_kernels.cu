@@ -536,6 +536,15 @@ void launchGatherForces(const SoftDeviceBody<T>& b, void* stream) {
 }
 
 template <class T>
+void launchGatherRecords(const SoftDeviceBody<T>& b, void* stream) {
+  cudaStream_t s = static_cast<cudaStream_t>(stream);
+  withLanes(b.lanes, [&](auto L) {
+    gatherKickKernel<T, decltype(L)::value, true>
+        <<<blocks(static_cast<long long>(b.n) * decltype(L)::value), kBlock, 0, s>>>(b, T(0), false, DriftTarget<T>());
+  });
+}
+
+template <class T>
 void launchPolarRotations(const T* A, T* R, int count, unsigned long long* fallbacks, void* stream) {
   polarKernel<T><<<blocks(count), kBlock, 0, static_cast<cudaStream_t>(stream)>>>(A, R, count, fallbacks);
 }
@@ -550,6 +559,8 @@ template void launchEvaluateState<double>(const SoftDeviceBody<double>&, void*);
 template void launchEvaluateState<float>(const SoftDeviceBody<float>&, void*);
 template void launchGatherForces<double>(const SoftDeviceBody<double>&, void*);
 template void launchGatherForces<float>(const SoftDeviceBody<float>&, void*);
+template void launchGatherRecords<double>(const SoftDeviceBody<double>&, void*);
+template void launchGatherRecords<float>(const SoftDeviceBody<float>&, void*);
 template void launchPolarRotations<double>(const double*, double*, int, unsigned long long*, void*);
 template void launchPolarRotations<float>(const float*, float*, int, unsigned long long*, void*);
 

@@ -73,7 +73,8 @@ struct SoftDeviceBody {
   // as 16-byte vectors: a neighbour costs the gather 6 (float32) or 12 (float64) loads instead of 23.
   // In float32 too, ĝ_ij is computed in float64 from X_ji in float64 and rounded once (as the CPU's
   // streamed ĝ is): float32 errors in ĝ would show as a spurious strain Σ_j V_j X_ji δĝ_ijᵀ.
-  // The adjoint's gather (launchGatherForces) still streams ghr and hgw.
+  // The adjoint's gather recomputes them too (launchGatherRecords); the stiffness product's
+  // (launchGatherForces) streams ghr and hgw.
   const double* L = nullptr;              // 9n, correction matrices L_i (null: stream gh, W, ghr, hgw)
   const double* Xr = nullptr;             // 4n, X_i and V_i in float64 (16-byte loads)
   const T* gsum_raw = nullptr;            // 3n, Σ_j V_j ∇W(X_ji) (with L: M_k ĝsum_k = N_k gsum_raw_k)
@@ -174,10 +175,16 @@ void launchEvaluateState(const SoftDeviceBody<T>& body, void* stream);
 template <class T>
 void launchGatherForces(const SoftDeviceBody<T>& body, void* stream);
 
+/// The same gather with ĝ recomputed (body.L set): the neighbours' (x, F̃, M) read from body.rec in
+/// evaluateKernel's record layout (N_j = M_j L_j, F̃_j, x_j, c_j, V_j), x_k from body.x.
+template <class T>
+void launchGatherRecords(const SoftDeviceBody<T>& body, void* stream);
+
 /// One adjoint step of the symplectic Euler rollout at the evaluated state (soft_rollout.h):
 ///   w = v̄ + dt x̄,  a = dt w / m,  m̄ −= a·f/m,  x̄ ← x̄ − H a,  v̄ ← (1 − c dt) w   (free particles;
 ///   clamped rows zero),  μ̄ −= ∂(a·∇E)/∂μ,  λ̄ −= ∂(a·∇E)/∂λ,  w̄ −= ∂(a·∇E_a)/∂w.
-/// f: the conservative forces at the state; work: 3n (a) + 3n (w) + 3n (H a) + 9n + 9n values.
+/// f: the conservative forces at the state; work: 3n (a) + 3n (w) + 3n (H a) + 9n + 9n + 3n values, and
+/// kRecord n more with body.L (the gather's record of (a, dF̃, dM)).
 template <class T>
 void launchAdjointStep(const SoftDeviceBody<T>& body, const T* f, double dt, T* xb, T* vb, T* g_mass, T* g_mu,
                        T* g_lambda, T* g_chamber, T* work, void* stream);

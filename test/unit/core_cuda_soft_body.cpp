@@ -402,7 +402,9 @@ TEST(CudaSoftRollout, GradientWithContactMatchesTheCpuInFloat64) {
       EXPECT_LT(dla, 1e-6);
       EXPECT_LT(dx0, 1e-6);
       EXPECT_LT(dv0, 1e-6);
-      EXPECT_EQ(rg.peak_states, every == 0 ? 151u : 22u + 8u) << "checkpoint every " << every;
+      // √N: a checkpoint at each segment's start before the last (⌈(150 − 7) / 7⌉ = 21), the last segment's
+      // 7 + 1 states kept by the forward.
+      EXPECT_EQ(rg.peak_states, every == 0 ? 151u : 21u + 8u) << "checkpoint every " << every;
       std::printf(
           "[ parity   ] rollout gradient with contact on %s, checkpoint every %d: mass %.2e mu %.2e lambda %.2e x0 "
           "%.2e "
@@ -451,7 +453,8 @@ TEST(CudaSoftRollout, GradientOfA100StepRolloutMatchesTheCpuInFloat64) {
       SoftRolloutResult rc, rg;
       runBoth(cpu.sim.get(), gpu.sim.get(), testLoss(cpu.cloud), testLoss(gpu.cloud), 100, every, &rc, &rg);
       EXPECT_NEAR(rg.loss, rc.loss, 1e-9 * std::abs(rc.loss)) << variant;
-      EXPECT_EQ(rg.peak_states, every == 0 ? 101u : 15u + 8u) << "checkpoint every " << every;
+      // ⌈(100 − 7) / 7⌉ = 14 checkpoints and the last segment's 8 states (kept by the forward).
+      EXPECT_EQ(rg.peak_states, every == 0 ? 101u : 14u + 8u) << "checkpoint every " << every;
       const SoftDesignGradient &a = rg.gradient, &c = rc.gradient;
       const double dm = relDiff(a.mass, c.mass), dmu = relDiff(a.mu, c.mu), dla = relDiff(a.lambda, c.lambda);
       const double dx0 = maxDiff(a.x0, c.x0) / maxNorm(c.x0), dv0 = maxDiff(a.v0, c.v0) / maxNorm(c.v0);

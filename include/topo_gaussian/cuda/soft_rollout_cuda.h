@@ -5,12 +5,15 @@
 //   adjoint   w = v̄' + dt x̄',  a = dt w / m,  x̄ = x̄' − H(x) a,  v̄ = (1 − c dt) w,
 //             m̄_i −= a_i·f_i/m_i,  μ̄, λ̄, w̄ −= aᵀ ∂f/∂(μ, λ, w)
 // Every state is kept in device memory when they fit in half of its free memory and
-// checkpoint_every ≤ 0 (the default): the backward then recomputes nothing. Otherwise checkpoints every
-// K steps (K = checkpoint_every, or ⌈√steps⌉) and each segment recomputed from its checkpoint, so the
-// device holds steps/K + K + 1 states. A stored state is x, v, f and the evaluation at x that its
-// adjoint step reads (F̃, R): 27 values a particle, and its clock; each step of a segment runs out of
-// place into the next state's slot (no copies), from its checkpoint's clock. H a is the force gather applied to (a,
-// dF̃(a), dM(a)) (soft_body_cuda.h). The loss is the same host callback as SoftRollout's: each state is copied to the
+// checkpoint_every ≤ 0 (the default): the backward then recomputes nothing. Otherwise segments of K
+// steps (K = checkpoint_every, or ⌈√steps⌉) counted back from the end: the forward runs the last one into
+// the segment's slots (the backward starts there without recomputing it) and checkpoints the start of
+// every earlier one, which the backward recomputes from it, so the device holds ⌈(steps − K)/K⌉ + K + 1
+// states. A stored state is x, v, f and the evaluation at x that its adjoint step reads (F̃, R): 27
+// values a particle, and its clock; each step of a segment runs out of place into the next state's slot
+// (no copies), from its checkpoint's clock. H a is the force gather applied to (a, dF̃(a), dM(a))
+// (soft_body_cuda.h): with order-1 gradients the row pass writes its record and the gather recomputes ĝ,
+// as the step's gather does. The loss is the same host callback as SoftRollout's: each state is copied to the
 // host for it (2 × 3N values a step, forward and backward).
 //
 // Contact and friction (embedded samples or particles) are included: their Hessian k ω n nᵀ and the
