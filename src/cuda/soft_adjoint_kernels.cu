@@ -278,24 +278,8 @@ __global__ void __launch_bounds__(kBlock) hessianRowKernel(SoftDeviceBody<T> b, 
       dch = -static_cast<T>(p) * Vi * dot;
     }
   }
-  if (rec_out) {  // the gather's record of (a, dF̃, dM) (evaluateKernel's layout: N_i = dM_i L_i)
-    Mat3<T> Lt;
-#pragma unroll
-    for (int k = 0; k < 9; ++k) Lt.a[k] = static_cast<T>(b.L[9 * i + k]);
-    const Mat3<T> N = mul(dM, Lt);
-    T* r = rec_out + kRecord * i;
-#pragma unroll
-    for (int k = 0; k < 9; ++k) {
-      r[k] = N.a[k];
-      r[9 + k] = dF.a[k];
-    }
-    r[18] = ai0;
-    r[19] = ai1;
-    r[20] = ai2;
-    r[21] = ci;
-    r[22] = Vi;
-    r[23] = T(0);
-  }
+  if (rec_out)  // the gather's record of (a, dF̃, dM) (evaluateKernel's layout: N_i = dM_i L_i)
+    writeRecord(rec_out + kRecord * i, dM, b.L + 9 * i, dF, ai0, ai1, ai2, ci, Vi);
   if (dFt_out)
 #pragma unroll
     for (int k = 0; k < 9; ++k) {

@@ -354,6 +354,28 @@ __device__ inline T groupSum(T v) {
   return v;
 }
 
+/// The gather's record of particle i (kRecord values at r): N_i = M_i L_i (L in float64, rounded to T),
+/// F̃_i, x_i, c_i, V_i, 0. evaluateKernel writes it of (x, F̃, M), the Hessian row pass of (a, dF̃, dM).
+template <class T>
+__device__ inline void writeRecord(T* r, const Mat3<T>& M, const double* L, const Mat3<T>& Ft, T x0, T x1, T x2, T c,
+                                   T V) {
+  Mat3<T> Lt;
+#pragma unroll
+  for (int k = 0; k < 9; ++k) Lt.a[k] = static_cast<T>(L[k]);
+  const Mat3<T> N = mul(M, Lt);
+#pragma unroll
+  for (int k = 0; k < 9; ++k) {
+    r[k] = N.a[k];
+    r[9 + k] = Ft.a[k];
+  }
+  r[18] = x0;
+  r[19] = x1;
+  r[20] = x2;
+  r[21] = c;
+  r[22] = V;
+  r[23] = T(0);
+}
+
 }  // namespace device
 }  // namespace cuda_detail
 }  // namespace topo_gaussian

@@ -226,22 +226,7 @@ __global__ void __launch_bounds__(kBlock) evaluateKernel(SoftDeviceBody<T> b) {
 #pragma unroll
   for (int k = 0; k < 9; ++k) b.Ft[9 * i + k] = Ft.a[k];
   if (G) {  // the gather's record: N_i = M_i L_i, F̃_i, x_i, c_i, V_i
-    Mat3<T> Lt;
-#pragma unroll
-    for (int k = 0; k < 9; ++k) Lt.a[k] = static_cast<T>(Li.a[k]);
-    const Mat3<T> N = mul(M, Lt);
-    T* r = b.rec + kRecord * i;
-#pragma unroll
-    for (int k = 0; k < 9; ++k) {
-      r[k] = N.a[k];
-      r[9 + k] = Ft.a[k];
-    }
-    r[18] = xi0;
-    r[19] = xi1;
-    r[20] = xi2;
-    r[21] = ci;
-    r[22] = Vi;
-    r[23] = T(0);
+    writeRecord(b.rec + kRecord * i, M, Li.a, Ft, xi0, xi1, xi2, ci, Vi);
   } else {
 #pragma unroll
     for (int k = 0; k < 9; ++k) b.M[9 * i + k] = M.a[k];
