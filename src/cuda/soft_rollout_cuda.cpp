@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <future>
 #include <sstream>
 
 #include "topo_gaussian/common/error.h"
@@ -133,10 +134,18 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
   T* seg = nullptr;
   T* seg_eval = nullptr;
   double* seg_time = nullptr;
+  // The adjoint's work space, allocated with them before the forward starts (neither pass's time
+  // holds a cudaMalloc).
+  T *xb = nullptr, *vb = nullptr, *dl = nullptr, *G = nullptr, *work = nullptr;
   if (with_gradient) {
     seg = I.allocate<T>(static_cast<std::size_t>(K + 1) * 9 * n);
     seg_eval = I.allocate<T>(static_cast<std::size_t>(K + 1) * eval_values);
     seg_time = I.allocate<double>(static_cast<std::size_t>(K + 1));
+    xb = I.allocate<T>(3 * n);
+    vb = I.allocate<T>(3 * n);
+    dl = I.allocate<T>(6 * n);
+    G = I.allocate<T>(4 * n);  // mass, mu, lambda, chamber
+    work = I.allocate<T>((30 + cuda_detail::kRecord) * n);
   }
   // The body at segment state q: its x, v, f, evaluation and clock.
   auto at = [&](int q) {
@@ -152,7 +161,6 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
   };
 
   SoftRolloutResult res;
-  auto tf = std::chrono::steady_clock::now();
   // The last segment [last0, N) runs in the forward into the segment's slots, so the backward starts
   // without recomputing it (keep_all: the whole rollout is that segment). The segments before it end
   // where the next begins, counted back from last0 in steps of K (the first one the shortest):
@@ -173,6 +181,7 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
     check(cudaMemcpyAsync(dst, src, sizeof(double), cudaMemcpyDeviceToDevice, s), "device copy");
   };
   auto counts = [&](int k) { return !opt.loss_at || opt.loss_at(k); };
+  auto tf = std::chrono::steady_clock::now();
   Vec3s x, v;
   if (counts(0)) {
     toHost(b.x, n, s, &x);
@@ -219,12 +228,13 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
   }
 
   auto tb = std::chrono::steady_clock::now();
-  // The adjoint's work space.
-  T* xb = I.allocate<T>(3 * n);
-  T* vb = I.allocate<T>(3 * n);
-  T* dl = I.allocate<T>(6 * n);
-  T* G = I.allocate<T>(4 * n);  // mass, mu, lambda, chamber
-  T* work = I.allocate<T>((30 + cuda_detail::kRecord) * n);
+  // The simulator is left at the final state on the host (SoftRollout's contract): its evaluation
+  // there runs on a host thread while the device works backwards (the loop below only reads its
+  // clamp flags; the loss callback is given the states, not the simulator).
+  std::future<void> restored = std::async(std::launch::async, [&] {
+    sim->evaluateAt(x_end, t_end);
+    sim->setVelocities(v_end);
+  });
   check(cudaMemsetAsync(G, 0, 4 * n * sizeof(T), s), "memset");
   {
     Vec3s xb0(n, Eigen::Vector3d::Zero()), vb0(n, Eigen::Vector3d::Zero());
@@ -282,8 +292,7 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
     if (sim->clamped()[i]) g.x0[i].setZero(), g.v0[i].setZero();
   // the checkpoints and one segment's states with their evaluations
   res.peak_state_bytes = (res.peak_states * 9 * n + static_cast<std::size_t>(K + 1) * eval_values) * sizeof(T);
-  sim->evaluateAt(x_end, t_end);
-  sim->setVelocities(v_end);
+  restored.get();  // rethrows what the host evaluation threw
   res.backward_s = since(tb);
   return res;
 }

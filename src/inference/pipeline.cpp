@@ -184,9 +184,18 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   ProblemEvaluation best = res.initial;
   double best_loss = res.initial.loss;
   Eigen::VectorXd best_theta = theta0;
+  bool first_call = true;
   const auto objective = [&](const Eigen::VectorXd& th, Eigen::VectorXd* gr) {
     ProblemEvaluation details;
-    const double loss = problem.evaluate(th, gr, &details);
+    double loss;
+    if (first_call && th == theta0) {  // the start design, evaluated with its gradient above: not again
+      loss = res.initial.loss;
+      if (gr) *gr = g;
+      details = res.initial;
+    } else {
+      loss = problem.evaluate(th, gr, &details);
+    }
+    first_call = false;
     if (on_evaluation) on_evaluation(details);
     if (loss < best_loss) {
       best_loss = loss;

@@ -16,15 +16,34 @@ LinearOperator jacobiPreconditioner(Eigen::VectorXd diag) {
 
 CgResult conjugateGradient(const LinearOperator& apply, const LinearOperator& precondition, const Eigen::VectorXd& b,
                            double tol, int max_iter, Eigen::VectorXd* x) {
+  x->setZero(b.size());
+  return conjugateGradientFrom(apply, precondition, b, tol, max_iter, x);
+}
+
+CgResult conjugateGradientFrom(const LinearOperator& apply, const LinearOperator& precondition,
+                               const Eigen::VectorXd& b, double tol, int max_iter, Eigen::VectorXd* x) {
   CgResult res;
   const Eigen::Index n = b.size();
-  x->setZero(n);
   const double bn = b.norm();
   if (bn == 0.0) {
+    x->setZero(n);
     res.converged = true;
     return res;
   }
   Eigen::VectorXd r = b, z, Ap(n);
+  if (x->size() != n || !x->allFinite()) {
+    x->setZero(n);
+  } else if (!x->isZero(0.0)) {
+    apply(*x, &Ap);
+    r = b - Ap;
+    if (!(r.norm() < bn)) {  // no better than 0
+      x->setZero(n);
+      r = b;
+    } else if ((res.relative_residual = r.norm() / bn) <= tol) {
+      res.converged = true;
+      return res;
+    }
+  }
   precondition(r, &z);
   Eigen::VectorXd p = z;
   double rz = r.dot(z);

@@ -454,6 +454,13 @@ void SoftBodySimulator::requireConservative(const std::string& where) const {
                     "use CorotatedSphOptions::rotation = CorrectedGradient (or the StVK model)");
 }
 
+double SoftBodySimulator::staticPotential() const {
+  double psi = sph_.energy() + act_.energy(sph_, pressureNow()) + contact_.energy(x_);
+  for (std::size_t i = 0; i < size(); ++i)
+    if (!clamped_[i]) psi -= m_[i] * opt_.gravity.dot(x_[i]);
+  return psi;
+}
+
 SolveReport SoftBodySimulator::newtonSolve(const std::string& where, double dt, const std::vector<Eigen::Vector3d>& x0,
                                            const std::vector<Eigen::Vector3d>& v0, const NewtonOptions& newton) {
   requireConservative(where);
@@ -480,15 +487,12 @@ SolveReport SoftBodySimulator::newtonSolve(const std::string& where, double dt, 
     cur = unpack(z);
     x_ = cur;
     refreshForces(where);
-    double psi = sph_.energy() + act_.energy(sph_, pressureNow()) + contact_.energy(x_);
-    for (std::size_t i = 0; i < n; ++i) {
+    double psi = staticPotential();
+    for (std::size_t i = 0; dynamic && i < n; ++i) {
       if (clamped_[i]) continue;
-      psi -= m_[i] * g.dot(x_[i]);
-      if (dynamic) {
-        const Eigen::Vector3d a = x_[i] - x0[i] - dt * v0[i], b = x_[i] - x0[i];
-        psi += 0.5 * m_[i] * (a.squaredNorm() / (dt * dt) + (c / dt) * b.squaredNorm());
-        psi -= ffr[i].dot(x_[i]);
-      }
+      const Eigen::Vector3d a = x_[i] - x0[i] - dt * v0[i], b = x_[i] - x0[i];
+      psi += 0.5 * m_[i] * (a.squaredNorm() / (dt * dt) + (c / dt) * b.squaredNorm());
+      psi -= ffr[i].dot(x_[i]);
     }
     return psi;
   };
@@ -623,6 +627,60 @@ SolveReport SoftBodySimulator::solveStatic(const NewtonOptions& newton, int load
   for (auto& v : v_) v.setZero();
   rep.load_increments = increments;
   return rep;
+}
+
+SolveReport SoftBodySimulator::solveStaticFrom(const std::vector<Eigen::Vector3d>& guess, const NewtonOptions& newton,
+                                               int load_steps, int guess_iterations) {
+  requireConservative("static solve");
+  bool usable = guess.size() == size() && guess_iterations > 0;
+  for (std::size_t i = 0; usable && i < guess.size(); ++i) usable = guess[i].allFinite();
+  if (!usable) return solveStatic(newton, load_steps);
+  const std::vector<Eigen::Vector3d> x_start = x_;
+  const PneumaticActuation a_full = act_;
+  act_.ramp_s = 0.0;  // the full pressure now, as solveStatic's last increment
+  // A start that is the equilibrium at the full load already (the rest shape of a design without a
+  // chamber, which Newton from the last design's bent shape may not reach in guess_iterations) is
+  // kept: Newton with no iteration only checks the residual.
+  NewtonOptions check = newton;
+  check.max_iterations = 0;
+  SolveReport at_start = newtonSolve("static solve, the start at the full load", 0.0, x_, v_, check);
+  if (at_start.newton.converged) {
+    act_ = a_full;
+    refreshForces("static solve");
+    for (auto& v : v_) v.setZero();
+    return at_start;
+  }
+  x_ = guess;
+  enforceClamp();
+  NewtonOptions limited = newton;
+  limited.max_iterations = std::min(newton.max_iterations, guess_iterations);
+  SolveReport rep;
+  bool ok = false;
+  try {  // from the guess, which is the state now
+    rep = newtonSolve("static solve from the given start", 0.0, x_, v_, limited);
+    ok = rep.newton.converged;
+  } catch (const ExternalFactorRefused&) {  // the GPU that was required failed: the same from rest
+    act_ = a_full;
+    x_ = x_start;
+    refreshForces("restore after a refused external solve");
+    throw;
+  } catch (const TopoError&) {  // e.g. the guess is inverted for this design: from the start instead
+  }
+  act_ = a_full;
+  if (ok) {
+    refreshForces("static solve");
+    for (auto& v : v_) v.setZero();
+    rep.load_increments = 1;
+    rep.from_guess = true;
+    rep.guess_iterations = rep.newton.iterations;
+    return rep;
+  }
+  const int spent = rep.newton.iterations;  // 0 when the guess itself was refused
+  x_ = x_start;
+  refreshForces("restore after a static solve from a guess");
+  SolveReport fallback = solveStatic(newton, load_steps);
+  fallback.guess_iterations = spent;
+  return fallback;
 }
 
 void SoftBodySimulator::step(double dt) {

@@ -36,11 +36,15 @@ void subtractMaterialTerms(const SoftBodySimulator& s, const Vec3s& a, SoftDesig
 
 /// Solves (K + inertia·M) λ = b by PCG at the simulator's state; throws naming `what` on failure.
 Vec3s adjointSolve(const SoftBodySimulator& s, double inertia, const Eigen::VectorXd& b, double tol, int max_iter,
-                   const std::string& what) {
+                   const std::string& what, const Vec3s* guess = nullptr) {
   Eigen::VectorXd lam;
+  if (guess && guess->size() == s.size()) {
+    lam.resize(3 * guess->size());
+    for (std::size_t i = 0; i < guess->size(); ++i) lam.segment<3>(3 * i) = (*guess)[i];
+  }
   const CgResult cg =
-      conjugateGradient([&](const Eigen::VectorXd& p, Eigen::VectorXd* out) { s.systemProduct(p, inertia, out); },
-                        s.systemPreconditioner(inertia), b, tol, max_iter, &lam);
+      conjugateGradientFrom([&](const Eigen::VectorXd& p, Eigen::VectorXd* out) { s.systemProduct(p, inertia, out); },
+                            s.systemPreconditioner(inertia), b, tol, max_iter, &lam);
   if (cg.negative_curvature || (!cg.converged && cg.relative_residual > 1e-6)) {
     std::ostringstream o;
     o << "the adjoint solve of " << what << " did not converge (relative residual " << cg.relative_residual
@@ -246,7 +250,7 @@ SoftRolloutResult SoftRollout::run(const SoftStepLoss& loss, bool with_gradient)
 }
 
 SoftDesignGradient staticEquilibriumGradient(const SoftBodySimulator& s, const std::vector<Eigen::Vector3d>& dL_dx,
-                                             double cg_tolerance) {
+                                             double cg_tolerance, std::vector<Eigen::Vector3d>* adjoint) {
   const std::size_t n = s.size();
   if (dL_dx.size() != n)
     throw TopoError("staticEquilibriumGradient",
@@ -258,7 +262,8 @@ SoftDesignGradient staticEquilibriumGradient(const SoftBodySimulator& s, const s
   const auto& clamped = s.clamped();
   Eigen::VectorXd b(3 * n);
   for (std::size_t i = 0; i < n; ++i) b.segment<3>(3 * i) = clamped[i] ? Eigen::Vector3d::Zero() : dL_dx[i];
-  const Vec3s L = adjointSolve(s, 0.0, b, cg_tolerance, 50000, "the static equilibrium");
+  const Vec3s L = adjointSolve(s, 0.0, b, cg_tolerance, 50000, "the static equilibrium", adjoint);
+  if (adjoint) *adjoint = L;
   SoftDesignGradient G;
   G.mass.assign(n, 0.0);
   G.mu.assign(n, 0.0);

@@ -7,9 +7,12 @@
 // clamp face x = 0. 1325 particles. E = 1e6 Pa, ν = 0.3, ρ = 1000 kg/m³, corotated linear, h = 1.5Δx.
 #include <gtest/gtest.h>
 
+#include <Eigen/Cholesky>
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <sstream>
 #include <string>
 
@@ -335,4 +338,99 @@ TEST(SoftBody, NewtonFailureSaysWhyAndWhatToChange) {
   EXPECT_FALSE(r.converged);
   EXPECT_NE(r.message.find("ill-conditioned"), std::string::npos) << r.message;
   EXPECT_NE(r.message.find("cg_max_iterations"), std::string::npos) << r.message;
+}
+
+// solveStaticFrom: an inference's next design starts from the last design's equilibrium. A beam bent
+// by gravity (0.1 m, Δx = 4 mm, 700 particles) at E = 1 MPa, then the same beam at 1.05 MPa: from
+// the first one's equilibrium Newton converges at the full load in fewer iterations than from rest
+// (one load step) and reaches the same equilibrium; a guess that is not finite, or a start that is
+// the equilibrium already (no load), goes the way of solveStatic.
+TEST(SoftBody, StaticSolveFromTheLastDesignsEquilibriumReachesTheSameOneInFewerIterations) {
+  const Beam B = makeBeam(0.1, kB, kT, kDx, kClampLayers);
+  SoftBodyOptions so;
+  so.gravity = Eigen::Vector3d(0, 0, -9.81);
+  auto beam = [&](double E, const SoftBodyOptions& opts) {
+    auto sim =
+        std::make_unique<SoftBodySimulator>(CorotatedSph(B.X, B.V, lameFromYoung(E, kNu), beamOptions(kDx)), opts);
+    sim->setClamped(B.clamp);
+    return sim;
+  };
+  NewtonOptions no;
+  no.tolerance = 1e-10;
+  auto first = beam(kE, so);
+  ASSERT_TRUE(first->solveStatic(no, 1).newton.converged);
+  const std::vector<Eigen::Vector3d> guess = first->positions();
+  auto cold = beam(1.05 * kE, so), warm = beam(1.05 * kE, so);
+  const SolveReport rc = cold->solveStatic(no, 1), rw = warm->solveStaticFrom(guess, no, 1);
+  ASSERT_TRUE(rc.newton.converged);
+  ASSERT_TRUE(rw.newton.converged) << rw.newton.message;
+  EXPECT_TRUE(rw.from_guess);
+  EXPECT_EQ(rw.guess_iterations, rw.newton.iterations);
+  double umax = 0.0, dmax = 0.0;
+  for (std::size_t i = 0; i < B.X.size(); ++i) {
+    umax = std::max(umax, (cold->positions()[i] - B.X[i]).norm());
+    dmax = std::max(dmax, (warm->positions()[i] - cold->positions()[i]).norm());
+  }
+  std::printf(
+      "[static from a guess] Newton %d iterations from rest, %d from the last design's equilibrium; "
+      "max displacement %.3e m, difference %.2e m\n",
+      rc.newton.iterations, rw.newton.iterations, umax, dmax);
+  EXPECT_GT(umax, 1e-3);  // bent: a solve with something to do
+  EXPECT_LT(rw.newton.iterations, rc.newton.iterations);
+  EXPECT_LT(dmax, 1e-7 * umax);
+  for (const auto& v : warm->velocities()) EXPECT_EQ(v.squaredNorm(), 0.0);
+
+  // A guess that is not finite: the load steps from rest, the same answer.
+  std::vector<Eigen::Vector3d> bad = guess;
+  bad[5].x() = NAN;
+  auto from_bad = beam(1.05 * kE, so);
+  const SolveReport rb = from_bad->solveStaticFrom(bad, no, 1);
+  EXPECT_FALSE(rb.from_guess);
+  EXPECT_EQ(rb.newton.iterations, rc.newton.iterations);
+  for (std::size_t i = 0; i < B.X.size(); ++i) EXPECT_EQ(from_bad->positions()[i], cold->positions()[i]);
+
+  // No load: the rest shape is the equilibrium; the bent guess is not taken.
+  SoftBodyOptions unloaded = so;
+  unloaded.gravity.setZero();
+  auto rest = beam(1.05 * kE, unloaded);
+  const SolveReport rr = rest->solveStaticFrom(guess, no, 1);
+  EXPECT_TRUE(rr.newton.converged);
+  EXPECT_FALSE(rr.from_guess);
+  EXPECT_EQ(rr.newton.iterations, 0);
+  for (std::size_t i = 0; i < B.X.size(); ++i) EXPECT_EQ(rest->positions()[i], B.X[i]);
+}
+
+// conjugateGradientFrom: the solution as the guess takes no iteration; a guess near it fewer than from
+// 0, to the same tolerance; a guess no better than 0 is dropped (the same iterations as from 0).
+TEST(SoftBody, ConjugateGradientFromAGuess) {
+  const int n = 60;
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(n, n);
+  for (int i = 0; i < n; ++i) {
+    A(i, i) = 2.0 + 0.01 * i;
+    if (i > 0) A(i, i - 1) = A(i - 1, i) = -1.0;
+  }
+  const LinearOperator apply = [&](const Eigen::VectorXd& p, Eigen::VectorXd* y) { *y = A * p; };
+  const LinearOperator identity = [](const Eigen::VectorXd& r, Eigen::VectorXd* z) { *z = r; };
+  Eigen::VectorXd b(n);
+  for (int i = 0; i < n; ++i) b(i) = std::sin(0.3 * i) + 1.0;
+  const Eigen::VectorXd exact = A.ldlt().solve(b);
+  Eigen::VectorXd x0;
+  const CgResult zero = conjugateGradient(apply, identity, b, 1e-10, 1000, &x0);
+  ASSERT_TRUE(zero.converged);
+  Eigen::VectorXd x = exact;
+  const CgResult at = conjugateGradientFrom(apply, identity, b, 1e-10, 1000, &x);
+  EXPECT_TRUE(at.converged);
+  EXPECT_EQ(at.iterations, 0);
+  Eigen::VectorXd near = exact;
+  for (int i = 0; i < n; ++i) near(i) *= 1.0 + 1e-4 * std::cos(1.7 * i);
+  const CgResult from_near = conjugateGradientFrom(apply, identity, b, 1e-10, 1000, &near);
+  EXPECT_TRUE(from_near.converged);
+  EXPECT_LT(from_near.iterations, zero.iterations);
+  EXPECT_LT((A * near - b).norm(), 1e-10 * b.norm());
+  Eigen::VectorXd far = -10.0 * exact;
+  const CgResult from_far = conjugateGradientFrom(apply, identity, b, 1e-10, 1000, &far);
+  EXPECT_EQ(from_far.iterations, zero.iterations);
+  EXPECT_LT((far - x0).norm(), 1e-12 * x0.norm());
+  std::printf("[cg from a guess] %d iterations from 0, %d from 1e-4 off the solution\n", zero.iterations,
+              from_near.iterations);
 }

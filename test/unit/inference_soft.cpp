@@ -4,6 +4,7 @@
 // gradients dL/dr against central differences. Recovery from a known design: the finger's bending
 // angle within 1°, the pear's pivot trajectories within 2 % (RMS relative to their extent).
 #include <gtest/gtest.h>
+#include <algorithm>
 
 #include <cmath>
 #include <cstdio>
@@ -138,6 +139,42 @@ TEST(SoftTasks, FingerGradientMatchesFiniteDifferences) {
     c.setNumber("newton_tolerance", 1e-12);
     taskGradientCheck(c, cloud, r, mode);
   }
+}
+
+// warm_start (the default): each design's equilibrium is solved from the last design's, and its
+// adjoint from the last adjoint. Design B evaluated after A gives the loss, the angle and dL/dr of B
+// evaluated alone from rest (warm_start 0) to the solver's tolerances; a design without a chamber
+// after them rests unbent.
+TEST(SoftTasks, FingerWarmStartGivesTheSameDesignAsFromRest) {
+  const VolumeCloud cloud = defaultShapeCloud("finger", 0.004);
+  std::vector<double> a = chamber(cloud, 0.02, 0.085, -0.006, -0.0005), b = a;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    a[i] = 0.3 + 0.4 * a[i] + 0.1 * std::sin(3.0 * i);
+    b[i] = std::clamp(a[i] + 0.05 * std::cos(1.3 * i), 0.0, 1.0);
+  }
+  TaskConfig c = fingerConfig();
+  c.setNumber("bend_angle_deg", 25.0);
+  const auto warm = makeTask(c, cloud);
+  c.set("warm_start", "0");
+  const auto cold = makeTask(c, cloud);
+  std::vector<double> ga, gw, gc;
+  warm->evaluate(a, &ga);
+  const TaskEvaluation ew = warm->evaluate(b, &gw), ec = cold->evaluate(b, &gc);
+  const double tw = feature(ew, "bend_angle_deg"), tc = feature(ec, "bend_angle_deg");
+  double gmax = 0.0, dmax = 0.0;
+  for (std::size_t i = 0; i < gc.size(); ++i) {
+    gmax = std::max(gmax, std::abs(gc[i]));
+    dmax = std::max(dmax, std::abs(gw[i] - gc[i]));
+  }
+  std::printf("[warm start] bend %.12f deg (from rest %.12f), loss %.10g (%.10g), dL/dr max difference %.2e of %.3e\n",
+              tw, tc, ew.loss, ec.loss, dmax, gmax);
+  EXPECT_GT(std::abs(tw - feature(warm->evaluate(a, nullptr), "bend_angle_deg")), 1e-3);  // B is another design
+  EXPECT_NEAR(tw, tc, 1e-8 * std::abs(tc));
+  EXPECT_NEAR(ew.loss, ec.loss, 1e-7 * ec.loss);
+  EXPECT_LT(dmax, 1e-6 * gmax);
+  const TaskEvaluation solid = warm->evaluate(std::vector<double>(cloud.size(), 1.0), nullptr);
+  EXPECT_EQ(feature(solid, "bend_angle_deg"), 0.0);
+  EXPECT_EQ(feature(solid, "tip_displacement_m"), 0.0);
 }
 
 TEST(SoftTasks, PearGradientMatchesFiniteDifferences) {

@@ -106,6 +106,10 @@ struct SolveReport {
   NewtonResult newton;  ///< of the last Newton solve
   double pressure_pa = 0.0;
   int load_increments = 1;  ///< static solves: converged load increments (more than asked after halvings)
+  /// solveStaticFrom(): Newton converged from the given guess at the full load (else it started from
+  /// the state it was given, with the load steps, and the guess's iterations are in guess_iterations)
+  bool from_guess = false;
+  int guess_iterations = 0;  ///< Newton iterations spent from the guess (also when it did not converge)
 };
 
 class SoftBodySimulator {
@@ -172,6 +176,16 @@ class SoftBodySimulator {
   /// from the last equilibrium with half the increment, down to 1/8 of it). Throws TopoError
   /// naming the load reached and the last failure when even that fails.
   SolveReport solveStatic(const NewtonOptions& newton = NewtonOptions(), int load_steps = 1);
+  /// solveStatic() started from a guess of the equilibrium, e.g. the equilibrium of the design before
+  /// this one in an inference: Newton at the full load from `guess` (clamped particles at rest), at
+  /// most `guess_iterations` iterations; when that does not converge (or the guess is inverted or
+  /// not finite), solveStatic(newton, load_steps) from the state the simulator had; that state is
+  /// kept when it is the equilibrium at the full load already (e.g. the rest shape of a design
+  /// without a chamber). The equilibrium is
+  /// the same to Newton's tolerance (a neighbouring design's equilibrium is 3-5 Newton iterations
+  /// from the next, against ~10 for the load steps from rest).
+  SolveReport solveStaticFrom(const std::vector<Eigen::Vector3d>& guess, const NewtonOptions& newton, int load_steps,
+                              int guess_iterations = 8);
 
   // ------------------------------------------------------------ kernels for the adjoint (soft_rollout.h)
   /// Evaluate the state at positions x (clamped particles forced to rest) and time t.
@@ -255,6 +269,9 @@ class SoftBodySimulator {
   /// The SPH state and conservative forces at x_; with known_forces (evaluateStateAt) the SPH state
   /// only, and those forces.
   void refreshForces(const std::string& where, const std::vector<Eigen::Vector3d>* known_forces = nullptr);
+  /// Ψ_static at the current (refreshed) state: elastic + actuation at pressureNow() + contact normal
+  /// energy − Σ m_i g·x_i over free particles (newtonSolve's objective without the inertia terms).
+  double staticPotential() const;
   void invalidateRestFactor() {
     rest_factor_.reset();
     rest_factor_inertia_ = -1.0;

@@ -83,7 +83,10 @@ class SoftRollout {
 /// H λ = ∂L/∂x* (PCG on the stiffness at x*), then θ̄ = −λᵀ ∂g/∂θ with g = ∇Φ(x*; θ) − M g:
 /// m̄_i = λ_i·g, μ̄_i = −λ·∂∇E/∂μ_i, λ̄_i likewise, w̄_i = −λ·∂∇E_a/∂w_i. x0/v0 are left empty.
 /// Throws TopoError when the stiffness is indefinite (an unstable equilibrium) or the solve fails.
+/// adjoint (optional): on entry a guess of λ for the solve (e.g. the last design's, for a loss gradient
+/// of the same shape; empty for none), on return λ. The gradient is linear in dL_dx.
 SoftDesignGradient staticEquilibriumGradient(const SoftBodySimulator& sim, const std::vector<Eigen::Vector3d>& dL_dx,
-                                             double cg_tolerance = 1e-10);
+                                             double cg_tolerance = 1e-10,
+                                             std::vector<Eigen::Vector3d>* adjoint = nullptr);
 
 }  // namespace topo_gaussian
