@@ -428,9 +428,10 @@ void registerFingerTask(TaskList* tasks) {
     p.integer("load_steps", 2, "unitless", "static mode: pressure increments of the Newton solve, unitless", 1, 100);
     p.flag("warm_start", true,
            "static mode: start each design's Newton solve at the full pressure from the equilibrium of the design "
-           "evaluated before it (3-5 iterations instead of ~10; from rest when that is the lower potential), falling "
-           "back to the load steps from rest when it does not converge in 8, and its gradient's adjoint solve from "
-           "that design's; the equilibrium is the same to newton_tolerance, the gradient to the adjoint's 1e-10");
+           "evaluated before it (fewer iterations than the load steps from rest; the rest shape is kept when it is "
+           "the equilibrium already, e.g. no chamber), falling back to the load steps from rest when it does not "
+           "converge in 8, and the gradient's adjoint solve from that design's adjoint; the same equilibrium to "
+           "newton_tolerance and the same gradient to the adjoint's 1e-10");
     p.number("duration_s", 0.2, "s", "implicit mode: simulated time; the pressure ramps over it [s]", 0, 1e300, true);
     p.number("dt_s", 0.01, "s", "implicit mode: time step [s]", 0, 1e300, true);
     p.vector3("finger_axis", &ex, "unitless",
