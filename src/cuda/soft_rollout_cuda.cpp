@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <future>
 #include <sstream>
 
@@ -230,7 +231,8 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
   auto tb = std::chrono::steady_clock::now();
   // The simulator is left at the final state on the host (SoftRollout's contract): its evaluation
   // there runs on a host thread while the device works backwards (the loop below only reads its
-  // clamp flags; the loss callback is given the states, not the simulator).
+  // copy of the clamp flags; the loss callback is given the states, not the simulator).
+  const std::vector<std::uint8_t> clamped = sim->clamped();  // the loop's copy: sim changes meanwhile
   std::future<void> restored = std::async(std::launch::async, [&] {
     sim->evaluateAt(x_end, t_end);
     sim->setVelocities(v_end);
@@ -274,7 +276,7 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
       toHost(st + 3 * n, n, s, &vk);
       loss(k, t0 + k * dt, xk, vk, &dlx, &dlv);
       for (std::size_t i = 0; i < n; ++i)
-        if (sim->clamped()[i]) dlx[i].setZero(), dlv[i].setZero();
+        if (clamped[i]) dlx[i].setZero(), dlv[i].setZero();
       toDevice(dlx, dl, s);
       toDevice(dlv, dl + 3 * n, s);
       cuda_detail::launchAdd(xb, dl, static_cast<int>(3 * n), s);
@@ -289,7 +291,7 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
   toHost(xb, n, s, &g.x0);
   toHost(vb, n, s, &g.v0);
   for (std::size_t i = 0; i < n; ++i)
-    if (sim->clamped()[i]) g.x0[i].setZero(), g.v0[i].setZero();
+    if (clamped[i]) g.x0[i].setZero(), g.v0[i].setZero();
   // the checkpoints and one segment's states with their evaluations
   res.peak_state_bytes = (res.peak_states * 9 * n + static_cast<std::size_t>(K + 1) * eval_values) * sizeof(T);
   restored.get();  // rethrows what the host evaluation threw

@@ -2,7 +2,11 @@
 // chamber inside; at the chamber pressure p the tip bends. Infer the chamber (r = 0: chamber, air
 // at pressure p, soft; r = 1: solid wall material) so that the bending angle at the full pressure
 // matches the observed one. Loss (θ − θ*)² [deg²]. Static mode solves the quasi-static equilibrium
-// at p (Newton, load steps) and differentiates it by one adjoint solve; implicit mode integrates
+// at p (Newton, load steps from rest; with warm_start, the default, Newton at the full pressure from
+// the equilibrium of the design evaluated before, and the adjoint from its adjoint: an evaluation
+// then depends on the one before it to the solvers' tolerances, newton_tolerance and 1e-10, not
+// more; one task object is not for concurrent evaluations) and differentiates it by one adjoint
+// solve; implicit mode integrates
 // the pressure ramp with implicit Euler and differentiates through time (SoftRollout).
 //
 // Bending angle: d = centroid(tip segment) − centroid(the segment before it), segments by rest
@@ -32,6 +36,7 @@
 // inference_soft_contact, FingerStopsAtTheObstacleOnItsTrueSurface). The static equilibrium and its
 // adjoint carry the contact's Hessian.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <iostream>
 #include <mutex>
@@ -196,7 +201,7 @@ class FingerTask : public SoftTask {
     if (warned_) return;
     const double layers = thinnestWallLayers(r);
     if (!std::isfinite(layers)) return;  // no chamber (yet): nothing to resolve
-    warned_ = true;
+    if (warned_.exchange(true)) return;
     const double wall_m = layers * spacing_;
     const std::string where = "spacing " + numberText(spacing_, 4) + " m gives " + numberText(layers, 3) +
                               (layers == 1.0 ? " particle" : " particles") +
@@ -356,7 +361,7 @@ class FingerTask : public SoftTask {
   mutable std::vector<Eigen::Vector3d> last_equilibrium_;  ///< of the last design solved (warm_start)
   mutable std::vector<Eigen::Vector3d> last_adjoint_;      ///< its adjoint of dθ/dx (warm_start)
   bool warm_start_ = true;
-  mutable bool warned_ = false;
+  mutable std::atomic<bool> warned_{false};
   bool has_obstacle_ = false;
   ContactObstacle obstacle_;
   SoftContactOptions contact_opt_;

@@ -52,7 +52,7 @@ CgResult conjugateGradientFrom(const LinearOperator& apply, const LinearOperator
     const double pAp = p.dot(Ap);
     if (!(pAp > 0.0)) {
       res.negative_curvature = true;
-      if (it == 0) *x = z;  // preconditioned steepest descent
+      if (it == 0) *x += z;  // preconditioned steepest descent (from the guess, or from 0)
       break;
     }
     const double a = rz / pAp;

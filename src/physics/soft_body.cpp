@@ -637,34 +637,40 @@ SolveReport SoftBodySimulator::solveStaticFrom(const std::vector<Eigen::Vector3d
   if (!usable) return solveStatic(newton, load_steps);
   const std::vector<Eigen::Vector3d> x_start = x_;
   const PneumaticActuation a_full = act_;
-  act_.ramp_s = 0.0;  // the full pressure now, as solveStatic's last increment
-  // A start that is the equilibrium at the full load already (the rest shape of a design without a
-  // chamber, which Newton from the last design's bent shape may not reach in guess_iterations) is
-  // kept: Newton with no iteration only checks the residual.
-  NewtonOptions check = newton;
-  check.max_iterations = 0;
-  SolveReport at_start = newtonSolve("static solve, the start at the full load", 0.0, x_, v_, check);
-  if (at_start.newton.converged) {
-    act_ = a_full;
-    refreshForces("static solve");
-    for (auto& v : v_) v.setZero();
-    return at_start;
-  }
-  x_ = guess;
-  enforceClamp();
-  NewtonOptions limited = newton;
-  limited.max_iterations = std::min(newton.max_iterations, guess_iterations);
-  SolveReport rep;
-  bool ok = false;
-  try {  // from the guess, which is the state now
-    rep = newtonSolve("static solve from the given start", 0.0, x_, v_, limited);
-    ok = rep.newton.converged;
-  } catch (const ExternalFactorRefused&) {  // the GPU that was required failed: the same from rest
+  auto restore = [&](const char* where) {
     act_ = a_full;
     x_ = x_start;
-    refreshForces("restore after a refused external solve");
+    refreshForces(where);
+  };
+  act_.ramp_s = 0.0;  // the full pressure now, as solveStatic's last increment
+  SolveReport rep;
+  bool ok = false;
+  try {
+    // A start that is the equilibrium at the full load already (the rest shape of a design without a
+    // chamber, which Newton from the last design's bent shape may not reach in guess_iterations) is
+    // kept: Newton with no iteration only checks the residual.
+    NewtonOptions check = newton;
+    check.max_iterations = 0;
+    SolveReport at_start = newtonSolve("static solve, the start at the full load", 0.0, x_, v_, check);
+    if (at_start.newton.converged) {
+      act_ = a_full;
+      refreshForces("static solve");
+      for (auto& v : v_) v.setZero();
+      return at_start;
+    }
+    x_ = guess;
+    enforceClamp();
+    NewtonOptions limited = newton;
+    limited.max_iterations = std::min(newton.max_iterations, guess_iterations);
+    rep = newtonSolve("static solve from the given start", 0.0, x_, v_, limited);
+    ok = rep.newton.converged;
+  } catch (const ExternalFactorRefused&) {  // the GPU that was required failed: not a guess to drop
+    restore("restore after a refused external solve");
     throw;
   } catch (const TopoError&) {  // e.g. the guess is inverted for this design: from the start instead
+  } catch (...) {               // cancelled (SimulationCancelled) or out of memory: the state as given
+    restore("restore after a static solve from a guess");
+    throw;
   }
   act_ = a_full;
   if (ok) {
@@ -676,8 +682,7 @@ SolveReport SoftBodySimulator::solveStaticFrom(const std::vector<Eigen::Vector3d
     return rep;
   }
   const int spent = rep.newton.iterations;  // 0 when the guess itself was refused
-  x_ = x_start;
-  refreshForces("restore after a static solve from a guess");
+  restore("restore after a static solve from a guess");
   SolveReport fallback = solveStatic(newton, load_steps);
   fallback.guess_iterations = spent;
   return fallback;

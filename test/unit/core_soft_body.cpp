@@ -343,8 +343,8 @@ TEST(SoftBody, NewtonFailureSaysWhyAndWhatToChange) {
 // solveStaticFrom: an inference's next design starts from the last design's equilibrium. A beam bent
 // by gravity (0.1 m, Δx = 4 mm, 700 particles) at E = 1 MPa, then the same beam at 1.05 MPa: from
 // the first one's equilibrium Newton converges at the full load in fewer iterations than from rest
-// (one load step) and reaches the same equilibrium; a guess that is not finite, or a start that is
-// the equilibrium already (no load), goes the way of solveStatic.
+// (one load step) and reaches the same equilibrium; a guess that is not finite, one too far for its
+// iterations, or a start that is the equilibrium already (no load), goes the way of solveStatic.
 TEST(SoftBody, StaticSolveFromTheLastDesignsEquilibriumReachesTheSameOneInFewerIterations) {
   const Beam B = makeBeam(0.1, kB, kT, kDx, kClampLayers);
   SoftBodyOptions so;
@@ -388,6 +388,18 @@ TEST(SoftBody, StaticSolveFromTheLastDesignsEquilibriumReachesTheSameOneInFewerI
   EXPECT_FALSE(rb.from_guess);
   EXPECT_EQ(rb.newton.iterations, rc.newton.iterations);
   for (std::size_t i = 0; i < B.X.size(); ++i) EXPECT_EQ(from_bad->positions()[i], cold->positions()[i]);
+
+  // A guess too far for its iterations (the beam bent 20 × as far, one Newton iteration): the load
+  // steps from rest, the same answer, the iteration it spent reported.
+  std::vector<Eigen::Vector3d> far = guess;
+  for (std::size_t i = 0; i < far.size(); ++i) far[i] = B.X[i] + 20.0 * (guess[i] - B.X[i]);
+  auto from_far = beam(1.05 * kE, so);
+  const SolveReport rf = from_far->solveStaticFrom(far, no, 1, 1);
+  EXPECT_TRUE(rf.newton.converged);
+  EXPECT_FALSE(rf.from_guess);
+  EXPECT_EQ(rf.guess_iterations, 1);
+  EXPECT_EQ(rf.newton.iterations, rc.newton.iterations);
+  for (std::size_t i = 0; i < B.X.size(); ++i) EXPECT_EQ(from_far->positions()[i], cold->positions()[i]);
 
   // No load: the rest shape is the equilibrium; the bent guess is not taken.
   SoftBodyOptions unloaded = so;

@@ -28,7 +28,10 @@ namespace topo_gaussian {
 
 /// As SoftRollout(sim, options).run(loss, with_gradient), on the GPU: the simulator's state is the
 /// initial state and its design is used as is; it is left at the final state (evaluated on the CPU
-/// once at the end). forward_s / backward_s include the host loss calls. Throws TopoError for what
+/// once; with a gradient on a host thread while the device runs the backward, so the loss callback
+/// must not use the simulator, only the states it is given; after an error in the backward the
+/// simulator's state is unspecified). forward_s / backward_s include the host loss calls, not the
+/// device allocations (made before the forward). Throws TopoError for what
 /// SoftRollout refuses, for options.integrator ImplicitEuler (not on the GPU yet), when no
 /// device is available, and, naming the step and particle, for a non-finite or inverted state.
 SoftRolloutResult runSoftRolloutCuda(SoftBodySimulator* sim, const SoftRolloutOptions& options,

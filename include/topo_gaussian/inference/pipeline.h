@@ -46,7 +46,9 @@ struct InferenceResult {
   /// (region below), the lower; empty when neither ran.
   std::vector<double> solid_confidence;
   DesignSpread spread;
-  double setup_s = 0, optimize_s = 0, evaluation_s = 0;  ///< timings; evaluation_s = per loss+gradient
+  /// timings; evaluation_s = per loss + gradient the optimiser simulated (its first call, the start
+  /// design evaluated before it, is handed over and not counted)
+  double setup_s = 0, optimize_s = 0, evaluation_s = 0;
   /// What the experiments determine at the final design, and the next experiment (identifiability.h);
   /// available = false (with notes) for tasks without observations or a cancelled run.
   IdentifiabilityAnalysis identifiability;

@@ -32,7 +32,8 @@ CgResult conjugateGradient(const LinearOperator& apply, const LinearOperator& pr
                            double tol, int max_iter, Eigen::VectorXd* x);
 /// As conjugateGradient(), from the initial guess in *x (of b's size; else from 0): r₀ = b − A x costs one
 /// product; a guess with |r₀| ≥ |b| is dropped (CG from 0). The relative residual is still |b − Ax| / |b|,
-/// so a guess close to the solution saves the iterations that reduce the residual to |r₀|.
+/// so a guess close to the solution saves the iterations that reduce the residual to |r₀|. A guess that
+/// meets tol already is returned without an iteration, so without a curvature test.
 CgResult conjugateGradientFrom(const LinearOperator& apply, const LinearOperator& precondition,
                                const Eigen::VectorXd& b, double tol, int max_iter, Eigen::VectorXd* x);
 

@@ -106,8 +106,9 @@ struct SolveReport {
   NewtonResult newton;  ///< of the last Newton solve
   double pressure_pa = 0.0;
   int load_increments = 1;  ///< static solves: converged load increments (more than asked after halvings)
-  /// solveStaticFrom(): Newton converged from the given guess at the full load (else it started from
-  /// the state it was given, with the load steps, and the guess's iterations are in guess_iterations)
+  /// solveStaticFrom(): Newton converged from the given guess at the full load (else the state it was
+  /// given was the equilibrium already, or it was solved from there with the load steps, the guess's
+  /// iterations in guess_iterations)
   bool from_guess = false;
   int guess_iterations = 0;  ///< Newton iterations spent from the guess (also when it did not converge)
 };
@@ -181,7 +182,8 @@ class SoftBodySimulator {
   /// most `guess_iterations` iterations; when that does not converge (or the guess is inverted or
   /// not finite), solveStatic(newton, load_steps) from the state the simulator had; that state is
   /// kept when it is the equilibrium at the full load already (e.g. the rest shape of a design
-  /// without a chamber). The equilibrium is
+  /// without a chamber). On an exception (cancelled, a refused GPU factor) the simulator is left in
+  /// the state it was given. The equilibrium is
   /// the same to Newton's tolerance (a neighbouring design's equilibrium is 3-5 Newton iterations
   /// from the next, against ~10 for the load steps from rest).
   SolveReport solveStaticFrom(const std::vector<Eigen::Vector3d>& guess, const NewtonOptions& newton, int load_steps,
