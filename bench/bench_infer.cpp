@@ -15,7 +15,12 @@
 // finite-difference timing runs its evaluations one after another on one problem, so a task that
 // starts from the last design's solution (the finger's warm_start) runs them warm; the projected one
 // uses loss_only_s, measured on a fresh problem.
-// Usage: bench_infer [--quick] [--backend B] [--set KEY=VALUE]... [CASE_SUBSTRING]
+// --progress-every K: the stderr progress line every K evaluations (default 10). rest_factors /
+// rest_factor_reuses: the process's kept rest-stiffness factors (the GPU's, rest_factor_reuse.h) made
+// and reused by the case's inference, and rest_factors_renewed_during_use of them made within a design's
+// solves (0 where no factor is kept).
+// Usage: bench_infer [--quick] [--backend B] [--set KEY=VALUE]... [--progress-every K] [CASE_SUBSTRING]
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -30,6 +35,7 @@
 #include "topo_gaussian/cuda/backend.h"
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/physics/default_shapes.h"
+#include "topo_gaussian/physics/rest_factor_reuse.h"
 #ifndef TOPO_BENCH_CORE_ONLY
 #include "topo_gaussian/workflow/inference_run.h"
 #endif
@@ -52,6 +58,7 @@ std::vector<double> cavity(const VolumeCloud& c, const Eigen::Vector3d& centre, 
 const char* g_only = nullptr;                            // run only the cases whose name contains this
 const char* g_backend = nullptr;                         // --backend: every case's task parameter backend
 std::vector<std::pair<std::string, std::string>> g_set;  // --set KEY=VALUE: every case's task parameter
+int g_progress_every = 10;                               // --progress-every K: a stderr line every K evaluations
 
 void runCase(const std::string& name, TaskConfig c, const VolumeCloud& cloud, bool run_inference, int fd_limit) {
   if (g_only && name.find(g_only) == std::string::npos) return;
@@ -99,11 +106,12 @@ void runCase(const std::string& name, TaskConfig c, const VolumeCloud& cloud, bo
   bool reached = false;
   std::string message;
   double run_folder_s = 0;
+  const RestFactorReuse::Counts factors_before = RestFactorReuse::gpuShared()->counts();
   if (run_inference) {
     t = Clock::now();
     // Progress on stderr every 10 evaluations (long cases: the neural network, the finger).
     const ProgressCallback progress = [&name](const IterationInfo& it) {
-      if (it.iteration % 10 == 0)
+      if (it.iteration % g_progress_every == 0)
         std::fprintf(stderr, "[bench_infer] %s: evaluation %d, loss %.3e, %.1f s\n", name.c_str(), it.iteration,
                      it.loss, it.elapsed_s);
       return true;
@@ -137,16 +145,20 @@ void runCase(const std::string& name, TaskConfig c, const VolumeCloud& cloud, bo
     for (char& ch : message)
       if (ch == '"' || ch == '\\') ch = '\'';
   }
+  const RestFactorReuse::Counts factors = RestFactorReuse::gpuShared()->counts();
   std::printf(
       "{\"case\": \"%s\", \"task\": \"%s\", \"representation\": \"%s\", \"particles\": %zu, \"parameters\": %d, "
       "\"iterations\": %d, \"end_to_end_s\": %.4f, \"evaluation_mean_s\": %.4f, \"loss_gradient_s\": %.5f, "
       "\"loss_only_s\": %.5f, "
       "\"fd_gradient_s\": %.4f, \"fd_projected\": %s, \"analytic_over_fd\": %.3g, \"loss_initial\": %.3e, "
       "\"loss_final\": %.3e, \"targets_reached\": %s, \"run_folder_s\": %.3f, \"backend\": \"%s\", "
+      "\"rest_factors\": %ld, \"rest_factor_reuses\": %ld, \"rest_factors_renewed_during_use\": %ld, "
       "\"stopped\": \"%s\"}\n",
       name.c_str(), c.task().c_str(), c.text("representation").c_str(), cloud.size(), P, iterations, total_s,
       evaluation_s, grad_s, loss_s, fd_s, projected ? "true" : "false", grad_s / fd_s, loss0, loss1,
-      reached ? "true" : "false", run_folder_s, c.text("backend").c_str(), message.c_str());
+      reached ? "true" : "false", run_folder_s, c.text("backend").c_str(), factors.factors - factors_before.factors,
+      factors.reuses - factors_before.reuses, factors.renewed_during_use - factors_before.renewed_during_use,
+      message.c_str());
   std::fflush(stdout);
 }
 
@@ -163,6 +175,8 @@ int main(int argc, char** argv) {
         return 2;
       }
       g_backend = argv[++i];
+    } else if (std::strcmp(argv[i], "--progress-every") == 0 && i + 1 < argc) {
+      g_progress_every = std::max(1, std::atoi(argv[++i]));
     } else if (std::strcmp(argv[i], "--set") == 0) {
       const char* kv = i + 1 < argc ? std::strchr(argv[i + 1], '=') : nullptr;
       if (!kv) {

@@ -21,8 +21,8 @@ std::shared_ptr<const RestStiffnessPreconditioner> RestFactorReuse::find(std::ui
                                                                          const std::vector<std::uint8_t>& fixed,
                                                                          double inertia) {
   std::lock_guard<std::mutex> lock(m_);
+  if (!factor_) return nullptr;  // none kept: why the last one went stays in refusal_
   refusal_.clear();
-  if (!factor_) return nullptr;
   if (factor_->failed()) {
     refusal_ = "its application failed";
     factor_.reset();
@@ -41,7 +41,10 @@ std::shared_ptr<const RestStiffnessPreconditioner> RestFactorReuse::find(std::ui
   const long now = factor_->applications();
   const double now_s = factor_->applySeconds();
   const long last = now - applications_at_use_;
-  if (first_use_ < 0) first_use_ = last;
+  if (first_use_ < 0) {
+    first_use_ = last;
+    first_solves_ = solves_in_use_;
+  }
   const double per_application = last > 0 ? (now_s - seconds_at_use_) / static_cast<double>(last) : 0.0;
   const double new_factor =
       factor_seconds_ >= 0.0 ? factor_seconds_ : factor_->factorSeconds() + factor_->extraSeconds();
@@ -57,9 +60,34 @@ std::shared_ptr<const RestStiffnessPreconditioner> RestFactorReuse::find(std::ui
   user_ = user;
   applications_at_use_ = now;
   seconds_at_use_ = now_s;
+  solves_in_use_ = 1;
   ++uses_;
   ++counts_.reuses;
   return factor_;
+}
+
+bool RestFactorReuse::renewDuringUse(std::uint64_t user) {
+  std::lock_guard<std::mutex> lock(m_);
+  if (!factor_ || user != user_) return false;
+  ++solves_in_use_;
+  if (!renew_during_use_ || uses_ < 2 || first_solves_ <= 0) return false;  // its own design's use
+  const long applications = factor_->applications() - applications_at_use_;
+  const double expected = static_cast<double>(solves_in_use_ - 1) * static_cast<double>(first_use_) /
+                          static_cast<double>(first_solves_);  // the solves before this one
+  const double per_application =
+      applications > 0 ? (factor_->applySeconds() - seconds_at_use_) / static_cast<double>(applications) : 0.0;
+  const double new_factor =
+      factor_seconds_ >= 0.0 ? factor_seconds_ : factor_->factorSeconds() + factor_->extraSeconds();
+  if (!((static_cast<double>(applications) - expected) * per_application > new_factor)) return false;
+  std::ostringstream s;
+  s << "during a use, " << applications << " applications in " << solves_in_use_ - 1 << " solves against "
+    << numberText(static_cast<double>(first_use_) / static_cast<double>(first_solves_), 3)
+    << " a solve in its first use, " << numberText((static_cast<double>(applications) - expected) * per_application, 3)
+    << " s more than a new factor's " << numberText(new_factor, 3) << " s";
+  refusal_ = s.str();
+  factor_.reset();  // its memory back (once the simulator lets go) before the next factor is made
+  ++counts_.renewed_during_use;
+  return true;
 }
 
 void RestFactorReuse::store(std::uint64_t user, std::shared_ptr<const RestStiffnessPreconditioner> factor,
@@ -77,6 +105,8 @@ void RestFactorReuse::store(std::uint64_t user, std::shared_ptr<const RestStiffn
   seconds_at_use_ = factor_ ? factor_->applySeconds() : 0.0;
   first_use_ = -1;
   uses_ = 1;
+  solves_in_use_ = 1;
+  first_solves_ = 0;
   ++counts_.factors;
 }
 

@@ -315,6 +315,11 @@ LinearOperator SoftBodySimulator::systemPreconditioner(double inertia) const {
                              std::to_string(opt_.cholesky_max_particles) + ")";
     return jacobiPreconditioner(systemDiagonal(inertia));
   }
+  // A kept factor of another design that has cost more in this design's solves than its own would:
+  // this design's own factor below (rest_factor_reuse.h, the rule during a use).
+  if (rest_factor_inertia_ == inertia && rest_factor_ && opt_.rest_factor_reuse &&
+      opt_.rest_factor_reuse->renewDuringUse(serial_))
+    rest_factor_inertia_ = -1.0;
   if (rest_factor_inertia_ != inertia) {
     Eigen::VectorXd shift(3 * size());
     for (std::size_t i = 0; i < size(); ++i) shift.segment<3>(3 * i).setConstant(inertia * m_[i]);

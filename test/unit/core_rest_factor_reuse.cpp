@@ -114,7 +114,8 @@ TEST(RestFactorReuse, AnotherClampOrAFactorStillHeldGetsItsOwn) {
 
 TEST(RestFactorReuse, RenewsThroughFindWhenTheLastUseTookMoreApplications) {
   SoftBodyOptions so;
-  so.rest_factor_reuse = std::make_shared<RestFactorReuse>(0.0);  // a new factor "costs" nothing
+  // a new factor "costs" nothing; the rule between uses only (the one during a use: below)
+  so.rest_factor_reuse = std::make_shared<RestFactorReuse>(0.0, false);
   Eigen::VectorXd r, z;
   {
     auto first = makeDesign(1e5, 8, so);  // its first use: one application
@@ -135,6 +136,40 @@ TEST(RestFactorReuse, RenewsThroughFindWhenTheLastUseTookMoreApplications) {
   third->systemPreconditioner(0.0);  // the same simulator again: the same use, nothing counted
   EXPECT_EQ(so.rest_factor_reuse->counts().factors, 2);
   EXPECT_EQ(so.rest_factor_reuse->counts().reuses, 1);
+}
+
+// The rule during a use: a design whose solves take more applications each than the factor's own
+// design took renews the factor within its own solve when a new factor costs less than the extra
+// applications (here nothing), and still reaches a fresh factor's equilibrium; where a new factor
+// costs more (1e9 s) it is kept through the solve.
+TEST(RestFactorReuse, RenewsDuringAUseWhenItsSolvesTakeMoreApplicationsEach) {
+  NewtonOptions newton;
+  newton.tolerance = 1e-10;
+  for (const double factor_seconds : {0.0, 1e9}) {
+    SoftBodyOptions so;
+    so.rest_factor_reuse = std::make_shared<RestFactorReuse>(factor_seconds);
+    {
+      auto first = makeDesign(1e5, 8, so);  // the factor's own design: its applications a solve
+      ASSERT_TRUE(first->solveStatic(newton, 2).newton.converged);
+    }
+    auto far = makeDesign(2e6, 12, so);  // a much stiffer, longer chamber: more applications a solve
+    const SolveReport r = far->solveStatic(newton, 2);
+    ASSERT_TRUE(r.newton.converged) << r.newton.message;
+    auto fresh = makeDesign(2e6, 12, SoftBodyOptions());
+    ASSERT_TRUE(fresh->solveStatic(newton, 2).newton.converged);
+    EXPECT_LT(largestDifference(*far, *fresh), 1e-7 * largestDisplacement(*fresh));
+    const RestFactorReuse::Counts c = so.rest_factor_reuse->counts();
+    EXPECT_EQ(c.reuses, 1);
+    if (factor_seconds == 0.0) {
+      EXPECT_EQ(c.renewed_during_use, 1);
+      EXPECT_EQ(c.factors, 2);
+      const std::string why = so.rest_factor_reuse->lastRefusal();
+      EXPECT_NE(why.find("during a use"), std::string::npos) << why;
+    } else {
+      EXPECT_EQ(c.renewed_during_use, 0);
+      EXPECT_EQ(c.factors, 1);
+    }
+  }
 }
 
 TEST(RestFactorReuse, AFailedFactorIsDroppedAndAHostFallbackIsNotKept) {

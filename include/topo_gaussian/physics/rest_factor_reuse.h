@@ -17,6 +17,14 @@
 // a_first: the applications in the factor's first use (the design it was made for), a_last: in the
 // use just finished, t_a: the mean seconds of an application in that last use, t_f: what a new factor
 // costs, its factorisation's seconds and the solver's other one-off work (the GPU's in-place inverse).
+// And during a use (renewDuringUse(), before each linear solve of a simulator holding the kept factor):
+//
+//   refactorise now  when  (a_use − s_use · a_first / s_first) · t_a  >  t_f
+//
+// a_use, s_use: the applications and the linear solves of this use so far, a_first / s_first: the
+// applications a solve took in the factor's first use. A design far from the factor's (an optimiser's
+// long step) pays for its own factor within the use instead of at the next one: with the finger's
+// warm_start a use's Newton iterations vary 0–8, so applications a solve, not a use, is what compares.
 // A factor held by another live simulator is not shared (the solvers are not re-entrant): that
 // simulator keeps it, the new one gets its own. A factor whose application failed is dropped.
 //
@@ -39,7 +47,9 @@ class RestFactorReuse {
  public:
   /// factor_seconds ≥ 0: take t_f as this instead of measuring it (tests: 0 renews at any extra
   /// application, a large value never).
-  explicit RestFactorReuse(double factor_seconds = -1.0) : factor_seconds_(factor_seconds) {}
+  /// renew_during_use: also the rule during a use (renewDuringUse(); false: only between uses).
+  explicit RestFactorReuse(double factor_seconds = -1.0, bool renew_during_use = true)
+      : factor_seconds_(factor_seconds), renew_during_use_(renew_during_use) {}
   /// One instance for the process's GPU factors: the soft tasks of one inference (several experiments
   /// of one body) share its kept factor, and a factor for another body frees it first, so no more GPU
   /// memory is held than one factor (as without keeping it).
@@ -53,18 +63,25 @@ class RestFactorReuse {
   /// Keeps `factor` (made for `user`'s body) as the one to reuse; its first use is `user`'s.
   void store(std::uint64_t user, std::shared_ptr<const RestStiffnessPreconditioner> factor, const CorotatedSph& sph,
              const std::vector<std::uint8_t>& fixed, double inertia);
+  /// Before each further linear solve of `user` with the kept factor (the simulator's first one goes
+  /// through find() or store()): counts the solve and returns true when the rule during a use says
+  /// to refactorise now; the kept factor is then dropped (the caller lets go of it and factorises its
+  /// own design, which it store()s). False for a user whose factor is not the kept one.
+  bool renewDuringUse(std::uint64_t user);
   /// The rule above: true when a factor whose first use took `first_use` applications and whose last
   /// took `last_use`, at `seconds_per_application` each, should be made anew (it took `factor_seconds`).
   static bool refactorise(long first_use, long last_use, double seconds_per_application, double factor_seconds);
 
   struct Counts {
-    long factors = 0;  ///< factors stored
-    long reuses = 0;   ///< uses served by a kept factor
+    long factors = 0;             ///< factors stored
+    long reuses = 0;              ///< uses served by a kept factor
+    long renewed_during_use = 0;  ///< factors dropped within a use (renewDuringUse())
   };
   Counts counts() const;
   /// Drops the kept factor (its memory is freed when no simulator holds it).
   void clear();
-  /// Why the last find() returned null while a factor was kept (empty: it returned one, or none was kept).
+  /// Why the kept factor was last refused by find() or dropped by renewDuringUse() (empty once find()
+  /// has served a kept factor since).
   std::string lastRefusal() const;
 
  private:
@@ -76,6 +93,8 @@ class RestFactorReuse {
   std::uint64_t user_ = 0;  ///< the simulator of the current use
   double factor_seconds_ = -1.0;
   long applications_at_use_ = 0, first_use_ = -1, uses_ = 0;
+  long solves_in_use_ = 0, first_solves_ = 0;  ///< linear solves of the current / the first use
+  bool renew_during_use_ = true;
   double seconds_at_use_ = 0.0;
   Counts counts_;
   std::string refusal_;
