@@ -7,6 +7,10 @@
 
 namespace topo_gaussian {
 
+double RestFactorReuse::newFactorSeconds() const {
+  return factor_seconds_ >= 0.0 ? factor_seconds_ : factor_->factorSeconds() + factor_->extraSeconds();
+}
+
 bool RestFactorReuse::refactorise(long first_use, long last_use, double seconds_per_application,
                                   double factor_seconds) {
   return static_cast<double>(last_use - first_use) * seconds_per_application > factor_seconds;
@@ -46,8 +50,7 @@ std::shared_ptr<const RestStiffnessPreconditioner> RestFactorReuse::find(std::ui
     first_solves_ = solves_in_use_;
   }
   const double per_application = last > 0 ? (now_s - seconds_at_use_) / static_cast<double>(last) : 0.0;
-  const double new_factor =
-      factor_seconds_ >= 0.0 ? factor_seconds_ : factor_->factorSeconds() + factor_->extraSeconds();
+  const double new_factor = newFactorSeconds();
   if (uses_ > 1 && refactorise(first_use_, last, per_application, new_factor)) {
     std::ostringstream s;
     s << "its last use took " << last << " applications against " << first_use_ << " in its first, "
@@ -76,8 +79,7 @@ bool RestFactorReuse::renewDuringUse(std::uint64_t user) {
                           static_cast<double>(first_solves_);  // the solves before this one
   const double per_application =
       applications > 0 ? (factor_->applySeconds() - seconds_at_use_) / static_cast<double>(applications) : 0.0;
-  const double new_factor =
-      factor_seconds_ >= 0.0 ? factor_seconds_ : factor_->factorSeconds() + factor_->extraSeconds();
+  const double new_factor = newFactorSeconds();
   if (!((static_cast<double>(applications) - expected) * per_application > new_factor)) return false;
   std::ostringstream s;
   s << "during a use, " << applications << " applications in " << solves_in_use_ - 1 << " solves against "

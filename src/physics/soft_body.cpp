@@ -647,6 +647,11 @@ SolveReport SoftBodySimulator::solveStaticFrom(const std::vector<Eigen::Vector3d
     x_ = x_start;
     refreshForces(where);
   };
+  auto atEquilibrium = [&] {  // the full load kept, at rest
+    act_ = a_full;
+    refreshForces("static solve");
+    for (auto& v : v_) v.setZero();
+  };
   act_.ramp_s = 0.0;  // the full pressure now, as solveStatic's last increment
   SolveReport rep;
   bool ok = false;
@@ -658,9 +663,7 @@ SolveReport SoftBodySimulator::solveStaticFrom(const std::vector<Eigen::Vector3d
     check.max_iterations = 0;
     SolveReport at_start = newtonSolve("static solve, the start at the full load", 0.0, x_, v_, check);
     if (at_start.newton.converged) {
-      act_ = a_full;
-      refreshForces("static solve");
-      for (auto& v : v_) v.setZero();
+      atEquilibrium();
       return at_start;
     }
     x_ = guess;
@@ -677,10 +680,8 @@ SolveReport SoftBodySimulator::solveStaticFrom(const std::vector<Eigen::Vector3d
     restore("restore after a static solve from a guess");
     throw;
   }
-  act_ = a_full;
   if (ok) {
-    refreshForces("static solve");
-    for (auto& v : v_) v.setZero();
+    atEquilibrium();
     rep.load_increments = 1;
     rep.from_guess = true;
     rep.guess_iterations = rep.newton.iterations;

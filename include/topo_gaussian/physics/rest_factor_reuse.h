@@ -85,6 +85,10 @@ class RestFactorReuse {
   std::string lastRefusal() const;
 
  private:
+  /// t_f: what a new factor costs (factor_seconds, else the kept one's factorisation and other one-off
+  /// work); with m_ held and a factor kept.
+  double newFactorSeconds() const;
+
   mutable std::mutex m_;
   std::shared_ptr<const RestStiffnessPreconditioner> factor_;
   std::vector<Eigen::Vector3d> X_;
