@@ -436,7 +436,9 @@ void registerFingerTask(TaskList* tasks) {
            "evaluated before it (fewer iterations than the load steps from rest; the rest shape is kept when it is "
            "the equilibrium already, e.g. no chamber), falling back to the load steps from rest when it does not "
            "converge in 8, and the gradient's adjoint solve from that design's adjoint; the same equilibrium to "
-           "newton_tolerance and the same gradient to the adjoint's 1e-10");
+           "newton_tolerance and the same gradient to the adjoint's 1e-10 where the equilibrium is unique (a body "
+           "with several, e.g. snapping through or pressed against an obstacle, may land on another than the load "
+           "steps from rest reach: set 0 there)");
     p.number("duration_s", 0.2, "s", "implicit mode: simulated time; the pressure ramps over it [s]", 0, 1e300, true);
     p.number("dt_s", 0.01, "s", "implicit mode: time step [s]", 0, 1e300, true);
     p.vector3("finger_axis", &ex, "unitless",
