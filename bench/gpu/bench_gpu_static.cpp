@@ -7,8 +7,9 @@
 //       factorisation (with K0's assembly), one preconditioner application (mean of 20), one Hessian
 //       product and one force evaluation on the host (mean of 20), the whole static solve, its
 //       gradient (staticEquilibriumGradient: one adjoint solve) and, for the GPU, how many
-//       preconditioner applications the solve and the gradient made. The GPU's factor is applied three
-//       ways (DenseCholeskyApply): triangular solves, the explicit inverse by dsymv, and by dgemv; on the
+//       preconditioner applications the solve and the gradient made. The GPU's factor is applied four
+//       ways (DenseCholeskyApply): triangular solves, the explicit inverse by dsymv and by dgemv, and the
+//       inverse factor in float32 (its factor_s includes trtri and the float32 copy); on the
 //       GPU the stiffness products (hessian_product_ms) are the GPU's too (cuda/soft_stiffness_cuda.h).
 // Without a CUDA device it prints one line {"case": "gpu", "skipped": reason} and exits 0.
 // Usage: bench_gpu_static [--quick] [CASE_SUBSTRING]
@@ -67,7 +68,8 @@ std::unique_ptr<SoftBodySimulator> makeFinger(const VolumeCloud& cloud, const So
 
 void runCase(const std::string& name, double spacing) {
   const VolumeCloud cloud = defaultShapeCloud("finger", spacing);
-  for (const int mode : {-1, 0, 1, 2}) {  // the host; the GPU's triangular solves, inverse × symv, inverse × gemv
+  // the host; the GPU's triangular solves, inverse × symv, inverse × gemv, float32 inverse factor
+  for (const int mode : {-1, 0, 1, 2, 3}) {
     const bool gpu = mode >= 0;
     long solves = 0;
     SoftBodyOptions so;
@@ -116,7 +118,8 @@ void runCase(const std::string& name, double spacing) {
         mode < 0    ? "host"
         : mode == 0 ? "triangular"
         : mode == 1 ? "inverse_symv"
-                    : "inverse_gemv",
+        : mode == 2 ? "inverse_gemv"
+                    : "inverse_factor_float32",
         sim->preconditionerWhere().c_str(), n,
 #ifdef _OPENMP
         omp_get_max_threads(),

@@ -1,10 +1,12 @@
 // Dense Cholesky on the GPU; see include/topo_gaussian/cuda/dense_cholesky_cuda.h.
 #include "topo_gaussian/cuda/dense_cholesky_cuda.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/cuda/backend.h"
@@ -23,6 +25,10 @@ namespace topo_gaussian {
 double denseCholeskyBytes(std::size_t unknowns) {
   const double n = static_cast<double>(unknowns);
   return 8.0 * n * n;
+}
+
+long denseCholeskyInverseFactorBreakEven(std::size_t unknowns) {
+  return static_cast<long>(std::ceil(48.0 * static_cast<double>(unknowns) / 27636.0));
 }
 
 std::size_t denseCholeskyParticlesFitting(double bytes) {
@@ -74,6 +80,10 @@ struct Cusolver {
                             const void*, int64_t, cudaDataType, void*, int64_t, int*) = nullptr;
   cusolverStatus_t (*potriBufferSize)(cusolverDnHandle_t, cublasFillMode_t, int, double*, int, int*) = nullptr;
   cusolverStatus_t (*potri)(cusolverDnHandle_t, cublasFillMode_t, int, double*, int, double*, int, int*) = nullptr;
+  cusolverStatus_t (*trtriBufferSize)(cusolverDnHandle_t, cublasFillMode_t, cublasDiagType_t, int64_t, cudaDataType,
+                                      void*, int64_t, size_t*, size_t*) = nullptr;
+  cusolverStatus_t (*trtri)(cusolverDnHandle_t, cublasFillMode_t, cublasDiagType_t, int64_t, cudaDataType, void*,
+                            int64_t, void*, size_t, void*, size_t, int*) = nullptr;
   std::string error;
 };
 
@@ -86,6 +96,8 @@ struct CublasMv {
                           const double*, double*, int) = nullptr;
   cublasStatus_t (*dgemv)(cublasHandle_t, cublasOperation_t, int, int, const double*, const double*, int, const double*,
                           int, const double*, double*, int) = nullptr;
+  cublasStatus_t (*dtrmm)(cublasHandle_t, cublasSideMode_t, cublasFillMode_t, cublasOperation_t, cublasDiagType_t, int,
+                          int, const double*, const double*, int, const double*, int, double*, int) = nullptr;
   std::string error;
 };
 
@@ -106,6 +118,8 @@ const Cusolver& cusolver() {
     if (!ok) c.error = "libcusolver lacks the 64-bit potrf/potrs API (a cuSOLVER older than CUDA 11.1?)";
     resolveSymbol(lib, "cusolverDnDpotri_bufferSize", &c.potriBufferSize);
     resolveSymbol(lib, "cusolverDnDpotri", &c.potri);
+    resolveSymbol(lib, "cusolverDnXtrtri_bufferSize", &c.trtriBufferSize);
+    resolveSymbol(lib, "cusolverDnXtrtri", &c.trtri);
     return c;
   }();
   return c;
@@ -121,12 +135,14 @@ const CublasMv& cublasMv() {
                     resolveSymbol(lib, "cublasSetStream_v2", &c.setStream) &&
                     resolveSymbol(lib, "cublasDsymv_v2", &c.dsymv) && resolveSymbol(lib, "cublasDgemv_v2", &c.dgemv);
     if (!ok) c.error = "libcublas lacks cublasDsymv_v2 or cublasDgemv_v2";
+    resolveSymbol(lib, "cublasDtrmm_v2", &c.dtrmm);  // the float32 inverse factor's blocks (optional)
     return c;
   }();
   return c;
 }
 
 constexpr const char* kInput = "GPU dense Cholesky";
+constexpr long long kTrtriLeaf = 1024;  // the float32 inverse factor's diagonal blocks inverted by cusolverDnXtrtri
 
 const char* const kMemoryFix =
     "use a coarser particle spacing, free the GPU, or use backend cpu (backend auto factorises on the host)";
@@ -140,10 +156,11 @@ void checkSolver(cusolverStatus_t s, const char* what) {
 
 class DenseCholeskyCuda : public CholeskySolver {
  public:
-  DenseCholeskyCuda(double max_bytes, DenseCholeskyApply apply, long inverse_after)
+  DenseCholeskyCuda(double max_bytes, DenseCholeskyApply apply, long inverse_after, DenseCholeskyApply inverse_as)
       : max_bytes_(max_bytes),
         apply_(apply),
-        inverse_after_(apply == DenseCholeskyApply::Triangular ? inverse_after : 0) {}
+        inverse_after_(apply == DenseCholeskyApply::Triangular ? inverse_after : 0),
+        inverse_as_(inverse_as == DenseCholeskyApply::Triangular ? DenseCholeskyApply::InverseGemv : inverse_as) {}
   ~DenseCholeskyCuda() override {
     if (blas_) cublasMv().destroy(blas_);
     if (params_) cusolver().destroyParams(params_);
@@ -219,7 +236,7 @@ class DenseCholeskyCuda : public CholeskySolver {
                       "report this: the matrix of " + std::to_string(n_) + " unknowns was passed wrongly");
     if (info > 0) return false;  // not positive definite (leading minor `info`): the caller refuses it
     if (apply_ != DenseCholeskyApply::Triangular) {
-      prepareInverse(cs, &work);
+      prepareInverse(cs, &work, apply_);
       invertInPlace(cs, work, apply_);
     }
     if (!pinned_)
@@ -233,7 +250,9 @@ class DenseCholeskyCuda : public CholeskySolver {
 
   void nameFactor() {
     name_ = std::string("dense Cholesky (cuSOLVER, float64") +
-            (apply_ == DenseCholeskyApply::Triangular ? "" : ", explicit inverse") +
+            (apply_ == DenseCholeskyApply::Triangular             ? ""
+             : apply_ == DenseCholeskyApply::InverseFactorFloat32 ? ", explicit inverse factor in float32"
+                                                                  : ", explicit inverse") +
             (inverse_after_ > 0 && apply_ != DenseCholeskyApply::Triangular
                  ? " after " + std::to_string(inverse_after_) + " triangular solves"
                  : "") +
@@ -245,37 +264,54 @@ class DenseCholeskyCuda : public CholeskySolver {
     const auto t0 = std::chrono::steady_clock::now();
     cuda_detail::DeviceBuffer work;
     try {
-      prepareInverse(cusolver(), &work);  // nothing is changed yet: on failure the triangular solves go on
+      prepareInverse(cusolver(), &work, inverse_as_);  // nothing is changed yet: on failure the triangular solves go on
     } catch (const TopoError&) {
+      releaseInverse();
       inverse_after_ = 0;
       return;
     }
     try {
-      invertInPlace(cusolver(), work, DenseCholeskyApply::InverseGemv);
+      invertInPlace(cusolver(), work, inverse_as_);
     } catch (...) {
       factored_ = false;  // the factor is overwritten: no further solve with it
       throw;
     }
-    apply_ = DenseCholeskyApply::InverseGemv;
+    apply_ = inverse_as_;
     extra_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     nameFactor();
   }
 
-  /// What the explicit inverse needs before the factor is overwritten: potri and cuBLAS, at most 46 340
-  /// unknowns, the cuBLAS handle and potri's workspace. Throws TopoError with the reason.
-  void prepareInverse(const Cusolver& cs, cuda_detail::DeviceBuffer* work) {
+  /// What the explicit inverse needs before the factor is overwritten: potri (or trtri) and cuBLAS, at
+  /// most 46 340 unknowns for potri, the cuBLAS handle, the workspace, and for the float32 inverse factor
+  /// its matrix and the products' work space. Throws TopoError with the reason.
+  void prepareInverse(const Cusolver& cs, cuda_detail::DeviceBuffer* work, DenseCholeskyApply mode) {
+    if (mode == DenseCholeskyApply::InverseFactorFloat32) {
+      if (!cs.trtri || !cs.trtriBufferSize || !cublasMv().error.empty() || !cublasMv().dtrmm)
+        throw TopoError("GPU dense Cholesky",
+                        "this CUDA lacks cusolverDnXtrtri (a cuSOLVER older than CUDA 11.4?) or cublasDtrmm" +
+                            (cublasMv().error.empty() ? std::string() : ": " + cublasMv().error),
+                        "use the triangular solves (DenseCholeskyApply::Triangular)");
+      makeBlasHandle();
+      std::size_t dev_ws = 0, host_ws = 0;
+      checkSolver(cs.trtriBufferSize(handle_, CUBLAS_FILL_MODE_LOWER, CUBLAS_DIAG_NON_UNIT,
+                                     std::min<long long>(n_, kTrtriLeaf), CUDA_R_64F, A_.ptr, n_, &dev_ws, &host_ws),
+                  "cusolverDnXtrtri_bufferSize");
+      if (work->bytes < std::max<std::size_t>(dev_ws, 8)) work->allocate(std::max<std::size_t>(dev_ws, 8), kInput);
+      trtri_host_.assign(std::max<std::size_t>(host_ws, 8), 0);
+      const long long ld = cuda_detail::inverseFactorLeadingDimension(n_);
+      const auto lds = static_cast<std::size_t>(ld);
+      F_.allocate(sizeof(float) * static_cast<std::size_t>(n_) * lds, kInput);
+      P_.allocate(sizeof(double) * static_cast<std::size_t>(cuda_detail::inverseFactorChunks(n_)) * lds, kInput);
+      y_.allocate(sizeof(double) * lds, kInput);
+      return;
+    }
     if (!cs.potri || !cs.potriBufferSize || !cublasMv().error.empty())
       throw TopoError("GPU dense Cholesky", "this CUDA lacks cusolverDnDpotri or cuBLAS: " + cublasMv().error,
                       "use the triangular solves (DenseCholeskyApply::Triangular)");
     if (n_ > 46340)
       throw TopoError("GPU dense Cholesky", "the explicit inverse takes at most 46340 unknowns (32-bit potri)",
                       "use the triangular solves (DenseCholeskyApply::Triangular)");
-    if (!blas_) {
-      if (cublasMv().create(&blas_) != CUBLAS_STATUS_SUCCESS)
-        throw TopoError("GPU dense Cholesky", "cublasCreate failed", "check the GPU's free memory");
-      if (cublasMv().setStream(blas_, stream_) != CUBLAS_STATUS_SUCCESS)
-        throw TopoError("GPU dense Cholesky", "cublasSetStream failed", "check the GPU's free memory");
-    }
+    makeBlasHandle();
     const int n = static_cast<int>(n_);
     int lwork = 0;
     checkSolver(cs.potriBufferSize(handle_, CUBLAS_FILL_MODE_LOWER, n, static_cast<double*>(A_.ptr), n, &lwork),
@@ -285,27 +321,97 @@ class DenseCholeskyCuda : public CholeskySolver {
       work->allocate(sizeof(double) * static_cast<std::size_t>(lwork_), kInput);
   }
 
-  /// A⁻¹ from the factor in place (potri: its lower triangle), the upper mirrored for InverseGemv.
+  void makeBlasHandle() {
+    if (blas_) return;
+    if (cublasMv().create(&blas_) != CUBLAS_STATUS_SUCCESS)
+      throw TopoError("GPU dense Cholesky", "cublasCreate failed", "check the GPU's free memory");
+    if (cublasMv().setStream(blas_, stream_) != CUBLAS_STATUS_SUCCESS)
+      throw TopoError("GPU dense Cholesky", "cublasSetStream failed", "check the GPU's free memory");
+  }
+
+  /// L⁻¹ in place of the lower triangle's diagonal block [off, off + m) (column-major, lda n_), by halves:
+  /// L = [A 0; B C] has L⁻¹ = [A⁻¹ 0; −C⁻¹ B A⁻¹ C⁻¹], so A and C are inverted (recursively) and B is
+  /// multiplied by the inverted triangles (cublasDtrmm in place, ~(m/2)³ flops each: the FP64 tensor
+  /// cores' GEMM); blocks of at most kTrtriLeaf by cusolverDnXtrtri, whose whole-matrix call took 0.62 s
+  /// at 27 636 unknowns on an H100. Its info is checked after every block.
+  void invertLowerBlocks(const cuda_detail::DeviceBuffer& work, long long off, long long m) {
+    double* A = static_cast<double*>(A_.ptr);
+    const long long n = n_;
+    if (m <= kTrtriLeaf) {
+      checkSolver(
+          cusolver().trtri(handle_, CUBLAS_FILL_MODE_LOWER, CUBLAS_DIAG_NON_UNIT, m, CUDA_R_64F, A + off + off * n, n,
+                           work.ptr, work.bytes, trtri_host_.data(), trtri_host_.size(), static_cast<int*>(info_.ptr)),
+          "cusolverDnXtrtri");
+      int info = 0;
+      check(cudaMemcpyAsync(&info, info_.ptr, sizeof(int), cudaMemcpyDeviceToHost, stream_), "download", kInput);
+      check(cudaStreamSynchronize(stream_), "cusolverDnXtrtri", kInput);
+      if (info != 0)
+        throw TopoError("GPU dense Cholesky", "the inverse failed (cusolverDnXtrtri info " + std::to_string(info) + ")",
+                        "use the triangular solves (DenseCholeskyApply::Triangular)");
+      return;
+    }
+    const long long k = (m / 2 + 63) / 64 * 64;
+    double* B = A + (off + k) + off * n;  // (m − k) × k
+    const double one = 1.0, minus_one = -1.0;
+    const int rows = static_cast<int>(m - k), cols = static_cast<int>(k), ld = static_cast<int>(n);
+    invertLowerBlocks(work, off, k);
+    checkBlas(cublasMv().dtrmm(blas_, CUBLAS_SIDE_RIGHT, CUBLAS_FILL_MODE_LOWER, CUBLAS_OP_N, CUBLAS_DIAG_NON_UNIT,
+                               rows, cols, &one, A + off + off * n, ld, B, ld, B, ld),
+              "cublasDtrmm");
+    invertLowerBlocks(work, off + k, m - k);
+    checkBlas(cublasMv().dtrmm(blas_, CUBLAS_SIDE_LEFT, CUBLAS_FILL_MODE_LOWER, CUBLAS_OP_N, CUBLAS_DIAG_NON_UNIT, rows,
+                               cols, &minus_one, A + (off + k) + (off + k) * n, ld, B, ld, B, ld),
+              "cublasDtrmm");
+  }
+
+  static void checkBlas(cublasStatus_t st, const char* what) {
+    if (st != CUBLAS_STATUS_SUCCESS)
+      throw TopoError("GPU dense Cholesky", std::string(what) + " failed with cuBLAS status " + std::to_string(st),
+                      "check the GPU's free memory; use the triangular solves (DenseCholeskyApply::Triangular)");
+  }
+
+  /// A⁻¹ from the factor in place (potri: its lower triangle), the upper mirrored for InverseGemv; or
+  /// L⁻¹ in place (invertLowerBlocks), rounded into F_ as L̃⁻ᵀ's rows, and the float64 matrix freed.
   void invertInPlace(const Cusolver& cs, const cuda_detail::DeviceBuffer& work, DenseCholeskyApply mode) {
     const int n = static_cast<int>(n_);
-    checkSolver(cs.potri(handle_, CUBLAS_FILL_MODE_LOWER, n, static_cast<double*>(A_.ptr), n,
-                         static_cast<double*>(work.ptr), lwork_, static_cast<int*>(info_.ptr)),
-                "cusolverDnDpotri");
-    if (mode == DenseCholeskyApply::InverseGemv) {
-      cuda_detail::launchMirrorLower(n_, static_cast<double*>(A_.ptr), stream_);
-      check(cudaGetLastError(), "mirror kernel", kInput);
+    const char* what = "cusolverDnDpotri";
+    if (mode == DenseCholeskyApply::InverseFactorFloat32) {
+      what = "cusolverDnXtrtri";
+      invertLowerBlocks(work, 0, n_);
+      cuda_detail::launchInverseFactorToFloat(n_, static_cast<const double*>(A_.ptr), static_cast<float*>(F_.ptr),
+                                              stream_);
+      check(cudaGetLastError(), "float32 copy kernel", kInput);
+    } else {
+      checkSolver(cs.potri(handle_, CUBLAS_FILL_MODE_LOWER, n, static_cast<double*>(A_.ptr), n,
+                           static_cast<double*>(work.ptr), lwork_, static_cast<int*>(info_.ptr)),
+                  what);
+      if (mode == DenseCholeskyApply::InverseGemv) {
+        cuda_detail::launchMirrorLower(n_, static_cast<double*>(A_.ptr), stream_);
+        check(cudaGetLastError(), "mirror kernel", kInput);
+      }
     }
     int info = 0;
     check(cudaMemcpyAsync(&info, info_.ptr, sizeof(int), cudaMemcpyDeviceToHost, stream_), "download", kInput);
-    check(cudaStreamSynchronize(stream_), "cusolverDnDpotri", kInput);
+    check(cudaStreamSynchronize(stream_), what, kInput);
     if (info != 0)
-      throw TopoError("GPU dense Cholesky", "the inverse failed (potri info " + std::to_string(info) + ")",
+      throw TopoError("GPU dense Cholesky",
+                      std::string("the inverse failed (") + what + " info " + std::to_string(info) + ")",
                       "use the triangular solves (DenseCholeskyApply::Triangular)");
+    if (mode == DenseCholeskyApply::InverseFactorFloat32) A_.free();  // F_ holds all that is applied now
+  }
+
+  /// The float32 inverse factor and its work space.
+  void releaseInverse() {
+    F_.free();
+    P_.free();
+    y_.free();
+    trtri_host_.clear();
   }
 
   /// The device and pinned memory of an earlier factorisation.
   void release() {
     A_.free();
+    releaseInverse();
     rhs_.free();
     out_.free();
     if (pinned_) cudaFreeHost(pinned_);
@@ -330,7 +436,13 @@ class DenseCholeskyCuda : public CholeskySolver {
     void* result = rhs_.ptr;
     const double one = 1.0, zero = 0.0;
     const int n = static_cast<int>(n_);
-    if (apply_ == DenseCholeskyApply::Triangular) {
+    if (apply_ == DenseCholeskyApply::InverseFactorFloat32) {
+      cuda_detail::launchInverseFactorApply(n_, static_cast<const float*>(F_.ptr), static_cast<const double*>(rhs_.ptr),
+                                            static_cast<double*>(P_.ptr), static_cast<double*>(y_.ptr),
+                                            static_cast<double*>(out_.ptr), stream_);
+      check(cudaGetLastError(), "the inverse factor's product kernels", kInput);
+      result = out_.ptr;
+    } else if (apply_ == DenseCholeskyApply::Triangular) {
       checkSolver(cusolver().potrs(handle_, params_, CUBLAS_FILL_MODE_LOWER, n_, 1, CUDA_R_64F, A_.ptr, n_, CUDA_R_64F,
                                    rhs_.ptr, n_, static_cast<int*>(info_.ptr)),
                   "cusolverDnXpotrs");
@@ -353,13 +465,14 @@ class DenseCholeskyCuda : public CholeskySolver {
   }
 
   std::string name() const override { return name_; }
-  double bytes() const override { return static_cast<double>(A_.bytes); }
+  double bytes() const override { return static_cast<double>(A_.bytes + F_.bytes + P_.bytes + y_.bytes); }
   double extraSeconds() const override { return extra_seconds_; }
 
  private:
   double max_bytes_ = 0.0;
   DenseCholeskyApply apply_ = DenseCholeskyApply::Triangular;
   long inverse_after_ = 0;
+  DenseCholeskyApply inverse_as_ = DenseCholeskyApply::InverseGemv;
   int lwork_ = 1;
   double extra_seconds_ = 0.0;
   mutable long applications_ = 0;
@@ -370,6 +483,8 @@ class DenseCholeskyCuda : public CholeskySolver {
   cusolverDnHandle_t handle_ = nullptr;
   cusolverDnParams_t params_ = nullptr;
   cuda_detail::DeviceBuffer A_, info_;
+  cuda_detail::DeviceBuffer F_, P_, y_;  // InverseFactorFloat32: L̃⁻ᵀ's rows, the products' work space
+  std::vector<char> trtri_host_;
   mutable cuda_detail::DeviceBuffer rhs_, out_;
   void* pinned_ = nullptr;
   std::string name_;
@@ -383,8 +498,9 @@ std::string denseCholeskyLibraryError() {
   return "";
 }
 
-std::unique_ptr<CholeskySolver> makeDenseCholeskyCuda(double max_bytes, DenseCholeskyApply apply, long inverse_after) {
-  return std::make_unique<DenseCholeskyCuda>(max_bytes, apply, inverse_after);
+std::unique_ptr<CholeskySolver> makeDenseCholeskyCuda(double max_bytes, DenseCholeskyApply apply, long inverse_after,
+                                                      DenseCholeskyApply inverse_as) {
+  return std::make_unique<DenseCholeskyCuda>(max_bytes, apply, inverse_after, inverse_as);
 }
 
 #else  // no CUDA backend in this build
@@ -412,7 +528,7 @@ class NoCudaCholesky : public CholeskySolver {
 };
 }  // namespace
 
-std::unique_ptr<CholeskySolver> makeDenseCholeskyCuda(double, DenseCholeskyApply, long) {
+std::unique_ptr<CholeskySolver> makeDenseCholeskyCuda(double, DenseCholeskyApply, long, DenseCholeskyApply) {
   return std::make_unique<NoCudaCholesky>();
 }
 

@@ -189,21 +189,25 @@ void SoftTask::usePreconditionerOnGpu(bool with_contact) {
   std::ostringstream said;
   said << "backend " << toString(backend_requested_) << ": ";
   if (refused.empty()) {
-    // The start design's solve and gradient take ~230 applications (the finger); a factor applied
-    // twice its break-even is one kept for the designs after it: inverted then.
-    const long inverse_after = 2 * denseCholeskyInverseBreakEven(unknowns);
+    // A factor applied more often than the break-even of its float32 inverse factor (~48 applications
+    // for the finger, whose start design's solve and gradient take ~230) is inverted then and applied
+    // at half the bytes of a float64 inverse: 0.61-0.67 s per finger evaluation instead of 1.01-1.04 s (H100).
+    const long inverse_after = denseCholeskyInverseFactorBreakEven(unknowns);
     sim_options_.cholesky_external = [inverse_after] {
-      return makeDenseCholeskyCuda(0.0, DenseCholeskyApply::Triangular, inverse_after);
+      return makeDenseCholeskyCuda(0.0, DenseCholeskyApply::Triangular, inverse_after,
+                                   DenseCholeskyApply::InverseFactorFloat32);
     };
     // One design after another of this body: an earlier design's GPU factor preconditions the next
     // until a new one costs less than the extra iterations (rest_factor_reuse.h). On the GPU a factor
-    // costs ~400-800 applications (0.6-1.2 s against 1.4-4.5 ms): the finger inference 21-23 s instead
-    // of 34 s. Not on the host: there an application costs more against a factor (CHOLMOD on 2 cores:
+    // costs ~400 applications (0.48 s with its float32 inverse, against 1.16 ms an application): the finger inference
+    // 21-23 s instead of 34 s. Not on the host: there an application costs more against a factor (CHOLMOD on 2 cores:
     // the same inference 628 s with it, 543 s without). One kept factor for all tasks of the process:
     // no more GPU memory held than without keeping it.
     sim_options_.rest_factor_reuse = RestFactorReuse::gpuShared();
     said << "the rest stiffness's Cholesky factor on the GPU (dense, " << unknowns << " unknowns, "
-         << numberText(denseCholeskyBytes(unknowns) / 1e9, 3) << " GB, kept from one design to the next while it pays)";
+         << numberText(denseCholeskyBytes(unknowns) / 1e9, 3) << " GB; applied as its inverse factor in float32, "
+         << numberText(denseCholeskyBytes(unknowns) / 2e9, 3) << " GB, from " << inverse_after
+         << " applications; kept from one design to the next while it pays)";
   } else {
     notes_.push_back("backend auto: the rest stiffness's Cholesky factor on the host, not the GPU: " + refused);
     said << "the rest stiffness's Cholesky factor on the host (" << refused << ")";

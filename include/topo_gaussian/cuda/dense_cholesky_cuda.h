@@ -44,29 +44,47 @@ std::string denseCholeskyRefusal(std::size_t unknowns, double lower_nonzeros = 0
 /// cuSOLVER loads, else why not.
 std::string denseCholeskyLibraryError();
 
-/// How a solve applies the factor: two triangular solves (cusolverDnXpotrs: exact to round-off, but a
-/// solve with one right-hand side is a chain of n/block dependent steps), or the explicit inverse A⁻¹
-/// (cusolverDnDpotri after the factor, about twice the factor's flops once) times r: cuBLAS dsymv on
-/// its lower triangle or dgemv on the mirrored full matrix, which read the matrix at the memory's
-/// speed; the inverse carries cond(A) × ε of relative error (a preconditioner's worth) and takes at
-/// most 46 340 unknowns.
-enum class DenseCholeskyApply { Triangular, InverseSymv, InverseGemv };
+/// How a solve applies the factor:
+/// - Triangular: two triangular solves (cusolverDnXpotrs: exact to round-off, but a solve with one
+///   right-hand side is a chain of n/block dependent steps);
+/// - InverseSymv / InverseGemv: the explicit inverse A⁻¹ (cusolverDnDpotri after the factor, about
+///   twice the factor's flops once) times r, cuBLAS dsymv on its lower triangle or dgemv on the
+///   mirrored full matrix, which read the matrix at the memory's speed; the inverse carries
+///   cond(A) × ε of relative error (a preconditioner's worth) and takes at most 46 340 unknowns;
+/// - InverseFactorFloat32: the inverse factor L⁻¹ (by halves: cublasDtrmm on the off-diagonal blocks,
+///   cusolverDnXtrtri on diagonal blocks of ≤ 1024; 0.20 s at 27 636 unknowns on an H100, where one
+///   cusolverDnXtrtri call took 0.62 s) rounded once to float32, z = L̃⁻ᵀ (L̃⁻¹ r) with float64 sums: half the bytes an
+///   application of InverseGemv reads. Whatever the rounding, the operator applied is the Gram form of an invertible
+///   triangle, so it is symmetric positive definite, as a CG preconditioner must be (a float32 copy of
+///   A⁻¹ itself need not be: its rounding, ~ε₃₂ ‖A⁻¹‖, exceeds A⁻¹'s smallest eigenvalue once cond(A)
+///   passes ~1e7). It differs from A⁻¹ by ~ε₃₂ √cond(A) relative: a few more CG iterations at most.
+///   Its device memory is (3N)² × 4 bytes once made (the float64 factor is freed).
+enum class DenseCholeskyApply { Triangular, InverseSymv, InverseGemv, InverseFactorFloat32 };
 
 /// A CholeskySolver on the first CUDA device. max_bytes > 0: refuse a factor above it too (tests;
 /// the device's free memory always bounds it). Without the CUDA backend or a device, factorize()
 /// throws TopoError with the reason. inverse_after > 0 with the triangular solves: once the factor has
-/// been applied that many times it is inverted in place (potri) and applied as InverseGemv from then
-/// on (a factor kept for many solves: rest_factor_reuse.h); where the inverse cannot be made (above
-/// 46 340 unknowns, no potri or cuBLAS, no memory for its workspace) the triangular solves go on; a
-/// failure of potri itself (the factor overwritten) makes that solve and every later one throw.
+/// been applied that many times it is inverted (`inverse_as`: InverseGemv in place by potri, or
+/// InverseFactorFloat32) and applied so from then on (a factor kept for many solves:
+/// rest_factor_reuse.h); where the inverse cannot be made (InverseGemv above 46 340 unknowns, no
+/// potri/trtri or cuBLAS, no memory for its workspace or float32 copy) the triangular solves go on; a
+/// failure of potri/trtri itself (the factor overwritten) makes that solve and every later one throw.
 std::unique_ptr<CholeskySolver> makeDenseCholeskyCuda(double max_bytes = 0.0,
                                                       DenseCholeskyApply apply = DenseCholeskyApply::Triangular,
-                                                      long inverse_after = 0);
+                                                      long inverse_after = 0,
+                                                      DenseCholeskyApply inverse_as = DenseCholeskyApply::InverseGemv);
 
 /// Applications of one factor from which its explicit inverse pays: the inverse costs about one more
 /// factorisation (potri: 0.55 s at 27 636 unknowns on an H200) and saves ~3.1 ms an application (4.5 →
 /// 1.44 ms), so ~180 applications at that size; the first cost grows as the unknowns cubed, the
 /// saving as their square, so the break-even grows in proportion to the unknowns.
 long denseCholeskyInverseBreakEven(std::size_t unknowns);
+
+/// The same for the float32 inverse factor (DenseCholeskyApply::InverseFactorFloat32): the inversion
+/// and the float32 copy cost 0.20-0.22 s at 27 636 unknowns and save 3.6-4.2 ms an application
+/// (4.8-5.4 → 1.17 ms; H100, bench_gpu_static and bench_infer), so ~48 applications there, in
+/// proportion elsewhere (cost ∝ unknowns³, saving ∝ unknowns²): a design's static solve alone (~170
+/// applications for the finger) pays for it.
+long denseCholeskyInverseFactorBreakEven(std::size_t unknowns);
 
 }  // namespace topo_gaussian
