@@ -279,7 +279,7 @@ __global__ void __launch_bounds__(kBlock) hessianRowKernel(SoftDeviceBody<T> b, 
     }
   }
   if (rec_out)  // the gather's record of (a, dF̃, dM) (evaluateKernel's layout: N_i = dM_i L_i)
-    writeRecord(rec_out + kRecord * i, dM, b.L + 9 * i, dF, ai0, ai1, ai2, ci, Vi);
+    writeRecord(rec_out, b.n, i, dM, b.L + 9 * i, dF, ai0, ai1, ai2, ci, Vi);
   if (dFt_out)
 #pragma unroll
     for (int k = 0; k < 9; ++k) {
@@ -407,7 +407,7 @@ void launchAdjointStep(const SoftDeviceBody<T>& b, const T* f, double dt, T* xb,
   lin.x = a;
   lin.f = mHa;
   if (b.L) {
-    T* rec = d_ch + n;  // kRecord n values after the 30 n above
+    T* rec = work + (30 * n + 3) / 4 * 4;  // kRecord n values after the 30 n above, 16-byte aligned
     launchHessianRowLanes(b, a, static_cast<T*>(nullptr), static_cast<T*>(nullptr), d_mu, d_la, d_ch, s, rec);
     lin.rec = rec;
     launchGatherRecords(lin, stream);

@@ -354,15 +354,20 @@ __device__ inline T groupSum(T v) {
   return v;
 }
 
-/// The gather's record of particle i (kRecord values at r): N_i = M_i L_i (L in float64, rounded to T),
-/// F̃_i, x_i, c_i, V_i, 0. evaluateKernel writes it of (x, F̃, M), the Hessian row pass of (a, dF̃, dM).
+/// The gather's records, kRecord values a particle: N_i = M_i L_i (L in float64, rounded to T), F̃_i,
+/// x_i, c_i, V_i, 0. They are stored in 16-byte chunks, chunk q of every particle together: value k of
+/// particle i at rec[(k / w · n + i) · w + k % w], w = 16 / sizeof(T). In lattice order a warp's
+/// particles read the neighbours at one offset from consecutive particles, so a warp's load of one
+/// chunk reads one contiguous run (8 particles: 128 bytes) instead of a 16-byte piece of each of 8
+/// records 96 bytes apart (float32), six times the L1 wavefronts. rec: 16-byte aligned, kRecord n values.
 template <class T>
-__device__ inline void writeRecord(T* r, const Mat3<T>& M, const double* L, const Mat3<T>& Ft, T x0, T x1, T x2, T c,
-                                   T V) {
+__device__ inline void writeRecord(T* rec, int n, int i, const Mat3<T>& M, const double* L, const Mat3<T>& Ft, T x0,
+                                   T x1, T x2, T c, T V) {
   Mat3<T> Lt;
 #pragma unroll
   for (int k = 0; k < 9; ++k) Lt.a[k] = static_cast<T>(L[k]);
   const Mat3<T> N = mul(M, Lt);
+  T r[kRecord];
 #pragma unroll
   for (int k = 0; k < 9; ++k) {
     r[k] = N.a[k];
@@ -374,6 +379,32 @@ __device__ inline void writeRecord(T* r, const Mat3<T>& M, const double* L, cons
   r[21] = c;
   r[22] = V;
   r[23] = T(0);
+  using V16 = typename Vector16<T>::type;
+  constexpr int w = static_cast<int>(sizeof(V16) / sizeof(T));
+  static_assert(kRecord % w == 0, "whole 16-byte chunks");
+#pragma unroll
+  for (int q = 0; q < kRecord / w; ++q) {
+    V16 v;
+    T* e = reinterpret_cast<T*>(&v);
+#pragma unroll
+    for (int p = 0; p < w; ++p) e[p] = r[w * q + p];
+    reinterpret_cast<V16*>(rec)[static_cast<long long>(q) * n + i] = v;
+  }
+}
+
+/// The record of particle j (writeRecord's layout) into out[kRecord], through the read-only cache (only
+/// in a kernel that does not write the records).
+template <class T>
+__device__ inline void loadRecord(const T* rec, int n, int j, T* out) {
+  using V16 = typename Vector16<T>::type;
+  constexpr int w = static_cast<int>(sizeof(V16) / sizeof(T));
+#pragma unroll
+  for (int q = 0; q < kRecord / w; ++q) {
+    const V16 v = __ldg(reinterpret_cast<const V16*>(rec) + static_cast<long long>(q) * n + j);
+    const T* e = reinterpret_cast<const T*>(&v);
+#pragma unroll
+    for (int p = 0; p < w; ++p) out[w * q + p] = e[p];
+  }
 }
 
 }  // namespace device

@@ -145,8 +145,8 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
     xb = I.allocate<T>(3 * n);
     vb = I.allocate<T>(3 * n);
     dl = I.allocate<T>(6 * n);
-    G = I.allocate<T>(4 * n);  // mass, mu, lambda, chamber
-    work = I.allocate<T>((30 + cuda_detail::kRecord) * n);
+    G = I.allocate<T>(4 * n);                                   // mass, mu, lambda, chamber
+    work = I.allocate<T>((30 + cuda_detail::kRecord) * n + 4);  // + 4: the record 16-byte aligned
   }
   // The body at segment state q: its x, v, f, evaluation and clock.
   auto at = [&](int q) {

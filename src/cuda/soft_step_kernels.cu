@@ -226,7 +226,7 @@ __global__ void __launch_bounds__(kBlock) evaluateKernel(SoftDeviceBody<T> b) {
 #pragma unroll
   for (int k = 0; k < 9; ++k) b.Ft[9 * i + k] = Ft.a[k];
   if (G) {  // the gather's record: N_i = M_i L_i, F̃_i, x_i, c_i, V_i
-    writeRecord(b.rec + kRecord * i, M, Li.a, Ft, xi0, xi1, xi2, ci, Vi);
+    writeRecord(b.rec, b.n, i, M, Li.a, Ft, xi0, xi1, xi2, ci, Vi);
   } else {
 #pragma unroll
     for (int k = 0; k < 9; ++k) b.M[9 * i + k] = M.a[k];
@@ -255,7 +255,7 @@ __global__ void __launch_bounds__(kBlock) gatherKickKernel(SoftDeviceBody<T> b, 
     for (int e = e0 + lane; e < e1; e += L) {
       const int j = b.idx[e];
       T r[kRecord];  // N_j, F̃_j, x_j, c_j, V_j
-      load16<kRecord>(b.rec + kRecord * j, r);
+      loadRecord(b.rec, b.n, j, r);
       double Xj[4];
       load16<4>(b.Xr + 4 * j, Xj);
       const T X0 = static_cast<T>(Xj[0] - Xk[0]), X1 = static_cast<T>(Xj[1] - Xk[1]),
@@ -322,8 +322,10 @@ __global__ void __launch_bounds__(kBlock) gatherKickKernel(SoftDeviceBody<T> b, 
   }
   if (!active || lane != 0) return;
   const T Vk = b.V[k];
-  const T* Mk_src = G ? b.rec + kRecord * k : b.M + 9 * k;  // N_k with G
-  const T* Fk_src = G ? b.rec + kRecord * k + 9 : b.Ft + 9 * k;
+  T rk[G ? kRecord : 1];
+  if (G) loadRecord(b.rec, b.n, k, rk);
+  const T* Mk_src = G ? rk : b.M + 9 * k;  // N_k with G
+  const T* Fk_src = G ? rk + 9 : b.Ft + 9 * k;
   Mat3<T> Mk;
 #pragma unroll
   for (int q = 0; q < 9; ++q) Mk.a[q] = Mk_src[q];

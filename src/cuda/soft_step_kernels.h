@@ -78,7 +78,8 @@ struct SoftDeviceBody {
   const double* L = nullptr;              // 9n, correction matrices L_i (null: stream gh, W, ghr, hgw)
   const double* Xr = nullptr;             // 4n, X_i and V_i in float64 (16-byte loads)
   const T* gsum_raw = nullptr;            // 3n, Σ_j V_j ∇W(X_ji) (with L: M_k ĝsum_k = N_k gsum_raw_k)
-  T* rec = nullptr;                       // kRecord n: N_i, F̃_i, x_i, c_i, V_i, 0 (with L; then M is not written)
+  T* rec = nullptr;                       // kRecord n: N_i, F̃_i, x_i, c_i, V_i, 0 in 16-byte chunks (writeRecord;
+                                          // with L; then M is not written)
   double inv_h = 0;                       // 1/h [1/m]
   double w_scale = 0;                     // 1/(π h³) [1/m³]: W = w_scale · w(q)
   double dw_scale = 0;                    // 1/(π h⁴) [1/m⁴]: dW/dr = dw_scale · w'(q)
@@ -184,7 +185,7 @@ void launchGatherRecords(const SoftDeviceBody<T>& body, void* stream);
 ///   w = v̄ + dt x̄,  a = dt w / m,  m̄ −= a·f/m,  x̄ ← x̄ − H a,  v̄ ← (1 − c dt) w   (free particles;
 ///   clamped rows zero),  μ̄ −= ∂(a·∇E)/∂μ,  λ̄ −= ∂(a·∇E)/∂λ,  w̄ −= ∂(a·∇E_a)/∂w.
 /// f: the conservative forces at the state; work: 3n (a) + 3n (w) + 3n (H a) + 9n + 9n + 3n values, and
-/// kRecord n more with body.L (the gather's record of (a, dF̃, dM)).
+/// kRecord n + 4 more with body.L (the gather's record of (a, dF̃, dM), 16-byte aligned).
 template <class T>
 void launchAdjointStep(const SoftDeviceBody<T>& body, const T* f, double dt, T* xb, T* vb, T* g_mass, T* g_mu,
                        T* g_lambda, T* g_chamber, T* work, void* stream);
