@@ -143,6 +143,8 @@ const CublasMv& cublasMv() {
 
 constexpr const char* kInput = "GPU dense Cholesky";
 constexpr long long kTrtriLeaf = 1024;  // the float32 inverse factor's diagonal blocks inverted by cusolverDnXtrtri
+// invertLowerBlocks' cublasDtrmm blocks reach n²/2 elements from their start: within 32 bits up to here
+constexpr long long kInverseFactorMaxUnknowns = 65535;
 
 const char* const kMemoryFix =
     "use a coarser particle spacing, free the GPU, or use backend cpu (backend auto factorises on the host)";
@@ -256,7 +258,8 @@ class DenseCholeskyCuda : public CholeskySolver {
             (inverse_after_ > 0 && apply_ != DenseCholeskyApply::Triangular
                  ? " after " + std::to_string(inverse_after_) + " triangular solves"
                  : "") +
-            ") on " + cudaDeviceInfo().name;
+            (not_inverted_.empty() ? "" : "; its inverse was not made: " + not_inverted_) + ") on " +
+            cudaDeviceInfo().name;
   }
 
   /// The triangular solves' factor inverted in place, the inverse applied from now on (inverse_after).
@@ -265,15 +268,18 @@ class DenseCholeskyCuda : public CholeskySolver {
     cuda_detail::DeviceBuffer work;
     try {
       prepareInverse(cusolver(), &work, inverse_as_);  // nothing is changed yet: on failure the triangular solves go on
-    } catch (const TopoError&) {
+    } catch (const TopoError& e) {
       releaseInverse();
       inverse_after_ = 0;
+      not_inverted_ = e.what();
+      nameFactor();
       return;
     }
     try {
       invertInPlace(cusolver(), work, inverse_as_);
     } catch (...) {
       factored_ = false;  // the factor is overwritten: no further solve with it
+      releaseInverse();
       throw;
     }
     apply_ = inverse_as_;
@@ -291,6 +297,23 @@ class DenseCholeskyCuda : public CholeskySolver {
                         "this CUDA lacks cusolverDnXtrtri (a cuSOLVER older than CUDA 11.4?) or cublasDtrmm" +
                             (cublasMv().error.empty() ? std::string() : ": " + cublasMv().error),
                         "use the triangular solves (DenseCholeskyApply::Triangular)");
+      if (n_ > kInverseFactorMaxUnknowns)
+        throw TopoError("GPU dense Cholesky",
+                        "the float32 inverse factor takes at most " + std::to_string(kInverseFactorMaxUnknowns) +
+                            " unknowns (cuBLAS's 32-bit dimensions), not " + std::to_string(n_),
+                        "use the triangular solves (DenseCholeskyApply::Triangular)");
+      const long long ld = cuda_detail::inverseFactorLeadingDimension(n_);
+      const auto lds = static_cast<std::size_t>(ld);
+      const double need = 4.0 * double(n_) * double(ld) + 8.0 * double(cuda_detail::inverseFactorChunks(n_) + 1) * ld;
+      std::size_t free_b = 0, total_b = 0;
+      if (cudaMemGetInfo(&free_b, &total_b) != cudaSuccess) cudaGetLastError();
+      if (need > 0.95 * static_cast<double>(free_b))
+        throw GpuMemoryError("GPU dense Cholesky",
+                             "the float32 inverse factor needs " +
+                                 std::to_string(static_cast<long long>(need / 1048576.0)) +
+                                 " MiB beside the float64 factor while it is made, and " +
+                                 std::to_string(static_cast<long long>(free_b / 1048576)) + " MiB are free",
+                             "free the GPU or use a coarser particle spacing (the triangular solves go on meanwhile)");
       makeBlasHandle();
       std::size_t dev_ws = 0, host_ws = 0;
       checkSolver(cs.trtriBufferSize(handle_, CUBLAS_FILL_MODE_LOWER, CUBLAS_DIAG_NON_UNIT,
@@ -298,8 +321,6 @@ class DenseCholeskyCuda : public CholeskySolver {
                   "cusolverDnXtrtri_bufferSize");
       if (work->bytes < std::max<std::size_t>(dev_ws, 8)) work->allocate(std::max<std::size_t>(dev_ws, 8), kInput);
       trtri_host_.assign(std::max<std::size_t>(host_ws, 8), 0);
-      const long long ld = cuda_detail::inverseFactorLeadingDimension(n_);
-      const auto lds = static_cast<std::size_t>(ld);
       F_.allocate(sizeof(float) * static_cast<std::size_t>(n_) * lds, kInput);
       P_.allocate(sizeof(double) * static_cast<std::size_t>(cuda_detail::inverseFactorChunks(n_)) * lds, kInput);
       y_.allocate(sizeof(double) * lds, kInput);
@@ -459,7 +480,7 @@ class DenseCholeskyCuda : public CholeskySolver {
       result = out_.ptr;
     }
     check(cudaMemcpyAsync(pinned_, result, bytes, cudaMemcpyDeviceToHost, stream_), "download", kInput);
-    check(cudaStreamSynchronize(stream_), "cusolverDnXpotrs", kInput);
+    check(cudaStreamSynchronize(stream_), "the factor's application", kInput);
     z->resize(n_);
     std::copy(static_cast<const double*>(pinned_), static_cast<const double*>(pinned_) + n_, z->data());
   }
@@ -485,6 +506,7 @@ class DenseCholeskyCuda : public CholeskySolver {
   cuda_detail::DeviceBuffer A_, info_;
   cuda_detail::DeviceBuffer F_, P_, y_;  // InverseFactorFloat32: L̃⁻ᵀ's rows, the products' work space
   std::vector<char> trtri_host_;
+  std::string not_inverted_;  // why the inverse after inverse_after_ applications was not made
   mutable cuda_detail::DeviceBuffer rhs_, out_;
   void* pinned_ = nullptr;
   std::string name_;

@@ -154,8 +154,11 @@ struct SoftBodyCuda::Impl {
       std::vector<double> Xr(4 * n, 0.0);
       for (std::size_t i = 0; i < n; ++i) {
         L[i] = sph.correction(i);
-        for (int d = 0; d < 3; ++d) Xr[4 * i + d] = sph.restPositions()[i](d);
-        Xr[4 * i + 3] = sph.volumes()[i];
+        // loadRest's layout: (X_0, X_1) of every particle, then (X_2, V)
+        Xr[2 * i] = sph.restPositions()[i](0);
+        Xr[2 * i + 1] = sph.restPositions()[i](1);
+        Xr[2 * n + 2 * i] = sph.restPositions()[i](2);
+        Xr[2 * n + 2 * i + 1] = sph.volumes()[i];
         for (int e = nbr.offsets[i]; e < nbr.offsets[i + 1]; ++e) {
           const int j = nbr.indices[e];
           gsum_raw[i] += sph.volumes()[j] * cubicSplineGradW(sph.restPositions()[j] - sph.restPositions()[i], h);

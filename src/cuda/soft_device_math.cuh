@@ -302,22 +302,6 @@ struct Vector16<double> {
   using type = double2;
 };
 
-/// N consecutive values at p (16-byte aligned; N a multiple of 16 / sizeof(T)) by 16-byte loads
-/// through the read-only cache (only for data no thread of the kernel writes).
-template <int N, class T>
-__device__ inline void load16(const T* p, T* out) {
-  using V = typename Vector16<T>::type;
-  constexpr int w = static_cast<int>(sizeof(V) / sizeof(T));
-  static_assert(N % w == 0, "whole 16-byte vectors");
-#pragma unroll
-  for (int k = 0; k < N / w; ++k) {
-    const V v = __ldg(reinterpret_cast<const V*>(p) + k);
-    const T* c = reinterpret_cast<const T*>(&v);
-#pragma unroll
-    for (int q = 0; q < w; ++q) out[w * k + q] = c[q];
-  }
-}
-
 /// Programmatic dependent launch: waits until the kernel before this one (when this one was launched
 /// as its dependent) has finished and its writes are visible; a no-op otherwise. Nothing the previous
 /// kernel writes may be read, and nothing it reads may be written, before this call. (The previous
@@ -352,6 +336,17 @@ __device__ inline T groupSum(T v) {
 #pragma unroll
   for (int off = L / 2; off > 0; off /= 2) v += __shfl_xor_sync(0xffffffffu, v, off, L);
   return v;
+}
+
+/// X_j and V_j in float64 (SoftDeviceBody::Xr: (X_0, X_1) of every particle, then (X_2, V)): two
+/// 16-byte loads, each a contiguous run over a warp's consecutive particles.
+__device__ inline void loadRest(const double* Xr, int n, int j, double* out) {
+  const double2 a = __ldg(reinterpret_cast<const double2*>(Xr) + j);
+  const double2 b = __ldg(reinterpret_cast<const double2*>(Xr) + n + j);
+  out[0] = a.x;
+  out[1] = a.y;
+  out[2] = b.x;
+  out[3] = b.y;
 }
 
 /// The gather's records, kRecord values a particle: N_i = M_i L_i (L in float64, rounded to T), F̃_i,

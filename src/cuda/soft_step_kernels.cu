@@ -103,12 +103,12 @@ __global__ void __launch_bounds__(kBlock) evaluateKernel(SoftDeviceBody<T> b) {
   if (G) {
 #pragma unroll
     for (int k = 0; k < 9; ++k) Li.a[k] = b.L[9 * ii + k];
-    load16<4>(b.Xr + 4 * ii, Xr);
+    loadRest(b.Xr, b.n, ii, Xr);
   }
   for (int e = e0 + lane; e < e1; e += L) {
     const int j = b.idx[e];
     double Xj[4];  // X_j and V_j
-    if (G) load16<4>(b.Xr + 4 * j, Xj);
+    if (G) loadRest(b.Xr, b.n, j, Xj);
     const T v = G ? static_cast<T>(Xj[3]) : b.V[j];
     const T d0 = v * (b.x[3 * j] - xi0), d1 = v * (b.x[3 * j + 1] - xi1), d2 = v * (b.x[3 * j + 2] - xi2);
     T g0, g1, g2, w = 0, X0 = 0, X1 = 0, X2 = 0;
@@ -249,7 +249,7 @@ __global__ void __launch_bounds__(kBlock) gatherKickKernel(SoftDeviceBody<T> b, 
   T a0 = 0, a1 = 0, a2 = 0, t0 = 0, t1 = 0, t2 = 0, u0 = 0, u1 = 0, u2 = 0;
   if (G) {
     double Xk[4];
-    load16<4>(b.Xr + 4 * kk, Xk);
+    loadRest(b.Xr, b.n, kk, Xk);
     const T ck = b.c[kk], Vk = b.V[kk];
     const T xk0 = b.x[3 * kk], xk1 = b.x[3 * kk + 1], xk2 = b.x[3 * kk + 2];
     for (int e = e0 + lane; e < e1; e += L) {
@@ -257,7 +257,7 @@ __global__ void __launch_bounds__(kBlock) gatherKickKernel(SoftDeviceBody<T> b, 
       T r[kRecord];  // N_j, F̃_j, x_j, c_j, V_j
       loadRecord(b.rec, b.n, j, r);
       double Xj[4];
-      load16<4>(b.Xr + 4 * j, Xj);
+      loadRest(b.Xr, b.n, j, Xj);
       const T X0 = static_cast<T>(Xj[0] - Xk[0]), X1 = static_cast<T>(Xj[1] - Xk[1]),
               X2 = static_cast<T>(Xj[2] - Xk[2]);  // X_jk
       T w, s;

@@ -76,7 +76,7 @@ struct SoftDeviceBody {
   // The adjoint's gather recomputes them too (launchGatherRecords); the stiffness product's
   // (launchGatherForces) streams ghr and hgw.
   const double* L = nullptr;              // 9n, correction matrices L_i (null: stream gh, W, ghr, hgw)
-  const double* Xr = nullptr;             // 4n, X_i and V_i in float64 (16-byte loads)
+  const double* Xr = nullptr;             // 4n, X_i and V_i in float64: (X_0, X_1) of all, then (X_2, V) (loadRest)
   const T* gsum_raw = nullptr;            // 3n, Σ_j V_j ∇W(X_ji) (with L: M_k ĝsum_k = N_k gsum_raw_k)
   T* rec = nullptr;                       // kRecord n: N_i, F̃_i, x_i, c_i, V_i, 0 in 16-byte chunks (writeRecord;
                                           // with L; then M is not written)

@@ -199,15 +199,15 @@ void SoftTask::usePreconditionerOnGpu(bool with_contact) {
     };
     // One design after another of this body: an earlier design's GPU factor preconditions the next
     // until a new one costs less than the extra iterations (rest_factor_reuse.h). On the GPU a factor
-    // costs ~400 applications (0.48 s with its float32 inverse, against 1.16 ms an application): the finger inference
-    // 21-23 s instead of 34 s. Not on the host: there an application costs more against a factor (CHOLMOD on 2 cores:
-    // the same inference 628 s with it, 543 s without). One kept factor for all tasks of the process:
-    // no more GPU memory held than without keeping it.
+    // costs ~400 applications (0.48 s with its float32 inverse, against 1.16 ms an application): the finger
+    // inference 9-10 s on an H100 (a factor per design: 33-34 s). Not on the host: there an application costs more
+    // against a factor (CHOLMOD on 2 cores: the same inference 628 s with it, 543 s without). One kept factor for all
+    // tasks of the process: no more GPU memory held than without keeping it.
     sim_options_.rest_factor_reuse = RestFactorReuse::gpuShared();
     said << "the rest stiffness's Cholesky factor on the GPU (dense, " << unknowns << " unknowns, "
          << numberText(denseCholeskyBytes(unknowns) / 1e9, 3) << " GB; applied as its inverse factor in float32, "
          << numberText(denseCholeskyBytes(unknowns) / 2e9, 3) << " GB, from " << inverse_after
-         << " applications; kept from one design to the next while it pays)";
+         << " applications where the GPU has room to make it; kept from one design to the next while it pays)";
   } else {
     notes_.push_back("backend auto: the rest stiffness's Cholesky factor on the host, not the GPU: " + refused);
     said << "the rest stiffness's Cholesky factor on the host (" << refused << ")";

@@ -87,9 +87,10 @@ Eigen::SparseMatrix<double> lowerOf(const Eigen::MatrixXd& A) {
 TEST(DenseCholeskyCuda, TheFloat32InverseFactorIsTheGramFormOfTheRoundedFactor) {
   SKIP_WITHOUT_GPU();
   // z = L̃⁻ᵀ L̃⁻¹ r with L̃⁻¹ = L⁻¹ rounded to float32 once, summed in float64: against that formula
-  // evaluated on the host within 1e-9 (only trtri's against Eigen's round-off, which may flip a float's
-  // last bit), and ~ε₃₂ √cond away from A⁻¹ r, so the rounding is really float32's. Sizes: below one
-  // tile and chunk, not a multiple of 4 (padding), several row chunks, several column tiles.
+  // evaluated on the host within 1e-10 (only the GPU's inversion against Eigen's round-off, which may
+  // flip a float's last bit: ~2e-13 in a CPU emulation), and ~ε₃₂ √cond away from A⁻¹ r, so the rounding is really
+  // float32's. Sizes: below one tile and chunk, not a multiple of 4 (padding), several row chunks, several column
+  // tiles.
   std::mt19937 rng(17);
   std::normal_distribution<double> n01;
   for (const int n : {77, 1000, 2501}) {
@@ -108,13 +109,50 @@ TEST(DenseCholeskyCuda, TheFloat32InverseFactorIsTheGramFormOfTheRoundedFactor) 
     gpu->solve(s, &zs);
     const Eigen::VectorXd want = Lr.transpose() * (Lr * r);
     const Eigen::VectorXd exact = A.llt().solve(r);
-    EXPECT_LT((zr - want).norm(), 1e-9 * want.norm()) << n << " unknowns";
+    EXPECT_LT((zr - want).norm(), 1e-10 * want.norm()) << n << " unknowns";
     EXPECT_GT((zr - exact).norm(), 10.0 * (zr - want).norm()) << n << " unknowns";
     EXPECT_LT((zr - exact).norm(), 1e-5 * exact.norm()) << n << " unknowns";
     // symmetric to float64's round-off, positive
     EXPECT_NEAR(s.dot(zr), r.dot(zs), 1e-12 * zr.norm() * s.norm()) << n << " unknowns";
     EXPECT_GT(r.dot(zr), 0.0);
   }
+}
+
+TEST(DenseCholeskyCuda, TheFloat32InverseFactorStaysPositiveDefiniteWhereAFloat32InverseDoesNot) {
+  SKIP_WITHOUT_GPU();
+  // A = Q diag(λ) Qᵀ with λ from 1e-10 to 1 (cond 1e10): A⁻¹ rounded to float32 has a negative
+  // eigenvalue (its rounding, ~ε₃₂ · 1e10, swamps A⁻¹'s smallest eigenvalue 1: −25 to −36 in a CPU
+  // emulation); the GPU's operator, built column by column from 77 solves, is symmetric and positive
+  // definite, and preconditions A: the eigenvalues of M A stay within ~ε₃₂ √cond(A) of 1 (1e-3 emulated).
+  const int n = 77;
+  std::mt19937 rng(23);
+  std::normal_distribution<double> n01;
+  Eigen::MatrixXd G(n, n);
+  for (Eigen::Index k = 0; k < G.size(); ++k) G.data()[k] = n01(rng);
+  const Eigen::MatrixXd Q = G.householderQr().householderQ();
+  Eigen::VectorXd lambda(n);
+  for (int k = 0; k < n; ++k) lambda[k] = std::pow(10.0, -10.0 * k / (n - 1));
+  const Eigen::MatrixXd A = Q * lambda.asDiagonal() * Q.transpose();
+  const Eigen::MatrixXd Ainv32 =
+      Eigen::MatrixXd(Q * lambda.cwiseInverse().asDiagonal() * Q.transpose()).cast<float>().cast<double>();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> naive(0.5 * (Ainv32 + Ainv32.transpose()));
+  ASSERT_LT(naive.eigenvalues().minCoeff(), 0.0) << "the float32 copy of A⁻¹ should not be positive definite here";
+  auto gpu = makeDenseCholeskyCuda(0.0, DenseCholeskyApply::InverseFactorFloat32);
+  ASSERT_TRUE(gpu->factorize(lowerOf(0.5 * (A + A.transpose()))));
+  Eigen::MatrixXd M(n, n);
+  for (int k = 0; k < n; ++k) {
+    Eigen::VectorXd z;
+    gpu->solve(Eigen::VectorXd::Unit(n, k), &z);
+    M.col(k) = z;
+  }
+  EXPECT_LT((M - M.transpose()).norm(), 1e-12 * M.norm());
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> applied(0.5 * (M + M.transpose()));
+  EXPECT_GT(applied.eigenvalues().minCoeff(), 0.0);
+  // M A is similar to the SPD M^½ A M^½: its eigenvalues are real and near 1
+  Eigen::EigenSolver<Eigen::MatrixXd> ma(M * A);
+  const Eigen::VectorXd ev = ma.eigenvalues().real();
+  EXPECT_GT(ev.minCoeff(), 0.99);
+  EXPECT_LT(ev.maxCoeff(), 1.01);
 }
 
 TEST(DenseCholeskyCuda, WithoutADeviceItIsRefusedWithTheReason) {
