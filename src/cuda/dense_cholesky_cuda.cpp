@@ -306,7 +306,11 @@ class DenseCholeskyCuda : public CholeskySolver {
       const auto lds = static_cast<std::size_t>(ld);
       const double need = 4.0 * double(n_) * double(ld) + 8.0 * double(cuda_detail::inverseFactorChunks(n_) + 1) * ld;
       std::size_t free_b = 0, total_b = 0;
-      if (cudaMemGetInfo(&free_b, &total_b) != cudaSuccess) cudaGetLastError();
+      if (cudaMemGetInfo(&free_b, &total_b) != cudaSuccess) {
+        cudaGetLastError();
+        throw TopoError("GPU dense Cholesky", "the CUDA runtime could not report the GPU's free memory",
+                        "check the GPU (the triangular solves go on meanwhile)");
+      }
       if (need > 0.95 * static_cast<double>(free_b))
         throw GpuMemoryError("GPU dense Cholesky",
                              "the float32 inverse factor needs " +

@@ -97,9 +97,10 @@ __global__ void __launch_bounds__(kBlock) evaluateKernel(SoftDeviceBody<T> b) {
   const T ci = b.c[ii];
   const bool hg_row = b.hourglass && ci > T(0);
   const bool need_D = hg_row || b.shape_matching;
-  // float32 loads lane 0's per-particle data of after the sums now, so that their latency overlaps the
-  // loop (9k: 15.3 → 14.5 µs a step on an H100); float64 loads them where they are used (early, they
-  // held registers through the loop: 9k 20.3 → 23.0 µs, 100k 132 → 152 µs).
+  // float32 loads the particle's own data for the work after the sums before the loop (every lane of
+  // the group, the same addresses), so that their latency overlaps the loop (9k: 15.3 → 14.5 µs a step on an H100);
+  // float64 loads them where they are used (early, they held registers through the loop: 9k 20.3 → 23.0 µs, 100k 132 →
+  // 152 µs).
   constexpr bool early = sizeof(T) == 4;
   T mu_e = 0, la_e = 0, V_e = 0, w_e = 0;
   double p_e = 0.0;
@@ -264,22 +265,26 @@ __global__ void __launch_bounds__(kBlock) gatherKickKernel(SoftDeviceBody<T> b, 
   const bool active = k < b.n;
   const int e0 = active ? b.offsets[k] : 0, e1 = active ? b.offsets[k + 1] : 0;
   const int kk = active ? k : 0;
-  // As in evaluateKernel: float32 loads lane 0's per-particle data of after the sums now.
+  // As in evaluateKernel: float32 loads the particle's own data for the work after the sums now.
   constexpr bool early = sizeof(T) == 4;
   const T* gsum = G ? b.gsum_raw : b.gsum;
   T gs_e[3] = {0, 0, 0}, hs_e[3] = {0, 0, 0}, v_e[3] = {0, 0, 0}, x_e[3] = {0, 0, 0}, m_e = 0, V_e = 0;
   bool free_e = false;
   if (early) {
+#pragma unroll
+    for (int r = 0; r < 3; ++r) gs_e[r] = gsum[3 * kk + r];
+    if (b.hourglass)
+#pragma unroll
+      for (int r = 0; r < 3; ++r) hs_e[r] = b.hgsum[3 * kk + r];
     m_e = b.mass[kk];
     V_e = b.V[kk];
     free_e = !b.clamped[kk];
+    if (kick && free_e)
 #pragma unroll
-    for (int r = 0; r < 3; ++r) {
-      gs_e[r] = gsum[3 * kk + r];
-      if (b.hourglass) hs_e[r] = b.hgsum[3 * kk + r];
-      if (kick && free_e) v_e[r] = b.v[3 * kk + r];
-      if (drift.x) x_e[r] = b.x[3 * kk + r];
-    }
+      for (int r = 0; r < 3; ++r) v_e[r] = b.v[3 * kk + r];
+    if (drift.x)
+#pragma unroll
+      for (int r = 0; r < 3; ++r) x_e[r] = b.x[3 * kk + r];
   }
   T a0 = 0, a1 = 0, a2 = 0, t0 = 0, t1 = 0, t2 = 0, u0 = 0, u1 = 0, u2 = 0;
   if (G) {

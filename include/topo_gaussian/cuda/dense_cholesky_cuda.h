@@ -61,8 +61,9 @@ std::string denseCholeskyLibraryError();
 ///   bounded by ~ε₃₂ √cond(A) (measured: 3e-8 on random SPD matrices of cond ~1e2, 3-5e-10 on the test
 ///   cantilever's K0, whose products are dominated by its softest modes): a few more CG iterations at
 ///   most (the finger: 179 applications for a static solve instead of 169). Memory: (3N)² × 4 bytes
-///   once made (the float64 factor is freed), but (3N)² × 12.5 while it is made; where the GPU lacks
-///   that, or above 65 535 unknowns, the triangular solves go on and name() says why.
+///   once made (the float64 factor is freed), but about (3N)² × 12 while it is made. Made after
+///   inverse_after applications: where the GPU lacks that memory, or above 65 535 unknowns, the
+///   triangular solves go on and name() says why; asked for at factorize() (apply), it throws.
 enum class DenseCholeskyApply { Triangular, InverseSymv, InverseGemv, InverseFactorFloat32 };
 
 /// A CholeskySolver on the first CUDA device. max_bytes > 0: refuse a factor above it too (tests;
