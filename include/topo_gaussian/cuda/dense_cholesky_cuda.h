@@ -58,7 +58,7 @@ std::string denseCholeskyLibraryError();
 ///   is the Gram form of an invertible triangle, so it is symmetric positive definite, as a CG
 ///   preconditioner must be (a float32 copy of A⁻¹ itself need not be: its rounding, ~ε₃₂ ‖A⁻¹‖,
 ///   exceeds A⁻¹'s smallest eigenvalue once cond(A) passes ~1e7). Its relative distance from A⁻¹ r is
-///   bounded by ~ε₃₂ √cond(A) (measured: 3e-8 on random SPD matrices of cond ~1e2, 3-5e-10 on the test
+///   bounded by ~ε₃₂ √cond(A) (3e-8 on random SPD matrices of cond ~1e2 in a CPU emulation, 3-5e-10 on the test
 ///   cantilever's K0, whose products are dominated by its softest modes): a few more CG iterations at
 ///   most (the finger: 179 applications for a static solve instead of 169). Memory: (3N)² × 4 bytes
 ///   once made (the float64 factor is freed), but about (3N)² × 12 while it is made. Made after
