@@ -79,7 +79,7 @@ std::unique_ptr<CholeskySolver> makeDenseCholeskyCuda(double max_bytes = 0.0,
                                                       long inverse_after = 0,
                                                       DenseCholeskyApply inverse_as = DenseCholeskyApply::InverseGemv);
 
-/// Applications of one factor from which its explicit inverse pays: the inverse costs about one more
+/// Applications of one factor from which its explicit float64 inverse (InverseGemv) pays: it costs about one more
 /// factorisation (potri: 0.55 s at 27 636 unknowns on an H200) and saves ~3.1 ms an application (4.5 →
 /// 1.44 ms), so ~180 applications at that size; the first cost grows as the unknowns cubed, the
 /// saving as their square, so the break-even grows in proportion to the unknowns.
