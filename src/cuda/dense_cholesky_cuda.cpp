@@ -230,9 +230,7 @@ class DenseCholeskyCuda : public CholeskySolver {
     checkSolver(cs.potrf(handle_, params_, CUBLAS_FILL_MODE_LOWER, n_, CUDA_R_64F, A_.ptr, n_, CUDA_R_64F, work.ptr,
                          dev_ws, host_work.data(), host_ws, static_cast<int*>(info_.ptr)),
                 "cusolverDnXpotrf");
-    int info = 0;
-    check(cudaMemcpyAsync(&info, info_.ptr, sizeof(int), cudaMemcpyDeviceToHost, stream_), "download", kInput);
-    check(cudaStreamSynchronize(stream_), "cusolverDnXpotrf", kInput);
+    const int info = infoAfter("cusolverDnXpotrf");
     if (info < 0)
       throw TopoError("GPU dense Cholesky", "cusolverDnXpotrf rejected its argument " + std::to_string(-info),
                       "report this: the matrix of " + std::to_string(n_) + " unknowns was passed wrongly");
@@ -302,9 +300,11 @@ class DenseCholeskyCuda : public CholeskySolver {
                         "the float32 inverse factor takes at most " + std::to_string(kInverseFactorMaxUnknowns) +
                             " unknowns (cuBLAS's 32-bit dimensions), not " + std::to_string(n_),
                         "use the triangular solves (DenseCholeskyApply::Triangular)");
-      const long long ld = cuda_detail::inverseFactorLeadingDimension(n_);
-      const auto lds = static_cast<std::size_t>(ld);
-      const double need = 4.0 * double(n_) * double(ld) + 8.0 * double(cuda_detail::inverseFactorChunks(n_) + 1) * ld;
+      const auto ld = static_cast<std::size_t>(cuda_detail::inverseFactorLeadingDimension(n_));
+      const std::size_t f_bytes = sizeof(float) * static_cast<std::size_t>(n_) * ld;
+      const std::size_t p_bytes = sizeof(double) * static_cast<std::size_t>(cuda_detail::inverseFactorChunks(n_)) * ld;
+      const std::size_t y_bytes = sizeof(double) * ld;
+      const double need = static_cast<double>(f_bytes + p_bytes + y_bytes);
       std::size_t free_b = 0, total_b = 0;
       if (cudaMemGetInfo(&free_b, &total_b) != cudaSuccess) {
         cudaGetLastError();
@@ -325,9 +325,9 @@ class DenseCholeskyCuda : public CholeskySolver {
                   "cusolverDnXtrtri_bufferSize");
       if (work->bytes < std::max<std::size_t>(dev_ws, 8)) work->allocate(std::max<std::size_t>(dev_ws, 8), kInput);
       trtri_host_.assign(std::max<std::size_t>(host_ws, 8), 0);
-      F_.allocate(sizeof(float) * static_cast<std::size_t>(n_) * lds, kInput);
-      P_.allocate(sizeof(double) * static_cast<std::size_t>(cuda_detail::inverseFactorChunks(n_)) * lds, kInput);
-      y_.allocate(sizeof(double) * lds, kInput);
+      F_.allocate(f_bytes, kInput);
+      P_.allocate(p_bytes, kInput);
+      y_.allocate(y_bytes, kInput);
       return;
     }
     if (!cs.potri || !cs.potriBufferSize || !cublasMv().error.empty())
@@ -344,6 +344,23 @@ class DenseCholeskyCuda : public CholeskySolver {
     lwork_ = std::max(lwork, 1);
     if (work->bytes < sizeof(double) * static_cast<std::size_t>(lwork_))
       work->allocate(sizeof(double) * static_cast<std::size_t>(lwork_), kInput);
+  }
+
+  /// The solver's info once the stream has finished `what` (which named it on a failed synchronisation).
+  int infoAfter(const char* what) const {
+    int info = 0;
+    check(cudaMemcpyAsync(&info, info_.ptr, sizeof(int), cudaMemcpyDeviceToHost, stream_), "download", kInput);
+    check(cudaStreamSynchronize(stream_), what, kInput);
+    return info;
+  }
+
+  /// Throws TopoError when the inversion `what` (potri, trtri) reported a nonzero info.
+  void requireInverted(const char* what) const {
+    const int info = infoAfter(what);
+    if (info != 0)
+      throw TopoError("GPU dense Cholesky",
+                      std::string("the inverse failed (") + what + " info " + std::to_string(info) + ")",
+                      "use the triangular solves (DenseCholeskyApply::Triangular)");
   }
 
   void makeBlasHandle() {
@@ -367,12 +384,7 @@ class DenseCholeskyCuda : public CholeskySolver {
           cusolver().trtri(handle_, CUBLAS_FILL_MODE_LOWER, CUBLAS_DIAG_NON_UNIT, m, CUDA_R_64F, A + off + off * n, n,
                            work.ptr, work.bytes, trtri_host_.data(), trtri_host_.size(), static_cast<int*>(info_.ptr)),
           "cusolverDnXtrtri");
-      int info = 0;
-      check(cudaMemcpyAsync(&info, info_.ptr, sizeof(int), cudaMemcpyDeviceToHost, stream_), "download", kInput);
-      check(cudaStreamSynchronize(stream_), "cusolverDnXtrtri", kInput);
-      if (info != 0)
-        throw TopoError("GPU dense Cholesky", "the inverse failed (cusolverDnXtrtri info " + std::to_string(info) + ")",
-                        "use the triangular solves (DenseCholeskyApply::Triangular)");
+      requireInverted("cusolverDnXtrtri");
       return;
     }
     const long long k = (m / 2 + 63) / 64 * 64;
@@ -415,13 +427,7 @@ class DenseCholeskyCuda : public CholeskySolver {
         check(cudaGetLastError(), "mirror kernel", kInput);
       }
     }
-    int info = 0;
-    check(cudaMemcpyAsync(&info, info_.ptr, sizeof(int), cudaMemcpyDeviceToHost, stream_), "download", kInput);
-    check(cudaStreamSynchronize(stream_), what, kInput);
-    if (info != 0)
-      throw TopoError("GPU dense Cholesky",
-                      std::string("the inverse failed (") + what + " info " + std::to_string(info) + ")",
-                      "use the triangular solves (DenseCholeskyApply::Triangular)");
+    requireInverted(what);
     if (mode == DenseCholeskyApply::InverseFactorFloat32) A_.free();  // F_ holds all that is applied now
   }
 

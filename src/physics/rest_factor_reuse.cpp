@@ -11,9 +11,13 @@ double RestFactorReuse::newFactorSeconds() const {
   return factor_seconds_ >= 0.0 ? factor_seconds_ : factor_->factorSeconds() + factor_->extraSeconds();
 }
 
-bool RestFactorReuse::refactorise(long first_use, long last_use, double seconds_per_application,
+double RestFactorReuse::secondsPerApplicationInUse(long applications) const {
+  return applications > 0 ? (factor_->applySeconds() - seconds_at_use_) / static_cast<double>(applications) : 0.0;
+}
+
+bool RestFactorReuse::refactorise(double first_use, double last_use, double seconds_per_application,
                                   double factor_seconds) {
-  return static_cast<double>(last_use - first_use) * seconds_per_application > factor_seconds;
+  return (last_use - first_use) * seconds_per_application > factor_seconds;
 }
 
 std::shared_ptr<RestFactorReuse> RestFactorReuse::gpuShared() {
@@ -43,13 +47,12 @@ std::shared_ptr<const RestStiffnessPreconditioner> RestFactorReuse::find(std::ui
     return nullptr;
   }
   const long now = factor_->applications();
-  const double now_s = factor_->applySeconds();
   const long last = now - applications_at_use_;
   if (first_use_ < 0) {
     first_use_ = last;
     first_solves_ = solves_in_use_;
   }
-  const double per_application = last > 0 ? (now_s - seconds_at_use_) / static_cast<double>(last) : 0.0;
+  const double per_application = secondsPerApplicationInUse(last);
   const double new_factor = newFactorSeconds();
   if (uses_ > 1 && refactorise(first_use_, last, per_application, new_factor)) {
     std::ostringstream s;
@@ -62,7 +65,7 @@ std::shared_ptr<const RestStiffnessPreconditioner> RestFactorReuse::find(std::ui
   }
   user_ = user;
   applications_at_use_ = now;
-  seconds_at_use_ = now_s;
+  seconds_at_use_ = factor_->applySeconds();
   solves_in_use_ = 1;
   ++uses_;
   ++counts_.reuses;
@@ -77,10 +80,9 @@ bool RestFactorReuse::renewDuringUse(std::uint64_t user) {
   const long applications = factor_->applications() - applications_at_use_;
   const double expected = static_cast<double>(solves_in_use_ - 1) * static_cast<double>(first_use_) /
                           static_cast<double>(first_solves_);  // the solves before this one
-  const double per_application =
-      applications > 0 ? (factor_->applySeconds() - seconds_at_use_) / static_cast<double>(applications) : 0.0;
+  const double per_application = secondsPerApplicationInUse(applications);
   const double new_factor = newFactorSeconds();
-  if (!((static_cast<double>(applications) - expected) * per_application > new_factor)) return false;
+  if (!refactorise(expected, static_cast<double>(applications), per_application, new_factor)) return false;
   std::ostringstream s;
   s << "during a use, " << applications << " applications in " << solves_in_use_ - 1 << " solves against "
     << numberText(static_cast<double>(first_use_) / static_cast<double>(first_solves_), 3)

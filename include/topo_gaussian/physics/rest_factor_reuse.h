@@ -68,9 +68,10 @@ class RestFactorReuse {
   /// to refactorise now; the kept factor is then dropped (the caller lets go of it and factorises its
   /// own design, which it store()s). False for a user whose factor is not the kept one.
   bool renewDuringUse(std::uint64_t user);
-  /// The rule above: true when a factor whose first use took `first_use` applications and whose last
+  /// The rule above (between uses, and during one with first_use the applications expected of the
+  /// solves so far): true when a factor whose first use took `first_use` applications and whose last
   /// took `last_use`, at `seconds_per_application` each, should be made anew (it took `factor_seconds`).
-  static bool refactorise(long first_use, long last_use, double seconds_per_application, double factor_seconds);
+  static bool refactorise(double first_use, double last_use, double seconds_per_application, double factor_seconds);
 
   struct Counts {
     long factors = 0;             ///< factors stored
@@ -88,6 +89,8 @@ class RestFactorReuse {
   /// t_f: what a new factor costs (factor_seconds, else the kept one's factorisation and other one-off
   /// work); with m_ held and a factor kept.
   double newFactorSeconds() const;
+  /// t_a: the mean seconds of the kept factor's `applications` since the current use began; with m_ held.
+  double secondsPerApplicationInUse(long applications) const;
 
   mutable std::mutex m_;
   std::shared_ptr<const RestStiffnessPreconditioner> factor_;
