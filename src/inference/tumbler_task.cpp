@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <sstream>
 
 #include "rigid_options.h"
@@ -79,7 +80,25 @@ class TumblerTask : public Task {
     const Eigen::Quaterniond q0(Eigen::AngleAxisd(tilt0_, axis_));
     RigidState<Dual10> s0 = restingState(inertia, q0, contact_, options_);
     s0.angular_velocity = (omega0_ * axis_).cast<Dual10>();
-    RigidTrajectory<Dual10> traj = simulateRigid(inertia, s0, contact_, withStop(options_, should_stop_));
+    // The optimiser's evaluations (those with a gradient) simulate until the measured cycles are complete
+    // (MeasuredCyclesWatch, inference/oscillation.h), not the whole duration_s: the features are the same.
+    // Without a gradient (the reported design, the analyses) the whole duration_s is simulated and shown.
+    const Eigen::Vector3d ez(0, 0, 1), side = axis_.cross(ez);
+    const auto simulate = [&](const std::vector<Eigen::Vector3d>& points, const RigidSimOptions& o) {
+      RigidSimOptions run = withStop(o, should_stop_);
+      if (dL_dr && cycles_ > 0) {
+        const auto tilt = [&](const Eigen::Quaterniond& q) {
+          const Eigen::Vector3d u = q * up_;
+          return std::atan2(u.dot(side), u.dot(ez)) * kDeg;
+        };
+        auto watch = std::make_shared<MeasuredCyclesWatch>(o.output_dt_s, cycles_, omega0_ == 0.0);
+        const auto& qs = s0.orientation;
+        watch->add(tilt(Eigen::Quaterniond(qs.w().value(), qs.x().value(), qs.y().value(), qs.z().value())));
+        run.stop_after_sample = [watch, tilt](double, const Eigen::Quaterniond& q) { return watch->add(tilt(q)); };
+      }
+      return simulateRigid(inertia, s0, points, run);
+    };
+    RigidTrajectory<Dual10> traj = simulate(contact_, options_);
     // The candidate set covers tilts up to reach_deg_: if the motion went further, redo it with all
     // surface particles (never silently miss a contact).
     double max_tilt = 0;
@@ -99,9 +118,8 @@ class TumblerTask : public Task {
                       "a design with its centre of mass lower, or a smaller initial_tilt_deg or "
                       "initial_angular_velocity_rad_s");
     if (max_tilt > reach_deg_ - 5.0 && contact_.size() < all_contact_.size())
-      traj = simulateRigid(inertia, s0, all_contact_, withStop(options_all_, should_stop_));
+      traj = simulate(all_contact_, options_all_);
     // Signed tilt about the rocking axis: rotating ez by φ about a gives cos φ ez + sin φ (a × ez).
-    const Eigen::Vector3d ez(0, 0, 1), side = axis_.cross(ez);
     std::vector<Dual10> phi(traj.states.size());
     for (std::size_t k = 0; k < phi.size(); ++k) {
       const Vec3<Dual10> u = traj.states[k].orientation * up_.cast<Dual10>();

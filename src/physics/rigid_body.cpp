@@ -1058,6 +1058,7 @@ RigidTrajectory<S> simulateRigid(const RigidInertia<S>& inertia, const RigidStat
     }
     traj.time_s.push_back(k * out_dt);
     traj.states.push_back(state);
+    if (options.stop_after_sample && options.stop_after_sample(k * out_dt, val(state.orientation))) break;
   }
   return traj;
 }

@@ -361,6 +361,53 @@ TEST(RigidDerivatives, PendulumForwardModeMatchesFiniteDifferences) {
 }
 
 // 7a. Absurd stiffness with a forced large step is detected and explained.
+// 6c. An observer that ends the run (stop_after_sample): called once per output sample with that
+// sample's orientation; the trajectory ends at the sample where it said stop, and up to there it is the
+// full run's, bit for bit (a task that stops once its features are measured gets the same features).
+TEST(RigidRocking, StopAfterSampleEndsTheRunWhereItSaysAndChangesNothingBefore) {
+  const std::vector<Eigen::Vector3d> pts = sphereCap(0.05, 2.0e-3, 60.0);
+  RigidSimOptions opt;
+  opt.duration_s = 1.0;
+  const RigidInertia<Dual10> in = seedInertia(roundBottom(0.015));
+  const Eigen::Quaterniond q(Eigen::AngleAxisd(8.0 * kPi / 180.0, Eigen::Vector3d::UnitY()));
+  const RigidState<Dual10> s0 = restingState(in, q, pts, opt);
+  const RigidTrajectory<Dual10> full = simulateRigid(in, s0, pts, opt);
+  RigidSimOptions stopping = opt;
+  std::vector<double> seen_t;
+  double largest_gap = 0;  // between the orientation passed and the stored state's
+  int crossings = 0;
+  double last = tiltY(s0);
+  stopping.stop_after_sample = [&](double t, const Eigen::Quaterniond& o) {
+    const RigidState<Dual10>& stored = full.states[seen_t.size() + 1];
+    largest_gap = std::max(
+        largest_gap, (o.coeffs() - Eigen::Vector4d(stored.orientation.x().value(), stored.orientation.y().value(),
+                                                   stored.orientation.z().value(), stored.orientation.w().value()))
+                         .cwiseAbs()
+                         .maxCoeff());
+    seen_t.push_back(t);
+    const double now = std::atan2(o.toRotationMatrix()(0, 2), o.toRotationMatrix()(2, 2));
+    if ((last > 0) != (now > 0)) ++crossings;
+    last = now;
+    return crossings == 3;  // one and a half swings
+  };
+  const RigidTrajectory<Dual10> cut = simulateRigid(in, s0, pts, stopping);
+  std::printf("[rigid] stopped at t = %.3f s of %.1f s, after %zu samples\n", cut.time_s.back(), opt.duration_s,
+              seen_t.size());
+  ASSERT_EQ(crossings, 3);
+  ASSERT_EQ(cut.states.size(), seen_t.size() + 1);  // the start, then one sample per call
+  EXPECT_LT(cut.time_s.back(), opt.duration_s - 0.1);
+  EXPECT_EQ(largest_gap, 0.0);
+  for (std::size_t k = 0; k < cut.states.size(); ++k) {
+    EXPECT_EQ(cut.time_s[k], full.time_s[k]);
+    if (k) {
+      EXPECT_EQ(seen_t[k - 1], full.time_s[k]);
+    }
+    EXPECT_EQ(cut.states[k].position.x().value(), full.states[k].position.x().value());
+    EXPECT_EQ(cut.states[k].angular_velocity.y().value(), full.states[k].angular_velocity.y().value());
+    EXPECT_EQ(cut.states[k].orientation.y().derivatives(), full.states[k].orientation.y().derivatives());
+  }
+}
+
 TEST(RigidErrors, DivergenceIsReported) {
   const MassProperties props = roundBottom(0.015);
   const std::vector<Eigen::Vector3d> pts = sphereCap(0.05, 2.0e-3, 40.0);

@@ -316,6 +316,65 @@ TEST(TaskGradient, TumblerThroughTheSimulation) {
   gradientError(p, quadricDesign(), {0, 2, 6, 8, 9}, 1e-8);
 }
 
+// The optimiser's evaluations (with a gradient) simulate only until the measured cycles are complete
+// (measured_cycles 2: five turning points and the next); the reported ones (without) the whole
+// duration_s. The features, and so the loss, are the same bits: released at rest at ±8 and 10 deg, and
+// pushed, on two designs.
+TEST(TaskEvaluation, TumblerStopsSimulatingOnceItsMeasuredCyclesAreComplete) {
+  const VolumeCloud cloud = topo_test::tumblerCloud(0.05, 0.5, 0.005);
+  struct Release {
+    const char* tilt_deg;
+    const char* push_rad_s;
+  };
+  for (const Release& release : {Release{"10", "0"}, Release{"-8", "0"}, Release{"4", "1.5"}}) {
+    TaskConfig c = TaskConfig::defaults("tumbler");
+    c.set("duration_s", "2.5");
+    c.set("initial_tilt_deg", release.tilt_deg);
+    c.set("initial_angular_velocity_rad_s", release.push_rad_s);
+    c.set("period_s", "0.5");
+    c.set("max_tilt_deg", "11");
+    c.set("amplitude_deg", "9");
+    c.set("equilibrium_from_release_deg", "0.3");
+    const InteriorProblem p(c, cloud);
+    for (const Eigen::VectorXd& theta : {p.initialParameters(), quadricDesign()}) {
+      ProblemEvaluation cut, whole;
+      Eigen::VectorXd g;
+      const double loss_cut = p.evaluate(theta, &g, &cut);
+      const double loss_whole = p.evaluate(theta, nullptr, &whole);
+      std::printf(
+          "[tumbler] released at %s deg, pushed at %s rad/s: the optimiser's run ends at %.3f s of %.3f s, "
+          "period %.6f s, loss %.6e\n",
+          release.tilt_deg, release.push_rad_s, cut.task.signal_time_s.back(), whole.task.signal_time_s.back(),
+          cut.task.features[0].value, loss_cut);
+      EXPECT_EQ(loss_cut, loss_whole);
+      ASSERT_EQ(cut.task.features.size(), whole.task.features.size());
+      for (std::size_t k = 0; k < cut.task.features.size(); ++k)
+        EXPECT_EQ(cut.task.features[k].value, whole.task.features[k].value) << cut.task.features[k].name;
+      EXPECT_NEAR(whole.task.signal_time_s.back(), 2.5, 1e-9);
+      // Two cycles from the first turning point (the release, or up to a quarter period after a push) and
+      // the swing after the fifth one 10 % of the range back (~0.1 period), when that fits in duration_s
+      // (the lopsided design released at -8 deg swings over to rest at 32 deg with a 1.2 s period: not).
+      const double period = whole.task.features[0].value;
+      const double last = std::string(release.push_rad_s) == "0" ? 2.2 : 2.45;
+      if (last * period < 2.4) {
+        EXPECT_LT(cut.task.signal_time_s.back(), last * period);
+        EXPECT_GT(cut.task.signal_time_s.back(), 2.0 * period);
+      } else {
+        EXPECT_NEAR(cut.task.signal_time_s.back(), 2.5, 1e-9);
+      }
+    }
+  }
+  // measured_cycles 0 (every cycle counts): the whole duration either way.
+  TaskConfig all = TaskConfig::defaults("tumbler");
+  all.set("measured_cycles", "0");
+  all.set("period_s", "0.5");
+  const InteriorProblem pa(all, cloud);
+  ProblemEvaluation ev;
+  Eigen::VectorXd g;
+  pa.evaluate(pa.initialParameters(), &g, &ev);
+  EXPECT_NEAR(ev.task.signal_time_s.back(), all.number("duration_s"), 1e-9);
+}
+
 // The observed tilt it rocks about (equilibrium_tilt_deg, compared by magnitude on the release tilt's
 // scale): its loss term's gradient through the simulation, on a design whose centre of mass is off
 // the axis (it rests tilted).

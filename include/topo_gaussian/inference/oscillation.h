@@ -39,6 +39,56 @@ std::vector<Extremum<S>> findExtrema(const std::vector<S>& y, double t0, double 
   return oscillation::findExtrema(y, [&](std::size_t k) { return t0 + dt * static_cast<double>(k); });
 }
 
+/// The turning points the analysis below measures (y.size() ≥ 2): the interior extrema, and the first
+/// sample when the motion starts at rest (jitter extrema next to it merge into it), of which those
+/// whose swing is under 10 % of the signal's range are dropped as jitter.
+template <typename S>
+std::vector<Extremum<S>> measuredTurningPoints(const std::vector<S>& y, double t0, double dt, bool starts_at_rest) {
+  double lo = 1e300, hi = -1e300;
+  for (const auto& v : y) lo = std::min(lo, valueOfScalar(v)), hi = std::max(hi, valueOfScalar(v));
+  auto raw = findExtrema(y, t0, dt);
+  if (starts_at_rest) raw.insert(raw.begin(), Extremum<S>{S(t0), y[0], valueOfScalar(y[0]) >= valueOfScalar(y[1])});
+  return prominentExtrema(raw, hi - lo, 0.1);
+}
+
+/// Watches a signal while it is being sampled (a simulation under way) and says when it holds all that
+/// analyseOscillation(y, t0, dt, max_cycles, starts_at_rest) measures: the first 2 max_cycles + 1
+/// turning points (and the crossings between them), the last one final. It is final once the signal
+/// has moved away from it by more than the jitter filter's 10 % of the range: whatever comes later, the
+/// next turning point is then kept, so no later one of the same kind can replace it. Later samples
+/// can then change the features only by widening the signal's range, which the filter is scaled by;
+/// a passive oscillation's range is set by its first swing. Never complete when max_cycles ≤ 0 (every
+/// cycle counts). Cost: a comparison a sample, and the turning points of the samples so far at each
+/// local extremum.
+class MeasuredCyclesWatch {
+ public:
+  MeasuredCyclesWatch(double dt, int max_cycles, bool starts_at_rest)
+      : dt_(dt), max_cycles_(max_cycles), starts_at_rest_(starts_at_rest) {}
+  /// Adds the next sample; true once the samples so far hold everything the analysis measures.
+  bool add(double y) {
+    y_.push_back(y);
+    lo_ = std::min(lo_, y);
+    hi_ = std::max(hi_, y);
+    const std::size_t n = y_.size();
+    if (max_cycles_ <= 0 || n < 3) return false;
+    const double a = y_[n - 3], b = y_[n - 2], c = y_[n - 1];
+    if ((b > a && b >= c) || (b < a && b <= c)) turning_ = measuredTurningPoints(y_, 0.0, dt_, starts_at_rest_);
+    const std::size_t need = static_cast<std::size_t>(2 * max_cycles_ + 1);
+    if (turning_.size() != need) return turning_.size() > need;
+    const Extremum<double>& last = turning_.back();
+    return (last.maximum ? last.value - y : y - last.value) > 0.1 * (hi_ - lo_);
+  }
+  const std::vector<double>& samples() const { return y_; }
+
+ private:
+  double dt_;
+  int max_cycles_;
+  bool starts_at_rest_;
+  std::vector<double> y_;
+  double lo_ = 1e300, hi_ = -1e300;
+  std::vector<Extremum<double>> turning_;
+};
+
 /// max_cycles > 0 limits the period and equilibrium to the first max_cycles full cycles, so the
 /// features do not jump when the simulated window happens to hold one more crossing (the period of a
 /// damped, non-linear rocker drifts with its amplitude).
@@ -52,14 +102,8 @@ OscillationFeatures<S> analyseOscillation(const std::vector<S>& y, double t0, do
     f.message = "signal too short";
     return f;
   }
-  double lo = 1e300, hi = -1e300;
-  for (const auto& v : y) lo = std::min(lo, valueOfScalar(v)), hi = std::max(hi, valueOfScalar(v));
   f.max_abs = abs(y[0]);
-  auto raw = findExtrema(y, t0, dt);
-  // Released at rest: the first sample is the first turning point (jitter extrema next to it merge
-  // into it in the prominence filter).
-  if (starts_at_rest) raw.insert(raw.begin(), Extremum<S>{S(t0), y[0], valueOfScalar(y[0]) >= valueOfScalar(y[1])});
-  auto ex = prominentExtrema(raw, hi - lo, 0.1);
+  auto ex = measuredTurningPoints(y, t0, dt, starts_at_rest);
   if (max_cycles > 0 && ex.size() > static_cast<std::size_t>(2 * max_cycles + 1)) ex.resize(2 * max_cycles + 1);
   // The first sample is a turning point too when the motion starts at rest.
   f.extrema = static_cast<int>(ex.size());

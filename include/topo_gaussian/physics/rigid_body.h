@@ -15,6 +15,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <functional>
 #include <string>
 #include <unsupported/Eigen/AutoDiff>
 #include <vector>
@@ -80,6 +81,11 @@ struct RigidSimOptions {
   Eigen::Vector3d pivot_world = Eigen::Vector3d::Zero();
   /// Polled every 64 substeps; true throws SimulationCancelled (physics/run_limits.h).
   StopCheck should_stop;
+  /// Called after every output sample (time_s[k] > 0) with the sample's time [s] and orientation
+  /// (value part, body → world); returning true ends the simulation there, the trajectory ending with
+  /// that sample. A task whose observations are complete before duration_s (the tumbler's first
+  /// measured cycles) stops the optimiser's simulations early. Null: the full duration_s.
+  std::function<bool(double time_s, const Eigen::Quaterniond& orientation)> stop_after_sample;
 };
 
 template <typename S>
