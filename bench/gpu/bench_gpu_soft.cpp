@@ -17,7 +17,10 @@
 //       *_loss_every_100: the loss counts every 100th step only (SoftRolloutOptions::loss_at);
 //       *_keep_all: the default checkpointing, every state kept on the GPU (they fit), no recomputation.
 // Without a CUDA device it prints one line {"case": "gpu", "skipped": reason} and exits 0.
-// Usage: bench_gpu_soft [--quick] [--lanes L] [CASE_SUBSTRING]    (bench/README.md: building on a GPU machine)
+// --capped -1|0|1: the evaluation kernel with its registers capped by the grid's size (the default), never,
+// or always (SoftBodyCuda::setCappedEvaluation).
+// Usage: bench_gpu_soft [--quick] [--lanes L] [--capped M] [CASE_SUBSTRING]    (bench/README.md: building on a GPU
+// machine)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -70,7 +73,8 @@ std::unique_ptr<SoftBodySimulator> makeBody(int nx, int ny, int nz, double hfac)
   return sim;
 }
 
-int g_lanes = 0;  // automatic
+int g_lanes = 0;    // automatic
+int g_capped = -1;  // by the grid's size
 
 void gpuCase(const std::string& base, int nx, int ny, int nz, double hfac, int gpu_steps, int cpu_steps) {
   for (CudaPrecision p : {CudaPrecision::Float64, CudaPrecision::Float32}) {
@@ -84,6 +88,7 @@ void gpuCase(const std::string& base, int nx, int ny, int nz, double hfac, int g
     const double dt = 0.5 * sim->stableTimeStep();
     t = Clock::now();
     SoftBodyCuda gpu(*sim, p, g_lanes);
+    gpu.setCappedEvaluation(g_capped);
     const double upload_s = seconds(t);
     gpu.step(dt, 100);  // warm-up: graph capture, caches, clocks
     t = Clock::now();
@@ -191,6 +196,8 @@ int main(int argc, char** argv) {
       quick = true;
     else if (std::strcmp(argv[i], "--lanes") == 0 && i + 1 < argc)
       g_lanes = std::atoi(argv[++i]);
+    else if (std::strcmp(argv[i], "--capped") == 0 && i + 1 < argc)
+      g_capped = std::atoi(argv[++i]);
     else
       g_only = argv[i];
   }

@@ -64,6 +64,11 @@ SoftBodyCuda::~SoftBodyCuda() = default;
 std::size_t SoftBodyCuda::size() const { return impl_->n; }
 CudaPrecision SoftBodyCuda::precision() const { return impl_->precision; }
 int SoftBodyCuda::lanesPerParticle() const { return impl_->body64.lanes; }
+void SoftBodyCuda::setCappedEvaluation(int mode) {
+  impl_->body64.capped_evaluation = impl_->body32.capped_evaluation = mode < 0 ? -1 : (mode > 0 ? 1 : 0);
+  if (impl_->graph) cudaGraphExecDestroy(impl_->graph);  // captured with the kernel chosen before
+  impl_->graph = nullptr;
+}
 
 void SoftBodyCuda::step(double dt, long steps) {
   if (!std::isfinite(dt) || dt <= 0.0 || steps < 0) {
@@ -199,6 +204,7 @@ SoftBodyCuda::~SoftBodyCuda() = default;
 std::size_t SoftBodyCuda::size() const { return 0; }
 CudaPrecision SoftBodyCuda::precision() const { return CudaPrecision::Float64; }
 int SoftBodyCuda::lanesPerParticle() const { return 0; }
+void SoftBodyCuda::setCappedEvaluation(int) {}
 void SoftBodyCuda::step(double, long) {}
 void SoftBodyCuda::download(std::vector<Eigen::Vector3d>*, std::vector<Eigen::Vector3d>*) const {}
 std::vector<Eigen::Vector3d> SoftBodyCuda::forces() const { return {}; }

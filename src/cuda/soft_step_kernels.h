@@ -97,6 +97,10 @@ struct SoftDeviceBody {
   double hg_alpha_over_h2 = 0.0;  // α / h² (the hourglass material derivative)
   ContactDevice<T> contact;
   int lanes = 8;  // threads per particle in the neighbour sums: 1, 2, 4, 8, 16 or 32
+  // The evaluation with its registers capped (kEvaluationBlocksCapped blocks an SM): -1 when its grid
+  // outgrows what the SMs hold at once uncapped (evaluationCapped), 0 never, 1 always (tests). 2 and 4
+  // lanes only.
+  int capped_evaluation = -1;
   // Launch the step's two neighbour kernels as programmatic dependents of the kernel before them
   // (compute capability 9.0+): their launch overlaps that kernel's end; they wait for its results.
   int dependent_launch = 0;

@@ -58,6 +58,11 @@ class SoftBodyCuda {
                         int lanes_per_particle = 0);
   /// The lanes per particle in use.
   int lanesPerParticle() const;
+  /// The evaluation kernel with its registers capped, so that more blocks share an SM: faster once its
+  /// grid outgrows what the SMs hold at once uncapped (100k particles), slower where it fits (9k).
+  /// -1 (the default): chosen by the grid's size; 0: never; 1: always (with 2 or 4 lanes; tests,
+  /// benches). The arithmetic is the same either way.
+  void setCappedEvaluation(int mode);
   ~SoftBodyCuda();
   SoftBodyCuda(const SoftBodyCuda&) = delete;
   SoftBodyCuda& operator=(const SoftBodyCuda&) = delete;
