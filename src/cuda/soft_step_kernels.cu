@@ -84,10 +84,11 @@ __global__ void kickKernel(SoftDeviceBody<T> b, T h) {
 }
 
 /// Blocks of kBlock threads an SM of the capped evaluation (registers capped to fit them: float32 80
-/// instead of 104, float64 128 instead of 150, a few bytes spilled), against the 5 and 3 that the
+/// instead of 106, float64 128 instead of 150, a few bytes spilled), against the 4 and 3 that the
 /// uncapped one fits. Faster once the grid outgrows what the SMs hold at once uncapped (100k particles on
-/// an H200: 88.2 → 84.4 µs a step float32, 120.5 → 110.7 µs float64); slower where it fits (9k
-/// float32: 13.8 → 14.6 µs), so it is chosen by the grid's size (launchEvaluateOnly).
+/// an H200: 88.7 → 79.7 µs a step float32, with its own data loaded late; 121.7 → 111.5 µs float64);
+/// slower where it fits (9k float32: 13.7 → 14.5 µs), so it is chosen by the grid's size
+/// (launchEvaluateOnly).
 template <class T>
 constexpr int kEvaluationBlocksCapped = sizeof(T) == 4 ? 6 : 4;
 /// Lanes with a capped variant (the automatic choices at large sizes: float32 4, float64 2).
@@ -113,8 +114,9 @@ __global__ void __launch_bounds__(kBlock, Capped ? kEvaluationBlocksCapped<T> : 
   // float32 loads the particle's own data for the work after the sums before the loop (every lane of
   // the group, the same addresses), so that their latency overlaps the loop (9k: 15.3 → 14.5 µs a step on an H100);
   // float64 loads them where they are used (early, they held registers through the loop: 9k 20.3 → 23.0 µs, 100k 132 →
-  // 152 µs).
-  constexpr bool early = sizeof(T) == 4;
+  // 152 µs), and so does the capped kernel (the registers the early loads hold spilled: 100k 84.5 → 79.7 µs a step
+  // float32 on an H200 with them late).
+  constexpr bool early = sizeof(T) == 4 && !Capped;
   T mu_e = 0, la_e = 0, V_e = 0, w_e = 0;
   double p_e = 0.0;
   Mat3<T> C_e = zero3<T>();
