@@ -69,6 +69,10 @@ void SoftBodyCuda::setCappedEvaluation(int mode) {
   if (impl_->graph) cudaGraphExecDestroy(impl_->graph);  // captured with the kernel chosen before
   impl_->graph = nullptr;
 }
+bool SoftBodyCuda::cappedEvaluation() const {
+  return impl_->precision == CudaPrecision::Float64 ? cuda_detail::evaluationCapped(impl_->body64)
+                                                    : cuda_detail::evaluationCapped(impl_->body32);
+}
 
 void SoftBodyCuda::step(double dt, long steps) {
   if (!std::isfinite(dt) || dt <= 0.0 || steps < 0) {
@@ -205,6 +209,7 @@ std::size_t SoftBodyCuda::size() const { return 0; }
 CudaPrecision SoftBodyCuda::precision() const { return CudaPrecision::Float64; }
 int SoftBodyCuda::lanesPerParticle() const { return 0; }
 void SoftBodyCuda::setCappedEvaluation(int) {}
+bool SoftBodyCuda::cappedEvaluation() const { return false; }
 void SoftBodyCuda::step(double, long) {}
 void SoftBodyCuda::download(std::vector<Eigen::Vector3d>*, std::vector<Eigen::Vector3d>*) const {}
 std::vector<Eigen::Vector3d> SoftBodyCuda::forces() const { return {}; }

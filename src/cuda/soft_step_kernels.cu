@@ -478,15 +478,23 @@ long long residentEvaluationBlocks() {
   return resident;
 }
 
+/// evaluationCapped for L lanes and G.
+template <class T, int L, bool G>
+bool evaluationCappedFor(const SoftDeviceBody<T>& b) {
+  if constexpr (kCappable<L>)
+    return b.capped_evaluation < 0 ? blocks(static_cast<long long>(b.n) * L) > residentEvaluationBlocks<T, L, G>()
+                                   : b.capped_evaluation > 0;
+  else
+    return false;
+}
+
 template <class T, int L>
 void launchEvaluateOnly(const SoftDeviceBody<T>& b, cudaStream_t s) {
   const long long threads = static_cast<long long>(b.n) * L;
   const auto launch = [&](auto recompute) {
     constexpr bool G = decltype(recompute)::value;
     if constexpr (kCappable<L>) {
-      const bool capped =
-          b.capped_evaluation < 0 ? blocks(threads) > residentEvaluationBlocks<T, L, G>() : b.capped_evaluation > 0;
-      if (capped) {
+      if (evaluationCappedFor<T, L, G>(b)) {
         launchStep(b, evaluateKernel<T, L, G, true>, threads, s, b);
         return;
       }
@@ -594,6 +602,16 @@ void launchLeapfrogSteps(const SoftDeviceBody<T>& b, double dt, long steps, void
 }
 
 template <class T>
+bool evaluationCapped(const SoftDeviceBody<T>& b) {
+  bool capped = false;
+  withLanes(b.lanes, [&](auto lanes) {
+    constexpr int L = decltype(lanes)::value;
+    capped = b.L ? evaluationCappedFor<T, L, true>(b) : evaluationCappedFor<T, L, false>(b);
+  });
+  return capped;
+}
+
+template <class T>
 void launchEvaluateForces(const SoftDeviceBody<T>& b, void* stream) {
   launchForcesLanes(b, T(0), false, static_cast<cudaStream_t>(stream));
   launchContact(b, true, stream);  // + the contact's normal force (none without contact)
@@ -629,6 +647,8 @@ template void launchLeapfrogSteps<double>(const SoftDeviceBody<double>&, double,
 template void launchLeapfrogSteps<float>(const SoftDeviceBody<float>&, double, long, void*);
 template void launchEvaluateForces<double>(const SoftDeviceBody<double>&, void*);
 template void launchEvaluateForces<float>(const SoftDeviceBody<float>&, void*);
+template bool evaluationCapped<double>(const SoftDeviceBody<double>&);
+template bool evaluationCapped<float>(const SoftDeviceBody<float>&);
 template void launchEvaluateState<double>(const SoftDeviceBody<double>&, void*);
 template void launchEvaluateState<float>(const SoftDeviceBody<float>&, void*);
 template void launchGatherForces<double>(const SoftDeviceBody<double>&, void*);

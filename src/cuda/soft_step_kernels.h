@@ -98,8 +98,8 @@ struct SoftDeviceBody {
   ContactDevice<T> contact;
   int lanes = 8;  // threads per particle in the neighbour sums: 1, 2, 4, 8, 16 or 32
   // The evaluation with its registers capped (kEvaluationBlocksCapped blocks an SM): -1 when its grid
-  // outgrows what the SMs hold at once uncapped (evaluationCapped), 0 never, 1 always (tests). 2 and 4
-  // lanes only.
+  // outgrows what the SMs hold at once uncapped (evaluationCapped), 0 never, 1 always (tests, benches);
+  // 2 and 4 lanes only.
   int capped_evaluation = -1;
   // Launch the step's two neighbour kernels as programmatic dependents of the kernel before them
   // (compute capability 9.0+): their launch overlaps that kernel's end; they wait for its results.
@@ -159,6 +159,11 @@ void launchLeapfrogSteps(const SoftDeviceBody<T>& body, double dt, long steps, v
 /// The state at the current x (F̃, M, f) without moving: after an upload, or to refresh f.
 template <class T>
 void launchEvaluateForces(const SoftDeviceBody<T>& body, void* stream);
+
+/// Whether the body's evaluations run the kernel with capped registers (capped_evaluation, its lanes,
+/// and its grid against the blocks the device holds at once uncapped): the rule the launches follow.
+template <class T>
+bool evaluationCapped(const SoftDeviceBody<T>& body);
 
 /// SoftRollout's explicit step (symplectic Euler: v ← v + dt (f/m + g − c v), x ← x + dt v for free
 /// particles; the clock advances), then the conservative forces at the new x (no kick).

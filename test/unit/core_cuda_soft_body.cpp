@@ -438,24 +438,41 @@ TEST(CudaSoftBody, LaneCountsAgree) {
 }
 
 // The evaluation with its registers capped (chosen for large grids) does the same arithmetic: the same
-// bits as the uncapped one after 100 steps, in both precisions, with 2 and 4 lanes.
+// bits as the uncapped one after 100 steps, in both precisions, with 2 and 4 lanes, and when the mode is
+// switched between steps of one body (its captured graph made again). The beam's small grid fits on the
+// SMs, so by default it runs uncapped; 8 lanes have no capped kernel.
 TEST(CudaSoftBody, TheCappedEvaluationGivesTheSameBits) {
   SKIP_WITHOUT_GPU();
   Beam a = makeBeam(SphEnergyModel::StVK, SphRotationSource::ShapeMatchingApq, 1.5, true, 0.0);
   const double dt = 0.5 * a.sim->stableTimeStep();
   for (CudaPrecision precision : {CudaPrecision::Float64, CudaPrecision::Float32})
     for (int lanes : {2, 4}) {
-      Vec3s x[2], v[2];
+      Vec3s x[3], v[3];
       for (int capped : {0, 1}) {
         SoftBodyCuda g(*a.sim, precision, lanes);
+        EXPECT_FALSE(g.cappedEvaluation()) << "the default on a small grid";
         g.setCappedEvaluation(capped);
+        EXPECT_EQ(g.cappedEvaluation(), capped == 1);
         g.step(dt, 100);
         g.download(&x[capped], &v[capped]);
       }
-      EXPECT_EQ(maxDiff(x[0], x[1]), 0.0) << lanes << " lanes";
-      EXPECT_EQ(maxDiff(v[0], v[1]), 0.0) << lanes << " lanes";
+      {
+        SoftBodyCuda g(*a.sim, precision, lanes);  // 50 steps uncapped, then 50 capped
+        g.setCappedEvaluation(0);
+        g.step(dt, 50);
+        g.setCappedEvaluation(1);
+        g.step(dt, 50);
+        g.download(&x[2], &v[2]);
+      }
+      for (int k : {1, 2}) {
+        EXPECT_EQ(maxDiff(x[0], x[k]), 0.0) << lanes << " lanes, run " << k;
+        EXPECT_EQ(maxDiff(v[0], v[k]), 0.0) << lanes << " lanes, run " << k;
+      }
       EXPECT_GT(maxNorm(displacement(x[0], a.cloud.X)), 0.0);
     }
+  SoftBodyCuda eight(*a.sim, CudaPrecision::Float32, 8);
+  eight.setCappedEvaluation(1);
+  EXPECT_FALSE(eight.cappedEvaluation());
 }
 
 TEST(CudaSoftRollout, GradientOfA100StepRolloutMatchesTheCpuInFloat64) {

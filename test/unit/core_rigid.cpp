@@ -360,7 +360,6 @@ TEST(RigidDerivatives, PendulumForwardModeMatchesFiniteDifferences) {
       [&](const MassProperties& p) { return run(p).angular_velocity.x(); }, 0.2);
 }
 
-// 7a. Absurd stiffness with a forced large step is detected and explained.
 // 6c. An observer that ends the run (stop_after_sample): called once per output sample with that
 // sample's orientation; the trajectory ends at the sample where it said stop, and up to there it is the
 // full run's, bit for bit (a task that stops once its features are measured gets the same features).
@@ -408,6 +407,7 @@ TEST(RigidRocking, StopAfterSampleEndsTheRunWhereItSaysAndChangesNothingBefore) 
   }
 }
 
+// 7a. Absurd stiffness with a forced large step is detected and explained.
 TEST(RigidErrors, DivergenceIsReported) {
   const MassProperties props = roundBottom(0.015);
   const std::vector<Eigen::Vector3d> pts = sphereCap(0.05, 2.0e-3, 40.0);

@@ -63,6 +63,8 @@ class SoftBodyCuda {
   /// -1 (the default): chosen by the grid's size; 0: never; 1: always (with 2 or 4 lanes; tests,
   /// benches). The arithmetic is the same either way.
   void setCappedEvaluation(int mode);
+  /// Whether the step's evaluations run the capped kernel (the mode, the lanes and the grid's size).
+  bool cappedEvaluation() const;
   ~SoftBodyCuda();
   SoftBodyCuda(const SoftBodyCuda&) = delete;
   SoftBodyCuda& operator=(const SoftBodyCuda&) = delete;

@@ -53,13 +53,18 @@ std::vector<Extremum<S>> measuredTurningPoints(const std::vector<S>& y, double t
 
 /// Watches a signal while it is being sampled (a simulation under way) and says when it holds all that
 /// analyseOscillation(y, t0, dt, max_cycles, starts_at_rest) measures: the first 2 max_cycles + 1
-/// turning points (and the crossings between them), the last one final. It is final once the signal
-/// has moved away from it by more than the jitter filter's 10 % of the range: whatever comes later, the
-/// next turning point is then kept, so no later one of the same kind can replace it. Later samples
-/// can then change the features only by widening the signal's range, which the filter is scaled by;
-/// a passive oscillation's range is set by its first swing. Never complete when max_cycles ≤ 0 (every
-/// cycle counts). Cost: a comparison a sample, and the turning points of the samples so far at each
-/// local extremum.
+/// turning points (and the crossings between them), the last one final. The jitter filter keeps a
+/// turning point by its swing against 10 % of the whole signal's range, so the watch decides only once
+/// that range is settled: the signal's highest and lowest samples lie at kept turning points (a
+/// passive oscillation's extremes are those of its first swing; before it, near a release or a push,
+/// contact jitter would pass a filter scaled by the little range seen so far), and the turning points
+/// are then taken again with it. The last one is final once the signal has moved away from it by more
+/// than 10 % of the range: whatever comes later, the next turning point is then kept, so no later one of
+/// the same kind can replace it. Later samples can then change the features only by widening the
+/// range, which a passive oscillation's do not. Never complete when max_cycles ≤ 0 (every cycle counts),
+/// nor while the signal's extremes are not turning points (e.g. a push from the highest tilt): the
+/// whole signal is then analysed. Cost: a comparison a sample, and the turning points of the samples so
+/// far at each local extremum and whenever the range has grown since.
 class MeasuredCyclesWatch {
  public:
   MeasuredCyclesWatch(double dt, int max_cycles, bool starts_at_rest)
@@ -72,20 +77,34 @@ class MeasuredCyclesWatch {
     const std::size_t n = y_.size();
     if (max_cycles_ <= 0 || n < 3) return false;
     const double a = y_[n - 3], b = y_[n - 2], c = y_[n - 1];
-    if ((b > a && b >= c) || (b < a && b <= c)) turning_ = measuredTurningPoints(y_, 0.0, dt_, starts_at_rest_);
+    if ((b > a && b >= c) || (b < a && b <= c)) update();
     const std::size_t need = static_cast<std::size_t>(2 * max_cycles_ + 1);
-    if (turning_.size() != need) return turning_.size() > need;
+    if (turning_.size() < need) return false;
+    if (range_ != hi_ - lo_) update();  // the range grew since: the filter's verdicts with it
+    if (turning_.size() < need || !rangeAtTurningPoints()) return false;
+    if (turning_.size() > need) return true;
     const Extremum<double>& last = turning_.back();
     return (last.maximum ? last.value - y : y - last.value) > 0.1 * (hi_ - lo_);
   }
   const std::vector<double>& samples() const { return y_; }
 
  private:
+  void update() {
+    turning_ = measuredTurningPoints(y_, 0.0, dt_, starts_at_rest_);
+    range_ = hi_ - lo_;
+  }
+  /// Whether the highest and the lowest sample are kept turning points (a refined vertex lies beyond
+  /// the samples it is fitted through, or is one of them).
+  bool rangeAtTurningPoints() const {
+    double top = -1e300, bottom = 1e300;
+    for (const auto& e : turning_) top = std::max(top, e.value), bottom = std::min(bottom, e.value);
+    return top >= hi_ && bottom <= lo_;
+  }
   double dt_;
   int max_cycles_;
   bool starts_at_rest_;
   std::vector<double> y_;
-  double lo_ = 1e300, hi_ = -1e300;
+  double lo_ = 1e300, hi_ = -1e300, range_ = -1.0;
   std::vector<Extremum<double>> turning_;
 };
 
