@@ -86,7 +86,6 @@ class MeasuredCyclesWatch {
     const Extremum<double>& last = turning_.back();
     return (last.maximum ? last.value - y : y - last.value) > 0.1 * (hi_ - lo_);
   }
-  const std::vector<double>& samples() const { return y_; }
 
  private:
   void update() {
