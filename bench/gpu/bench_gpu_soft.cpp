@@ -18,9 +18,10 @@
 //       *_keep_all: the default checkpointing, every state kept on the GPU (they fit), no recomputation.
 // Without a CUDA device it prints one line {"case": "gpu", "skipped": reason} and exits 0.
 // --capped -1|0|1: the evaluation kernel with its registers capped by the grid's size (the default), never,
-// or always (SoftBodyCuda::setCappedEvaluation).
-// Usage: bench_gpu_soft [--quick] [--lanes L] [--capped M] [CASE_SUBSTRING]    (bench/README.md: building on a GPU
-// machine)
+// or always (SoftBodyCuda::setCappedEvaluation). --warp -1|0|1: float32's evaluation finished one thread a particle
+// by the grid's size (the default), never, or always (SoftBodyCuda::setWarpEvaluation).
+// Usage: bench_gpu_soft [--quick] [--lanes L] [--capped M] [--warp M] [CASE_SUBSTRING]    (bench/README.md: building on
+// a GPU machine)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -75,6 +76,7 @@ std::unique_ptr<SoftBodySimulator> makeBody(int nx, int ny, int nz, double hfac)
 
 int g_lanes = 0;    // automatic
 int g_capped = -1;  // by the grid's size
+int g_warp = -1;    // by the grid's size (float32)
 
 void gpuCase(const std::string& base, int nx, int ny, int nz, double hfac, int gpu_steps, int cpu_steps) {
   for (CudaPrecision p : {CudaPrecision::Float64, CudaPrecision::Float32}) {
@@ -89,6 +91,7 @@ void gpuCase(const std::string& base, int nx, int ny, int nz, double hfac, int g
     t = Clock::now();
     SoftBodyCuda gpu(*sim, p, g_lanes);
     gpu.setCappedEvaluation(g_capped);
+    gpu.setWarpEvaluation(g_warp);
     const double upload_s = seconds(t);
     gpu.step(dt, 100);  // warm-up: graph capture, caches, clocks
     t = Clock::now();
@@ -115,16 +118,18 @@ void gpuCase(const std::string& base, int nx, int ny, int nz, double hfac, int g
     const double achieved = gpu_rate * bytes / 1e9;
     std::printf(
         "{\"case\": \"%s\", \"device\": \"%s\", \"particles\": %zu, \"neighbours_mean\": %.1f, \"precision\": \"%s\", "
-        "\"lanes_per_particle\": %d, \"dt_s\": %.3e, \"steps\": %d, \"gpu_seconds\": %.4f, \"particle_steps_per_s\": "
+        "\"lanes_per_particle\": %d, \"capped_evaluation\": %s, \"warp_evaluation\": %s, \"dt_s\": %.3e, \"steps\": "
+        "%d, \"gpu_seconds\": %.4f, \"particle_steps_per_s\": "
         "%.4g, \"us_per_step\": %.2f, "
         "\"baseline\": \"cpu_step\", \"cpu_threads\": %d, \"cpu_particle_steps_per_s\": %.4g, \"gpu_over_cpu\": %.1f, "
         "\"model_bytes_per_particle_step\": %.0f, \"achieved_GBs\": %.0f, \"copy_GBs\": %.0f, "
         "\"bandwidth_share\": %.3f, \"bandwidth_bound_particle_steps_per_s\": %.4g, \"setup_s\": %.2f, "
         "\"upload_s\": %.3f, \"device_MiB\": %.1f}\n",
         name.c_str(), cudaDeviceInfo().name.c_str(), n, nb, p == CudaPrecision::Float64 ? "float64" : "float32",
-        gpu.lanesPerParticle(), dt, gpu_steps, gpu_s, gpu_rate, 1e6 * gpu_s / gpu_steps, threads(), cpu_rate,
-        gpu_rate / cpu_rate, bytes, achieved, g_copy_GBs, g_copy_GBs > 0 ? achieved / g_copy_GBs : 0.0,
-        g_copy_GBs * 1e9 / bytes, setup_s, upload_s, double(gpu.deviceBytes()) / (1024.0 * 1024.0));
+        gpu.lanesPerParticle(), gpu.cappedEvaluation() ? "true" : "false", gpu.warpEvaluation() ? "true" : "false", dt,
+        gpu_steps, gpu_s, gpu_rate, 1e6 * gpu_s / gpu_steps, threads(), cpu_rate, gpu_rate / cpu_rate, bytes, achieved,
+        g_copy_GBs, g_copy_GBs > 0 ? achieved / g_copy_GBs : 0.0, g_copy_GBs * 1e9 / bytes, setup_s, upload_s,
+        double(gpu.deviceBytes()) / (1024.0 * 1024.0));
     std::fflush(stdout);
   }
 }
@@ -198,6 +203,8 @@ int main(int argc, char** argv) {
       g_lanes = std::atoi(argv[++i]);
     else if (std::strcmp(argv[i], "--capped") == 0 && i + 1 < argc)
       g_capped = std::atoi(argv[++i]);
+    else if (std::strcmp(argv[i], "--warp") == 0 && i + 1 < argc)
+      g_warp = std::atoi(argv[++i]);
     else
       g_only = argv[i];
   }

@@ -73,6 +73,15 @@ bool SoftBodyCuda::cappedEvaluation() const {
   return impl_->precision == CudaPrecision::Float64 ? cuda_detail::evaluationCapped(impl_->body64)
                                                     : cuda_detail::evaluationCapped(impl_->body32);
 }
+void SoftBodyCuda::setWarpEvaluation(int mode) {
+  impl_->body64.warp_evaluation = impl_->body32.warp_evaluation = mode < 0 ? -1 : (mode > 0 ? 1 : 0);
+  if (impl_->graph) cudaGraphExecDestroy(impl_->graph);  // captured with the kernel chosen before
+  impl_->graph = nullptr;
+}
+bool SoftBodyCuda::warpEvaluation() const {
+  return impl_->precision == CudaPrecision::Float64 ? cuda_detail::evaluationWarp(impl_->body64)
+                                                    : cuda_detail::evaluationWarp(impl_->body32);
+}
 
 void SoftBodyCuda::step(double dt, long steps) {
   if (!std::isfinite(dt) || dt <= 0.0 || steps < 0) {
@@ -210,6 +219,8 @@ CudaPrecision SoftBodyCuda::precision() const { return CudaPrecision::Float64; }
 int SoftBodyCuda::lanesPerParticle() const { return 0; }
 void SoftBodyCuda::setCappedEvaluation(int) {}
 bool SoftBodyCuda::cappedEvaluation() const { return false; }
+void SoftBodyCuda::setWarpEvaluation(int) {}
+bool SoftBodyCuda::warpEvaluation() const { return false; }
 void SoftBodyCuda::step(double, long) {}
 void SoftBodyCuda::download(std::vector<Eigen::Vector3d>*, std::vector<Eigen::Vector3d>*) const {}
 std::vector<Eigen::Vector3d> SoftBodyCuda::forces() const { return {}; }

@@ -95,49 +95,72 @@ constexpr int kEvaluationBlocksCapped = sizeof(T) == 4 ? 6 : 4;
 template <int L>
 constexpr bool kCappable = L == 2 || L == 4;
 
-/// CorotatedSph::evaluate (Forces) at x, plus the pneumatic term in M, at time *time. G: ĝ_ij and
-/// W_ij recomputed from X and L_i (b.L), and the gather's record written in place of M. Capped: the
-/// registers capped (kEvaluationBlocksCapped); the same arithmetic.
-template <class T, int L, bool G, bool Capped = false>
-__global__ void __launch_bounds__(kBlock, Capped ? kEvaluationBlocksCapped<T> : 1) evaluateKernel(SoftDeviceBody<T> b) {
-  waitForPreviousKernel();
-  const int tid = blockIdx.x * blockDim.x + threadIdx.x;
-  const int i = tid / L, lane = tid % L;
-  const bool active = i < b.n;
-  const int e0 = active ? b.offsets[i] : 0, e1 = active ? b.offsets[i + 1] : 0;
-  const int ii = active ? i : 0;
-  const T xi0 = b.x[3 * ii], xi1 = b.x[3 * ii + 1], xi2 = b.x[3 * ii + 2];
-  const T Xi0 = b.X[3 * ii], Xi1 = b.X[3 * ii + 1], Xi2 = b.X[3 * ii + 2];
-  const T ci = b.c[ii];
-  const bool hg_row = b.hourglass && ci > T(0);
-  const bool need_D = hg_row || b.shape_matching;
-  // float32 loads the particle's own data for the work after the sums before the loop (every lane of
-  // the group, the same addresses), so that their latency overlaps the loop (9k: 15.3 → 14.5 µs a step on an H100);
-  // float64 loads them where they are used (early, they held registers through the loop: 9k 20.3 → 23.0 µs, 100k 132 →
-  // 152 µs), and so does the capped kernel (the registers the early loads hold spilled: 100k 84.5 → 79.7 µs a step
-  // float32 on an H200 with them late).
-  constexpr bool early = sizeof(T) == 4 && !Capped;
-  T mu_e = 0, la_e = 0, V_e = 0, w_e = 0;
-  double p_e = 0.0;
-  Mat3<T> C_e = zero3<T>();
-  if (early) {
-    mu_e = b.mu[ii];
-    la_e = b.lambda[ii];
-    V_e = b.V[ii];
-    w_e = b.chamber ? b.chamber[ii] : T(0);
-    p_e = b.chamber ? pressureAt(b, *b.time) : 0.0;
-    if (hg_row)
+/// The particle's own data for the work after the neighbour sums (evaluationEpilogue), loaded before
+/// the sums when `early` (their latency overlaps the loop), else where they are used.
+template <class T>
+struct EvaluationOwnData {
+  T mu = 0, la = 0, V = 0, w = 0;
+  double p = 0.0;
+  Mat3<T> C{};
+};
+
+template <class T>
+__device__ __forceinline__ EvaluationOwnData<T> loadEvaluationOwnData(const SoftDeviceBody<T>& b, int i, bool hg_row) {
+  EvaluationOwnData<T> o;
+  o.mu = b.mu[i];
+  o.la = b.lambda[i];
+  o.V = b.V[i];
+  o.w = b.chamber ? b.chamber[i] : T(0);
+  o.p = b.chamber ? pressureAt(b, *b.time) : 0.0;
+  if (hg_row)
 #pragma unroll
-      for (int k = 0; k < 9; ++k) C_e.a[k] = b.moment[9 * ii + k];
-  }
-  Mat3<T> Ft = zero3<T>(), D = zero3<T>();
+    for (int k = 0; k < 9; ++k) o.C.a[k] = b.moment[9 * i + k];
+  return o;
+}
+
+/// What the evaluation reads of particle i before its neighbour sums (i = 0's when inactive: an
+/// empty range): its CSR range, x_i, X_i, c_i, and with G L_i and X_i, V_i in float64.
+template <class T>
+struct EvaluationRow {
+  int e0 = 0, e1 = 0;
+  T x[3], X[3], c;
+  bool hg_row, need_D;
   Mat3<double> Li;
   double Xr[4] = {0, 0, 0, 0};
+};
+
+template <class T, bool G>
+__device__ __forceinline__ EvaluationRow<T> loadEvaluationRow(const SoftDeviceBody<T>& b, int i, bool active) {
+  EvaluationRow<T> r;
+  if (active) r.e0 = b.offsets[i], r.e1 = b.offsets[i + 1];
+  const int ii = active ? i : 0;
+#pragma unroll
+  for (int d = 0; d < 3; ++d) r.x[d] = b.x[3 * ii + d];
+#pragma unroll
+  for (int d = 0; d < 3; ++d) r.X[d] = b.X[3 * ii + d];
+  r.c = b.c[ii];
+  r.hg_row = b.hourglass && r.c > T(0);
+  r.need_D = r.hg_row || b.shape_matching;
   if (G) {
 #pragma unroll
-    for (int k = 0; k < 9; ++k) Li.a[k] = b.L[9 * ii + k];
-    loadRest(b.Xr, b.n, ii, Xr);
+    for (int k = 0; k < 9; ++k) r.Li.a[k] = b.L[9 * ii + k];
+    loadRest(b.Xr, b.n, ii, r.Xr);
   }
+  return r;
+}
+
+/// F̃_i = Σ_j V_j (x_j − x_i) ⊗ ĝ_ij and (need_D) D_i = Σ_j W_ij V_j (x_j − x_i) ⊗ X_ji over the neighbours
+/// e ∈ [e0, e1) of particle i, lane `lane` of its L taking every L-th; every lane of the group gets
+/// the sums. G: ĝ_ij = L_i ∇W(X_ji) and W_ij recomputed in float64 from X_i, V (Xr) and L_i.
+template <class T, int L, bool G>
+__device__ __forceinline__ void evaluationSums(const SoftDeviceBody<T>& b, const EvaluationRow<T>& row, int lane,
+                                               Mat3<T>* Ft_out, Mat3<T>* D_out) {
+  const int e0 = row.e0, e1 = row.e1;
+  const T xi0 = row.x[0], xi1 = row.x[1], xi2 = row.x[2], Xi0 = row.X[0], Xi1 = row.X[1], Xi2 = row.X[2];
+  const bool need_D = row.need_D;
+  const Mat3<double>& Li = row.Li;
+  const double* Xr = row.Xr;
+  Mat3<T> Ft = zero3<T>(), D = zero3<T>();
   for (int e = e0 + lane; e < e1; e += L) {
     const int j = b.idx[e];
     double Xj[4];  // X_j and V_j
@@ -195,7 +218,17 @@ __global__ void __launch_bounds__(kBlock, Capped ? kEvaluationBlocksCapped<T> : 
     Ft.a[k] = groupSum<L>(Ft.a[k]);
     D.a[k] = groupSum<L>(D.a[k]);
   }
-  if (!active || lane != 0) return;
+  *Ft_out = Ft;
+  *D_out = D;
+}
+
+/// What the evaluation does with particle i's sums: the polar rotation, P, M_i = V_i R_i P_i + c_i H_i
+/// (+ the pneumatic term), F̃_i and M_i (G: the gather's record) written. own: the particle's own
+/// data when `early`, else loaded here.
+template <class T, bool G, bool early>
+__device__ __forceinline__ void evaluationEpilogue(const SoftDeviceBody<T>& b, int i, const Mat3<T>& Ft,
+                                                   const Mat3<T>& D, T ci, bool hg_row, T xi0, T xi1, T xi2,
+                                                   const Mat3<double>& Li, const EvaluationOwnData<T>& own) {
   bool fell_back = false;
   // The matrix to decompose, chosen element by element: a reference chosen at run time (`cond ? D : Ft`)
   // took both matrices' addresses and kept them in local memory (an 84-byte stack frame).
@@ -210,7 +243,7 @@ __global__ void __launch_bounds__(kBlock, Capped ? kEvaluationBlocksCapped<T> : 
   const Mat3<T> F = mulTn(R, Ft);
   if (!(det3(F) > T(0))) encodeFirst<T>(&b.status[0], *b.step, i);
   // P = ∂ψ/∂F (piolaAndEnergy).
-  const T mu = early ? mu_e : b.mu[i], la = early ? la_e : b.lambda[i];
+  const T mu = early ? own.mu : b.mu[i], la = early ? own.la : b.lambda[i];
   Mat3<T> eps;
   if (b.stvk) {
     eps = mulTn(F, F);
@@ -238,12 +271,12 @@ __global__ void __launch_bounds__(kBlock, Capped ? kEvaluationBlocksCapped<T> : 
   const Mat3<T> P = b.stvk ? mul(F, S) : S;
   // M_i = V_i R_i P_i + c_i H_i, H_i = 2(F̃_i C_i − D_i).
   const Mat3<T> RP = mul(R, P);
-  const T Vi = early ? V_e : b.V[i];
+  const T Vi = early ? own.V : b.V[i];
   Mat3<T> M;
 #pragma unroll
   for (int k = 0; k < 9; ++k) M.a[k] = Vi * RP.a[k];
   if (hg_row) {
-    Mat3<T> C = C_e;
+    Mat3<T> C = own.C;
     if (!early)
 #pragma unroll
       for (int k = 0; k < 9; ++k) C.a[k] = b.moment[9 * i + k];
@@ -253,8 +286,8 @@ __global__ void __launch_bounds__(kBlock, Capped ? kEvaluationBlocksCapped<T> : 
   }
   // Pneumatic chamber: ∂E_a/∂F̃_i = −p w_i V_i cof F̃_i.
   if (b.chamber) {
-    const double p = early ? p_e : pressureAt(b, *b.time);
-    const T wi = early ? w_e : b.chamber[i];
+    const double p = early ? own.p : pressureAt(b, *b.time);
+    const T wi = early ? own.w : b.chamber[i];
     if (p != 0.0 && wi != T(0)) {
       const Mat3<T> Cf = cofactor3(Ft);
       const T s = -static_cast<T>(p) * wi * Vi;
@@ -270,6 +303,76 @@ __global__ void __launch_bounds__(kBlock, Capped ? kEvaluationBlocksCapped<T> : 
 #pragma unroll
     for (int k = 0; k < 9; ++k) b.M[9 * i + k] = M.a[k];
   }
+}
+
+/// CorotatedSph::evaluate (Forces) at x, plus the pneumatic term in M, at time *time. G: ĝ_ij and
+/// W_ij recomputed from X and L_i (b.L), and the gather's record written in place of M. Capped: the
+/// registers capped (kEvaluationBlocksCapped); the same arithmetic. L threads a particle; the first
+/// of them does the work after the sums (evaluateWarpKernel: one thread a particle there).
+template <class T, int L, bool G, bool Capped = false>
+__global__ void __launch_bounds__(kBlock, Capped ? kEvaluationBlocksCapped<T> : 1) evaluateKernel(SoftDeviceBody<T> b) {
+  waitForPreviousKernel();
+  const int tid = blockIdx.x * blockDim.x + threadIdx.x;
+  const int i = tid / L, lane = tid % L;
+  const bool active = i < b.n;
+  const EvaluationRow<T> row = loadEvaluationRow<T, G>(b, i, active);
+  // float32 loads the particle's own data for the work after the sums before the loop (every lane of
+  // the group, the same addresses), so that their latency overlaps the loop (9k: 15.3 → 14.5 µs a step on an H100);
+  // float64 loads them where they are used (early, they held registers through the loop: 9k 20.3 → 23.0 µs, 100k 132 →
+  // 152 µs), and so does the capped kernel (the registers the early loads hold spilled: 100k 84.5 → 79.7 µs a step
+  // float32 on an H200 with them late).
+  constexpr bool early = sizeof(T) == 4 && !Capped;
+  EvaluationOwnData<T> own;
+  if (early) own = loadEvaluationOwnData(b, active ? i : 0, row.hg_row);
+  Mat3<T> Ft, D;
+  evaluationSums<T, L, G>(b, row, lane, &Ft, &D);
+  if (!active || lane != 0) return;
+  evaluationEpilogue<T, G, early>(b, i, Ft, D, row.c, row.hg_row, row.x[0], row.x[1], row.x[2], row.Li, own);
+}
+
+/// evaluateKernel with the work after the sums done one thread a particle: a warp sums its 32
+/// particles' neighbours in L rounds (32 / L particles a round, L lanes each, as evaluateKernel),
+/// passes the sums through shared memory, and each of its threads then finishes one particle (the
+/// polar rotation, P, M, the record) instead of one thread in L while the others wait. The same
+/// arithmetic as evaluateKernel; a grid of n threads instead of L n.
+template <class T, int L, bool G, bool Capped = false>
+__global__ void __launch_bounds__(kBlock, Capped ? kEvaluationBlocksCapped<T> : 1)
+    evaluateWarpKernel(SoftDeviceBody<T> b) {
+  waitForPreviousKernel();
+  constexpr int kWarps = kBlock / 32, P = 32 / L;
+  __shared__ T sums[kWarps][18][32];  // F̃ then D of the warp's 32 particles, value-major (no bank conflicts)
+  const int warp = threadIdx.x / 32, lane32 = threadIdx.x % 32;
+  const int base = (blockIdx.x * kWarps + warp) * 32;
+  if (base >= b.n) return;  // the whole warp
+  for (int round = 0; round < L; ++round) {
+    const int slot = round * P + lane32 / L, lane = lane32 % L;
+    const int i = base + slot;
+    Mat3<T> Ft, D;
+    evaluationSums<T, L, G>(b, loadEvaluationRow<T, G>(b, i, i < b.n), lane, &Ft, &D);
+    if (lane == 0)
+#pragma unroll
+      for (int k = 0; k < 9; ++k) {
+        sums[warp][k][slot] = Ft.a[k];
+        sums[warp][9 + k][slot] = D.a[k];
+      }
+  }
+  __syncwarp();
+  const int i = base + lane32;
+  if (i >= b.n) return;
+  Mat3<T> Ft, D;
+#pragma unroll
+  for (int k = 0; k < 9; ++k) {
+    Ft.a[k] = sums[warp][k][lane32];
+    D.a[k] = sums[warp][9 + k][lane32];
+  }
+  const T xi0 = b.x[3 * i], xi1 = b.x[3 * i + 1], xi2 = b.x[3 * i + 2];
+  const T ci = b.c[i];
+  const bool hg_row = b.hourglass && ci > T(0);
+  Mat3<double> Li;
+  if (G)
+#pragma unroll
+    for (int k = 0; k < 9; ++k) Li.a[k] = b.L[9 * i + k];
+  evaluationEpilogue<T, G, false>(b, i, Ft, D, ci, hg_row, xi0, xi1, xi2, Li, EvaluationOwnData<T>());
 }
 
 /// CorotatedSph::gather (negated: f = −∂E/∂x) and, with kick, the second half kick of free particles.
@@ -488,13 +591,39 @@ bool evaluationCappedFor(const SoftDeviceBody<T>& b) {
     return false;
 }
 
+/// Whether the float32 evaluation with recomputed ĝ and 2 or 4 lanes runs evaluateWarpKernel
+/// (warp_evaluation; -1: by the grid's size, as the capped kernel: grids larger than the SMs hold at
+/// once uncapped; 9k particles on an H200: 68 blocks of 32 particles run 13.8 → 44.6 µs a step). float64 never: with 2
+/// lanes (its choice at large sizes) it was slower (100k: 110.8 → 118.7 µs a step on an H200).
+template <class T, int L, bool G>
+constexpr bool kWarpEvaluation = sizeof(T) == 4 && G&& kCappable<L>;
+
+template <class T, int L, bool G>
+bool evaluationWarpFor(const SoftDeviceBody<T>& b) {
+  if constexpr (kWarpEvaluation<T, L, G>)
+    return b.warp_evaluation < 0 ? blocks(static_cast<long long>(b.n) * L) > residentEvaluationBlocks<T, L, G>()
+                                 : b.warp_evaluation > 0;
+  else
+    return false;
+}
+
 template <class T, int L>
 void launchEvaluateOnly(const SoftDeviceBody<T>& b, cudaStream_t s) {
   const long long threads = static_cast<long long>(b.n) * L;
   const auto launch = [&](auto recompute) {
     constexpr bool G = decltype(recompute)::value;
     if constexpr (kCappable<L>) {
-      if (evaluationCappedFor<T, L, G>(b)) {
+      const bool capped = evaluationCappedFor<T, L, G>(b);
+      if constexpr (kWarpEvaluation<T, L, G>) {
+        if (evaluationWarpFor<T, L, G>(b)) {  // a grid of n threads
+          if (capped)
+            launchStep(b, evaluateWarpKernel<T, L, G, true>, static_cast<long long>(b.n), s, b);
+          else
+            launchStep(b, evaluateWarpKernel<T, L, G, false>, static_cast<long long>(b.n), s, b);
+          return;
+        }
+      }
+      if (capped) {
         launchStep(b, evaluateKernel<T, L, G, true>, threads, s, b);
         return;
       }
@@ -612,6 +741,16 @@ bool evaluationCapped(const SoftDeviceBody<T>& b) {
 }
 
 template <class T>
+bool evaluationWarp(const SoftDeviceBody<T>& b) {
+  bool warp = false;
+  withLanes(b.lanes, [&](auto lanes) {
+    constexpr int L = decltype(lanes)::value;
+    warp = b.L ? evaluationWarpFor<T, L, true>(b) : evaluationWarpFor<T, L, false>(b);
+  });
+  return warp;
+}
+
+template <class T>
 void launchEvaluateForces(const SoftDeviceBody<T>& b, void* stream) {
   launchForcesLanes(b, T(0), false, static_cast<cudaStream_t>(stream));
   launchContact(b, true, stream);  // + the contact's normal force (none without contact)
@@ -649,6 +788,8 @@ template void launchEvaluateForces<double>(const SoftDeviceBody<double>&, void*)
 template void launchEvaluateForces<float>(const SoftDeviceBody<float>&, void*);
 template bool evaluationCapped<double>(const SoftDeviceBody<double>&);
 template bool evaluationCapped<float>(const SoftDeviceBody<float>&);
+template bool evaluationWarp<double>(const SoftDeviceBody<double>&);
+template bool evaluationWarp<float>(const SoftDeviceBody<float>&);
 template void launchEvaluateState<double>(const SoftDeviceBody<double>&, void*);
 template void launchEvaluateState<float>(const SoftDeviceBody<float>&, void*);
 template void launchGatherForces<double>(const SoftDeviceBody<double>&, void*);

@@ -101,6 +101,10 @@ struct SoftDeviceBody {
   // outgrows what the SMs hold at once uncapped (evaluationCapped), 0 never, 1 always (tests, benches);
   // 2 and 4 lanes only.
   int capped_evaluation = -1;
+  // The float32 evaluation's work after the neighbour sums done one thread a particle
+  // (evaluateWarpKernel; recomputed ĝ, 2 or 4 lanes): -1 by the grid's size (as capped_evaluation), 0 never,
+  // 1 always (tests, benches). Ignored in float64.
+  int warp_evaluation = -1;
   // Launch the step's two neighbour kernels as programmatic dependents of the kernel before them
   // (compute capability 9.0+): their launch overlaps that kernel's end; they wait for its results.
   int dependent_launch = 0;
@@ -164,6 +168,10 @@ void launchEvaluateForces(const SoftDeviceBody<T>& body, void* stream);
 /// and its grid against the blocks the device holds at once uncapped): the rule the launches follow.
 template <class T>
 bool evaluationCapped(const SoftDeviceBody<T>& body);
+
+/// Whether the body's evaluations run evaluateWarpKernel (warp_evaluation, precision, lanes, grid).
+template <class T>
+bool evaluationWarp(const SoftDeviceBody<T>& body);
 
 /// SoftRollout's explicit step (symplectic Euler: v ← v + dt (f/m + g − c v), x ← x + dt v for free
 /// particles; the clock advances), then the conservative forces at the new x (no kick).

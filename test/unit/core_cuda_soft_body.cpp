@@ -87,8 +87,13 @@ struct Parity {
 };
 
 /// Runs `steps` steps on the CPU and on the GPU from the same state; relative errors at the end.
-Parity compare(Beam& b, CudaPrecision precision, int steps, double dt_fraction = 0.5) {
-  SoftBodyCuda gpu(*b.sim, precision);
+/// lanes: 0 automatic; warp: SoftBodyCuda::setWarpEvaluation's mode (1: asserts that it runs).
+Parity compare(Beam& b, CudaPrecision precision, int steps, double dt_fraction = 0.5, int lanes = 0, int warp = -1) {
+  SoftBodyCuda gpu(*b.sim, precision, lanes);
+  gpu.setWarpEvaluation(warp);
+  if (warp == 1) {
+    EXPECT_TRUE(gpu.warpEvaluation());
+  }
   const double dt = dt_fraction * b.sim->stableTimeStep();
   for (int s = 0; s < steps; ++s) b.sim->step(dt);
   gpu.step(dt, steps);
@@ -473,6 +478,38 @@ TEST(CudaSoftBody, TheCappedEvaluationGivesTheSameBits) {
   SoftBodyCuda eight(*a.sim, CudaPrecision::Float32, 8);
   eight.setCappedEvaluation(1);
   EXPECT_FALSE(eight.cappedEvaluation());
+}
+
+// float32's evaluation finished one thread a particle (evaluateWarpKernel, chosen for large grids)
+// against the CPU at float32's stated tolerance (1e-3 over 100 steps), beside the group kernel, with
+// 2 and 4 lanes: the paper's StVK/A_pq body with hourglass, and the corotated one with damping and a
+// ramped chamber pressure (whose term is in the finishing work). The beam's small grid runs the
+// group kernel by default; float64 and 8 lanes never run the warp one.
+TEST(CudaSoftBody, TheWarpEvaluationStaysWithinTheFloat32Tolerance) {
+  SKIP_WITHOUT_GPU();
+  for (int lanes : {2, 4})
+    for (int warp : {0, 1}) {
+      Beam a = makeBeam(SphEnergyModel::StVK, SphRotationSource::ShapeMatchingApq, 1.5, false, 0.0);
+      const Parity pa = compare(a, CudaPrecision::Float32, 100, 0.5, lanes, warp);
+      Beam b = makeBeam(SphEnergyModel::CorotatedLinear, SphRotationSource::CorrectedGradient, 1.0, true, 3.0);
+      const Parity pb = compare(b, CudaPrecision::Float32, 100, 0.5, lanes, warp);
+      EXPECT_LT(pa.x, 1e-3) << lanes << " lanes, warp " << warp;
+      EXPECT_LT(pa.v, 1e-3) << lanes << " lanes, warp " << warp;
+      EXPECT_LT(pb.x, 1e-3) << lanes << " lanes, warp " << warp;
+      EXPECT_LT(pb.v, 1e-3) << lanes << " lanes, warp " << warp;
+      std::printf(
+          "[ parity   ] float32, 100 steps, %d lanes, %s kernel: StVK/A_pq dx %.2e dv %.2e; corotated/chamber "
+          "dx %.2e dv %.2e df %.2e\n",
+          lanes, warp ? "warp" : "group", pa.x, pa.v, pb.x, pb.v, pb.f);
+    }
+  Beam c = makeBeam(SphEnergyModel::StVK, SphRotationSource::ShapeMatchingApq, 1.5, true, 0.0);
+  SoftBodyCuda g(*c.sim, CudaPrecision::Float32, 4);
+  EXPECT_FALSE(g.warpEvaluation()) << "the default on a small grid";
+  SoftBodyCuda d(*c.sim, CudaPrecision::Float64, 4), e(*c.sim, CudaPrecision::Float32, 8);
+  d.setWarpEvaluation(1);
+  e.setWarpEvaluation(1);
+  EXPECT_FALSE(d.warpEvaluation());
+  EXPECT_FALSE(e.warpEvaluation());
 }
 
 TEST(CudaSoftRollout, GradientOfA100StepRolloutMatchesTheCpuInFloat64) {

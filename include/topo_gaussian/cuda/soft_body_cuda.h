@@ -65,6 +65,15 @@ class SoftBodyCuda {
   void setCappedEvaluation(int mode);
   /// Whether the step's evaluations run the capped kernel (the mode, the lanes and the grid's size).
   bool cappedEvaluation() const;
+  /// float32: the evaluation's work after the neighbour sums (the polar rotation, the stress, the
+  /// gather's record) done one thread a particle instead of by the first of each particle's lanes
+  /// while the others wait (100k particles on an H200: 80.3 → 73.0 µs a step). -1 (the default): by the
+  /// grid's size, as the capped kernel (large grids; at 9k its fewer, longer warps are slower); 0: never; 1:
+  /// always (2 or 4 lanes). float64 never. The same formulas; float32 rounding may differ in the last bits
+  /// (the compiler fuses multiply–adds per kernel).
+  void setWarpEvaluation(int mode);
+  /// Whether the step's evaluations run the one-thread-a-particle kernel.
+  bool warpEvaluation() const;
   ~SoftBodyCuda();
   SoftBodyCuda(const SoftBodyCuda&) = delete;
   SoftBodyCuda& operator=(const SoftBodyCuda&) = delete;
