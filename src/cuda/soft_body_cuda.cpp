@@ -28,7 +28,7 @@ SoftBodyCuda::SoftBodyCuda(const SoftBodySimulator& sim, CudaPrecision precision
     if (precision == CudaPrecision::Float64)
       lanes = large ? 2 : 4;
     else
-      lanes = nb >= 48.0 && !large ? 8 : 4;
+      lanes = large ? 2 : (nb >= 48.0 ? 8 : 4);
   }
   if (lanes != 1 && lanes != 2 && lanes != 4 && lanes != 8 && lanes != 16 && lanes != 32)
     throw TopoError("CUDA soft body", "lanes_per_particle " + std::to_string(lanes) + " is not a power of 2 up to 32",

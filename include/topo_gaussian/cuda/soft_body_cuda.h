@@ -51,9 +51,9 @@ class SoftBodyCuda {
   /// this build or machine has no CUDA device (cudaDeviceInfo().reason), or the simulator uses what
   /// the GPU step cannot take (more than 8 contact obstacles).
   /// lanes_per_particle: threads that share one particle's neighbour sums (1, 2, 4, 8, 16, 32), or 0
-  /// to choose: float64 2 from 50 000 particles, else 4; float32 8 below 50 000 particles with 48 or
-  /// more neighbours, else 4 (the fastest on an H100 for 26 and 86–94 neighbours at 9k and 100k
-  /// particles, bench/gpu/README.md).
+  /// to choose: 2 from 50 000 particles; below, float64 4, float32 8 with 48 or more neighbours, else
+  /// 4 (the fastest for 26 and 86–94 neighbours at 9k, 100k and 1M particles on an H100 and an H200,
+  /// bench/gpu/README.md).
   explicit SoftBodyCuda(const SoftBodySimulator& sim, CudaPrecision precision = CudaPrecision::Float64,
                         int lanes_per_particle = 0);
   /// The lanes per particle in use.
