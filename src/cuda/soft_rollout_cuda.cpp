@@ -106,6 +106,9 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
   const int N = opt.steps;
   const double dt = opt.dt, t0 = sim->time();
   SoftBodyCuda gpu(*sim, precision);
+  // The group evaluation kernel at every size: float32 gradients are held to their tolerance with it
+  // (forced, the warp kernel moved the test's x0 error from 8.7e-4 to 1.2e-3, bench/gpu/README.md).
+  gpu.setWarpEvaluation(0);
   SoftBodyCuda::Impl& I = gpu.impl();
   cuda_detail::SoftDeviceBody<T>& b = bodyOf<T>(I);
   cudaStream_t s = I.stream;

@@ -592,19 +592,39 @@ bool evaluationCappedFor(const SoftDeviceBody<T>& b) {
 }
 
 /// Whether the float32 evaluation with recomputed ĝ and 2 or 4 lanes runs evaluateWarpKernel
-/// (warp_evaluation; -1: by the grid's size, as the capped kernel: grids larger than the SMs hold at
-/// once uncapped; 9k particles on an H200: 68 blocks of 32 particles run 13.8 → 44.6 µs a step). float64 never: with 2
+/// (warp_evaluation; -1: by the grid's size, evaluationWarpFor; forced at 9k particles on an H200, its
+/// 68 blocks of 128 particles (4 warps of 32) run 13.8 → 44.6 µs a step). float64 never: with 2
 /// lanes (its choice at large sizes) it was slower (100k: 110.8 → 118.7 µs a step on an H200).
 template <class T, int L, bool G>
 constexpr bool kWarpEvaluation = sizeof(T) == 4 && G&& kCappable<L>;
 
+/// Blocks of evaluateWarpKernel (capped or not) that the device holds at once, computed once per kernel.
+template <class T, int L, bool G, bool Capped>
+long long residentWarpEvaluationBlocks() {
+  static const long long resident = [] {
+    int device = 0, sms = 0, per_sm = 0;
+    cudaGetDevice(&device);
+    cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device);
+    cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, evaluateWarpKernel<T, L, G, Capped>, kBlock, 0);
+    return std::max<long long>(1, static_cast<long long>(sms) * per_sm);
+  }();
+  return resident;
+}
+
 template <class T, int L, bool G>
 bool evaluationWarpFor(const SoftDeviceBody<T>& b) {
-  if constexpr (kWarpEvaluation<T, L, G>)
-    return b.warp_evaluation < 0 ? blocks(static_cast<long long>(b.n) * L) > residentEvaluationBlocks<T, L, G>()
-                                 : b.warp_evaluation > 0;
-  else
+  if constexpr (kWarpEvaluation<T, L, G>) {
+    if (b.warp_evaluation >= 0) return b.warp_evaluation > 0;
+    // Its grid of n threads must fill at least three quarters of what the device holds at once: below,
+    // its fewer, longer warps leave SMs idle (float32, 2 lanes, H200, µs a step, group → warp kernel:
+    // 50k 32.2 → 39.3, 70k 55.2 → 54.5 (0.69 of a wave), 100k 67.0 → 64.1 (0.99), 1M 580 → 582; 4 lanes
+    // 20k 19.0 → 32.1, 35k 34.3 → 40.9).
+    const long long resident = evaluationCappedFor<T, L, G>(b) ? residentWarpEvaluationBlocks<T, L, G, true>()
+                                                               : residentWarpEvaluationBlocks<T, L, G, false>();
+    return 4 * static_cast<long long>(blocks(b.n)) >= 3 * resident;
+  } else {
     return false;
+  }
 }
 
 template <class T, int L>

@@ -102,7 +102,7 @@ struct SoftDeviceBody {
   // 2 and 4 lanes only.
   int capped_evaluation = -1;
   // The float32 evaluation's work after the neighbour sums done one thread a particle
-  // (evaluateWarpKernel; recomputed ĝ, 2 or 4 lanes): -1 by the grid's size (as capped_evaluation), 0 never,
+  // (evaluateWarpKernel; recomputed ĝ, 2 or 4 lanes): -1 by the grid's size (evaluationWarpFor), 0 never,
   // 1 always (tests, benches). Ignored in float64.
   int warp_evaluation = -1;
   // Launch the step's two neighbour kernels as programmatic dependents of the kernel before them

@@ -67,10 +67,12 @@ class SoftBodyCuda {
   bool cappedEvaluation() const;
   /// float32: the evaluation's work after the neighbour sums (the polar rotation, the stress, the
   /// gather's record) done one thread a particle instead of by the first of each particle's lanes
-  /// while the others wait (100k particles on an H200: 80.3 → 73.0 µs a step). -1 (the default): by the
-  /// grid's size, as the capped kernel (large grids; at 9k its fewer, longer warps are slower); 0: never; 1:
-  /// always (2 or 4 lanes). float64 never. The same formulas; float32 rounding may differ in the last bits
-  /// (the compiler fuses multiply–adds per kernel).
+  /// while the others wait (100k particles, 2 lanes, on an H200: 67.0 → 64.1 µs a step). -1 (the
+  /// default): by the grid's size, where its grid of one thread a particle fills at least three
+  /// quarters of what the device holds at once (from ~76k particles on an H200; below, its fewer,
+  /// longer warps are slower: 50k 32.2 → 39.3 µs); 0: never; 1: always. Only with 2 or 4 lanes and
+  /// order-1 gradients (ĝ recomputed); otherwise, and in float64, the group kernel runs. The same
+  /// formulas; float32 rounding may differ in the last bits (the compiler fuses multiply–adds per kernel).
   void setWarpEvaluation(int mode);
   /// Whether the step's evaluations run the one-thread-a-particle kernel.
   bool warpEvaluation() const;
