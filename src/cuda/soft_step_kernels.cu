@@ -567,17 +567,20 @@ void launchStep(const SoftDeviceBody<T>& b, void (*kernel)(P...), long long thre
   cudaLaunchKernelEx(&cfg, kernel, args...);  // errors: cudaGetLastError() after the batch
 }
 
-/// Blocks of the uncapped evaluation that the device holds at once (blocks an SM × SMs; the device
-/// current at the first call), computed once per kernel.
+/// Blocks of kBlock threads of `kernel` that the current device holds at once (blocks an SM × SMs).
+template <class K>
+long long residentBlocks(K kernel) {
+  int device = 0, sms = 0, per_sm = 0;
+  cudaGetDevice(&device);
+  cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device);
+  cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, kernel, kBlock, 0);
+  return std::max<long long>(1, static_cast<long long>(sms) * per_sm);
+}
+
+/// residentBlocks of the uncapped evaluation (the device current at the first call), computed once.
 template <class T, int L, bool G>
 long long residentEvaluationBlocks() {
-  static const long long resident = [] {
-    int device = 0, sms = 0, per_sm = 0;
-    cudaGetDevice(&device);
-    cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device);
-    cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, evaluateKernel<T, L, G, false>, kBlock, 0);
-    return std::max<long long>(1, static_cast<long long>(sms) * per_sm);
-  }();
+  static const long long resident = residentBlocks(evaluateKernel<T, L, G, false>);
   return resident;
 }
 
@@ -598,16 +601,10 @@ bool evaluationCappedFor(const SoftDeviceBody<T>& b) {
 template <class T, int L, bool G>
 constexpr bool kWarpEvaluation = sizeof(T) == 4 && G&& kCappable<L>;
 
-/// Blocks of evaluateWarpKernel (capped or not) that the device holds at once, computed once per kernel.
+/// residentBlocks of evaluateWarpKernel (capped or not), computed once per kernel.
 template <class T, int L, bool G, bool Capped>
 long long residentWarpEvaluationBlocks() {
-  static const long long resident = [] {
-    int device = 0, sms = 0, per_sm = 0;
-    cudaGetDevice(&device);
-    cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device);
-    cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, evaluateWarpKernel<T, L, G, Capped>, kBlock, 0);
-    return std::max<long long>(1, static_cast<long long>(sms) * per_sm);
-  }();
+  static const long long resident = residentBlocks(evaluateWarpKernel<T, L, G, Capped>);
   return resident;
 }
 
