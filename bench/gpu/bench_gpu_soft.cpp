@@ -222,6 +222,11 @@ int main(int argc, char** argv) {
     // 1e5: 80 × 50 × 25; 1e6: 160 × 100 × 63.
     gpuCase("explicit_100k_h1.0", 80, 50, 25, 1.0, 2000 / s, 10 / s + 2);
     gpuCase("explicit_100k_h1.5", 80, 50, 25, 1.5, 2000 / s, 10 / s + 2);
+    // between 9k and 100k: where the warp evaluation starts to pay (bench/gpu/README.md)
+    gpuCase("explicit_20k_h1.0", 40, 25, 20, 1.0, 2000 / s, 10 / s + 2);
+    gpuCase("explicit_35k_h1.0", 50, 35, 20, 1.0, 2000 / s, 10 / s + 2);
+    gpuCase("explicit_50k_h1.0", 50, 40, 25, 1.0, 2000 / s, 10 / s + 2);
+    gpuCase("explicit_70k_h1.0", 70, 40, 25, 1.0, 2000 / s, 10 / s + 2);
     if (!quick) gpuCase("explicit_1m_h1.0", 160, 100, 63, 1.0, 200, 3);
     // Rollouts with gradient: 9k and 100k particles, checkpoints every ⌈√steps⌉ and (_keep_all, the
     // default where the states fit) every state kept.

@@ -601,7 +601,8 @@ bool evaluationCappedFor(const SoftDeviceBody<T>& b) {
 template <class T, int L, bool G>
 constexpr bool kWarpEvaluation = sizeof(T) == 4 && G&& kCappable<L>;
 
-/// residentBlocks of evaluateWarpKernel (capped or not), computed once per kernel.
+/// residentBlocks of evaluateWarpKernel (capped or not; the device current at the first call), computed
+/// once per kernel.
 template <class T, int L, bool G, bool Capped>
 long long residentWarpEvaluationBlocks() {
   static const long long resident = residentBlocks(evaluateWarpKernel<T, L, G, Capped>);
@@ -612,7 +613,8 @@ template <class T, int L, bool G>
 bool evaluationWarpFor(const SoftDeviceBody<T>& b) {
   if constexpr (kWarpEvaluation<T, L, G>) {
     if (b.warp_evaluation >= 0) return b.warp_evaluation > 0;
-    // Its grid of n threads must fill at least three quarters of what the device holds at once: below,
+    // Its grid of n threads must fill at least three quarters of what the device holds at once (a
+    // conservative line between the measured 0.69 and 0.99 of a wave): below,
     // its fewer, longer warps leave SMs idle (float32, 2 lanes, H200, µs a step, group → warp kernel:
     // 50k 32.2 → 39.3, 70k 55.2 → 54.5 (0.69 of a wave), 100k 67.0 → 64.1 (0.99), 1M 580 → 582; 4 lanes
     // 20k 19.0 → 32.1, 35k 34.3 → 40.9).
