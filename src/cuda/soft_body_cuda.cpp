@@ -64,19 +64,34 @@ SoftBodyCuda::~SoftBodyCuda() = default;
 std::size_t SoftBodyCuda::size() const { return impl_->n; }
 CudaPrecision SoftBodyCuda::precision() const { return impl_->precision; }
 int SoftBodyCuda::lanesPerParticle() const { return impl_->body64.lanes; }
-void SoftBodyCuda::setCappedEvaluation(int mode) {
-  impl_->body64.capped_evaluation = impl_->body32.capped_evaluation = mode < 0 ? -1 : (mode > 0 ? 1 : 0);
-  if (impl_->graph) cudaGraphExecDestroy(impl_->graph);  // captured with the kernel chosen before
+namespace {
+/// A mode switch's value: -1, 0 or 1.
+int modeOf(int mode) { return mode < 0 ? -1 : (mode > 0 ? 1 : 0); }
+}  // namespace
+
+void SoftBodyCuda::dropGraph() {
+  if (impl_->graph) cudaGraphExecDestroy(impl_->graph);  // captured with the kernels chosen before
   impl_->graph = nullptr;
+}
+
+void SoftBodyCuda::setCappedEvaluation(int mode) {
+  impl_->body64.capped_evaluation = impl_->body32.capped_evaluation = modeOf(mode);
+  dropGraph();
 }
 bool SoftBodyCuda::cappedEvaluation() const {
   return impl_->precision == CudaPrecision::Float64 ? cuda_detail::evaluationCapped(impl_->body64)
                                                     : cuda_detail::evaluationCapped(impl_->body32);
 }
 void SoftBodyCuda::setWarpEvaluation(int mode) {
-  impl_->body64.warp_evaluation = impl_->body32.warp_evaluation = mode < 0 ? -1 : (mode > 0 ? 1 : 0);
-  if (impl_->graph) cudaGraphExecDestroy(impl_->graph);  // captured with the kernel chosen before
-  impl_->graph = nullptr;
+  const bool before = warpEvaluation();
+  impl_->body64.warp_evaluation = impl_->body32.warp_evaluation = modeOf(mode);
+  dropGraph();
+  // The state's evaluation (f, F̃, the records) made again by the kernel now chosen, so that what a
+  // caller reads next (the constructor evaluated before the mode was set) comes from it, to the bit.
+  if (warpEvaluation() != before) {
+    cuda_detail::launchEvaluateForces(impl_->body32, impl_->stream);
+    synchronize();
+  }
 }
 bool SoftBodyCuda::warpEvaluation() const {
   return impl_->precision == CudaPrecision::Float64 ? cuda_detail::evaluationWarp(impl_->body64)

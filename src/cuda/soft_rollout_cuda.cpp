@@ -112,7 +112,6 @@ SoftRolloutResult rollout(SoftBodySimulator* sim, const SoftRolloutOptions& opt,
   SoftBodyCuda::Impl& I = gpu.impl();
   cuda_detail::SoftDeviceBody<T>& b = bodyOf<T>(I);
   cudaStream_t s = I.stream;
-  cuda_detail::launchEvaluateForces(b, s);  // f₀ again: the constructor's evaluation ran before the mode was set
   const std::size_t bytes3 = 3 * n * sizeof(T);
   auto copy = [&](T* dst, const T* src) {
     check(cudaMemcpyAsync(dst, src, bytes3, cudaMemcpyDeviceToDevice, s), "device copy");

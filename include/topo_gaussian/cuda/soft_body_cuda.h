@@ -72,7 +72,8 @@ class SoftBodyCuda {
   /// quarters of what the device holds at once (from ~76k particles on an H200; below, its fewer,
   /// longer warps are slower: 50k 32.2 → 39.3 µs); 0: never; 1: always. Only with 2 or 4 lanes and
   /// order-1 gradients (ĝ recomputed); otherwise, and in float64, the group kernel runs. The same
-  /// formulas; float32 rounding may differ in the last bits (the compiler fuses multiply–adds per kernel).
+  /// formulas; float32 rounding may differ in the last bits (the compiler fuses multiply–adds per kernel),
+  /// so when the choice changes the current state is evaluated again with the kernel now chosen.
   void setWarpEvaluation(int mode);
   /// Whether the step's evaluations run the one-thread-a-particle kernel.
   bool warpEvaluation() const;
@@ -102,6 +103,7 @@ class SoftBodyCuda {
   Impl& impl() { return *impl_; }
 
  private:
+  void dropGraph();  ///< the captured step graph, made again at the next step (after a kernel choice)
   std::unique_ptr<Impl> impl_;
 };
 
