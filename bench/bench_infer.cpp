@@ -15,8 +15,8 @@
 // finite-difference timing runs its evaluations one after another on one problem, so a task that
 // starts from the last design's solution (the finger's warm_start) runs them warm; the projected one
 // uses loss_only_s, measured on a fresh problem.
-// --progress-every K: the stderr progress line every K evaluations (default 10). rest_factors /
-// rest_factor_reuses: the process's kept rest-stiffness factors (the GPU's, rest_factor_reuse.h) made
+// --progress-every K: the stderr progress line (loss, gradient norm, time) every K evaluations (default 10).
+// rest_factors / rest_factor_reuses: the process's kept rest-stiffness factors (the GPU's, rest_factor_reuse.h) made
 // and reused by the case's inference, and rest_factors_renewed_during_use of them made within a design's
 // solves (0 where no factor is kept).
 // Usage: bench_infer [--quick] [--backend B] [--set KEY=VALUE]... [--progress-every K] [CASE_SUBSTRING]
@@ -112,8 +112,8 @@ void runCase(const std::string& name, TaskConfig c, const VolumeCloud& cloud, bo
     // Progress on stderr every 10 evaluations (long cases: the neural network, the finger).
     const ProgressCallback progress = [&name](const IterationInfo& it) {
       if (it.iteration % g_progress_every == 0)
-        std::fprintf(stderr, "[bench_infer] %s: evaluation %d, loss %.3e, %.1f s\n", name.c_str(), it.iteration,
-                     it.loss, it.elapsed_s);
+        std::fprintf(stderr, "[bench_infer] %s: evaluation %d, loss %.3e, |gradient| %.2e, %.1f s\n", name.c_str(),
+                     it.iteration, it.loss, it.gradient_norm, it.elapsed_s);
       return true;
     };
 #ifdef TOPO_BENCH_CORE_ONLY
