@@ -503,8 +503,9 @@ TEST(RegionUncertainty, PredictsTheIouFoundAndCallsASmallBallUndetermined) {
     const double iou = volumeIou(cloud.V, hollow_true, hollow_found);
     std::printf(
         "[region] %s: found IoU %.3f with the truth; expected %.3f (10 %% below %.3f), undetermined %.1f %% "
-        "of the volume, %d of %d draws kept, noise %.3f x the tolerances\n",
-        k.name, iou, g.iou_mean, g.iou_p10, 100 * g.undetermined_fraction, g.samples, g.drawn, g.noise_scale);
+        "of the volume, %d designs from a walk of %d steps (%.0f %% accepted), noise %.3f x the tolerances\n",
+        k.name, iou, g.iou_mean, g.iou_p10, 100 * g.undetermined_fraction, g.samples, g.drawn, 100 * g.acceptance,
+        g.noise_scale);
     const bool says_undetermined = g.sentence.find("not determined") != std::string::npos;
     EXPECT_EQ(says_undetermined, g.iou_mean < 0.9) << g.sentence;
     EXPECT_NE(res.message.find(g.sentence), std::string::npos) << "the result's message carries it";
@@ -512,6 +513,9 @@ TEST(RegionUncertainty, PredictsTheIouFoundAndCallsASmallBallUndetermined) {
       // Honest: the IoU the report expects is the IoU found against the truth, within 0.05.
       EXPECT_GE(g.iou_mean, 0.8) << g.sentence;
       EXPECT_NEAR(g.iou_mean, iou, 0.05) << g.sentence;
+      // Not over-confident: the IoU found lies above the 10 % quantile the report gives.
+      EXPECT_GE(iou, g.iou_p10) << g.sentence;
+      EXPECT_GT(g.acceptance, 0.1) << "the random walk moved";
       EXPECT_LT(g.undetermined_fraction, 0.2);
     } else {
       EXPECT_LT(g.iou_mean, 0.3) << g.sentence;
