@@ -240,7 +240,7 @@ void hangingPose(const Vector3d& d, double* roll_deg, double* pitch_deg) {
 // 0.003 s. --quick: 25.
 int g_max_iterations = 0;  // --max-iterations N (0: the task default); --quick: 25
 // restarts of the design spread (inference/design_spread.h): 0 by default since 2026-11-27 (the region's
-// uncertainty comes from inference/region_uncertainty.h, ~1 s a case; the spread's two restarts made
+// uncertainty comes from inference/region_uncertainty.h, seconds a case; the spread's two restarts made
 // the full bench about three times as long, over its 15 minutes); --restarts 2 for the task default.
 int g_restarts = 0;  // --restarts N; -1 = the task default
 

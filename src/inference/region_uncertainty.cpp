@@ -137,7 +137,7 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
   // method before it (until 2026-11-28), a Gaussian proposal filtered by the fit and halved whenever it
   // overshot, kept designs nearer θ* than the fit allows: on bench/interiors the found region's IoU with
   // the truth lay below the reported 10 % quantile in 3 of the 7 representable cases (the tumbler's cavity:
-  // 0.678 expected, 10 % below 0.583, found 0.508), with the walk in none (0.412, 0.344). Steps: σ̂/s_j
+  // 0.678 expected, 10 % below 0.583, found 0.508), with the walk in none (0.438, 0.354). Steps: σ̂/s_j
   // along a determined direction, at most cap, scaled during a burn-in towards a quarter to a half accepted.
   std::vector<double> masses;
   const auto momentsOf = [&](const std::vector<double>& rr) {
@@ -157,6 +157,13 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
   // is explored within about that half norm (the prior's width): the designs near this one, not any
   // quadric at all.
   const double cap = kRegionProposalCap * theta.norm();
+  if (!(cap > 0) || options.samples < 1) {  // no step to take: a walk that cannot move would claim certainty
+    out.note = options.samples < 1
+                   ? "no designs were asked for (samples < 1): the region's uncertainty is not analysed"
+                   : "the design has no parameters set (|θ| = 0): the region's uncertainty could not be "
+                     "measured (use the design spread, restarts)";
+    return out;
+  }
   const double inv_noise2 = 1.0 / (out.noise_scale * out.noise_scale);
   const Eigen::Index D = V.cols();
   Eigen::VectorXd sd(D);

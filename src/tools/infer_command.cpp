@@ -180,9 +180,10 @@ int inferCommand(const std::vector<std::string>& argv) {
   }
   if (res.region.available) {  // the sentence is in the message above; here the numbers behind it
     const inference::RegionUncertainty& g = res.region;
-    std::cerr << "[topo infer] the region: " << g.samples << " of " << g.drawn
-              << " drawn designs fit the observations to their noise (" << g.noise_scale << " x the tolerances); "
-              << g.free_directions << " of " << g.directions << " directions free; ";
+    std::cerr << "[topo infer] the region: " << g.samples << " designs that fit the observations to their noise ("
+              << g.noise_scale << " x the tolerances), from a random walk of " << g.drawn << " steps ("
+              << 100.0 * g.acceptance << " % accepted); " << g.free_directions << " of " << g.directions
+              << " directions free; ";
     if (g.free_directions == 0)
       std::cerr << "region IoU with this design " << g.iou_mean << " (10 % below " << g.iou_p10 << "); ";
     std::cerr << "undetermined volume " << 100.0 * g.undetermined_fraction << " %\n";

@@ -52,7 +52,7 @@ struct RegionUncertainty {
   int samples = 0;                       ///< kept designs (states of the random walk)
   int drawn = 0;                         ///< steps of the random walk, the burn-in included
   double acceptance = 0.0;               ///< share of the steps after the burn-in that were accepted
-  double proposal_scale = 1.0;           ///< the steps' scale after the burn-in (< 1: the linearisation overshot)
+  double proposal_scale = 1.0;           ///< the steps' scale after the burn-in (× σ̂/s_k, at most cap)
   double region_fraction = 0.0;          ///< volume of the region (the other material) / total volume
   double iou_mean = 0.0, iou_p10 = 0.0;  ///< IoU of the drawn designs' region with the best's (NaN when free)
   double undetermined_fraction = 0.0;    ///< volume with confidence below confident_level / total volume
