@@ -8,6 +8,7 @@
 #include <limits>
 #include <random>
 #include <sstream>
+#include <utility>
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
@@ -175,12 +176,11 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
       if (!(th[k] >= lower[k] && th[k] <= upper[k])) return -std::numeric_limits<double>::infinity();
     problem.indicator(th, rr);
     const Eigen::VectorXd dy = J_si * (momentsOf(*rr) - p_best);
-    const double prior = cap > 0 ? zz.squaredNorm() / (cap * cap) : 0.0;
-    return -0.5 * (dy.squaredNorm() * inv_noise2 + prior);
+    return -0.5 * (dy.squaredNorm() * inv_noise2 + zz.squaredNorm() / (cap * cap));
   };
   Eigen::VectorXd z = Eigen::VectorXd::Zero(D);
-  std::vector<double> r_cur = r, r_try;
-  double log_cur = logTarget(z, &r_cur);
+  std::vector<double> r_cur = std::move(r), r_try;  // the walk starts at θ*: its own moments, so Δχ² = 0
+  double log_cur = 0.0;
   double step = 1.0;
   const int burn_in = kRegionBurnInSteps, thin = kRegionThinning;
   const int steps = burn_in + thin * options.samples;
