@@ -231,15 +231,10 @@ Eigen::MatrixXd massPropertiesParameterJacobian(const InteriorProblem& problem, 
   std::vector<double> r;
   problem.indicator(theta, &r);
   const Eigen::MatrixXd dp_dr = massPropertiesIndicatorJacobian(problem.task(), problem.cloud(), r);
-  Eigen::MatrixXd out(10, problem.numParameters());
-  std::vector<double> row(r.size());
-  Eigen::VectorXd g;
-  for (int j = 0; j < 10; ++j) {
-    for (std::size_t i = 0; i < r.size(); ++i) row[i] = dp_dr(j, static_cast<Eigen::Index>(i));
-    indicatorBackward(problem.representation(), theta, problem.indicatorOptions(), row, &g);
-    out.row(j) = g.transpose();
-  }
-  return out;
+  Eigen::MatrixXd dp_dtheta_t;  // numParameters × 10, one pass over the particles
+  indicatorBackwardColumns(problem.representation(), theta, problem.indicatorOptions(), dp_dr.transpose(),
+                           &dp_dtheta_t);
+  return dp_dtheta_t.transpose();
 }
 
 void suggestNextExperiment(const InteriorProblem& problem, const std::vector<double>& r, const MomentJacobian& J_si,

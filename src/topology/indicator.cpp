@@ -102,4 +102,28 @@ void indicatorBackward(const Representation& rep, const Eigen::VectorXd& theta, 
   rep.fieldBackward(theta, ds, dL_dtheta);
 }
 
+void indicatorBackwardColumns(const Representation& rep, const Eigen::VectorXd& theta, const IndicatorOptions& options,
+                              const Eigen::MatrixXd& dL_dr, Eigen::MatrixXd* dL_dtheta) {
+  validate(options, rep.numParticles());
+  if (static_cast<std::size_t>(dL_dr.rows()) != rep.numParticles())
+    throw TopoError(
+        "indicator gradients dL/dr",
+        "have " + std::to_string(dL_dr.rows()) + " rows for " + std::to_string(rep.numParticles()) + " particles",
+        "pass one row per particle");
+  std::vector<double> s;
+  rep.field(theta, &s);
+  const double inv_eps = 1.0 / options.epsilon;
+  const bool pin = !options.pinned.empty();
+  Eigen::MatrixXd dL_ds(dL_dr.rows(), dL_dr.cols());
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(s.size());
+#pragma omp parallel for schedule(static) if (n > 8192)
+  for (std::ptrdiff_t i = 0; i < n; ++i) {
+    const double x = s[i] * inv_eps;
+    // dr/ds = r (1 − r) / ε; pinned particles do not depend on θ.
+    const double dr_ds = pin && options.pinned[i] ? 0.0 : sigmoid(x) * sigmoid(-x) * inv_eps;
+    dL_ds.row(i) = dL_dr.row(i) * dr_ds;
+  }
+  rep.fieldBackwardColumns(theta, dL_ds, dL_dtheta);
+}
+
 }  // namespace topo_gaussian

@@ -86,6 +86,31 @@ void QuadricRepresentation::fieldAt(const Eigen::VectorXd& theta, const std::vec
   for (std::ptrdiff_t i = 0; i < n; ++i) (*s)[i] = fieldValue(theta, (points[i] - frame_.centre) * inv, distance_unit_);
 }
 
+namespace {
+
+/// √q · unit · ds_d/dθ's bracket: basis/√q − s ∂q/∂θ / (2 q^{3/2}), ∂q/∂θ = 2 (∂g/∂θ)ᵀ g + 2κ² θ_{A,b}
+/// (zero where q = 0); ds_d/dθ is it over unit.
+Eigen::Matrix<double, 10, 1> distanceGradientTimesUnit(const Eigen::VectorXd& theta, const Eigen::Vector3d& u) {
+  using Vec10 = Eigen::Matrix<double, 10, 1>;
+  Eigen::Vector3d g;
+  const double q = gradientSquare(theta, u, &g);
+  if (!(q > 0.0)) return Vec10::Zero();
+  const double x = u.x(), y = u.y(), z = u.z(), sq = std::sqrt(q), s = evaluate(theta, u);
+  Vec10 dq;
+  dq << 4.0 * x * g.x(), 4.0 * y * g.y(), 4.0 * z * g.z(), 4.0 * (y * g.x() + x * g.y()), 4.0 * (z * g.x() + x * g.z()),
+      4.0 * (z * g.y() + y * g.z()), 2.0 * g.x(), 2.0 * g.y(), 2.0 * g.z(), 0.0;
+  dq.head<9>() += 2.0 * kDistanceKappa * kDistanceKappa * theta.head<9>();
+  return QuadricRepresentation::basis(u) / sq - (s / (2.0 * q * sq)) * dq;
+}
+
+}  // namespace
+
+Eigen::Matrix<double, 10, 1> QuadricRepresentation::fieldGradient(const Eigen::VectorXd& theta,
+                                                                  const Eigen::Vector3d& u) const {
+  return distance_unit_ > 0.0 ? Eigen::Matrix<double, 10, 1>(distanceGradientTimesUnit(theta, u) / distance_unit_)
+                              : basis(u);
+}
+
 void QuadricRepresentation::fieldBackward(const Eigen::VectorXd& theta, const std::vector<double>& dL_ds,
                                           Eigen::VectorXd* dL_dtheta) const {
   checkParameters(theta);
@@ -94,24 +119,27 @@ void QuadricRepresentation::fieldBackward(const Eigen::VectorXd& theta, const st
   // ds_d/dθ = (basis/√q − s ∂q/∂θ / (2 q^{3/2})) / unit, ∂q/∂θ = 2 (∂g/∂θ)ᵀ g + 2κ² θ_{A,b}. Summed in
   // fixed blocks added in block order: the same bits on any number of threads (common/block_sum.h).
   using Vec10 = Eigen::Matrix<double, 10, 1>;
-  const Vec10 total =
-      blockSum<Vec10>(static_cast<std::ptrdiff_t>(n_), Vec10::Zero(), [&](Vec10* local, std::ptrdiff_t i) {
-        if (distance_unit_ <= 0.0) {
-          *local += dL_ds[i] * basis(U_[i]);
-          return;
-        }
-        const Eigen::Vector3d& u = U_[i];
-        Eigen::Vector3d g;
-        const double q = gradientSquare(theta, u, &g);
-        if (!(q > 0.0) || dL_ds[i] == 0.0) return;
-        const double x = u.x(), y = u.y(), z = u.z(), sq = std::sqrt(q), s = evaluate(theta, u);
-        Vec10 dq;
-        dq << 4.0 * x * g.x(), 4.0 * y * g.y(), 4.0 * z * g.z(), 4.0 * (y * g.x() + x * g.y()),
-            4.0 * (z * g.x() + x * g.z()), 4.0 * (z * g.y() + y * g.z()), 2.0 * g.x(), 2.0 * g.y(), 2.0 * g.z(), 0.0;
-        dq.head<9>() += 2.0 * kDistanceKappa * kDistanceKappa * theta.head<9>();
-        *local += (dL_ds[i] / distance_unit_) * (basis(u) / sq - (s / (2.0 * q * sq)) * dq);
+  *dL_dtheta = blockSum<Vec10>(static_cast<std::ptrdiff_t>(n_), Vec10::Zero(), [&](Vec10* local, std::ptrdiff_t i) {
+    if (distance_unit_ <= 0.0)
+      *local += dL_ds[i] * basis(U_[i]);
+    else if (dL_ds[i] != 0.0)
+      *local += (dL_ds[i] / distance_unit_) * distanceGradientTimesUnit(theta, U_[i]);
+  });
+}
+
+void QuadricRepresentation::fieldBackwardColumns(const Eigen::VectorXd& theta, const Eigen::MatrixXd& dL_ds,
+                                                 Eigen::MatrixXd* dL_dtheta) const {
+  checkParameters(theta);
+  if (static_cast<std::size_t>(dL_ds.rows()) != n_ || !dL_ds.allFinite())
+    throw TopoError("quadric field gradients",
+                    "have " + std::to_string(dL_ds.rows()) + " rows for " + std::to_string(n_) +
+                        " particles, or a non-finite entry",
+                    "pass one finite row per particle");
+  const Eigen::MatrixXd zero = Eigen::MatrixXd::Zero(kNumParameters, dL_ds.cols());
+  *dL_dtheta =
+      blockSum<Eigen::MatrixXd>(static_cast<std::ptrdiff_t>(n_), zero, [&](Eigen::MatrixXd* local, std::ptrdiff_t i) {
+        if (!dL_ds.row(i).isZero(0.0)) local->noalias() += fieldGradient(theta, U_[i]) * dL_ds.row(i);
       });
-  *dL_dtheta = total;
 }
 
 }  // namespace topo_gaussian

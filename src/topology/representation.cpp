@@ -11,6 +11,22 @@
 
 namespace topo_gaussian {
 
+void Representation::fieldBackwardColumns(const Eigen::VectorXd& theta, const Eigen::MatrixXd& dL_ds,
+                                          Eigen::MatrixXd* dL_dtheta) const {
+  if (static_cast<std::size_t>(dL_ds.rows()) != n_)
+    throw TopoError(name() + " representation field gradients",
+                    "have " + std::to_string(dL_ds.rows()) + " rows for " + std::to_string(n_) + " particles",
+                    "pass one row per particle");
+  dL_dtheta->resize(numParameters(), dL_ds.cols());
+  std::vector<double> column(n_);
+  Eigen::VectorXd g;
+  for (Eigen::Index k = 0; k < dL_ds.cols(); ++k) {
+    Eigen::VectorXd::Map(column.data(), dL_ds.rows()) = dL_ds.col(k);
+    fieldBackward(theta, column, &g);
+    dL_dtheta->col(k) = g;
+  }
+}
+
 void Representation::bounds(Eigen::VectorXd* lower, Eigen::VectorXd* upper) const {
   const double inf = std::numeric_limits<double>::infinity();
   if (lower) *lower = Eigen::VectorXd::Constant(numParameters(), -inf);

@@ -282,6 +282,51 @@ TEST(Quadric, DistanceFieldGradientMatchesFiniteDifferences) {
   RecordProperty("quadric_distance_fd_rel_error", std::to_string(std::max(worst, worst_saddle)));
 }
 
+// Several gradients in one pass (the ten mass moments' dp/dθ): each column as fieldBackward gives it, for the
+// algebraic and the distance field, and through the indicator (the default implementation on a point rep).
+TEST(Quadric, GradientColumnsMatchOneAtATime) {
+  const auto X = randomPoints(3000, 12, Eigen::Vector3d(-0.1, -0.05, 0), Eigen::Vector3d(0.1, 0.05, 0.08));
+  Eigen::VectorXd t(10);
+  t << 1.2, 0.8, 1.5, 0.1, -0.2, 0.15, 0.05, -0.1, 0.2, -0.4;
+  Eigen::MatrixXd W(X.size(), 4);
+  for (int k = 0; k < 4; ++k)
+    W.col(k) = Eigen::Map<const Eigen::VectorXd>(randomWeights(X.size(), 20 + k).data(), X.size());
+  W.row(7).setZero();  // a particle that no gradient reaches
+  IndicatorOptions io;
+  io.epsilon = 0.1;
+  for (double unit : {0.0, 0.5}) {
+    QuadricRepresentation rep(X, 0.3);
+    rep.setDistanceUnit(unit);
+    Eigen::MatrixXd G, Gi;
+    rep.fieldBackwardColumns(t, W, &G);
+    indicatorBackwardColumns(rep, t, io, W, &Gi);
+    ASSERT_EQ(G.rows(), 10);
+    ASSERT_EQ(G.cols(), 4);
+    for (int k = 0; k < 4; ++k) {
+      std::vector<double> w(W.col(k).data(), W.col(k).data() + W.rows());
+      Eigen::VectorXd g, gi;
+      rep.fieldBackward(t, w, &g);
+      indicatorBackward(rep, t, io, w, &gi);
+      EXPECT_LE((G.col(k) - g).norm(), 1e-12 * g.norm()) << "unit " << unit << " column " << k;
+      EXPECT_LE((Gi.col(k) - gi).norm(), 1e-12 * gi.norm()) << "unit " << unit << " column " << k;
+    }
+  }
+  RepresentationOptions opt;
+  opt.kind = "point";
+  const auto point = makeRepresentation(opt, X);
+  const Eigen::VectorXd tp = Eigen::VectorXd::Constant(static_cast<Eigen::Index>(X.size()), 0.2);
+  Eigen::MatrixXd Gp;
+  point->fieldBackwardColumns(tp, W, &Gp);
+  std::vector<double> w1(W.col(1).data(), W.col(1).data() + W.rows());
+  Eigen::VectorXd g1;
+  point->fieldBackward(tp, w1, &g1);
+  EXPECT_EQ(Gp.col(1), g1);
+  QuadricRepresentation rep(X, 0.3);
+  Eigen::MatrixXd G;
+  EXPECT_NE(errorOf([&] { rep.fieldBackwardColumns(t, W.topRows(10), &G); }).find("quadric field gradients"),
+            std::string::npos);
+}
+
 // ---------------------------------------------------------------- point
 
 TEST(Point, BoundsInitialAndGradient) {

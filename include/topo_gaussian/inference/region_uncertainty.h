@@ -7,22 +7,26 @@
 //   J_θ = J · dp/dθ      (J: the observations' whitened moment Jacobian, rows √w_e (∂y_k/∂p)/σ_k)
 // restricted to the directions that change the design (the distance-field quadric does not depend on
 // θ's scale: the direction θ* is removed), J_θ = U S Vᵀ. The designs that fit the observations to their
-// noise are sampled by a random walk (Metropolis) in the coordinates z of θ = θ* + Q V z, with the target
-// density exp(−½ Δχ²(θ)/σ̂² − ½ |z|²/cap²), Δχ² = |J (p(θ) − p*)|² from the EXACT moments p(θ) of each
-// design (the linearisation overshoots far from θ*: a small cavity's moments are not linear in its shape, and
-// the fitting designs can lie along a curved valley). The rows are whitened by the tolerances σ_k (at
-// which a feature is called matched); the observations' own noise is estimated from the fit's residual,
+// noise are sampled by randomised maximum likelihood (RML: Oliver, He & Reynolds 1996; "randomize-then-
+// optimize", Bardsley et al. 2014) in the coordinates z of θ = θ* + Q V z: each sample is the fit
+//   z_k = argmin_z |r* + J (p(θ) − p*) − σ̂ ε_k|²/σ̂² + |z − z0_k|²/σ_p²,   ε_k ~ N(0, I), z0_k ~ N(0, I σ_p²)
+// (the observations perturbed by their noise, the prior's centre by its width), by Levenberg–Marquardt
+// from θ* within the representation's bounds (geodesic acceleration, Transtrum & Sethna 2012: the valley is
+// narrow and curved), with the EXACT moments p(θ) of each design (a small cavity's
+// moments are not linear in its shape, and the fitting designs can lie along a curved valley that a random
+// walk with one step scale does not follow), r* the whitened residual at θ* (rows √w_e (y*_k − y_k)/σ_k).
+// The rows are whitened by the tolerances σ_k (at which a feature is called matched); the observations'
+// own noise is estimated from the fit's residual,
 //   χ² = Σ_k w_e ((y_k − y*_k)/σ_k)²,   σ̂² = χ² / χ²_0.10(n − p)
 // (its 90 % upper bound; n observations of experiments with weight > 0, p directions; Wilson–Hilferty
 // quantile; at least 0.01), and σ̂ = 1 (the tolerances) when n ≤ p, where the residual cannot tell the noise.
-// Steps along direction k: σ̂/s_k, at most cap = half of |θ*| (also the prior's width: directions the
-// observations barely fix are explored near this design, not over every quadric), all scaled during a burn-in
-// of 256 steps towards a quarter to a half accepted; then every 16th state of `samples` × 16 steps is kept.
-// Fewer than 5 % accepted after the burn-in: not available (the walk stayed at θ*). Each kept design is
+// The prior: E|z|² = (½ |θ*|)², σ_p = ½ |θ*|/√D along each of the D directions: directions the observations
+// barely fix are explored near this design, not over every quadric (the spread reported along them is the
+// prior's). Fewer than half of the fits moved from θ*: not available. Each design is
 // labelled (r ≥ 0.5);
 // per particle, confidence_i = the fraction of kept designs whose label is the best's; the region (the other material:
 // the smaller of the two labels by volume) is compared by IoU. A direction with s_k < 1e-9 s_max is FREE: the
-// observations do not fix the region along it at all (reported; drawn within half of |θ*| like the barely fixed ones,
+// observations do not fix the region along it at all (reported; drawn from the prior like the barely fixed ones,
 // and iou_mean is NaN). Only for representations of few parameters (the quadric); the point and neural ones are not
 // analysed.
 #pragma once
@@ -49,10 +53,9 @@ struct RegionUncertainty {
   int observations = 0, directions = 0, determined_directions = 0, free_directions = 0;
   double chi2 = 0.0;                     ///< Σ w ((y − y*)/σ)² at the best design, σ the tolerances
   double noise_scale = 1.0;              ///< σ̂ (see the header comment)
-  int samples = 0;                       ///< kept designs (states of the random walk)
-  int drawn = 0;                         ///< steps of the random walk, the burn-in included
-  double acceptance = 0.0;               ///< share of the steps after the burn-in that were accepted
-  double proposal_scale = 1.0;           ///< the steps' scale after the burn-in (× σ̂/s_k, at most cap)
+  int samples = 0;                       ///< designs drawn (perturbed fits)
+  int iterations = 0;                    ///< Levenberg–Marquardt iterations over all the fits
+  int solves_moved = 0;                  ///< fits that moved from θ* (fewer than half: not available)
   double region_fraction = 0.0;          ///< volume of the region (the other material) / total volume
   double iou_mean = 0.0, iou_p10 = 0.0;  ///< IoU of the drawn designs' region with the best's (NaN when free)
   double undetermined_fraction = 0.0;    ///< volume with confidence below confident_level / total volume

@@ -31,4 +31,9 @@ void evaluateIndicator(const Representation& rep, const Eigen::VectorXd& theta, 
 void indicatorBackward(const Representation& rep, const Eigen::VectorXd& theta, const IndicatorOptions& options,
                        const std::vector<double>& dL_dr, Eigen::VectorXd* dL_dtheta);
 
+/// K gradients at once: column k of *dL_dtheta (numParameters × K) is indicatorBackward of column k of dL_dr
+/// (N × K); one field evaluation and Representation::fieldBackwardColumns.
+void indicatorBackwardColumns(const Representation& rep, const Eigen::VectorXd& theta, const IndicatorOptions& options,
+                              const Eigen::MatrixXd& dL_dr, Eigen::MatrixXd* dL_dtheta);
+
 }  // namespace topo_gaussian

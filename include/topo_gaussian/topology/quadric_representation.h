@@ -29,6 +29,9 @@ class QuadricRepresentation : public Representation {
   void field(const Eigen::VectorXd& theta, std::vector<double>* s) const override;
   void fieldBackward(const Eigen::VectorXd& theta, const std::vector<double>& dL_ds,
                      Eigen::VectorXd* dL_dtheta) const override;
+  /// One pass: ds_i/dθ once per particle (skipped where its row of dL_ds is zero).
+  void fieldBackwardColumns(const Eigen::VectorXd& theta, const Eigen::MatrixXd& dL_ds,
+                            Eigen::MatrixXd* dL_dtheta) const override;
 
   /// s at arbitrary positions (same frame as the particles), e.g. to mesh the solid region.
   void fieldAt(const Eigen::VectorXd& theta, const std::vector<Eigen::Vector3d>& points, std::vector<double>* s) const;
@@ -39,6 +42,8 @@ class QuadricRepresentation : public Representation {
   double distanceUnit() const { return distance_unit_; }
   /// ds/dθ at normalised coordinates u (the 10 monomials).
   static Eigen::Matrix<double, 10, 1> basis(const Eigen::Vector3d& u);
+  /// ds/dθ at normalised coordinates u for this field (algebraic: the basis; distance: its quotient rule).
+  Eigen::Matrix<double, 10, 1> fieldGradient(const Eigen::VectorXd& theta, const Eigen::Vector3d& u) const;
 
  private:
   NormalisedFrame frame_;

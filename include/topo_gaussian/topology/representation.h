@@ -36,6 +36,11 @@ class Representation {
   /// dL/dθ = (ds/dθ)ᵀ dL/ds. Overwrites dL_dtheta (size numParameters()).
   virtual void fieldBackward(const Eigen::VectorXd& theta, const std::vector<double>& dL_ds,
                              Eigen::VectorXd* dL_dtheta) const = 0;
+  /// K gradients at once: column k of *dL_dtheta (numParameters() × K) is fieldBackward of column k of dL_ds
+  /// (N × K), e.g. the ten mass moments' dp/dθ in one pass over the particles. The default calls
+  /// fieldBackward K times; a representation with a cheap per-particle ds/dθ overrides it.
+  virtual void fieldBackwardColumns(const Eigen::VectorXd& theta, const Eigen::MatrixXd& dL_ds,
+                                    Eigen::MatrixXd* dL_dtheta) const;
   std::size_t numParticles() const { return n_; }
 
  protected:
