@@ -86,10 +86,11 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
   for (const auto& xe : at.experiments)
     for (const auto& o : xe.eval.observations) {
       if (!o.has_target) continue;
-      if (row < residual.size() && xe.weight > 0) residual[row] = std::sqrt(xe.weight) * (o.value - o.target) / o.noise;
+      const double e = xe.weight > 0 ? std::sqrt(xe.weight) * (o.value - o.target) / o.noise : 0.0;
+      if (row < residual.size()) residual[row] = e;
       ++row;
       if (!(xe.weight > 0)) continue;  // a weight-0 experiment's rows are zero
-      chi2 += residual[row - 1] * residual[row - 1];
+      chi2 += e * e;
       ++n;
     }
   if (row != J_si.rows())
@@ -198,16 +199,19 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
   };
   std::vector<double> r_cur, r_try;
   Eigen::VectorXd f_cur, f_try;
-  int moved = 0;
+  int converged = 0;
   for (int k = 0; k < options.samples; ++k) {
     Eigen::VectorXd eps(R), z0(D);
     for (Eigen::Index i = 0; i < R; ++i) eps[i] = normal(rng);
     for (Eigen::Index j = 0; j < D; ++j) z0[j] = prior * normal(rng);
     Eigen::VectorXd z = Eigen::VectorXd::Zero(D);
-    misfit(z, eps, z0, &r_cur, &f_cur);  // θ* is within the bounds
+    if (!misfit(z, eps, z0, &r_cur, &f_cur)) {
+      out.note = "the design lies outside its representation's bounds: the region's uncertainty is not analysed";
+      return out;
+    }
     double lambda = 1e-3;
-    bool stepped = false;
-    for (int it = 0; it < kRegionSolveIterations; ++it) {
+    bool done = false;  // ended by the tolerance, not by the iteration cap
+    for (int it = 0; it < kRegionSolveIterations && !done; ++it) {
       ++out.iterations;
       Eigen::MatrixXd Jf(R + D, D);
       Jf.topRows(R) = J_si * massPropertiesParameterJacobian(problem, theta + QV * z) * QV / sigma;
@@ -240,14 +244,16 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
           f_cur.swap(f_try);
           r_cur.swap(r_try);
           lambda = std::max(lambda / 3.0, 1e-9);
-          improved = stepped = true;
+          improved = true;
         } else {
           lambda *= 2.0;
         }
       }
-      if (!improved || decrease < kRegionSolveTolerance) break;
+      // Converged: no step lowers the misfit, or a nearly undamped (Gauss–Newton) step lowers it by less than
+      // the tolerance. A small decrease of a heavily damped step (λ ≥ 1, in a curved valley) is not the end.
+      done = !improved || (decrease < kRegionSolveTolerance && lambda < 1.0);
     }
-    moved += stepped;
+    converged += done;
     for (std::size_t i = 0; i < N; ++i) {
       const bool label = r_cur[i] >= 0.5;
       agree[i] += label == static_cast<bool>(best[i]);
@@ -257,10 +263,13 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
   }
   const int kept = options.samples;
   out.samples = kept;
-  out.solves_moved = moved;
-  if (2 * moved < kept) {  // most fits stayed at θ*: their IoU 1 would claim a certainty
-    out.note = "perturbed fits near the result moved in " + std::to_string(moved) + " of " + std::to_string(kept) +
-               " cases: the region's uncertainty could not be measured (use the design spread, restarts)";
+  out.solves_converged = converged;
+  // Fits that ended short of their minimum lie nearer θ* than the fit allows: the IoU they give would
+  // overstate. With a free direction no IoU is claimed (the region is not determined whatever the spread).
+  if (out.free_directions == 0 && 2 * converged < kept) {
+    out.note = "perturbed fits near the result converged in " + std::to_string(converged) + " of " +
+               std::to_string(kept) + " cases within " + std::to_string(kRegionSolveIterations) +
+               " iterations: the region's uncertainty could not be measured (use the design spread, restarts)";
     return out;
   }
   out.confidence.resize(N);

@@ -85,7 +85,7 @@ std::string regionJson(const RegionUncertainty& g) {
     << ", \"observations\": " << g.observations << ", \"directions\": " << g.directions
     << ", \"determined_directions\": " << g.determined_directions << ", \"free_directions\": " << g.free_directions
     << ", \"chi2\": " << num(g.chi2) << ", \"noise_scale\": " << num(g.noise_scale) << ", \"samples\": " << g.samples
-    << ", \"iterations\": " << g.iterations << ", \"solves_moved\": " << g.solves_moved
+    << ", \"iterations\": " << g.iterations << ", \"solves_converged\": " << g.solves_converged
     << ", \"region_fraction\": " << num(g.region_fraction) << ", \"iou_mean\": " << num(g.iou_mean)
     << ", \"iou_p10\": " << num(g.iou_p10) << ", \"undetermined_fraction\": " << num(g.undetermined_fraction)
     << ", \"sentence\": " << quote(g.sentence) << "}";

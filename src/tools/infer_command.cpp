@@ -182,8 +182,8 @@ int inferCommand(const std::vector<std::string>& argv) {
     const inference::RegionUncertainty& g = res.region;
     std::cerr << "[topo infer] the region: " << g.samples << " designs that fit the observations to their noise ("
               << g.noise_scale << " x the tolerances), each a fit to the observations perturbed by it (" << g.iterations
-              << " Levenberg-Marquardt iterations, " << g.solves_moved << " moved); " << g.free_directions << " of "
-              << g.directions << " directions free; ";
+              << " Levenberg-Marquardt iterations, " << g.solves_converged << " converged); " << g.free_directions
+              << " of " << g.directions << " directions free; ";
     if (g.free_directions == 0)
       std::cerr << "region IoU with this design " << g.iou_mean << " (10 % below " << g.iou_p10 << "); ";
     std::cerr << "undetermined volume " << 100.0 * g.undetermined_fraction << " %\n";

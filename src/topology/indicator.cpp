@@ -120,8 +120,10 @@ void indicatorBackwardColumns(const Representation& rep, const Eigen::VectorXd& 
   for (std::ptrdiff_t i = 0; i < n; ++i) {
     const double x = s[i] * inv_eps;
     // dr/ds = r (1 − r) / ε; pinned particles do not depend on θ.
-    const double dr_ds = pin && options.pinned[i] ? 0.0 : sigmoid(x) * sigmoid(-x) * inv_eps;
-    dL_ds.row(i) = dL_dr.row(i) * dr_ds;
+    if (pin && options.pinned[i])
+      dL_ds.row(i).setZero();
+    else
+      dL_ds.row(i) = dL_dr.row(i) * (sigmoid(x) * sigmoid(-x) * inv_eps);
   }
   rep.fieldBackwardColumns(theta, dL_ds, dL_dtheta);
 }

@@ -504,8 +504,8 @@ TEST(RegionUncertainty, PredictsTheIouFoundAndCallsASmallBallUndetermined) {
     const double iou = volumeIou(cloud.V, hollow_true, hollow_found);
     std::printf(
         "[region] %s: found IoU %.3f with the truth; expected %.3f (10 %% below %.3f), undetermined %.1f %% "
-        "of the volume, %d perturbed fits (%d iterations, %d moved), noise %.3f x the tolerances\n",
-        k.name, iou, g.iou_mean, g.iou_p10, 100 * g.undetermined_fraction, g.samples, g.iterations, g.solves_moved,
+        "of the volume, %d perturbed fits (%d iterations, %d converged), noise %.3f x the tolerances\n",
+        k.name, iou, g.iou_mean, g.iou_p10, 100 * g.undetermined_fraction, g.samples, g.iterations, g.solves_converged,
         g.noise_scale);
     const bool says_undetermined = g.sentence.find("not determined") != std::string::npos;
     EXPECT_EQ(says_undetermined, g.iou_mean < 0.9) << g.sentence;
@@ -517,7 +517,7 @@ TEST(RegionUncertainty, PredictsTheIouFoundAndCallsASmallBallUndetermined) {
       EXPECT_LE(g.iou_mean, iou + 0.02) << g.sentence;
       EXPECT_GE(g.iou_mean, iou - 0.15) << g.sentence;
       EXPECT_GE(g.iou_mean, 0.7) << g.sentence;
-      EXPECT_EQ(g.solves_moved, g.samples) << "every perturbed fit moved from the result";
+      EXPECT_GE(g.solves_converged, g.samples * 3 / 4) << "the perturbed fits reach their minimum";
       EXPECT_LT(g.undetermined_fraction, 0.4);
     } else {
       EXPECT_LT(g.iou_mean, 0.3) << g.sentence;

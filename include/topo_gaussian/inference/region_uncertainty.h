@@ -22,13 +22,12 @@
 // quantile; at least 0.01), and σ̂ = 1 (the tolerances) when n ≤ p, where the residual cannot tell the noise.
 // The prior: E|z|² = (½ |θ*|)², σ_p = ½ |θ*|/√D along each of the D directions: directions the observations
 // barely fix are explored near this design, not over every quadric (the spread reported along them is the
-// prior's). Fewer than half of the fits moved from θ*: not available. Each design is
-// labelled (r ≥ 0.5);
-// per particle, confidence_i = the fraction of kept designs whose label is the best's; the region (the other material:
-// the smaller of the two labels by volume) is compared by IoU. A direction with s_k < 1e-9 s_max is FREE: the
-// observations do not fix the region along it at all (reported; drawn from the prior like the barely fixed ones,
-// and iou_mean is NaN). Only for representations of few parameters (the quadric); the point and neural ones are not
-// analysed.
+// prior's). Fewer than half of the fits converged within 20 iterations (no direction free): not available. Each design
+// is labelled (r ≥ 0.5); per particle, confidence_i = the fraction of kept designs whose label is the best's; the
+// region (the other material: the smaller of the two labels by volume) is compared by IoU. A direction with s_k < 1e-9
+// s_max is FREE: the observations do not fix the region along it at all (reported; drawn from the prior like the barely
+// fixed ones, and iou_mean is NaN). Only for representations of few parameters (the quadric); the point and neural ones
+// are not analysed.
 #pragma once
 
 #include <Eigen/Core>
@@ -55,7 +54,7 @@ struct RegionUncertainty {
   double noise_scale = 1.0;              ///< σ̂ (see the header comment)
   int samples = 0;                       ///< designs drawn (perturbed fits)
   int iterations = 0;                    ///< Levenberg–Marquardt iterations over all the fits
-  int solves_moved = 0;                  ///< fits that moved from θ* (fewer than half: not available)
+  int solves_converged = 0;              ///< fits that reached their minimum (fewer than half: not available)
   double region_fraction = 0.0;          ///< volume of the region (the other material) / total volume
   double iou_mean = 0.0, iou_p10 = 0.0;  ///< IoU of the drawn designs' region with the best's (NaN when free)
   double undetermined_fraction = 0.0;    ///< volume with confidence below confident_level / total volume
