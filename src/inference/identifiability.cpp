@@ -230,6 +230,11 @@ Eigen::MatrixXd massPropertiesIndicatorJacobian(const Task& task, const VolumeCl
 Eigen::MatrixXd massPropertiesParameterJacobian(const InteriorProblem& problem, const Eigen::VectorXd& theta) {
   std::vector<double> r;
   problem.indicator(theta, &r);
+  return massPropertiesParameterJacobian(problem, theta, r);
+}
+
+Eigen::MatrixXd massPropertiesParameterJacobian(const InteriorProblem& problem, const Eigen::VectorXd& theta,
+                                                const std::vector<double>& r) {
   const Eigen::MatrixXd dp_dr = massPropertiesIndicatorJacobian(problem.task(), problem.cloud(), r);
   Eigen::MatrixXd dp_dtheta_t;  // numParameters × 10, one pass over the particles
   indicatorBackwardColumns(problem.representation(), theta, problem.indicatorOptions(), dp_dr.transpose(),

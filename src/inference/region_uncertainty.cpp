@@ -197,6 +197,11 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
     f->tail(D) = (z - z0) / prior;
     return true;
   };
+  for (Eigen::Index k = 0; k < theta.size(); ++k)
+    if (!(theta[k] >= lower[k] && theta[k] <= upper[k])) {
+      out.note = "the design lies outside its representation's bounds: the region's uncertainty is not analysed";
+      return out;
+    }
   std::vector<double> r_cur, r_try;
   Eigen::VectorXd f_cur, f_try;
   int converged = 0;
@@ -204,17 +209,19 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
     Eigen::VectorXd eps(R), z0(D);
     for (Eigen::Index i = 0; i < R; ++i) eps[i] = normal(rng);
     for (Eigen::Index j = 0; j < D; ++j) z0[j] = prior * normal(rng);
+    // Each fit starts at θ*: its indicator and moments are known (Δp = 0), and so is its Jacobian.
     Eigen::VectorXd z = Eigen::VectorXd::Zero(D);
-    if (!misfit(z, eps, z0, &r_cur, &f_cur)) {
-      out.note = "the design lies outside its representation's bounds: the region's uncertainty is not analysed";
-      return out;
-    }
+    r_cur = r;
+    f_cur.resize(R + D);
+    f_cur.head(R) = residual / sigma - eps;
+    f_cur.tail(D) = -z0 / prior;
     double lambda = 1e-3;
     bool done = false;  // ended by the tolerance, not by the iteration cap
     for (int it = 0; it < kRegionSolveIterations && !done; ++it) {
       ++out.iterations;
       Eigen::MatrixXd Jf(R + D, D);
-      Jf.topRows(R) = J_si * massPropertiesParameterJacobian(problem, theta + QV * z) * QV / sigma;
+      Jf.topRows(R) =
+          J_si * (it == 0 ? dp_dtheta : massPropertiesParameterJacobian(problem, theta + QV * z, r_cur)) * QV / sigma;
       Jf.bottomRows(D) = Eigen::MatrixXd::Identity(D, D) / prior;
       const Eigen::MatrixXd H = Jf.transpose() * Jf;
       const Eigen::VectorXd g = Jf.transpose() * f_cur;

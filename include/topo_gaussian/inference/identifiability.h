@@ -106,6 +106,9 @@ Eigen::MatrixXd massPropertiesIndicatorJacobian(const Task& task, const VolumeCl
 
 /// dp/dθ (10 × numParameters): dp/dr chained through the indicator and representation (backward pass).
 Eigen::MatrixXd massPropertiesParameterJacobian(const InteriorProblem& problem, const Eigen::VectorXd& theta);
+/// The same with the indicator r at θ already evaluated (problem.indicator(θ, &r)).
+Eigen::MatrixXd massPropertiesParameterJacobian(const InteriorProblem& problem, const Eigen::VectorXd& theta,
+                                                const std::vector<double>& r);
 
 /// The whole analysis at design θ whose evaluation is `at` (problem.evaluate(θ, ...)): measured
 /// observations of every experiment, θ rank, and (options.suggest) the next experiment.
