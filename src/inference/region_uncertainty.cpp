@@ -100,7 +100,9 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
         "give the identifiability Jacobian of the same evaluation");
   out.observations = static_cast<int>(J_si.rows());
   out.chi2 = chi2;
-  const Eigen::MatrixXd dp_dtheta = massPropertiesParameterJacobian(problem, theta);
+  std::vector<double> r;  // θ*'s indicator
+  problem.indicator(theta, &r);
+  const Eigen::MatrixXd dp_dtheta = massPropertiesParameterJacobian(problem, theta, r);
   Eigen::MatrixXd J_theta = J_si * dp_dtheta;  // rows × P
   // The directions that change the design: θ*'s own is removed for a scale-free (distance) field.
   Eigen::MatrixXd Q = Eigen::MatrixXd::Identity(P, P);
@@ -131,8 +133,6 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
 
   // The best design's labels and region (the other material: the smaller label by volume).
   const auto& V_i = problem.cloud().V;
-  std::vector<double> r;
-  problem.indicator(theta, &r);
   const std::size_t N = r.size();
   std::vector<char> best(N);
   double solid = 0, total = 0;
@@ -165,6 +165,9 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
   const Eigen::Matrix<double, 10, 1> p_best = momentsOf(r);
   Eigen::VectorXd lower, upper;
   problem.bounds(&lower, &upper);
+  const auto inBounds = [&](const Eigen::VectorXd& th) {
+    return ((th.array() >= lower.array()) && (th.array() <= upper.array())).all();
+  };
   std::mt19937 rng(options.seed);
   std::normal_distribution<double> normal(0.0, 1.0);
   std::vector<int> agree(N, 0);
@@ -189,19 +192,17 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
   const auto misfit = [&](const Eigen::VectorXd& z, const Eigen::VectorXd& eps, const Eigen::VectorXd& z0,
                           std::vector<double>* rr, Eigen::VectorXd* f) {
     const Eigen::VectorXd th = theta + QV * z;
-    for (Eigen::Index k = 0; k < th.size(); ++k)
-      if (!(th[k] >= lower[k] && th[k] <= upper[k])) return false;
+    if (!inBounds(th)) return false;
     problem.indicator(th, rr);
     f->resize(R + D);
     f->head(R) = (residual + J_si * (momentsOf(*rr) - p_best)) / sigma - eps;
     f->tail(D) = (z - z0) / prior;
     return true;
   };
-  for (Eigen::Index k = 0; k < theta.size(); ++k)
-    if (!(theta[k] >= lower[k] && theta[k] <= upper[k])) {
-      out.note = "the design lies outside its representation's bounds: the region's uncertainty is not analysed";
-      return out;
-    }
+  if (!inBounds(theta)) {
+    out.note = "the design lies outside its representation's bounds: the region's uncertainty is not analysed";
+    return out;
+  }
   std::vector<double> r_cur, r_try;
   Eigen::VectorXd f_cur, f_try;
   int converged = 0;
