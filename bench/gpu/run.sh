@@ -11,12 +11,14 @@
 #   for f in *.deb; do dpkg -x "$f" ../root; done && cd .. && rm -rf dl &&
 #   find root -name '*.a' -delete && rm -rf root/usr/share/doc root/usr/share/man && cd .. &&
 #   tar -C .deps -cJf .deps.tar.xz root
-# Usage: bench/gpu/run.sh OUT_DIR [test|bench|neural|static|infer|infer-cpu|rigid|lanes|ncu|all]...   (default: all)
+# Usage: bench/gpu/run.sh OUT_DIR [test|bench|floor|neural|static|infer|infer-cpu|rigid|lanes|ncu|all]...   (default: all)
+#   floor: bench_gpu_floor, the step's two neighbour passes alone (bench/gpu/README.md), beside bench_gpu_soft's
+#   100k and 1M explicit steps in the same call.
 #   infer: bench_infer's finger (9212 particles) and neural hanging (150k points, 8 x 512) with backend
 #   cuda; infer-cpu: the finger with backend cpu on the same machine (CHOLMOD on its cores); rigid: the
 #   tumbler inference (bench_infer tumbler_quadric_2s, its rigid simulation on one host core), 3 runs.
 set -euo pipefail
-out=${1:?usage: bench/gpu/run.sh OUT_DIR [test|bench|neural|static|infer|infer-cpu|rigid|lanes|ncu|all]...}
+out=${1:?usage: bench/gpu/run.sh OUT_DIR [test|bench|floor|neural|static|infer|infer-cpu|rigid|lanes|ncu|all]...}
 shift
 steps=${*:-all}
 root=$(cd "$(dirname "$0")/../.." && pwd)
@@ -34,7 +36,7 @@ cmake -S "$root" -B "$build" -G Ninja -DTOPO_CORE_ONLY=ON -DCMAKE_BUILD_TYPE=Rel
   -DCHOLMOD_LIBRARY="$lib/libcholmod.so" >"$out/cmake.log" 2>&1 || { tail -30 "$out/cmake.log"; exit 1; }
 grep -E "CUDA backend|no CUDA backend|CHOLMOD|core build" "$out/cmake.log"
 cmake --build "$build" -j"$(nproc)" --target core_cuda_soft_body core_cuda_neural core_cuda_dense_cholesky bench_gpu_soft \
-  bench_gpu_neural bench_gpu_static inference_gpu_finger bench_infer >"$out/build.log" 2>&1 ||
+  bench_gpu_neural bench_gpu_static bench_gpu_floor inference_gpu_finger bench_infer >"$out/build.log" 2>&1 ||
   { grep -E "error|FAILED" "$out/build.log" | head -40; exit 1; }
 nvidia-smi --query-gpu=name,driver_version,clocks.max.sm,memory.total --format=csv,noheader
 has() { [[ " $steps " == *" $1 "* || " $steps " == *" all "* ]]; }
@@ -48,6 +50,13 @@ if has lanes; then
 fi
 if has bench; then
   "$build/bench_gpu_soft" | tee "$out/bench.jsonl"
+fi
+if has floor; then
+  for r in 1 2; do
+    "$build/bench_gpu_floor" | tee -a "$out/bench_floor.jsonl"
+    "$build/bench_gpu_soft" explicit_100k_h1.0 | tee -a "$out/bench_floor.jsonl"
+    "$build/bench_gpu_soft" explicit_1m | tee -a "$out/bench_floor.jsonl"
+  done
 fi
 if has static; then
   "$build/bench_gpu_static" | tee "$out/bench_static.jsonl"
