@@ -95,6 +95,7 @@ Input makeInput(int nx, int ny, int nz, std::unique_ptr<CorotatedSph>* sph_out) 
   in.w_scale = 1.0 / (M_PI * h * h * h);
   in.dw_scale = in.w_scale / h;
   const auto codes = offsetCodes();
+  if (static_cast<int>(codes.size()) != kCodes) throw std::runtime_error("offsetCodes() does not give kCodes offsets");
   for (int c = 0; c < kCodes; ++c) {
     const Eigen::Vector3d r = kSpacing * Eigen::Vector3d(codes[c][0], codes[c][1], codes[c][2]);
     const Eigen::Vector3d g = cubicSplineGradW(r, h);
@@ -179,10 +180,15 @@ int main(int argc, char** argv) {
   const char* only = nullptr;
   int reps = 0;
   for (int a = 1; a < argc; ++a) {
-    if (std::strcmp(argv[a], "--reps") == 0 && a + 1 < argc)
+    if (std::strcmp(argv[a], "--reps") == 0) {
+      if (a + 1 >= argc) {
+        std::fprintf(stderr, "bench_gpu_floor: --reps needs a number of launches, e.g. --reps 1\n");
+        return 2;
+      }
       reps = std::max(1, std::atoi(argv[++a]));
-    else
+    } else {
       only = argv[a];
+    }
   }
   int sms = 0;
   const std::string device = deviceName(&sms);
@@ -195,7 +201,10 @@ int main(int argc, char** argv) {
     runSize(device, "100k", 80, 50, 25, reps ? reps : 500, only);
     runSize(device, "1m", 160, 100, 63, reps ? reps : 100, only);
   } catch (const std::exception& e) {
-    std::printf("{\"case\": \"gpu\", \"error\": \"%s\"}\n", e.what());
+    std::string what = e.what();  // a JSON string: no quotes or backslashes inside
+    std::replace(what.begin(), what.end(), '"', '\'');
+    std::replace(what.begin(), what.end(), '\\', '/');
+    std::printf("{\"case\": \"gpu\", \"error\": \"%s\"}\n", what.c_str());
     return 1;
   }
   return 0;

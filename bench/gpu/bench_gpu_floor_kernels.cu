@@ -215,33 +215,39 @@ __global__ void __launch_bounds__(kBlock) gatherFloor(Body<T> b) {
   }
 }
 
-template <class T>
-T* upload(const std::vector<double>& v) {
-  std::vector<T> t(v.begin(), v.end());
-  T* d = nullptr;
-  CK(cudaMalloc(&d, sizeof(T) * std::max<std::size_t>(t.size(), 1)));
-  CK(cudaMemcpy(d, t.data(), sizeof(T) * t.size(), cudaMemcpyHostToDevice));
-  return d;
-}
-
-template <class T>
-T* uploadSame(const std::vector<T>& v) {
-  T* d = nullptr;
-  CK(cudaMalloc(&d, sizeof(T) * std::max<std::size_t>(v.size(), 1)));
-  CK(cudaMemcpy(d, v.data(), sizeof(T) * v.size(), cudaMemcpyHostToDevice));
-  return d;
-}
-
-/// Device buffers freed at scope exit (also when a CUDA call throws).
+/// Device memory freed at scope exit, also when a CUDA call throws.
 struct Buffers {
   std::vector<void*> p;
-  template <class P>
-  P* keep(P* q) {
-    p.push_back(const_cast<void*>(static_cast<const void*>(q)));
-    return q;
+  template <class T>
+  T* alloc(std::size_t count) {
+    T* d = nullptr;
+    CK(cudaMalloc(&d, sizeof(T) * std::max<std::size_t>(count, 1)));
+    p.push_back(d);
+    return d;
+  }
+  /// v converted to T, on the device.
+  template <class T, class S>
+  T* upload(const std::vector<S>& v) {
+    const std::vector<T> t(v.begin(), v.end());
+    T* d = alloc<T>(t.size());
+    CK(cudaMemcpy(d, t.data(), sizeof(T) * t.size(), cudaMemcpyHostToDevice));
+    return d;
   }
   ~Buffers() {
     for (void* q : p) cudaFree(q);
+  }
+};
+
+/// Two CUDA events, destroyed at scope exit.
+struct EventPair {
+  cudaEvent_t start = nullptr, stop = nullptr;
+  EventPair() {
+    CK(cudaEventCreate(&start));
+    CK(cudaEventCreate(&stop));
+  }
+  ~EventPair() {
+    if (start) cudaEventDestroy(start);
+    if (stop) cudaEventDestroy(stop);
   }
 };
 
@@ -251,14 +257,14 @@ Timing timeCase(const Input& in, int reps) {
   Buffers keep;
   Body<T> b;
   b.n = n;
-  b.off = keep.keep(uploadSame(in.offsets));
-  b.idx = keep.keep(uploadSame(in.indices));
-  b.code = keep.keep(uploadSame(in.codes));
-  b.x = keep.keep(upload<T>(in.x));
-  b.V = keep.keep(upload<T>(in.V));
-  b.c = keep.keep(upload<T>(in.c));
-  b.m = keep.keep(upload<T>(in.m));
-  b.L = keep.keep(upload<T>(in.L));
+  b.off = keep.upload<int>(in.offsets);
+  b.idx = keep.upload<int>(in.indices);
+  b.code = keep.upload<std::uint8_t>(in.codes);
+  b.x = keep.upload<T>(in.x);
+  b.V = keep.upload<T>(in.V);
+  b.c = keep.upload<T>(in.c);
+  b.m = keep.upload<T>(in.m);
+  b.L = keep.upload<T>(in.L);
   OffsetTable<T> table;
   for (int o = 0; o < kCodes; ++o) {
     table.w[o] = static_cast<T>(in.w[o]);
@@ -267,9 +273,7 @@ Timing timeCase(const Input& in, int reps) {
       table.X[o][d] = static_cast<T>(in.Xo[o][d]);
     }
   }
-  OffsetTable<T>* dtab = nullptr;
-  CK(cudaMalloc(&dtab, sizeof table));
-  keep.keep(dtab);
+  OffsetTable<T>* dtab = keep.alloc<OffsetTable<T>>(1);
   CK(cudaMemcpy(dtab, &table, sizeof table, cudaMemcpyHostToDevice));
   b.table = dtab;
   // The rest data as the package's SoftDeviceBody::Xr: (X_0, X_1) of every particle, then (X_2, V).
@@ -279,33 +283,29 @@ Timing timeCase(const Input& in, int reps) {
     Xr[2 * (static_cast<std::size_t>(n) + p)] = in.X[3 * p + 2];
     Xr[2 * (static_cast<std::size_t>(n) + p) + 1] = in.V[p];
   }
-  b.Xr = keep.keep(uploadSame(Xr));
-  b.Ld = keep.keep(uploadSame(in.L));
+  b.Xr = keep.upload<double>(Xr);
+  b.Ld = keep.upload<double>(in.L);
   b.spline.inv_h = in.inv_h;
   b.spline.w_scale = in.w_scale;
   b.spline.dw_scale = in.dw_scale;
-  CK(cudaMalloc(&b.rec, 16 * (kRecord<T, Model> / kPer<T>)*static_cast<std::size_t>(n)));
-  keep.keep(b.rec);
-  CK(cudaMalloc(&b.Ft, sizeof(T) * 9 * static_cast<std::size_t>(n)));
-  keep.keep(b.Ft);
+  b.rec = keep.alloc<Chunk<T>>((kRecord<T, Model> / kPer<T>)*static_cast<std::size_t>(n));
+  b.Ft = keep.alloc<T>(9 * static_cast<std::size_t>(n));
   const std::vector<double> zero(3 * static_cast<std::size_t>(n), 0.0);
-  b.v = keep.keep(upload<T>(zero));
-  b.f = keep.keep(upload<T>(zero));
-  b.xn = keep.keep(upload<T>(zero));
+  b.v = keep.upload<T>(zero);
+  b.f = keep.upload<T>(zero);
+  b.xn = keep.upload<T>(zero);
   b.h = T(1e-6);
   b.dt = T(2e-6);
   const int blocks = static_cast<int>((static_cast<long long>(L) * n + kBlock - 1) / kBlock);
-  cudaEvent_t e0, e1;
-  CK(cudaEventCreate(&e0));
-  CK(cudaEventCreate(&e1));
+  EventPair ev;
   auto timeIt = [&](auto launch) {
     for (int r = 0; r < 10; ++r) launch();
-    CK(cudaEventRecord(e0));
+    CK(cudaEventRecord(ev.start));
     for (int r = 0; r < reps; ++r) launch();
-    CK(cudaEventRecord(e1));
-    CK(cudaEventSynchronize(e1));
+    CK(cudaEventRecord(ev.stop));
+    CK(cudaEventSynchronize(ev.stop));
     float ms = 0;
-    CK(cudaEventElapsedTime(&ms, e0, e1));
+    CK(cudaEventElapsedTime(&ms, ev.start, ev.stop));
     CK(cudaGetLastError());
     return 1000.0 * ms / reps;
   };
@@ -318,8 +318,6 @@ Timing timeCase(const Input& in, int reps) {
     evaluateFloor<T, L, Model, Rest><<<blocks, kBlock>>>(b);
     gatherFloor<T, L, Model, Rest><<<blocks, kBlock>>>(b);
   });
-  cudaEventDestroy(e0);
-  cudaEventDestroy(e1);
   std::vector<T> f(3 * static_cast<std::size_t>(n));
   CK(cudaMemcpy(f.data(), b.f, sizeof(T) * f.size(), cudaMemcpyDeviceToHost));
   for (T v : f) t.force_checksum += std::abs(static_cast<double>(v));
