@@ -1,4 +1,4 @@
-// Interiors against ground truth that is not the inference's own lattice (issue 16 §3).
+// Interiors against ground truth that is not the inference's own lattice.
 //
 // Every case is an object (a shared mesh read where it lies, or a generated shape) with a known
 // interior: a geometric solid R in metres (sphere, ellipsoid, box or half-space) of a second
@@ -73,7 +73,7 @@ using Eigen::Vector3d;
 
 namespace {
 
-// The issue's goal for every case: mass, inertia and the held-out prediction within 2 %.
+// The goal for every case: mass, inertia and the held-out prediction within 2 %.
 constexpr double kGoal = 0.02;
 
 // Noise of the reference observations (documented above).
@@ -85,7 +85,7 @@ constexpr double kPeriodNoiseRel = 0.001;
 // The object on a lab balance: its mass × (1 + N(0, 0.1 %)), from its own generator (seed + 1000), so
 // the other observations' noise is the same with and without it.
 constexpr double kScaleNoiseRel = 0.001;
-bool g_weigh = true;  // --unweighed: no scale reading (the table before 2026-11-27)
+bool g_weigh = true;  // --unweighed: no scale reading
 // Every hang is also timed swinging on a horizontal axle through its point, along world x and then along
 // y (hanging's axle_swing_period_s, cross_axle_swing_period_s: the compound-pendulum method), each period
 // × (1 + N(0, kPeriodNoiseRel)) from its own generator (seed + 2000). --no-swings: the hangs' poses only.
@@ -234,14 +234,12 @@ void hangingPose(const Vector3d& d, double* roll_deg, double* pitch_deg) {
   *pitch_deg = std::atan2(d.x(), n) * 180.0 / M_PI;
 }
 
-// max_iterations: the task default (200, with its stall rule) in the full bench. At 60, as before
-// 2026-11-27, the steel-ball tumbler stopped at loss 1.4e-4 still falling (IoU_R 0.22; converged at ~150
-// evaluations: 2.6e-5, IoU_R 0.62). A rocking evaluation takes ~0.55 s at ~50k particles, a hanging one
-// 0.003 s. --quick: 25.
+// max_iterations: the task default (200, with its stall rule) in the full bench: fewer (60) stop the
+// steel-ball tumbler while its loss is still falling (it converges at ~150 evaluations). --quick: 25.
 int g_max_iterations = 0;  // --max-iterations N (0: the task default); --quick: 25
-// restarts of the design spread (inference/design_spread.h): 0 by default since 2026-11-27 (the region's
-// uncertainty comes from inference/region_uncertainty.h, seconds a case; the spread's two restarts made
-// the full bench about three times as long, over its 15 minutes); --restarts 2 for the task default.
+// restarts of the design spread (inference/design_spread.h): 0 by default (the region's uncertainty
+// comes from inference/region_uncertainty.h, seconds a case; the spread's two restarts make the full
+// bench about three times as long); --restarts 2 for the task default.
 int g_restarts = 0;  // --restarts N; -1 = the task default
 
 void setShared(TaskConfig& c, const CaseSpec& s) {
@@ -607,7 +605,7 @@ CaseResult runCase(const CaseSpec& s, bool quick, unsigned seed, const std::stri
   out.seconds = seconds(t0);
   out.iou_expected = result.region.available ? result.region.iou_mean : NAN;
 
-  // determined: the identifiability analysis (issue 16 §2): the moments the experiments determine
+  // determined: the identifiability analysis: the moments the experiments determine
   // and how many combinations of the ten they pin; then how much of the volume the designs that fit
   // as well disagree on (the design spread).
   std::string determined;
@@ -858,7 +856,7 @@ std::vector<CaseSpec> cases(const std::string& data) {
   }
   // The same bodies hung from a fourth point, off every face's centre line: its rest pose turns the two
   // axles' directions away from the other hangs' (whose poses share the body's x and y), so the eight
-  // swings fix all six inertia components and the experiments determine all ten moments (issue 16's
+  // swings fix all six inertia components and the experiments determine all ten moments (the
   // condition for IoU ≥ 0.9). Appended, so the cases above keep their noise seeds.
   const std::size_t first = all.size();
   for (std::size_t k = 0; k < first; ++k) {

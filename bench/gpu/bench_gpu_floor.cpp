@@ -1,4 +1,4 @@
-// What the explicit step's two neighbour passes cost on their own (issue 20 §2): the passes of
+// What the explicit step's two neighbour passes cost on their own: the passes of
 // src/cuda/soft_step_kernels.cu on the package's own body, without the work the step does around them.
 // One JSON line per case.
 //
@@ -12,7 +12,7 @@
 // record chunks; L lanes a particle) and takes everything else away: there is no polar rotation, stress
 // or pneumatic term (the record holds F̃ − D where the package has M L), and the gather's epilogue is
 // one kick and drift. Three variants, each beside the others in the same run:
-//   plain_*  the issue's reference step: F̃ alone, a record of F̃'s 9 values (in whole 16-byte chunks),
+//   plain_*  a plain reference step: F̃ alone, a record of F̃'s 9 values (in whole 16-byte chunks),
 //            the gather's N ∇W sum alone; the baseline the others are divided by (over_plain);
 //   model_*  this package's passes (F̃ and D, the hourglass sums, the 24-value record) with ĝ_ij =
 //            L_i ∇W(o Δx), W and X_ji from a table by lattice offset o in shared memory;

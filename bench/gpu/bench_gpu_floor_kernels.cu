@@ -2,7 +2,7 @@
 // neighbour passes as src/cuda/soft_step_kernels.cu runs them (evaluationSums + the record,
 // gatherKickKernel's sums), without the work around them. Variant model: ĝ_ij = L_i ∇W(o Δx), W and
 // X_ji from a table by lattice offset code in shared memory; rest: as the package, from the rest
-// positions (float64 in the evaluation, T in the gather); plain: the issue's reference, F̃ alone.
+// positions (float64 in the evaluation, T in the gather); plain: a plain reference, F̃ alone.
 #include <cuda_runtime.h>
 
 #include <algorithm>

@@ -1,5 +1,5 @@
-// GPU benchmark of the neural representation (issue 20 §2: "8×512 MLP loss + gradient on 150k points
-// ≤ 40 ms in float32, ≤ 50 ms float64"): one JSON line per case and precision — ms per field() and
+// GPU benchmark of the neural representation (target: 8×512 MLP loss + gradient on 150k points
+// ≤ 40 ms in float32, ≤ 50 ms float64): one JSON line per case and precision — ms per field() and
 // per loss + gradient (field + fieldBackward), the CPU path (NeuralRepresentation on all host threads,
 // one evaluation) on the same points in the same run, and the achieved TFLOP/s (2·N·in·out per layer
 // and GEMM: one GEMM a layer forward, three for forward + backward).

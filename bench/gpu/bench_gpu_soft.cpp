@@ -1,4 +1,4 @@
-// GPU benchmark of the explicit soft-body step (issue 20 §2): one JSON line per case, each with the
+// GPU benchmark of the explicit soft-body step: one JSON line per case, each with the
 // CPU path (SoftBodySimulator::step on all host threads) on the same body in the same run.
 //   explicit_<N>_<h>_<precision>  a clamped box (5 mm lattice, E 1e6, ν 0.3, StVK, A_pq rotations,
 //       hourglass 0.1) of N particles, smoothing length h = 1.0 or 1.5 spacings, leapfrog at

@@ -1,4 +1,4 @@
-// GPU benchmark of the soft body's static solve (issue 20 §2, the finger): one JSON line per case and
+// GPU benchmark of the soft body's static solve (the finger): one JSON line per case and
 // preconditioner, the host's sparse Cholesky (CHOLMOD where the build found it) and the GPU's dense one
 // (cuda/dense_cholesky_cuda.h) on the same body in the same run.
 //   static_finger_<spacing>  the default finger (0.1 × 0.02 × 0.02 m) at 1.5 mm (9212 particles) or

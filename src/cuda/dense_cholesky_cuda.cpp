@@ -374,8 +374,8 @@ class DenseCholeskyCuda : public CholeskySolver {
   /// L⁻¹ in place of the lower triangle's diagonal block [off, off + m) (column-major, lda n_), by halves:
   /// L = [A 0; B C] has L⁻¹ = [A⁻¹ 0; −C⁻¹ B A⁻¹ C⁻¹], so A and C are inverted (recursively) and B is
   /// multiplied by the inverted triangles (cublasDtrmm in place, ~(m/2)³ flops each: the FP64 tensor
-  /// cores' GEMM); blocks of at most kTrtriLeaf by cusolverDnXtrtri, whose whole-matrix call took 0.62 s
-  /// at 27 636 unknowns on an H100. Its info is checked after every block.
+  /// cores' GEMM); blocks of at most kTrtriLeaf by cusolverDnXtrtri, whose whole-matrix call is about three
+  /// times slower (bench/gpu/README.md). Its info is checked after every block.
   void invertLowerBlocks(const cuda_detail::DeviceBuffer& work, long long off, long long m) {
     double* A = static_cast<double*>(A_.ptr);
     const long long n = n_;

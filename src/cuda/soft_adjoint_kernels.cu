@@ -401,8 +401,8 @@ void launchAdjointStep(const SoftDeviceBody<T>& b, const T* f, double dt, T* xb,
   T* d_ch = d_la + n;
   adjointPrepareKernel<T><<<blocks(b.n), kBlock, 0, s>>>(b, f, static_cast<T>(dt), xb, vb, w, a, g_mass);
   // −H a: the force gather over (a, dF̃, dM), written to mHa. With b.L as the step's: the row pass
-  // writes the gather's record and the gather recomputes ĝ (148 → ~117 µs at 100k float64 on an H200;
-  // the streamed gather read 11 values a neighbour entry).
+  // writes the gather's record and the gather recomputes ĝ (faster than streaming ĝ, which reads 11
+  // values a neighbour entry; bench/gpu/README.md).
   SoftDeviceBody<T> lin = b;
   lin.x = a;
   lin.f = mHa;

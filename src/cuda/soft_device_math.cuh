@@ -305,8 +305,8 @@ struct Vector16<double> {
 /// Programmatic dependent launch: waits until the kernel before this one (when this one was launched
 /// as its dependent) has finished and its writes are visible; a no-op otherwise. Nothing the previous
 /// kernel writes may be read, and nothing it reads may be written, before this call. (The previous
-/// kernel triggers the launch only by finishing: an early cudaTriggerProgrammaticLaunchCompletion()
-/// made the 9k-particle step 20–30 % slower on an H100: the waiting blocks hold the SMs' slots.)
+/// kernel triggers the launch only by finishing: with an early cudaTriggerProgrammaticLaunchCompletion()
+/// the waiting blocks hold the SMs' slots, which measured slower.)
 __device__ inline void waitForPreviousKernel() {
 #if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
   cudaGridDependencySynchronize();

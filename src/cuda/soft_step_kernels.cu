@@ -85,10 +85,9 @@ __global__ void kickKernel(SoftDeviceBody<T> b, T h) {
 
 /// Blocks of kBlock threads an SM of the capped evaluation (registers capped to fit them: float32 80
 /// instead of 106, float64 128 instead of 150, a few bytes spilled), against the 4 and 3 that the
-/// uncapped one fits. Faster once the grid outgrows what the SMs hold at once uncapped (100k particles on
-/// an H200: 88.7 → 79.7 µs a step float32, with its own data loaded late; 121.7 → 111.5 µs float64);
-/// slower where it fits (9k float32: 13.7 → 14.5 µs), so it is chosen by the grid's size
-/// (launchEvaluateOnly).
+/// uncapped one fits. Measured faster once the grid outgrows what the SMs hold at once uncapped (float32
+/// with its own data loaded late) and slower where it fits, so it is chosen by the grid's size
+/// (launchEvaluateOnly; timings in bench/gpu/README.md).
 template <class T>
 constexpr int kEvaluationBlocksCapped = sizeof(T) == 4 ? 6 : 4;
 /// Lanes with a capped variant (the automatic choices at large sizes: float32 4, float64 2).
@@ -317,10 +316,9 @@ __global__ void __launch_bounds__(kBlock, Capped ? kEvaluationBlocksCapped<T> : 
   const bool active = i < b.n;
   const EvaluationRow<T> row = loadEvaluationRow<T, G>(b, i, active);
   // float32 loads the particle's own data for the work after the sums before the loop (every lane of
-  // the group, the same addresses), so that their latency overlaps the loop (9k: 15.3 → 14.5 µs a step on an H100);
-  // float64 loads them where they are used (early, they held registers through the loop: 9k 20.3 → 23.0 µs, 100k 132 →
-  // 152 µs), and so does the capped kernel (the registers the early loads hold spilled: 100k 84.5 → 79.7 µs a step
-  // float32 on an H200 with them late).
+  // the group, the same addresses), so that their latency overlaps the loop; float64 loads them where
+  // they are used (loaded early they hold registers through the loop, which measured slower), and so
+  // does the capped kernel (its capped registers would spill the early loads). See bench/gpu/README.md.
   constexpr bool early = sizeof(T) == 4 && !Capped;
   EvaluationOwnData<T> own;
   if (early) own = loadEvaluationOwnData(b, active ? i : 0, row.hg_row);
@@ -595,9 +593,9 @@ bool evaluationCappedFor(const SoftDeviceBody<T>& b) {
 }
 
 /// Whether the float32 evaluation with recomputed ĝ and 2 or 4 lanes runs evaluateWarpKernel
-/// (warp_evaluation; -1: by the grid's size, evaluationWarpFor; forced at 9k particles on an H200, its
-/// 68 blocks of 128 particles (4 warps of 32) run 13.8 → 44.6 µs a step). float64 never: with 2
-/// lanes (its choice at large sizes) it was slower (100k: 110.8 → 118.7 µs a step on an H200).
+/// (warp_evaluation; -1: by the grid's size, evaluationWarpFor; on small grids, e.g. 9k particles in 68
+/// blocks of 128, it leaves most SMs idle and is several times slower). float64 never: with 2 lanes (its
+/// choice at large sizes) it measured slower (bench/gpu/README.md).
 template <class T, int L, bool G>
 constexpr bool kWarpEvaluation = sizeof(T) == 4 && G&& kCappable<L>;
 
@@ -614,10 +612,8 @@ bool evaluationWarpFor(const SoftDeviceBody<T>& b) {
   if constexpr (kWarpEvaluation<T, L, G>) {
     if (b.warp_evaluation >= 0) return b.warp_evaluation > 0;
     // Its grid of n threads must fill at least three quarters of what the device holds at once (a
-    // conservative line between the measured 0.69 and 0.99 of a wave): below,
-    // its fewer, longer warps leave SMs idle (float32, 2 lanes, H200, µs a step, group → warp kernel:
-    // 50k 32.2 → 39.3, 70k 55.2 → 54.5 (0.69 of a wave), 100k 67.0 → 64.1 (0.99), 1M 580 → 582; 4 lanes
-    // 20k 19.0 → 32.1, 35k 34.3 → 40.9).
+    // conservative line between 0.69 of a wave, where it measured about even, and 0.99, where it
+    // measured faster): below, its fewer, longer warps leave SMs idle (bench/gpu/README.md).
     const long long resident = evaluationCappedFor<T, L, G>(b) ? residentWarpEvaluationBlocks<T, L, G, true>()
                                                                : residentWarpEvaluationBlocks<T, L, G, false>();
     return 4 * static_cast<long long>(blocks(b.n)) >= 3 * resident;

@@ -19,9 +19,9 @@
 // and 0.258 to 0.277 deg (void), towards CalculiX's 0.688 / 0.571 deg; refining the 5 mm walls
 // closes only part of the rest (below).
 // Held to CalculiX (inference_finger_peer, BendAngleConvergesWithRefinement; paper materials, 5e5 Pa,
-// C3D10 with NLGEOM): with the paper's StVK material (Green strain; the default since 2026-11-26) the
+// C3D10 with NLGEOM): with the paper's StVK material (Green strain; the default) the
 // bend angle comes out too small by −19.9 / −10.4 / −7.0 % at 2 / 3 / 4 particles through the 5 mm
-// wall (soft-solid chamber; void chamber −31.8 / −10.2 % at 2 / 3; at 4 not measured: stopped after 40 min), converging
+// wall (soft-solid chamber; void chamber −31.8 / −10.2 % at 2 / 3), converging
 // as h² (e∞ + a h² fits the soft solid with e∞ ≈ −2.7 %, about the peer's own mesh error): 5 % needs about 5.5
 // particles through the wall. The corotated linear model (Cauchy strain, energy_model corotated_linear) gave −29.8 /
 // −20.9 / −18.7 % (void −51.5 / −37.2 %), levelling off near −17 %: at 5e5 Pa the chamber inflates by ~20 % and

@@ -23,7 +23,7 @@ namespace {
 constexpr double kRegionPriorRadius = 0.5;
 /// The smallest noise σ̂ the fit may estimate, in units of the tolerances.
 constexpr double kRegionNoiseFloor = 0.01;
-/// Below this expected IoU the sentence calls the region not determined (issue 16's IoU goal).
+/// Below this expected IoU the sentence calls the region not determined (the IoU goal).
 constexpr double kRegionDeterminedIou = 0.9;
 /// Each perturbed fit: at most this many Levenberg–Marquardt iterations, ended earlier when one lowers the
 /// misfit by less than this share.
@@ -152,11 +152,10 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
   // with the EXACT moments p(θ) of θ = θ* + Q V z, by Levenberg–Marquardt from θ* within the representation's
   // bounds: the observations perturbed by their noise, the prior by its width. Exact for a linear model; where
   // the fitting designs lie along a curved valley (the weakly fixed directions move the well fixed moments at
-  // second order), each sample is a fit, not a step that the valley's width limits. The random walk it
-  // replaced (until 2026-11-28, Metropolis with one adapted step scale) could not follow such a valley: on
-  // bench_interiors' penguin at a tenth of the noise it expected IoU 0.928 (10 % below 0.908) while the
-  // true hollow's quadric, its four well fixed directions refitted, fits as well as the result (Δχ² = −0.09 σ̂²)
-  // at IoU 0.85 with it; the found hollow's IoU with the truth was 0.840.
+  // second order), each sample is a fit, not a step that the valley's width limits. A random walk
+  // (Metropolis with one adapted step scale) cannot follow such a valley and overstates how well the region
+  // is fixed: on bench_interiors' penguin at a tenth of the noise it expected IoU 0.93 while the true
+  // hollow's quadric, its four well fixed directions refitted, fits as well as the result at IoU 0.85 with it.
   std::vector<double> masses;
   const auto momentsOf = [&](const std::vector<double>& rr) {
     problem.task().masses(rr, &masses, nullptr);

@@ -191,7 +191,7 @@ void SoftTask::usePreconditionerOnGpu(bool with_contact) {
   if (refused.empty()) {
     // A factor applied more often than the break-even of its float32 inverse factor (~48 applications
     // for the finger, whose start design's solve and gradient take ~230) is inverted then and applied
-    // at half the bytes of a float64 inverse: 0.61-0.67 s per finger evaluation instead of 1.01-1.04 s (H100).
+    // at half the bytes of a float64 inverse (a finger evaluation ~40 % faster, bench/gpu/README.md).
     const long inverse_after = denseCholeskyInverseFactorBreakEven(unknowns);
     sim_options_.cholesky_external = [inverse_after] {
       return makeDenseCholeskyCuda(0.0, DenseCholeskyApply::Triangular, inverse_after,
@@ -199,10 +199,9 @@ void SoftTask::usePreconditionerOnGpu(bool with_contact) {
     };
     // One design after another of this body: an earlier design's GPU factor preconditions the next
     // until a new one costs less than the extra iterations (rest_factor_reuse.h). On the GPU a factor
-    // costs ~400 applications (0.48 s with its float32 inverse, against 1.16 ms an application): the finger
-    // inference 9-10 s on an H100 (a factor per design: 33-34 s). Not on the host: there an application costs more
-    // against a factor (CHOLMOD on 2 cores: the same inference 628 s with it, 543 s without). One kept factor for all
-    // tasks of the process: no more GPU memory held than without keeping it.
+    // costs ~400 applications, so keeping it makes the finger inference about three times faster. Not on
+    // the host: there an application costs more against a factor, and keeping it measured slower. One kept
+    // factor for all tasks of the process: no more GPU memory held than without keeping it.
     sim_options_.rest_factor_reuse = RestFactorReuse::gpuShared();
     said << "the rest stiffness's Cholesky factor on the GPU (dense, " << unknowns << " unknowns, "
          << numberText(denseCholeskyBytes(unknowns) / 1e9, 3) << " GB; applied as its inverse factor in float32, "

@@ -31,7 +31,7 @@ class SoftTask : public Task {
   std::unique_ptr<SoftBodySimulator> simulator(const Materials& m) const;
   /// ∂L/∂r_i = ∂L/∂m_i dm_i/dr_i + ∂L/∂μ_i dμ_i/dr_i + ∂L/∂λ_i dλ_i/dr_i − ∂L/∂w_i.
   void chain(const Materials& m, const SoftDesignGradient& g, bool with_chamber, std::vector<double>* dL_dr) const;
-  /// Ground contact on the object's true surface (issue 15 §1): the cloud's contact samples embedded
+  /// Ground contact on the object's true surface: the cloud's contact samples embedded
   /// in the particles (contact_embedding.h), each weighted by its area over the lattice cell's face
   /// h² so that the penalty stiffness per unit area is the surface particles' (the task's stiffness
   /// stays "per particle"); samples finer than 0.4 h are merged into cells of h/2 first

@@ -17,10 +17,9 @@
 #ifdef _OPENMP
 #include <omp.h>
 #endif
-// OpenBLAS's own threads compete with the OpenMP particle loops: measured on the finger (1904
-// particles, 2 cores) one Newton solve took 12.7 s with 2 BLAS threads and 7.8 s with 1 (its
-// threads spin in the kernel between calls). BLAS gets every core for the factorisation and one
-// thread for the triangular solves. Weak: absent with other BLAS implementations.
+// OpenBLAS's own threads compete with the OpenMP particle loops: its threads spin in the kernel
+// between calls, so a Newton solve measured much slower with 2 BLAS threads than with 1 on 2 cores.
+// BLAS gets every core for the factorisation and one thread for the triangular solves. Weak: absent with other BLAS implementations.
 extern "C" void openblas_set_num_threads(int) __attribute__((weak));
 #else
 #include <Eigen/SparseCholesky>

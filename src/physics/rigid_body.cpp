@@ -19,9 +19,8 @@
 //               step the anchor of a point that slips (|k_t (x_t − a_t)| > μ f_n) is dragged along so
 //               the spring force equals μ f_n (kinetic friction); new contacts anchor where they are.
 //   Why not regularised Coulomb (f_t = −μ f_n v_t / max(|v_t|, v_eps)): in rolling contact it creeps
-//   and dissipates continuously and its strength depends on v_eps (tried: the rocking period of the
-//   round-bottomed test body came out −2 % at 4° and −37 % at 2° with v_eps = 1e-3 m/s, −0.4 % / −1.7 %
-//   with 1e-5 m/s); the anchored spring sticks (rocking periods within 0.1 % of the closed form, no
+//   and dissipates continuously and its strength depends on v_eps (the rocking period of a
+//   round-bottomed body is off by percents at small amplitudes, more the larger v_eps); the anchored spring sticks (rocking periods within 0.1 % of the closed form, no
 //   dependence on μ once it sticks), slides with the Coulomb force when the spring saturates (a
 //   launched ball ends rolling at 5/7 v0) and is continuous, which forward-mode derivatives need.
 //
@@ -60,13 +59,11 @@
 // only points in contact get a force. With S = Dual10 the forces are computed in plain doubles with
 // their partial derivatives, summed over the points as 3×3 matrices and 3×3×3 moments, and multiplied
 // with the state's derivative parts once per evaluation (RigidSim::addContactDual): same values and
-// derivatives as dual numbers point by point, 2.3× faster on 5000 points and 2.9× on a doll's 0.4 mm
-// samples (RigidSpeed.Tumbler5000Points, `topo simulate --task tumbler`). eval, advance and
-// addContactDual are flattened (every Eigen call inlined: GCC left the 10-vector assignments as
-// out-of-line calls, ~30 % of the time) and the 3×9 · 9×10 product is coefficient-based (Eigen sent it
-// to its blocked GEMM): the tumbler's loss + gradient 64.7 → 26.5 ms, the same values up to that
-// product's summation order (`bench_infer tumbler_quadric_2s`, 2 cores; 22.3 ms with -march=native,
-// CMakeLists.txt).
+// derivatives as dual numbers point by point, several times faster (RigidSpeed.Tumbler5000Points).
+// eval, advance and addContactDual are flattened (every Eigen call inlined: otherwise GCC leaves the
+// 10-vector assignments as out-of-line calls) and the 3×9 · 9×10 product is coefficient-based (Eigen
+// would send it to its blocked GEMM): the same values up to that product's summation order, measured
+// with `bench_infer tumbler_quadric_2s`.
 #include "topo_gaussian/physics/rigid_body.h"
 
 #include <algorithm>

@@ -1,4 +1,4 @@
-// Compute backend switch (issue 20): where the particle kernels run.
+// Compute backend switch: where the particle kernels run.
 //
 //   backend: auto | cpu | cuda    (task YAML `backend`, CLI `--backend`, node `~backend`)
 //

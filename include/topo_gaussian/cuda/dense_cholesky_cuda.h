@@ -1,5 +1,5 @@
 // Dense Cholesky on the GPU (cuSOLVER): the soft body's rest-stiffness preconditioner under
-// backend cuda (issue 20 §1, the implicit/static path).
+// backend cuda (the implicit/static path).
 //
 //   A = L Lᵀ  (cusolverDnXpotrf, float64, lower),   z = A⁻¹ r = L⁻ᵀ (L⁻¹ r)  (cusolverDnXpotrs)
 //
@@ -9,9 +9,9 @@
 // sparse Cholesky, other round-off), so the Newton–PCG iterations match the CPU path's.
 //
 // Why dense: the GPU machine has no sparse direct solver (CHOLMOD is the host's), and a dense
-// float64 factorisation runs near the GPU's float64 peak: ~(3N)³/3 flops, 0.18 s for the 9212-particle
-// finger (27 636 unknowns) on an H100 (issue 20's reference probe). Its memory is (3N)² × 8 bytes (6.1 GB for that
-// finger): about 32 000 particles fit on an 80 GB H100 and 43 000 on a 141 GB H200 (90 % of their free memory). Above
+// float64 factorisation runs near the GPU's float64 peak: ~(3N)³/3 flops, a fraction of a second for
+// the 9212-particle finger (27 636 unknowns; bench/gpu/README.md). Its memory is (3N)² × 8 bytes (6.1 GB
+// for that finger): about 32 000 particles fit in 80 GB and 43 000 in 141 GB (90 % of the free memory). Above
 // what the GPU has free the factory's factorize() throws GpuMemoryError naming the particles that would fit; the
 // simulator then factorises on the host (backend auto, with a note) or stops (backend cuda).
 //
@@ -52,8 +52,8 @@ std::string denseCholeskyLibraryError();
 ///   mirrored full matrix, which read the matrix at the memory's speed; the inverse carries
 ///   cond(A) × ε of relative error (a preconditioner's worth) and takes at most 46 340 unknowns;
 /// - InverseFactorFloat32: the inverse factor L⁻¹ (by halves: cublasDtrmm on the off-diagonal blocks,
-///   cusolverDnXtrtri on diagonal blocks of ≤ 1024; 0.20 s at 27 636 unknowns on an H100, where one
-///   cusolverDnXtrtri call took 0.62 s) rounded once to float32, z = L̃⁻ᵀ (L̃⁻¹ r) with float64 sums:
+///   cusolverDnXtrtri on diagonal blocks of ≤ 1024; about three times faster than one whole-matrix
+///   cusolverDnXtrtri call) rounded once to float32, z = L̃⁻ᵀ (L̃⁻¹ r) with float64 sums:
 ///   half the bytes an application of InverseGemv reads. Whatever the rounding, the operator applied
 ///   is the Gram form of an invertible triangle, so it is symmetric positive definite, as a CG
 ///   preconditioner must be (a float32 copy of A⁻¹ itself need not be: its rounding, ~ε₃₂ ‖A⁻¹‖,
@@ -80,15 +80,15 @@ std::unique_ptr<CholeskySolver> makeDenseCholeskyCuda(double max_bytes = 0.0,
                                                       DenseCholeskyApply inverse_as = DenseCholeskyApply::InverseGemv);
 
 /// Applications of one factor from which its explicit float64 inverse (InverseGemv) pays: it costs about one more
-/// factorisation (potri: 0.55 s at 27 636 unknowns on an H200) and saves ~3.1 ms an application (4.5 →
-/// 1.44 ms), so ~180 applications at that size; the first cost grows as the unknowns cubed, the
+/// factorisation (potri) and saves about two thirds of an application's time; calibrated at 27 636
+/// unknowns to ~180 applications (bench/gpu/README.md); the first cost grows as the unknowns cubed, the
 /// saving as their square, so the break-even grows in proportion to the unknowns.
 long denseCholeskyInverseBreakEven(std::size_t unknowns);
 
 /// The same for the float32 inverse factor (DenseCholeskyApply::InverseFactorFloat32): the inversion
-/// and the float32 copy cost 0.20-0.22 s at 27 636 unknowns and save 3.6-4.2 ms an application
-/// (4.8-5.4 → 1.17 ms; H100, bench_gpu_static and bench_infer), so ~48 applications there, in
-/// proportion elsewhere (cost ∝ unknowns³, saving ∝ unknowns²): a design's static solve alone (~170
+/// and the float32 copy cost about one factorisation and save about three quarters of an
+/// application's time; calibrated at 27 636 unknowns to ~48 applications (bench_gpu_static and
+/// bench_infer, bench/gpu/README.md), in proportion elsewhere (cost ∝ unknowns³, saving ∝ unknowns²): a design's static solve alone (~170
 /// applications for the finger) pays for it.
 long denseCholeskyInverseFactorBreakEven(std::size_t unknowns);
 

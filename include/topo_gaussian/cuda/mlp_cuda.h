@@ -1,4 +1,4 @@
-// The neural representation's MLP on a CUDA GPU (issue 20 §1; paper §5: an MLP SDF, 8 linear layers
+// The neural representation's MLP on a CUDA GPU (paper §5: an MLP SDF, 8 linear layers
 // of width 512, ReLU between them): for inputs U (3 × N, the normalised particle coordinates, kept
 // on the device) and effective weights W_l (out × in) and biases b_l,
 //   forward   H_0 = U,  Z_l = W_l H_l + b_l,  H_{l+1} = max(Z_l, 0),  s = Z_{depth−1}
@@ -11,8 +11,8 @@
 // The weight normalisation W = diag(g/‖v‖) v and its backward stay on the host
 // (topology/neural_representation.cpp: O(parameters), not O(points × parameters)).
 // float64 (agrees with the CPU to round-off) or float32; float32 may run its GEMMs on the tensor
-// cores in TF32 (MlpMath::Tf32: 10-bit mantissas in the products, float32 sums; about 5x the
-// float32 GEMM rate on an H100, at ~1e-3 relative error: the stated tolerance is in
+// cores in TF32 (MlpMath::Tf32: 10-bit mantissas in the products, float32 sums; several times the
+// float32 GEMM rate, at ~1e-3 relative error: the stated tolerance is in
 // test/unit/core_cuda_neural.cpp). Weights go up and gradients come down through pinned host
 // memory, one synchronisation per call.
 #pragma once

@@ -1,4 +1,4 @@
-// Explicit soft-body step on a CUDA GPU (issue 20 §1): SoftBodySimulator::step (paper appendix
+// Explicit soft-body step on a CUDA GPU: SoftBodySimulator::step (paper appendix
 // "Soft body dynamics"; physics/soft_body.h) with the same corotated SPH forces
 // (physics/corotated_sph.h) evaluated by two kernels per step (three for a batch's first step):
 //
@@ -52,7 +52,7 @@ class SoftBodyCuda {
   /// the GPU step cannot take (more than 8 contact obstacles).
   /// lanes_per_particle: threads that share one particle's neighbour sums (1, 2, 4, 8, 16, 32), or 0
   /// to choose: 2 from 50 000 particles; below, float64 4, float32 8 with 48 or more neighbours, else
-  /// 4 (the fastest for 26 and 86–94 neighbours at 9k, 100k and 1M particles on an H100 and an H200,
+  /// 4 (measured fastest for 26 and 86–94 neighbours at 9k, 100k and 1M particles,
   /// bench/gpu/README.md).
   explicit SoftBodyCuda(const SoftBodySimulator& sim, CudaPrecision precision = CudaPrecision::Float64,
                         int lanes_per_particle = 0);
@@ -67,10 +67,10 @@ class SoftBodyCuda {
   bool cappedEvaluation() const;
   /// float32: the evaluation's work after the neighbour sums (the polar rotation, the stress, the
   /// gather's record) done one thread a particle instead of by the first of each particle's lanes
-  /// while the others wait (100k particles, 2 lanes, on an H200: 67.0 → 64.1 µs a step). -1 (the
+  /// while the others wait (measured faster on large grids, bench/gpu/README.md). -1 (the
   /// default): by the grid's size, where its grid of one thread a particle fills at least three
-  /// quarters of what the device holds at once (from ~76k particles on an H200; below, its fewer,
-  /// longer warps are slower: 50k 32.2 → 39.3 µs); 0: never; 1: always. Only with 2 or 4 lanes and
+  /// quarters of what the device holds at once (below, its fewer, longer warps are slower); 0: never;
+  /// 1: always. Only with 2 or 4 lanes and
   /// order-1 gradients (ĝ recomputed); otherwise, and in float64, the group kernel runs. The same
   /// formulas; float32 rounding may differ in the last bits (the compiler fuses multiply–adds per kernel),
   /// so when the choice changes the current state is evaluated again with the kernel now chosen.

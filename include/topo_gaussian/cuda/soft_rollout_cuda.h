@@ -1,4 +1,4 @@
-// The explicit differentiable soft-body rollout on a CUDA GPU (issue 20 §1; paper §"Differentiability"):
+// The explicit differentiable soft-body rollout on a CUDA GPU (paper §"Differentiability"):
 // SoftRollout with SoftIntegrator::SymplecticEuler (physics/soft_rollout.h), forward and reverse mode
 // through time, on the device:
 //   forward   v' = v + dt (f(x)/m + g − c v),  x' = x + dt v'        (free particles)

@@ -1,4 +1,4 @@
-// The soft body's stiffness product on the GPU (issue 20 §1, the static/implicit path): Newton's
+// The soft body's stiffness product on the GPU (the static/implicit path): Newton's
 // conjugate gradients and the adjoint solves multiply by
 //   K p = (∂²(E_el + E_a)/∂x²) p    (corotated SPH with hourglass, the pneumatic chamber's term)
 // at the simulator's state, as SoftBodySimulator::stiffnessProduct does on the host without contact.

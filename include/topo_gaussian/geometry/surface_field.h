@@ -1,6 +1,6 @@
 // The boundary of a solid given by surface points (scans, point clouds, 3D Gaussian centres) and the
 // inside fraction of the lattice cells it cuts (paper §4 / appendix: particles carry a volume V_i;
-// issue 15 §1: boundary particles get the inside fraction of their cell, V_i = f_i h³).
+// boundary particles get the inside fraction of their cell, V_i = f_i h³).
 //
 //   f(x) = Σ_i w_i(x) n_iᵀ(x − p_i) / Σ_i w_i(x),   w_i(x) = a_i exp(−|x − p_i|² / r²)
 //

@@ -1,4 +1,4 @@
-// Design spread: how sure is the interior? (issue 16 §2; paper §7 "multiple videos" ablation: one
+// Design spread: how sure is the interior? (paper §7 "multiple videos" ablation: one
 // observation rarely determines an interior). After the main optimisation, further optimisations
 // look for other designs that fit the observations as well as the best one, each pulled towards
 // another solid fraction f* by the material-volume regulariser of InteriorProblem,

@@ -1,4 +1,4 @@
-// What the observations determine (issue 16 §2; paper §6.1: a rigid motion depends on the interior only
+// What the observations determine (paper §6.1: a rigid motion depends on the interior only
 // through the ten mass properties p = (m, cx, cy, cz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz)).
 //
 // Every rigid experiment e reports observations y_k with noise σ_k and dy_k/dp (task.h Observation).

@@ -1,5 +1,5 @@
 // Contact samples embedded in a soft body's particles (DESIGN.md "Physics": contact on the object's
-// real surface, soft contact embedded in the particles; issue 15 §1). Each sample k at rest position
+// real surface, soft contact embedded in the particles). Each sample k at rest position
 // Y_k moves with the particles it sits among,
 //
 //   y_k = Σ_i φ_ki x_i,   φ_ki = w(|X_i − Y_k| / r) p(X_i − Y_k)ᵀ M_k⁻¹ e₁,

@@ -8,7 +8,7 @@
 // preconditioner of the new design's linear systems: PCG converges to the same tolerance, with more
 // iterations the further the materials moved (the Newton iterates and the answer agree within the
 // solver's tolerances; the preconditioner is not part of the model). Factorising anew costs t_f (the
-// finger's 27 636 unknowns: 0.6 s on an H200's dense cuSOLVER, 9 s on 16 host cores with CHOLMOD);
+// finger's 27 636 unknowns: under a second with the GPU's dense cuSOLVER, seconds on the host with CHOLMOD);
 // applying a stale factor more often costs t_a a time. The rule, evaluated when a new simulator
 // (a use) asks for the factor:
 //
@@ -28,7 +28,7 @@
 // A factor held by another live simulator is not shared (the solvers are not re-entrant): that
 // simulator keeps it, the new one gets its own. A factor whose application failed is dropped.
 //
-// Issue 20 §2 (the finger ≤ 30 s end to end): the factor was ~40 % of an evaluation. Measured to pay
+// A new factor is a large part of a soft evaluation (~40 % for the finger on the GPU). Measured to pay
 // on the GPU only (rest_factor_reuse is set by the soft tasks there; the host keeps a factor per
 // design: README "Preconditioner").
 #pragma once

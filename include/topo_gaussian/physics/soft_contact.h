@@ -10,7 +10,7 @@
 // are local to the particle (exact, used by the adjoints). The box's normal is piecewise constant
 // (the face of least penetration), so its Hessian is exact away from edges.
 //
-// Embedded contact samples (issue 15 §1, contact_embedding.h): with an embedding, the contact points
+// Embedded contact samples (contact_embedding.h): with an embedding, the contact points
 // are not particles but samples k on the object's true surface, y_k = Σ_i φ_ki x_i, each with a
 // weight ω_k (area over h²):
 //

@@ -2,7 +2,7 @@
 // coordinates u, A symmetric. θ = [a_xx, a_yy, a_zz, a_xy, a_xz, a_yz, b_x, b_y, b_z, c]; each
 // off-diagonal entry appears twice in uᵀAu (s contains 2 a_xy u_x u_y). Unbounded.
 //
-// Distance field (setDistanceUnit, issue 16): the algebraic s can be made small everywhere by shrinking θ,
+// Distance field (setDistanceUnit): the algebraic s can be made small everywhere by shrinking θ,
 // and σ(s/ε) is then grey over the whole body: a grey spread of a heavy insert has the same mass and
 // centre as a small dense ball. The distance field is s's first-order distance to its zero set (Taubin
 // 1991), in units of `unit` [u]:

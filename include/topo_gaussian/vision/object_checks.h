@@ -1,5 +1,5 @@
-// Is what the tracker followed one rigid object? (issue 18: "a tracked blob/silhouette must behave like
-// one rigid object — compact, of consistent size and colour, moving continuously".) From the per-frame
+// Is what the tracker followed one rigid object? A tracked blob/silhouette must behave like one rigid
+// object: compact, of consistent size and colour, moving continuously. From the per-frame
 // measurements (vision/trackers.h) of the frames where something was found:
 //  - frame filling:  the chosen blob covers > max_blob_fraction of the region, or the whole mask
 //                    > max_mask_fraction of it (the background, a wall, a floor);
