@@ -1,7 +1,6 @@
-// rostest node for the soft-finger rig on its twin (test/ros/finger_rig.test = soft_finger_rig.launch,
-// issue 19 §1 and §3):
+// rostest node for the soft-finger rig on its twin (test/ros/finger_rig.test = soft_finger_rig.launch):
 //  - end to end: motion_tracker measures the bend at the full pressure on the twin's images (kind
-//    finger) within 0.25 deg of the twin's truth (the issue asks 1 deg); the infer_interior goal
+//    finger) within 0.25 deg of the twin's truth (the stated tolerance is 1 deg); the infer_interior goal
 //    takes that window as its target and its result reproduces the true bend within 2 %; the chamber
 //    found is reported against the twin's (IoU of the chamber on the recovered particles, volume
 //    error) and exported; the result's chamber must exist (one bend angle cannot fix its shape: the

@@ -1,4 +1,4 @@
-// The rest stiffness's Cholesky factor on the GPU (issue 20 §1, the static/implicit path): the dense
+// The rest stiffness's Cholesky factor on the GPU (the static/implicit path): the dense
 // cuSOLVER factor against the host's sparse one (the same matrix: z = A⁻¹ r within 1e-10), a static
 // solve with it against the host's (the same Newton iterates: displacement within 1e-9), and what a
 // GPU without the memory does (backend auto: the host factorises and the simulator says why; backend
@@ -35,7 +35,7 @@ TEST(DenseCholeskyCuda, ParticlesThatFitFollowTheDenseSize) {
 }
 
 TEST(DenseCholeskyCuda, TheInversesBreakEvenGrowsWithTheUnknowns) {
-  // 180 applications at the finger's 27 636 unknowns (measured on an H200), in proportion elsewhere.
+  // 180 applications at the finger's 27 636 unknowns (the calibration), in proportion elsewhere.
   EXPECT_EQ(denseCholeskyInverseBreakEven(27636), 180);
   EXPECT_EQ(denseCholeskyInverseBreakEven(13818), 90);
   EXPECT_EQ(denseCholeskyInverseBreakEven(768), 6);  // 5.0 rounded up
@@ -47,7 +47,7 @@ TEST(DenseCholeskyCuda, AFactorAppliedBeyondItsLimitTakesTheInverse) {
   SKIP_WITHOUT_GPU();
   // The pneumatic cantilever's K0 (stiff walls, soft core, clamp), 5 triangular solves, then the inverse:
   // the float64 one (potri) within 1e-9 of the host's CHOLMOD solve (~1e-12 measured), or the float32
-  // inverse factor within 3-5e-10 (H100; its rounding errors are incoherent and the product is
+  // inverse factor within 3-5e-10 (measured; its rounding errors are incoherent and the product is
   // dominated by K0's softest modes): bounded by 1e-8, and not within 3e-11, so the rounding is there.
   auto sim = makeFinger(SoftBodyOptions());
   const RestStiffnessPreconditioner host(sim->sph(), Eigen::VectorXd(), sim->clamped());

@@ -1,4 +1,4 @@
-// The neural representation on the GPU (issue 20 §1, cuda/mlp_cuda.h): float64 field and gradient
+// The neural representation on the GPU (cuda/mlp_cuda.h): float64 field and gradient
 // against the CPU's NeuralRepresentation to 1e-10, float32 within its stated tolerance, the GPU
 // gradient against central differences of the GPU field, blocks of points (more than 65 536).
 // Without a device: backend cuda is refused with the reason, auto is exactly the CPU.
@@ -176,8 +176,8 @@ TEST(CudaNeural, Tf32IsRefusedWithFloat64) {
 TEST(CudaNeural, Tf32TensorCoresStayWithinTheirStatedTolerance) {
   SKIP_WITHOUT_GPU();
   // TF32 (10-bit mantissa products, float32 sums) against float64 on the GPU, the paper's width,
-  // dL/ds of random sign (so the gradient's sums over points cancel: the hard case). Measured on an
-  // H200: field 5.7e-5 of the largest |s| (float32 1.2e-7), the worst layer's dL/dW or dL/db 5.1e-2
+  // dL/ds of random sign (so the gradient's sums over points cancel: the hard case). Measured:
+  // field 5.7e-5 of the largest |s| (float32 1.2e-7), the worst layer's dL/dW or dL/db 5.1e-2
   // (Frobenius, relative; float32 1.2e-3). Bounds: 2e-4 and 0.1 (float32 1e-6 and 3e-3).
   const int n = 20000;
   const auto X = randomPoints(n, 41);

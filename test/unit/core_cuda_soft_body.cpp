@@ -1,4 +1,4 @@
-// CUDA backend (issue 20): the backend switch everywhere; on a machine with a CUDA GPU, the device's
+// CUDA backend: the backend switch everywhere; on a machine with a CUDA GPU, the device's
 // explicit soft-body step against SoftBodySimulator::step (float64: one step < 1e-9 relative, a
 // 100-step rollout < 1e-6; float32 within its stated tolerance) and its polar rotation against the
 // SVD. Without a device (CI: nvcc but no GPU; a build without nvcc) the GPU tests skip with the

@@ -246,7 +246,7 @@ TEST(SoftBody, BadInput) {
     }
 }
 
-// Static solves converge on linear-regime problems whatever their size and stiffness (issue 15): a
+// Static solves converge on linear-regime problems whatever their size and stiffness: a
 // stiff beam (E 1e9) far from the origin (x + 20 m) has a gradient round-off floor (ε|x| times the
 // stiffness) far above the default tolerance 1e-8 of the per-particle load; Newton converges there
 // in a few iterations, and the deflection is the one of the same beam at the origin.

@@ -1,4 +1,4 @@
-// Exact mass at the boundary (issue 15 §1): fillInterior of a closed mesh gives boundary particles
+// Exact mass at the boundary: fillInterior of a closed mesh gives boundary particles
 // the inside part of their cell (cell_clip.h), so volume, centre of mass and inertia of a solid match
 // the mesh's own polyhedral integrals (divergence theorem, computed here independently) whatever the
 // lattice's alignment; the staircase of whole cells (before) is printed beside them.

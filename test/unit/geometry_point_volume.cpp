@@ -1,4 +1,4 @@
-// Volumes from points and Gaussians as true as from meshes (issue 15 §1): clean spheres, tori and
+// Volumes from points and Gaussians as true as from meshes: clean spheres, tori and
 // boxes given as uniform random surface samples (with and without normals, two densities) and as
 // generated 3DGS-like splats (flat discs tangent to the surface, spread sizes and opacities) filled
 // at default options, against their closed-form volumes; the digital twin's scan against the twin's

@@ -1,4 +1,4 @@
-// Several experiments of one object (issue 16 §1): the experiments file format, the shared parameters
+// Several experiments of one object: the experiments file format, the shared parameters
 // of one object, NAME.KEY assignments, the joint loss Σ_e w_e L_e and its gradient, observed windows
 // tagged with their experiment, and hanging from two points pinning the whole centre of mass (the
 // closed-form equilibrium: the centre of mass hangs straight below each point).

@@ -231,10 +231,9 @@ TEST_F(ExportCli, BadInputExitsNonZeroNamingTheInputAndTheFix) {
 
 // Neighbouring cells share their edge pixel: a solid box on a lattice off the origin, drawn at several
 // widths, has no white gap of 1–2 px between red pixels along any row or column (the panels lie
-// ≥ 10 px apart). Cell edges from snapped coordinates rounded cu + h/2 and cu' − h/2 differently and
-// left white lines through the tumbler demo's slices (its run folder, redrawn by `topo export`, has
-// none now); these synthetic lattices did not hit that rounding with the old edges either, so this
-// guards the invariant rather than reproducing the case.
+// ≥ 10 px apart). Cell edges computed separately as cu + h/2 and cu' − h/2 can round differently and
+// leave white lines through a slice; these synthetic lattices need not hit that rounding, so this
+// guards the invariant rather than reproducing a case.
 TEST(SlicePicture, NeighbouringCellsLeaveNoGap) {
   const double h = 0.004;
   int gaps = 0;

@@ -1,4 +1,4 @@
-// The pneumatic finger held to CalculiX (issue 15 §3, DESIGN.md "Physics": soft bodies held to a FEM
+// The pneumatic finger held to CalculiX (DESIGN.md "Physics": soft bodies held to a FEM
 // peer). Geometry: a 0.1 x 0.02 x 0.02 m box mesh (x ∈ [0, 0.1], base at x = 0) filled by the
 // library's fillInterior (the user path), with a chamber x ∈ [0.015, 0.065], |y| < 0.005,
 // z ∈ [−0.005, 0]: walls 5 mm below and beside it (the thinnest), 10 mm above, so it bends to +z.
@@ -18,12 +18,9 @@
 // cells), with the finger's default StVK material (Green strain: what CalculiX's *ELASTIC computes
 // under NLGEOM, and the paper's): soft solid ours 0.551 deg vs CalculiX 0.688 (−19.9 %), void 0.389 vs
 // 0.571 (−31.8 %); the CalculiX void at 1.25 mm cells gives 0.588 deg (+3.1 %: the peer mesh is
-// converged to about 3 %; 31 min on the shared 2 cores, so not in the test). Refined
-// (BendAngleConvergesWithRefinement, TOPO_SLOW_PEERS=1, 2026-11-27): soft solid −19.9 / −10.4 / −7.0 / −4.9 %
-// at 2 / 3 / 4 / 5 particles through the wall, void −31.8 / −10.2 / −5.7 / −3.4 % (ours at 1.25 mm: 20 480
-// particles, 41 / 48 s; at 1 mm: 40 000 particles, 128 / 149 s, on 2 cores, the rest stiffness's Cholesky
-// factor sized by memory: before, Jacobi above 20 000 particles took 23 min and more than an hour): within
-// 5 % from 5 particles through the wall. The corotated
+// converged to about 3 %; too slow for the test). Refined (BendAngleConvergesWithRefinement,
+// TOPO_SLOW_PEERS=1): soft solid −19.9 / −10.4 / −7.0 / −4.9 % at 2 / 3 / 4 / 5 particles through the
+// wall, void −31.8 / −10.2 / −5.7 / −3.4 %: within 5 % from 5 particles through the wall. The corotated
 // linear model (Cauchy strain) gave −29.8 / −20.9 / −18.7 % (void −51.5 / −37.2 %), levelling off near
 // −17 %: the bend at 5e5 Pa is strongly nonlinear (linear CalculiX gives 0.163 deg for the void; from
 // 5e3 to 5e5 Pa CalculiX's bend grows ×1.59 soft solid / ×3.40 void, StVK's ×1.54 / ×3.57, the
@@ -248,8 +245,7 @@ TEST(FingerPeer, WarnsOfTheMeasuredBiasWithTheWallResolution) {
   }
 }
 
-// The convergence curve the issue asks for (issue 15 §3: "converging with refinement: show the
-// curve"): both chamber models at 2, 3, 4 and 5 particles through the 5 mm wall, each against CalculiX
+// The convergence curve (converging with refinement): both chamber models at 2, 3, 4 and 5 particles through the 5 mm wall, each against CalculiX
 // with its segments on that lattice (2.5 mm C3D10 cells: the peer itself is converged to ~3 %, see
 // the file header). Ours at 1 mm is 40 000 particles and the whole curve takes ~10 min on 2 cores,
 // so the test runs only with TOPO_SLOW_PEERS=1 (the curve is in the README's accuracy table and the

@@ -1,4 +1,4 @@
-// The finger twin (workflow/finger_twin.h, issue 19 §1): the default finger with its true chamber,
+// The finger twin (workflow/finger_twin.h): the default finger with its true chamber,
 // solved at a ladder of pressures. Checked: the ladder against direct solves between its levels
 // (linear interpolation in p), the bend's direction and growth, the tracker's bend on the twin's
 // rendered side view against the twin's truth, and the options' refusals.

@@ -1,4 +1,4 @@
-// The finger and cantilever tasks with backend cuda (issue 20 §1): their Newton solves precondition with
+// The finger and cantilever tasks with backend cuda: their Newton solves precondition with
 // the rest stiffness's dense Cholesky factor on the GPU (cuda/dense_cholesky_cuda.h); the finger's loss,
 // bend and whole-task gradient dL/dr, the cantilever's tip and first frequency agree with backend cpu
 // (the host's sparse factor) to 1e-8, and the tasks say where the factor is. Built in the catkin package and in the

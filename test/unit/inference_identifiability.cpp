@@ -187,7 +187,7 @@ TEST(Identifiability, HangingFromOnePointFixesTheHorizontalCentreOfMassOnly) {
 }
 
 // A hang with a scale reading (mass_kg target) fixes the mass too, with std = its 1 % noise; the
-// summary no longer says "weigh it".
+// summary does not say "weigh it".
 TEST(Identifiability, WeighingFixesTheMass) {
   const HangSetup s;
   TaskConfig t = TaskConfig::defaults("hanging");

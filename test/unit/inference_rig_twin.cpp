@@ -406,8 +406,7 @@ TEST(RigTwin, TumblerPeriodOverReleaseTilts) {
     double bound;
   };
   // Bounds: the twin (samples on the exact surface, mirrored across the rocking plane) −0.11 … +0.09 %,
-  // the fill (default samples of the 256-segment mesh, d / 400) −0.09 … +0.25 %, measured 2026-11-27;
-  // with the lattice-crossing samples and d / 200 they wandered −1.53 … +0.88 % and −0.78 … +0.05 %.
+  // the fill (default samples of the 256-segment mesh, d / 400) −0.09 … +0.25 % (measured).
   const Model models[2] = {{"twin body 2 mm", &twin.cloud(), 0.0025}, {"mesh fill 4 mm", &filled, 0.004}};
   for (const auto& m : models) {
     double lo = 1e300, hi = -1e300;

@@ -1,4 +1,4 @@
-// Rigid motion on the user path (issue 15 §2): a surface goes through what `topo fill` does
+// Rigid motion on the user path: a surface goes through what `topo fill` does
 // (geometry::ingestSurface with the command's defaults and --spacing), then through what
 // `topo simulate --task tumbler|ball` does (inference::simulateInterior with the task's default
 // contact settings), and the result is held to closed forms (rolling_closed_form.h), never to our own
@@ -34,7 +34,7 @@ using topo_test::kRollPi;
 namespace {
 
 constexpr double kG = 9.81;
-constexpr double kR = 0.1;  // hemisphere radius [m] (the issue's tumbler)
+constexpr double kR = 0.1;  // hemisphere radius [m] (the reference tumbler)
 // 640 × 160: the pole cone is one ring (0.56°, 1 mm) wide, well inside the 3° swing's contact travel
 // (256 × 64 made the 3° period −1.6 %).
 constexpr int kSegments = 640, kRings = 160;
@@ -165,7 +165,7 @@ Eigen::Vector3d quadraticFit(const std::vector<double>& t, const std::vector<dou
 }  // namespace
 
 TEST(ClosedForm, HemisphereRockingPeriodsMatchTheIssue) {
-  // The values quoted in issue 15 (integrated independently there).
+  // Reference values integrated independently of this code.
   const topo_test::RoundBottom h = topo_test::solidHemisphere(kR);
   EXPECT_NEAR(topo_test::smallAmplitudeRockingPeriod(h), 0.8352, 5e-5);
   EXPECT_NEAR(topo_test::rockingPeriod(h, 1e-6), 0.8352, 5e-5);
@@ -184,7 +184,7 @@ TEST(ClosedForm, HemisphereRockingPeriodsMatchTheIssue) {
   EXPECT_NEAR(topo_test::spinDropRollingSpeed(0.05, 0.4 * 0.05 * 0.05, 20.0), 2.0 / 7.0 * 20.0 * 0.05, 1e-12);
 }
 
-// The issue's case: a solid hemisphere mesh filled as `topo fill --spacing S` does, released at rest
+// The reference case: a solid hemisphere mesh filled as `topo fill --spacing S` does, released at rest
 // at 3°, 10° and 20° with the tumbler task's defaults: the period within 1 % of the exact one.
 TEST(RigidUserPath, HemisphereTumblerPeriodsWithinOnePercent) {
   const geometry::SurfaceData mesh = hemisphereMesh(kR, kSegments, kRings);
@@ -312,8 +312,7 @@ TEST(RigidUserPath, BallDroppedSpinningRollsAtTwoSeventhsOmegaR) {
       omega0, v, vref, pct(v, vref), -2.0 * fit[2]);
   // 2.5 %: the skid and the bounces run through the penalty contact, whose damper (∝ penetration and
   // its rate) and anchored friction springs put a small torque on the spin while the ball slips;
-  // measured −1.9 % on this UV sphere (−0.9 % on `topo generate --shape sphere`), was −12.6 % before the
-  // contact samples and the Hunt–Crossley damper.
+  // measured −1.9 % on this UV sphere (−0.9 % on `topo generate --shape sphere`).
   EXPECT_NEAR(v / vref, 1.0, 0.025);
 }
 
@@ -334,7 +333,7 @@ TEST(RigidUserPath, GaussianAndNoisyPointHemispheresWithinTwoPercent) {
         s.source.c_str(), s.size(), method.c_str(), pct(V, Vref), T, Tref, pct(T, Tref));
     EXPECT_NEAR(T / Tref, 1.0, 0.02) << s.source;
     // The period alone can be right for a wrong body (it depends on the shape's proportions, not its
-    // scale alone): the volume must be right too (issue 15 §1: ≤ 2 % from points or Gaussians).
+    // scale alone): the volume must be right too (≤ 2 % from points or Gaussians).
     EXPECT_NEAR(V / Vref, 1.0, 0.02) << s.source << " volume";
   }
 }

@@ -119,7 +119,7 @@ void taskGradientCheck(TaskConfig c, const VolumeCloud& cloud, const std::vector
     rp[i] += h;
     rm[i] -= h;
     const double fd = (task->evaluate(rp, nullptr).loss - task->evaluate(rm, nullptr).loss) / (2 * h);
-    // Relative to max(|fd|, 0.1 % of the largest component), to the 1e-4.
+    // Relative to max(|fd|, 0.1 % of the largest component), to 1e-4.
     const double rel = std::abs(fd - g[i]) / std::max(std::abs(fd), 1e-3 * gmax);
     std::printf("[task fd %s] r_%zu: adjoint %.8g fd %.8g rel %.2g\n", name, i, g[i], fd, rel);
     EXPECT_LT(rel, 1e-4) << name << " particle " << i;

@@ -1,4 +1,4 @@
-// The pear task's ground contact on the object's true surface (issue 15 §1): the default pear's
+// The pear task's ground contact on the object's true surface: the default pear's
 // contact samples (points of the exact surface) embedded in the particles, against the old contact
 // on the surface particles (the lattice staircase, the same cloud with its samples removed).
 //  - At rest on the ground the lowest point of the true surface is within the resting penetration of

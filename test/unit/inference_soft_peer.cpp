@@ -1,4 +1,4 @@
-// Soft bodies on the user path held to a FEM peer (issue 15 §3, DESIGN.md "Physics"): a beam mesh
+// Soft bodies on the user path held to a FEM peer (DESIGN.md "Physics"): a beam mesh
 // filled by the library's fillInterior (default options, the spacing `topo fill --spacing` gives),
 // simulated by the cantilever task with its defaults, against CalculiX with quadratic tetrahedra
 // (C3D10, calculix_peer.h) on the same box, material and clamp. The clamp: the task clamps the
@@ -93,7 +93,7 @@ CantileverResult calculix(const Beam& b, double clamp_m, int along, int across_y
 }  // namespace
 
 // The curve: 4, 5, 6 and 8 particles through the 0.02 m thickness (spacing 5, 4, 3.33, 2.5 mm).
-// Goal (issue 15): within 5 % of CalculiX at 4 particles through the thinnest dimension, and
+// Goal: within 5 % of CalculiX at 4 particles through the thinnest dimension, and
 // converging with refinement.
 TEST(SoftPeer, CantileverMatchesCalculixOnAFilledBeam) {
   REQUIRE_CALCULIX();
@@ -118,10 +118,9 @@ TEST(SoftPeer, CantileverMatchesCalculixOnAFilledBeam) {
   }
 }
 
-// Issue 15: a user-filled 0.5 × 0.04 × 0.04 m beam (topo fill --count 12000, E 1e8) — the static
-// solve gave up after 3 minutes ("Newton did not converge … residual 1.22e-06 after 50 iterations")
-// on a linear problem with a 6 mm tip deflection: the fixed tolerance 1e-8 of the per-particle load
-// was below the gradient's round-off floor (about 3e-6 of it here). Must converge in a few Newton
+// A user-filled 0.5 × 0.04 × 0.04 m beam (topo fill --count 12000, E 1e8), a linear problem with a
+// 6 mm tip deflection: a fixed tolerance 1e-8 of the per-particle load is below the gradient's
+// round-off floor (about 3e-6 of it here), so Newton never met it. Must converge in a few Newton
 // iterations and match Euler–Bernoulli over the task's free length (CalculiX agrees with it within
 // 0.2 % on the 0.2 m beam of the same slenderness class; the peer itself is checked above).
 TEST(SoftPeer, StiffLongBeamStaticSolveConverges) {

@@ -1,4 +1,4 @@
-// Peer comparison on the user path (issue 15 §2): one solid hemisphere mesh (R = 0.1 m, flat face
+// Peer comparison on the user path: one solid hemisphere mesh (R = 0.1 m, flat face
 // up) rocking from 10°, simulated
 //  - by Bullet with the mesh itself as its collision shape (btConvexHullShape of the mesh's vertices:
 //    the hemisphere is convex, so the hull is the mesh), the exact mass properties of the solid

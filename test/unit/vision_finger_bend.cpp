@@ -1,5 +1,5 @@
-// The tracker's finger bend is the finger task's bending angle (issue 19 §1: the motion-targets rule
-// hands the one to the other). The task simulates the default finger with an off-centre chamber at
+// The tracker's finger bend is the finger task's bending angle (the motion-targets rule hands the one
+// to the other). The task simulates the default finger with an off-centre chamber at
 // several pressures; its rest and deformed particles are rendered from the side (camera on −y looking
 // +y, image-up = +z, as the finger twin's camera), and the tracker, kind finger, measures the bend
 // on 5 rest frames followed by 10 bent ones. Truth: the task's own bend_angle_deg (a chord between
@@ -7,7 +7,7 @@
 // 0.37 to 4.5 deg (0.08 / 0.06 / 0.004 / 0.096 deg at 1 / 3 / 5 / 8e5 Pa; 0.05 deg with the corotated linear model).
 // The 1e5 Pa bend (0.37 deg) is under the tracker's floor of 0.5 deg: its value is still right, but
 // its confidence is 0 with "did not bend" (a real camera's jitter would swamp it).
-// Before the chord definition the tracker's tip-third minus base-third line angle was 11–27 % larger.
+// Why the chord: the tip-third minus base-third line angle reads 11–27 % larger.
 // Limit (measured with this file's renderer): a chamber reaching into the last 30 % of the length
 // (x < 0.09 instead of 0.065) bulges the silhouette's lower edge under the segment before the tip,
 // and the silhouette's chord is 24 % steeper than the particles' (5e5 Pa: 4.25 vs 3.42 deg): a

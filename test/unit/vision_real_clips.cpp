@@ -1,4 +1,4 @@
-// The tracker on real footage, as a user runs it (issue 18): every case of test/real_clips/cases.yaml
+// The tracker on real footage, as a user runs it: every case of test/real_clips/cases.yaml
 // runs `topo track --video CLIP ARGS --json` and compares the features with the clip's ground truth
 // (test/real_clips/<clip>.yaml, measured without this tracker: own frame decoding, colour masks and
 // fits in numpy, checked by eye; see test/real_clips/README.md). The rule for every checked feature:

@@ -120,7 +120,7 @@ TEST(VisionSignal, DampedLogDecrement) {
 }
 
 TEST(VisionSignal, PhaseShiftedSlowFpsHeavierNoise) {
-  // Starts mid-swing, 20 fps, 0.8 deg noise, 10 % dropped: still within the issue tolerances.
+  // Starts mid-swing, 20 fps, 0.8 deg noise, 10 % dropped: still within the stated tolerances.
   PendulumScene scene = baseScene();
   scene.fps = 20.0;
   scene.duration_s = 8.0;
