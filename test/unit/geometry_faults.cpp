@@ -1,7 +1,7 @@
 // Faults and bad input on the fill side: no crash (FLANN on huge coordinates), no overwritten source,
 // no silently wrong volume (stray triangles, fins, NaN vertices, duplicated faces, millimetres, random
 // samplings), bounded memory (lying headers, pipes, huge grids), messages that name the real cause and
-// a fix that works, and --up-axis. Each test reproduces one item of the issue through the library or
+// a fix that works, and --up-axis. Each test reproduces one reported fault through the library or
 // through the `topo` tool (TOPO_TOOL_PATH).
 #include <gtest/gtest.h>
 #include <sys/stat.h>
