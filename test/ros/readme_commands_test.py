@@ -1,19 +1,19 @@
 #!/usr/bin/env python3
-"""Every command in README.md's ```bash blocks runs.
+"""Every command in README.md's and docs/cli.md's ```bash blocks runs.
 
-Extracts the fenced ```bash blocks of README.md (continuation lines joined, comment-only lines
-dropped) and runs each command, in README order, in one scratch directory laid out like the
-repository root (build -> the build directory, ../shared -> the shared data beside the repository),
-after `source BUILD/devel/setup.bash` and the README's earlier `source`/`export` lines (as in the
-reader's shell session). A command must exit 0 within its time limit; the failure
-names the command and shows its output.
+Extracts the fenced ```bash blocks of README.md, then of docs/cli.md (DOCS; continuation lines
+joined, comment-only lines dropped) and runs each command, in that order, in one scratch directory
+laid out like the repository root (build -> the build directory, ../shared -> the shared data beside
+the repository), after `source BUILD/devel/setup.bash` and the earlier `source`/`export` lines (as in
+the reader's shell session: README's first, then the manual's). A command must exit 0 within its time
+limit; the failure names the file, the line and the command and shows its output.
 
 - Long-running commands that serve until stopped (`roslaunch ...`) run until they have done their
   first job (LONG_RUNNING: a message on a topic), must not log an error, and are then stopped with
   SIGINT.
 - Commands that cannot run here are in SKIP, each with the reason and where the same thing is
-  tested instead. A command that is neither run nor in SKIP fails the test, so a new README command
-  needs a decision.
+  tested instead. A command that is neither run nor in SKIP fails the test, so a new command in
+  either file needs a decision.
 
 Run by rostest (test/ros/readme_commands.test.in), so `roslaunch` and `rosrun` find the rostest's
 master: args `--build BUILD_DIR`.
@@ -36,6 +36,8 @@ PKG = "topo_gaussian"
 HERE = os.path.dirname(os.path.abspath(__file__))
 SOURCE = os.path.normpath(os.path.join(HERE, "..", ".."))
 README = os.path.join(SOURCE, "README.md")
+# The files whose ```bash blocks run, in this order (all in one scratch directory and one session).
+DOCS = [README, os.path.join(SOURCE, "docs", "cli.md")]
 
 # Commands not run here, by prefix, with the reason (and where the same thing is tested).
 SKIP = {
@@ -63,7 +65,7 @@ COMMAND_TIMEOUT_S = 900.0
 
 
 def readme_commands(path):
-    """The commands of the ```bash blocks, in order, as (line number, command)."""
+    """The commands of the ```bash blocks of one Markdown file, in order, as (line number, command)."""
     commands = []
     with open(path, encoding="utf-8") as f:
         lines = f.read().split("\n")
@@ -99,9 +101,14 @@ def build_dir():
     return os.path.join(SOURCE, "build")
 
 
+def where(path, line):
+    """`README.md:12` or `docs/cli.md:40`: the file relative to the repository, and the line."""
+    return "%s:%d" % (os.path.relpath(path, SOURCE), line)
+
+
 class ReadmeCommands(unittest.TestCase):
     scratch = None
-    session = []  # the README's `source` and `export` lines run so far: every later command runs after them
+    session = []  # the `source` and `export` lines run so far: every later command runs after them
 
     @classmethod
     def setUpClass(cls):
@@ -127,30 +134,31 @@ class ReadmeCommands(unittest.TestCase):
         script = "".join("%s\n[ $? -eq 0 ] || exit 97\n" % line for line in lines)
         return ["bash", "-c", "set -o pipefail\n" + script + command + "\n"]
 
-    def run_command(self, line, command):
+    def run_command(self, path, line, command):
+        at = where(path, line)
         for prefix, reason in SKIP.items():
             if matches(command, prefix):
-                self.skipTest("README.md:%d `%s`: %s" % (line, command, reason))
+                self.skipTest("%s `%s`: %s" % (at, command, reason))
         if "../shared/" in command and not self.has_shared:
-            self.skipTest("README.md:%d `%s`: ../shared/data is not there (CI always has it)" % (line, command))
+            self.skipTest("%s `%s`: ../shared/data is not there (CI always has it)" % (at, command))
         for prefix, topic, wait_s in LONG_RUNNING:
             if matches(command, prefix):
-                return self.run_until_started(line, command, topic, wait_s)
+                return self.run_until_started(at, command, topic, wait_s)
         start = time.time()
         try:
             p = subprocess.run(self.shell(command), stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                timeout=COMMAND_TIMEOUT_S, start_new_session=True)
         except subprocess.TimeoutExpired as e:
             out = (e.output or b"").decode(errors="replace")
-            self.fail("README.md:%d `%s` ran longer than %.0f s; output:\n%s" % (line, command, COMMAND_TIMEOUT_S,
-                                                                                  out[-4000:]))
+            self.fail("%s `%s` ran longer than %.0f s; output:\n%s" % (at, command, COMMAND_TIMEOUT_S, out[-4000:]))
         out = p.stdout.decode(errors="replace")
         if p.returncode == 0 and re.match(r"(source|export) ", command):
             ReadmeCommands.session.append(command)
-        self.assertEqual(p.returncode, 0, "README.md:%d `%s` exited %d after %.1f s; output:\n%s" %
-                         (line, command, p.returncode, time.time() - start, out[-4000:]))
+        self.assertEqual(p.returncode, 0, "%s `%s` exited %d after %.1f s; output:\n%s" %
+                         (at, command, p.returncode, time.time() - start, out[-4000:]))
+        print("%s `%s`: %.1f s" % (at, command, time.time() - start))
 
-    def run_until_started(self, line, command, topic, wait_s):
+    def run_until_started(self, what, command, topic, wait_s):
         """Starts a serving command, waits for its first message on `topic`, stops it with SIGINT."""
         from rospy import AnyMsg
         got = threading.Event()
@@ -173,7 +181,7 @@ class ReadmeCommands(unittest.TestCase):
             sub.unregister()
         log.seek(0)
         out = log.read().decode(errors="replace")
-        what = "README.md:%d `%s`" % (line, command)
+        what = "%s `%s`" % (what, command)
         self.assertTrue(alive, "%s exited %s before its first message on %s; output:\n%s" %
                         (what, p.returncode, topic, out[-4000:]))
         self.assertTrue(got.is_set(), "%s published nothing on %s within %.0f s; output:\n%s" %
@@ -183,14 +191,23 @@ class ReadmeCommands(unittest.TestCase):
 
 
 def add_tests():
-    commands = readme_commands(README)
-    for index, (line, command) in enumerate(commands):
-        slug = re.sub(r"[^A-Za-z0-9]+", "_", command)[:50].strip("_")
-        name = "test_%02d_line%d_%s" % (index, line, slug)
-        setattr(ReadmeCommands, name, lambda self, l=line, c=command: self.run_command(l, c))
+    # unittest runs a class's tests in the order of their names: the index keeps the files' order
+    index = 0
+    found = {}
+    for path in DOCS:
+        commands = readme_commands(path) if os.path.isfile(path) else []
+        found[path] = commands
+        tag = re.sub(r"[^A-Za-z0-9]+", "_", os.path.splitext(os.path.relpath(path, SOURCE))[0])
+        for line, command in commands:
+            slug = re.sub(r"[^A-Za-z0-9]+", "_", command)[:50].strip("_")
+            name = "test_%03d_%s_line%d_%s" % (index, tag, line, slug)
+            setattr(ReadmeCommands, name, lambda self, p=path, l=line, c=command: self.run_command(p, l, c))
+            index += 1
 
     def test_found_commands(self):
-        self.assertGreaterEqual(len(commands), 8, "README.md's ```bash blocks: %r" % commands)
+        for path, least in ((README, 5), (DOCS[1], 5)):
+            self.assertGreaterEqual(len(found[path]), least,
+                                    "%s's ```bash blocks: %r" % (os.path.relpath(path, SOURCE), found[path]))
 
     ReadmeCommands.test_found_commands = test_found_commands
 
