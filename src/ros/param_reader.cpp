@@ -1,9 +1,15 @@
 // ParamReader and its value checks (ros/param_reader.h).
 #include "topo_gaussian/ros/param_reader.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 
 #include "topo_gaussian/common/error.h"
@@ -205,6 +211,62 @@ std::vector<std::string> texts(const XmlRpcValue& v, const std::string& name, co
 
 }  // namespace param_check
 
+namespace param_doc {
+
+std::string jsonLine(const Entry& e) {
+  nlohmann::ordered_json j;
+  j["node"] = e.node;
+  j["ns"] = e.ns;
+  j["name"] = e.name;
+  j["type"] = e.type;
+  j["default"] = e.default_value;
+  j["unit"] = e.unit;
+  j["range"] = e.range;
+  j["choices"] = e.choices;
+  j["size"] = e.size;
+  j["example"] = e.example;
+  return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+void append(const std::string& path, const Entry& e) {
+  static std::mutex mutex;
+  static std::set<std::string> written;  // per process: a parameter read again is described once
+  const std::string line = jsonLine(e) + "\n";
+  std::lock_guard<std::mutex> lock(mutex);
+  if (!written.insert(path + '\0' + line).second) return;
+  const int fd = ::open(path.c_str(), O_WRONLY | O_APPEND | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) return;
+  const ssize_t n = ::write(fd, line.data(), line.size());  // one write: lines of several nodes never interleave
+  (void)n;
+  ::close(fd);
+}
+
+const std::string& targetFile() {
+  static const std::string path = [] {
+    const char* v = std::getenv("TOPO_DESCRIBE_PARAMS");
+    return std::string(v ? v : "");
+  }();
+  return path;
+}
+
+std::string numberDefault(double v) { return numberText(v, 12); }
+
+std::string numbersDefault(const std::vector<double>& v) { return listText(v, 12); }
+
+std::string textDefault(const std::string& v) { return v.empty() ? "\"\"" : v; }
+
+std::string textsDefault(const std::vector<std::string>& v) {
+  std::string s = "[";
+  for (std::size_t i = 0; i < v.size(); ++i) s += (i ? ", '" : "'") + v[i] + "'";
+  return s + "]";
+}
+
+std::string rangeText(const Range& range) {
+  return std::isinf(range.low) && std::isinf(range.high) ? std::string() : range.text("");
+}
+
+}  // namespace param_doc
+
 ParamReader::ParamReader(const ::ros::NodeHandle& pnh, std::string node) : pnh_(pnh), node_(std::move(node)) {}
 
 bool ParamReader::has(const std::string& name) const { return pnh_.hasParam(name); }
@@ -217,36 +279,61 @@ bool ParamReader::get(const std::string& name, XmlRpc::XmlRpcValue& v) const {
   return pnh_.hasParam(name) && pnh_.getParam(name, v);
 }
 
+void ParamReader::describe(const std::string& name, const char* type, const std::string& default_value,
+                           const std::string& unit, const Range* range, const std::vector<std::string>& choices,
+                           std::size_t size, const std::string& example) const {
+  const std::string& path = param_doc::targetFile();
+  if (path.empty()) return;
+  param_doc::Entry e;
+  e.node = node_;
+  e.ns = pnh_.getNamespace();
+  e.name = name;
+  e.type = type;
+  e.default_value = default_value;
+  e.unit = unit;
+  if (range) e.range = param_doc::rangeText(*range);
+  e.choices = choices;
+  e.size = size;
+  e.example = example;
+  param_doc::append(path, e);
+}
+
 double ParamReader::number(const std::string& name, double fallback, const std::string& unit,
                            const Range& range) const {
+  describe(name, "number", param_doc::numberDefault(fallback), unit, &range);
   XmlRpc::XmlRpcValue v;
   return get(name, v) ? param_check::number(v, displayName(name), unit, range, numberText(fallback, 6)) : fallback;
 }
 
 long ParamReader::integer(const std::string& name, long fallback, const std::string& unit, const Range& range) const {
+  describe(name, "integer", std::to_string(fallback), unit, &range);
   XmlRpc::XmlRpcValue v;
   return get(name, v) ? param_check::integer(v, displayName(name), unit, range, std::to_string(fallback)) : fallback;
 }
 
 bool ParamReader::flag(const std::string& name, bool fallback) const {
+  describe(name, "flag", fallback ? "true" : "false");
   XmlRpc::XmlRpcValue v;
   return get(name, v) ? param_check::flag(v, displayName(name)) : fallback;
 }
 
 std::string ParamReader::text(const std::string& name, const std::string& fallback,
                               const std::vector<std::string>& choices) const {
+  describe(name, "text", param_doc::textDefault(fallback), "", nullptr, choices);
   XmlRpc::XmlRpcValue v;
   return get(name, v) ? param_check::text(v, displayName(name), choices, fallback) : fallback;
 }
 
 std::vector<double> ParamReader::numbers(const std::string& name, const std::vector<double>& fallback, std::size_t size,
                                          const std::string& unit, const std::string& example) const {
+  describe(name, "numbers", param_doc::numbersDefault(fallback), unit, nullptr, {}, size, example);
   XmlRpc::XmlRpcValue v;
   return get(name, v) ? param_check::numbers(v, displayName(name), size, unit, example) : fallback;
 }
 
 std::vector<std::string> ParamReader::texts(const std::string& name, const std::vector<std::string>& fallback,
                                             const std::string& example, const std::string& separators) const {
+  describe(name, "texts", param_doc::textsDefault(fallback), "", nullptr, {}, 0, example);
   XmlRpc::XmlRpcValue v;
   return get(name, v) ? param_check::texts(v, displayName(name), example, separators) : fallback;
 }

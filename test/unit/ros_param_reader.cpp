@@ -1,10 +1,19 @@
 // ParamReader's checks (ros/param_reader.h) through their XmlRpcValue seam, without a ROS master:
 // a good value, a wrong type, a value out of range, ints where numbers are expected, lists given as
 // one string. (Absent → default is ParamReader's `hasParam` branch, exercised by every node's
-// rostest with its defaults.)
+// rostest with its defaults.) Then param_doc, the descriptions every read appends to the file named
+// by TOPO_DESCRIBE_PARAMS (docs/nodes.md is rendered from them by test/ros/node_interfaces.test).
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/ros/param_reader.h"
@@ -117,4 +126,87 @@ TEST(ParamReader, TextListsFromListsOrOneString) {
             (std::vector<std::string>{"a=1", "b=2"}));
   EXPECT_NE(errorOf([] { param_check::texts(XmlRpcValue(2.0), kName, "", ";"); }).find("not a list of strings"),
             std::string::npos);
+}
+
+// The descriptions docs/nodes.md is rendered from (param_doc; written by every ParamReader read when
+// TOPO_DESCRIBE_PARAMS names a file, test/ros/node_interfaces.test).
+TEST(ParamDoc, DefaultsAsAUserWritesThem) {
+  EXPECT_EQ(param_doc::numberDefault(20.0), "20");
+  EXPECT_EQ(param_doc::numberDefault(0.02), "0.02");
+  EXPECT_EQ(param_doc::numberDefault(5e4), "50000");
+  EXPECT_EQ(param_doc::numbersDefault({1, 0, 0}), "[1, 0, 0]");
+  EXPECT_EQ(param_doc::numbersDefault({}), "[]");
+  EXPECT_EQ(param_doc::textDefault("marker"), "marker");
+  EXPECT_EQ(param_doc::textDefault(""), "\"\"");
+  EXPECT_EQ(param_doc::textsDefault({"a=1", "b=2"}), "['a=1', 'b=2']");
+  EXPECT_EQ(param_doc::textsDefault({}), "[]");
+  EXPECT_EQ(param_doc::rangeText(Range()), "");
+  EXPECT_EQ(param_doc::rangeText(Range::above(0)), "(0, inf)");
+  EXPECT_EQ(param_doc::rangeText(Range::between(0, 3600)), "[0, 3600]");
+}
+
+TEST(ParamDoc, JsonLineHoldsEveryField) {
+  param_doc::Entry e;
+  e.node = "motion_tracker";
+  e.ns = "/motion_tracker";
+  e.name = "method";
+  e.type = "text";
+  e.default_value = "marker";
+  e.choices = {"marker", "klt"};
+  const std::string line = param_doc::jsonLine(e);
+  EXPECT_EQ(line.find('\n'), std::string::npos) << line;
+  const auto j = nlohmann::json::parse(line);
+  EXPECT_EQ(j.at("node"), "motion_tracker");
+  EXPECT_EQ(j.at("ns"), "/motion_tracker");
+  EXPECT_EQ(j.at("name"), "method");
+  EXPECT_EQ(j.at("type"), "text");
+  EXPECT_EQ(j.at("default"), "marker");
+  EXPECT_EQ(j.at("unit"), "");
+  EXPECT_EQ(j.at("range"), "");
+  EXPECT_EQ(j.at("choices"), (std::vector<std::string>{"marker", "klt"}));
+  EXPECT_EQ(j.at("size"), 0);
+  EXPECT_EQ(j.at("example"), "");
+}
+
+TEST(ParamDoc, AppendWritesEachDistinctLineOnceFromManyThreads) {
+  char dir[] = "/tmp/topo_param_doc_XXXXXX";
+  ASSERT_NE(mkdtemp(dir), nullptr);
+  const std::string path = std::string(dir) + "/params.jsonl";
+  param_doc::Entry window;
+  window.node = "motion_tracker";
+  window.ns = "/motion_tracker";
+  window.name = "window_s";
+  window.type = "number";
+  window.default_value = "20";
+  window.unit = "s";
+  window.range = "(0, inf)";
+  param_doc::Entry other = window;
+  other.name = "publish_period_s";
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 8; ++t)
+    threads.emplace_back([&] {
+      for (int k = 0; k < 50; ++k) param_doc::append(path, k % 2 ? window : other);
+    });
+  for (auto& t : threads) t.join();
+  param_doc::Entry changed = window;  // the same parameter with another default: described too
+  changed.default_value = "30";
+  param_doc::append(path, changed);
+  std::ifstream in(path);
+  std::vector<std::string> names, defaults;
+  for (std::string line; std::getline(in, line);) {
+    const auto j = nlohmann::json::parse(line);  // whole lines only
+    names.push_back(j.at("name"));
+    defaults.push_back(j.at("default"));
+  }
+  ASSERT_EQ(names.size(), 3u);
+  EXPECT_EQ(std::count(names.begin(), names.end(), "window_s"), 2);
+  EXPECT_EQ(std::count(names.begin(), names.end(), "publish_period_s"), 1);
+  EXPECT_EQ(defaults.back(), "30");
+  std::remove(path.c_str());
+  rmdir(dir);
+}
+
+TEST(ParamDoc, NothingRecordedWithoutTheVariable) {
+  if (std::getenv("TOPO_DESCRIBE_PARAMS")) GTEST_SKIP() << "TOPO_DESCRIBE_PARAMS is set in this environment";
+  EXPECT_EQ(param_doc::targetFile(), "");
 }

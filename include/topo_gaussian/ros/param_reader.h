@@ -19,6 +19,12 @@
 //   separated by ';' (or the separators the caller names).
 // The checks themselves take an XmlRpcValue (the param_check functions below), so they are tested
 // without a ROS master (test/unit/ros_param_reader.cpp).
+//
+// Every read also describes the parameter (param_doc below): with the environment variable
+// TOPO_DESCRIBE_PARAMS=FILE set, each distinct description is appended to FILE as one JSON line
+// {node, ns, name, type, default, unit, range, choices, size, example}. docs/nodes.md's parameter
+// tables are rendered from these lines (test/ros/node_interfaces.test), so they list what the nodes
+// actually read. Unset (the normal case), nothing is written.
 #pragma once
 
 #include <ros/node_handle.h>
@@ -65,6 +71,36 @@ std::vector<std::string> texts(const XmlRpc::XmlRpcValue& v, const std::string& 
 std::string typeName(const XmlRpc::XmlRpcValue& v);
 }  // namespace param_check
 
+/// What a read declares about a parameter, for docs/nodes.md (written only with TOPO_DESCRIBE_PARAMS).
+namespace param_doc {
+struct Entry {
+  std::string node;           ///< the reader's node name, e.g. "motion_tracker"
+  std::string ns;             ///< the private namespace it reads, e.g. "/motion_tracker"
+  std::string name;           ///< e.g. "window_s"
+  std::string type;           ///< number | integer | flag | text | numbers | texts
+  std::string default_value;  ///< as a user writes it: 20, true, marker, [0, 1], ['a=1'], "" (empty text)
+  std::string unit;
+  std::string range;  ///< Range::text without the unit, e.g. "(0, inf)"; "" when any finite value goes
+  std::vector<std::string> choices;
+  std::size_t size = 0;  ///< numbers: the entries required (0: any)
+  std::string example;
+};
+/// The entry as one line of JSON (no newline); keys as in Entry, "default" for default_value.
+std::string jsonLine(const Entry& e);
+/// Appends jsonLine(e) + '\n' to `path`, once per process for the same line; thread-safe, one write(2)
+/// per line with O_APPEND (several processes may share the file). Errors are ignored: documentation
+/// never stops a node.
+void append(const std::string& path, const Entry& e);
+/// The value of TOPO_DESCRIBE_PARAMS when the process first asked, or "" (unset: nothing recorded).
+const std::string& targetFile();
+/// Defaults as a user writes them.
+std::string numberDefault(double v);                          ///< 20, 0.02, 50000
+std::string numbersDefault(const std::vector<double>& v);     ///< [0, 1]; [] when empty
+std::string textDefault(const std::string& v);                ///< the text; "" when empty
+std::string textsDefault(const std::vector<std::string>& v);  ///< ['a=1', 'b=2']; [] when empty
+std::string rangeText(const Range& range);                    ///< "" for Range::any()
+}  // namespace param_doc
+
 class ParamReader {
  public:
   /// `node` names the node in log lines (e.g. "motion_tracker").
@@ -93,6 +129,11 @@ class ParamReader {
 
  private:
   bool get(const std::string& name, XmlRpc::XmlRpcValue& v) const;
+  /// Describes the read (param_doc::append) when TOPO_DESCRIBE_PARAMS is set.
+  void describe(const std::string& name, const char* type, const std::string& default_value,
+                const std::string& unit = "", const Range* range = nullptr,
+                const std::vector<std::string>& choices = {}, std::size_t size = 0,
+                const std::string& example = "") const;
   ::ros::NodeHandle pnh_;
   std::string node_;
 };
