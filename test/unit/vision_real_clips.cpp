@@ -5,7 +5,10 @@
 //   a value outside its tolerance must come with confidence < 0.3 (never a confident wrong answer),
 //   so a confidence >= 0.5 means "within the stated tolerance" on every clip;
 // and per case, `expect: answer` also requires every feature within tolerance at confidence >= 0.5,
-// `expect: refusal` every confidence < 0.3, `expect: either` only the rule.
+// `expect: refusal` every confidence < 0.3, `expect: either` only the rule, `expect: within` every feature
+// within tolerance at any confidence. `suggests: marker|silhouette`: the refusal names that method and
+// its options found the object in at least half the sampled frames; `suggested_by: CASE` runs with the
+// options CASE's refusal suggested, before its own.
 // Adversarial clips are made here from the real pendulum clip (its truth carries over): its wall
 // replaced by parquet or brick textures, rotated by 90°, a shaking camera, low light.
 #include <gtest/gtest.h>
@@ -203,6 +206,7 @@ TEST(VisionRealClips, NeverAConfidentWrongAnswer) {
   ASSERT_TRUE(cases && cases.IsSequence());
   std::vector<Row> rows;
   int answered = 0, refused = 0;
+  std::map<std::string, std::string> suggested;  ///< case name -> the options its refusal suggested
   for (const auto& c : cases) {
     const std::string name = c["name"].as<std::string>();
     const YAML::Node clip = YAML::LoadFile(kClipDir + "/" + c["truth"].as<std::string>());
@@ -218,14 +222,29 @@ TEST(VisionRealClips, NeverAConfidentWrongAnswer) {
       video = testing::TempDir() + "/adversarial_" + how + ".avi";
       ASSERT_TRUE(makeAdversarial(shared, how, video)) << name << ": cannot make the " << how << " clip";
     }
-    const std::string args = c["args"] ? c["args"].as<std::string>() : "";
+    std::string args = c["args"] ? c["args"].as<std::string>() : "";
+    if (c["suggested_by"]) {
+      // the options an earlier case's refusal suggested (the default colour found nothing), as a user
+      // would paste them
+      const std::string by = c["suggested_by"].as<std::string>();
+      ASSERT_TRUE(suggested.count(by)) << name << ": case '" << by << "' (earlier in cases.yaml) gave no suggestion";
+      args = suggested.at(by) + " " + args;
+    }
     const topo_test::ToolRun run =
         topo_test::runTopo("track --video " + video + " " + args + " --json", topo_test::Stderr::Discard);
     ASSERT_EQ(run.code, 0) << name << ": topo track " << args << "\n" << run.out;
     const nlohmann::json doc = nlohmann::json::parse(run.out);
     const std::string expect = c["expect"].as<std::string>();
     std::printf("[%s] %s\n", name.c_str(), doc.value("message", "").c_str());
-    bool all_answered = true, all_refused = true;
+    const nlohmann::json& suggestion = doc.at("tracker").value("suggestion", nlohmann::json());
+    if (suggestion.is_object()) suggested[name] = suggestion.at("args").get<std::string>();
+    if (c["suggests"]) {
+      // a refusal of the default colour says what would find the object, and it has tried that
+      ASSERT_TRUE(suggestion.is_object()) << name << ": expected a suggestion\n" << doc.value("message", "");
+      EXPECT_EQ(suggestion.at("method").get<std::string>(), c["suggests"].as<std::string>()) << name;
+      EXPECT_GE(2 * suggestion.at("frames_found").get<int>(), suggestion.at("frames_tried").get<int>()) << name;
+    }
+    bool all_answered = true, all_refused = true, all_within = true;
     const double tol_bounce = c["check"]["bounce_times_s"] && c["check"]["bounce_times_s"].as<std::string>() != "none"
                                   ? c["check"]["bounce_times_s"].as<double>()
                                   : 0.04;
@@ -268,6 +287,7 @@ TEST(VisionRealClips, NeverAConfidentWrongAnswer) {
             std::isfinite(m.values[i]) && std::isfinite(truth_used[i]) && std::abs(m.values[i] - truth_used[i]) <= tol;
       const bool confident = m.confidence >= 0.5, low = m.confidence < 0.3;
       all_answered = all_answered && within && confident;
+      all_within = all_within && within;
       all_refused = all_refused && low;
       // the rule: wrong only with confidence < 0.3
       EXPECT_TRUE(within || low) << name << ": " << feature << " = " << listText(m.values) << " against "
@@ -285,6 +305,9 @@ TEST(VisionRealClips, NeverAConfidentWrongAnswer) {
     } else if (expect == "refusal") {
       EXPECT_TRUE(all_refused) << name << ": expected a refusal (confidence < 0.3)\n" << doc.value("message", "");
       ++refused;
+    } else if (expect == "within") {
+      EXPECT_TRUE(all_within) << name << ": expected every feature within tolerance (any confidence)\n"
+                              << doc.value("message", "");
     } else {
       ASSERT_EQ(expect, "either") << name;
     }

@@ -37,6 +37,7 @@
 #include <vector>
 
 #include "topo_gaussian/vision/bounce_analysis.h"
+#include "topo_gaussian/vision/colour_survey.h"
 #include "topo_gaussian/vision/object_checks.h"
 #include "topo_gaussian/vision/pendulum_path.h"
 #include "topo_gaussian/vision/signal_analysis.h"
@@ -125,6 +126,9 @@ struct TrackResult {
   std::vector<std::vector<cv::Vec3d>> points_on_plane;
   std::map<std::string, double> confidence;  ///< per feature, 0..1
   std::string message;                       ///< for a person: what was found and what limited it
+  /// marker tracking with the default colour, refused: which colour range or method would find what
+  /// moves (vision/colour_survey.h), tried on the clip's frames; `available` false otherwise
+  ColourSuggestion suggestion;
 };
 
 class MotionTracker {
