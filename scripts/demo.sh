@@ -3,7 +3,8 @@
 # default all): launches it with its twin, waits for the tracker to measure the twin, sends the
 # infer_interior goal (infer_client prints feedback lines), writes the outputs, and prints the
 # recovered features next to the twin's ground truth, then the interior against the twin's (solid
-# fraction, mass, centre of mass, inertia, IoU). Exit 0 when every rig's features agree within 2 %.
+# fraction, mass, centre of mass, inertia, IoU). Ends with one verdict line per rig; exit 0 when every
+# rig's features agree within 2 % of the twin's truth.
 #   tumbler: demo.launch (rig_simulator, cloud_ingest filling the twin's scan, motion_tracker,
 #            interior_inference), three experiments: released at 10 and at 25 deg, and hung from a
 #            point on its top 4 cm off its axis;
@@ -42,15 +43,19 @@ run_rig() {
   roslaunch topo_gaussian "$launch" output_dir:="$OUT/runs" >"$log" 2>&1 &
   LAUNCH=$!
   "$BUILD/devel/lib/topo_gaussian/infer_client" _ground_truth_topic:=/rig_simulator/ground_truth \
-      _wait_for_features_s:=120 _timeout_s:=900 "$@"
-  local rc=$?
+      _wait_for_features_s:=120 _timeout_s:=900 "$@" | tee "$OUT/demo_${name}_client.log"
+  local rc=${PIPESTATUS[0]}
   if [ $rc -ne 0 ]; then
     echo "[make demo] ${name}: infer_client exited $rc; last lines of $log:"
     tail -n 20 "$log"
   fi
   cleanup
+  local verdict
+  verdict=$(grep -a "^\[demo\] verdict:" "$OUT/demo_${name}_client.log" | tail -n 1 | sed 's/^\[demo\] verdict: //')
+  VERDICTS+=("[make demo] ${name}: ${verdict:-FAIL: infer_client exited $rc before a verdict}")
   return $rc
 }
+VERDICTS=()
 
 status=0
 if [ "$RIG" = tumbler ] || [ "$RIG" = all ]; then
@@ -64,4 +69,5 @@ if [ "$RIG" = finger ] || [ "$RIG" = all ]; then
   run_rig finger soft_finger_rig.launch _task:=finger _overrides:="youngs_modulus_solid=2e6" || status=$?
 fi
 echo "[make demo] outputs under $OUT/runs"
+for v in "${VERDICTS[@]}"; do echo "$v"; done
 exit $status

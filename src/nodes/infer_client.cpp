@@ -35,6 +35,7 @@
 #include "topo_gaussian/MotionFeatures.h"
 #include "topo_gaussian/RigGroundTruth.h"
 #include "topo_gaussian/ros/ascii_text.h"
+#include "topo_gaussian/inference/truth_comparison.h"
 #include "topo_gaussian/ros/param_reader.h"
 
 namespace {
@@ -49,43 +50,232 @@ typename Msg::ConstPtr waitFor(const std::string& topic, double timeout_s, bool 
   return nullptr;
 }
 
+/// A window the goal can use: an oscillation, a bend the tracker is sure of (confidence >= 0.5 means
+/// within its stated tolerance; a live window that has not yet seen the finger at rest is below it),
+/// or a measured equilibrium.
 bool measured(const topo_gaussian::MotionFeatures& f) {
+  if (f.kind == "finger") return f.bending_confidence >= 0.5;
   return f.oscillation_found || f.bending_confidence > 0 || f.equilibrium_confidence > 0;
 }
 
-/// x y z and solid (≥ 0.5) of an interior cloud.
-void readInterior(const sensor_msgs::PointCloud2& c, std::vector<Eigen::Vector3d>* x, std::vector<bool>* solid) {
+/// x y z and solid (1 where solid ≥ 0.5, else 0) of an interior cloud.
+void readInterior(const sensor_msgs::PointCloud2& c, std::vector<Eigen::Vector3d>* x, std::vector<double>* solid) {
   sensor_msgs::PointCloud2ConstIterator<float> px(c, "x"), ps(c, "solid");
   for (; px != px.end(); ++px, ++ps) {
     x->emplace_back(px[0], px[1], px[2]);
-    solid->push_back(*ps >= 0.5f);
+    solid->push_back(*ps >= 0.5f ? 1.0 : 0.0);
   }
 }
 
-/// IoU of the recovered and the true hollow (cavity) and solid regions, on the recovered particles: each
-/// takes the true label of its nearest true particle.
-void interiorIou(const sensor_msgs::PointCloud2& recovered, const sensor_msgs::PointCloud2& truth, double* iou_cavity,
-                 double* iou_solid) {
-  std::vector<Eigen::Vector3d> xr, xt;
-  std::vector<bool> sr, st;
-  readInterior(recovered, &xr, &sr);
-  readInterior(truth, &xt, &st);
-  double hi = 0, hu = 0, si = 0, su = 0;
-  for (std::size_t i = 0; i < xr.size(); ++i) {
-    std::size_t best = 0;
-    double d = 1e300;
-    for (std::size_t j = 0; j < xt.size(); ++j) {
-      const double e = (xt[j] - xr[i]).squaredNorm();
-      if (e < d) d = e, best = j;
-    }
-    const bool t = !xt.empty() && st[best], r = sr[i];
-    hi += (!t && !r);
-    hu += (!t || !r);
-    si += (t && r);
-    su += (t || r);
+struct Options {
+  topo_gaussian::InferInteriorGoal goal;
+  double wait_s = 120, tolerance = 0.02, timeout_s = 900;
+  std::string truth_topic, weigh_topic, weigh_experiment;
+};
+
+Options readOptions(const ros::NodeHandle& pnh) {
+  Options o;
+  const topo_gaussian::topo_ros::ParamReader r(pnh, "infer_client");
+  using topo_gaussian::topo_ros::Range;
+  o.goal.experiments = r.texts("experiments", {}, "\"rock10=tumbler;rock25=tumbler\"");
+  o.goal.task = r.text("task", o.goal.experiments.empty() ? "tumbler" : "");
+  o.goal.representation = r.text("representation", "");
+  // Lists, or one string with ';' between entries (what `_overrides:="a=1;b=2"` on a command line gives).
+  o.goal.overrides = r.texts("overrides", {}, "\"initial_tilt_deg=8;density_solid=4000\"");
+  o.goal.targets = r.texts("targets", {}, "\"period_s=1.2\"");
+  o.goal.max_iterations = int(r.integer("max_iterations", 0, "", Range::atLeast(0)));
+  o.goal.output_dir = r.text("output_dir", "");
+  o.wait_s = r.number("wait_for_features_s", o.wait_s, "s", Range::atLeast(0.0));
+  o.tolerance = r.number("tolerance", o.tolerance, "", Range::above(0.0));
+  o.timeout_s = r.number("timeout_s", o.timeout_s, "s", Range::above(0.0));
+  o.truth_topic = r.text("ground_truth_topic", "");
+  o.weigh_topic = r.text("weigh_topic", "");
+  o.weigh_experiment = r.text("weigh_experiment", "");
+  return o;
+}
+
+/// The scale reading as the target mass_kg (of ~weigh_experiment). False (logged) when none came.
+bool addWeighing(Options* o) {
+  // The object on a scale (a rig_simulator's scale_kg): rigid motion alone never fixes the mass.
+  const auto w = waitFor<std_msgs::Float64>(o->weigh_topic, 60.0, nullptr);
+  if (!w || !(w->data > 0) || !std::isfinite(w->data)) {
+    ROS_FATAL("infer_client: no positive scale reading on %s within 60 s (~weigh_topic; is the scale publishing?)",
+              o->weigh_topic.c_str());
+    return false;
   }
-  *iou_cavity = hu > 0 ? hi / hu : NAN;
-  *iou_solid = su > 0 ? si / su : NAN;
+  const std::string key = (o->weigh_experiment.empty() ? "" : o->weigh_experiment + ".") + "mass_kg";
+  char text[64];
+  std::snprintf(text, sizeof(text), "%.9g", w->data);
+  o->goal.targets.push_back(key + "=" + text);
+  std::printf("[demo] scale (%s): %s kg, target %s\n", o->weigh_topic.c_str(), text, key.c_str());
+  std::fflush(stdout);
+  return true;
+}
+
+/// A measured window of every experiment (motion_tracker tags them with the `experiment` topic).
+bool waitForExperiments(const Options& o) {
+  std::set<std::string> names;
+  for (const auto& e : o.goal.experiments) names.insert(e.substr(0, e.find('=')));
+  std::printf("[demo] waiting up to %.0f s for measured motion of %zu experiments on motion_features ...\n", o.wait_s,
+              names.size());
+  std::fflush(stdout);
+  std::mutex mutex;
+  std::map<std::string, topo_gaussian::MotionFeatures> seen;
+  ros::NodeHandle nh;
+  ros::Subscriber sub = nh.subscribe<topo_gaussian::MotionFeatures>(
+      "motion_features", 10, [&](const topo_gaussian::MotionFeatures::ConstPtr& f) {
+        // A motion the task analyses as an oscillation needs one; a static pose its equilibrium.
+        const bool oscillates = f->kind == "tilt" || f->kind == "pendulum";
+        if (!(oscillates ? f->oscillation_found : measured(*f)) || !names.count(f->experiment)) return;
+        std::lock_guard<std::mutex> lock(mutex);
+        if (!seen.count(f->experiment))
+          std::printf("[demo] tracker, experiment %s (%s): period %.4f s, max tilt %.3f deg, equilibrium %.3f deg\n",
+                      f->experiment.c_str(), f->kind.c_str(), f->period_s, f->max_tilt_deg, f->equilibrium_deg);
+        std::fflush(stdout);
+        seen[f->experiment] = *f;
+      });
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(o.wait_s);
+  for (;;) {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (seen.size() == names.size()) return true;
+    }
+    if (!ros::ok() || ros::WallTime::now() > end) {
+      ROS_FATAL("infer_client: not every experiment was measured on motion_features within %.0f s (%zu of %zu)",
+                o.wait_s, seen.size(), names.size());
+      return false;
+    }
+    ros::WallDuration(0.2).sleep();
+  }
+}
+
+/// One measured window; the goal carries it, so that a later, partial window (the tracker publishes its
+/// growing window every second) cannot replace it.
+bool waitForFeatures(Options* o) {
+  std::printf("[demo] waiting up to %.0f s for measured motion features on motion_features ...\n", o->wait_s);
+  std::fflush(stdout);
+  const auto f = waitFor<topo_gaussian::MotionFeatures>("motion_features", o->wait_s, &measured);
+  if (!f) {
+    ROS_FATAL("infer_client: no measured motion on motion_features within %.0f s (is motion_tracker seeing the camera?)",
+              o->wait_s);
+    return false;
+  }
+  std::printf("[demo] tracker (%s, %s): period %.4f s, max tilt %.3f deg, bend %.3f deg (confidence %.2f)\n",
+              f->source.c_str(), f->kind.c_str(), f->period_s, f->max_tilt_deg, f->bending_angle_deg,
+              f->bending_confidence);
+  if (o->goal.features.kind.empty()) o->goal.features = *f;
+  return true;
+}
+
+/// Sends the goal, prints its feedback; the result, or null (logged) when it did not succeed.
+topo_gaussian::InferInteriorResultConstPtr runGoal(const Options& o) {
+  actionlib::SimpleActionClient<topo_gaussian::InferInteriorAction> client("infer_interior", false);
+  if (!client.waitForServer(ros::Duration(60.0))) {
+    ROS_FATAL("infer_client: no infer_interior action server within 60 s (is interior_inference running?)");
+    return nullptr;
+  }
+  std::string list;
+  for (const auto& e : o.goal.experiments) list += (list.empty() ? "" : ", ") + e;
+  std::printf("[demo] goal: task %s%s%s\n", o.goal.task.c_str(), list.empty() ? "" : ", experiments ", list.c_str());
+  std::fflush(stdout);
+  client.sendGoal(o.goal, {}, {}, [](const topo_gaussian::InferInteriorFeedbackConstPtr& fb) {
+    std::printf("[demo] iteration %3d  loss %.4e  best %.4e  |grad| %.3e  %.1f s", fb->iteration, fb->loss,
+                fb->best_loss, fb->gradient_norm, fb->elapsed_s);
+    for (std::size_t k = 0; k < fb->feature_names.size() && k < 2; ++k)
+      std::printf("  %s %.5g", fb->feature_names[k].c_str(), fb->feature_values[k]);
+    std::printf("\n");
+    std::fflush(stdout);
+  });
+  if (!client.waitForResult(ros::Duration(o.timeout_s))) {
+    client.cancelGoal();
+    ROS_FATAL("infer_client: no result within %.0f s; goal cancelled", o.timeout_s);
+    return nullptr;
+  }
+  const auto state = client.getState();
+  const auto res = client.getResult();
+  std::printf("[demo] %s: %s\n", state.toString().c_str(), res->message.c_str());
+  if (state != actionlib::SimpleClientGoalState::SUCCEEDED) return nullptr;
+  for (const auto& f : res->files) std::printf("[demo] wrote %s\n", f.c_str());
+  return res;
+}
+
+/// The recovered features next to the truth; the worst relative error (0 when nothing was compared) and
+/// the features outside the tolerance.
+double printFeatures(const topo_gaussian::InferInteriorResult& res, const topo_gaussian::RigGroundTruth* truth,
+                     double object_size_m, double tolerance, std::vector<std::string>* outside) {
+  namespace inference = topo_gaussian::inference;
+  double worst = 0.0;
+  std::printf("[demo] %-22s %12s %12s %12s\n", "feature", "recovered", "target", "twin truth");
+  for (std::size_t k = 0; k < res.feature_names.size(); ++k) {
+    const std::string& name = res.feature_names[k];
+    double t = NAN;
+    if (truth)
+      for (std::size_t j = 0; j < truth->feature_names.size(); ++j)
+        if (truth->feature_names[j] == name) t = truth->feature_values[j];
+    std::printf("[demo] %-22s %12.5g %12.5g %12.5g", name.c_str(), res.achieved[k], res.target[k], t);
+    if (std::isfinite(t) && std::isfinite(res.target[k])) {
+      const inference::FeatureComparison c = inference::compareFeature(name, res.achieved[k], t, object_size_m, tolerance);
+      std::printf("   %+.2f %%%s%s", 100 * c.relative_error, c.of_the_scale ? " (of the scale)" : "",
+                  c.within ? "" : "  (outside tolerance)");
+      worst = std::max(worst, std::abs(c.relative_error));
+      if (!c.within) outside->push_back(name);
+    }
+    std::printf("\n");
+  }
+  return worst;
+}
+
+/// The interior itself against the twin's: several interiors may give the same motion (reported, not judged).
+void printInterior(const topo_gaussian::InferInteriorResult& res, const topo_gaussian::RigGroundTruth& truth,
+                   double object_size_m) {
+  if (truth.center_of_mass.size() != 3 || res.center_of_mass.size() != 3 || truth.inertia.size() != 9 ||
+      res.inertia.size() != 9)
+    return;
+  std::printf("[demo] %-22s %12s %12s %9s\n", "interior", "recovered", "twin truth", "error");
+  auto row = [](const char* name, double got, double want, double scale) {
+    std::printf("[demo] %-22s %12.5g %12.5g %+8.2f %%\n", name, got, want, 100 * (got - want) / scale);
+  };
+  row("solid fraction", res.solid_fraction, truth.solid_fraction, truth.solid_fraction);
+  row("mass [kg]", res.mass_kg, truth.mass_kg, truth.mass_kg);
+  const char* c[3] = {"centre of mass x [m]", "centre of mass y [m]", "centre of mass z [m]"};
+  // The centre of mass relative to the object's size (its extent in the true interior cloud).
+  const double size = std::isfinite(object_size_m) ? object_size_m : 1.0;
+  for (int a = 0; a < 3; ++a) row(c[a], res.center_of_mass[a], truth.center_of_mass[a], size);
+  const char* I[3] = {"inertia xx [kg m^2]", "inertia yy [kg m^2]", "inertia zz [kg m^2]"};
+  for (int a = 0; a < 3; ++a) row(I[a], res.inertia[4 * a], truth.inertia[4 * a], truth.inertia[4 * a]);
+  std::vector<Eigen::Vector3d> xr, xt;
+  std::vector<double> sr, st;
+  readInterior(res.interior, &xr, &sr);
+  readInterior(truth.interior, &xt, &st);
+  if (!xr.empty() && !xt.empty()) {
+    const auto iou = topo_gaussian::inference::interiorIou(xr, sr, {}, xt, st);
+    std::printf("[demo] IoU of the cavity %.3f, of the solid %.3f (recovered particles against the twin's interior)\n",
+                iou.cavity, iou.solid);
+  }
+  std::printf("[demo] (centre of mass errors relative to the object's size %.4g m)\n", size);
+}
+
+/// How sure, and what the experiments determine.
+void printCertainty(const topo_gaussian::InferInteriorResult& res) {
+  // the share of particles whose label the designs that fit (spread, region analysis) disagree on
+  bool has = false;
+  for (const auto& f : res.interior.fields) has = has || f.name == "confidence";
+  if (has && res.interior.width * res.interior.height > 0) {
+    sensor_msgs::PointCloud2ConstIterator<float> c(res.interior, "confidence");
+    std::size_t n = 0, unsure = 0;
+    for (; c != c.end(); ++c, ++n) unsure += *c < 0.999f;
+    std::printf("[demo] %.1f %% of the particles are uncertain (designs that fit the observations disagree on them)\n",
+                100.0 * double(unsure) / double(std::max<std::size_t>(n, 1)));
+  }
+  if (!res.identifiability.empty()) {
+    std::string det, fr;
+    for (const auto& m : res.determined_moments) det += (det.empty() ? "" : " ") + m;
+    for (const auto& m : res.free_moments) fr += (fr.empty() ? "" : " ") + m;
+    std::printf("[demo] determined by the experiments: %s; free: %s\n", det.empty() ? "none" : det.c_str(),
+                fr.empty() ? "none" : fr.c_str());
+    std::printf("[demo] %s\n", res.identifiability.c_str());
+    if (!res.next_experiment.empty()) std::printf("[demo] next: %s\n", res.next_experiment.c_str());
+  }
 }
 
 }  // namespace
@@ -93,26 +283,9 @@ void interiorIou(const sensor_msgs::PointCloud2& recovered, const sensor_msgs::P
 int main(int argc, char** argv) {
   ros::init(argc, argv, "infer_client");
   ros::NodeHandle pnh("~");
-  topo_gaussian::InferInteriorGoal goal;
-  double wait_s = 120, tolerance = 0.02, timeout_s = 900;
-  std::string truth_topic, weigh_topic, weigh_experiment;
+  Options o;
   try {
-    const topo_gaussian::topo_ros::ParamReader r(pnh, "infer_client");
-    using topo_gaussian::topo_ros::Range;
-    goal.experiments = r.texts("experiments", {}, "\"rock10=tumbler;rock25=tumbler\"");
-    goal.task = r.text("task", goal.experiments.empty() ? "tumbler" : "");
-    goal.representation = r.text("representation", "");
-    // Lists, or one string with ';' between entries (what `_overrides:="a=1;b=2"` on a command line gives).
-    goal.overrides = r.texts("overrides", {}, "\"initial_tilt_deg=8;density_solid=4000\"");
-    goal.targets = r.texts("targets", {}, "\"period_s=1.2\"");
-    goal.max_iterations = int(r.integer("max_iterations", 0, "", Range::atLeast(0)));
-    goal.output_dir = r.text("output_dir", "");
-    wait_s = r.number("wait_for_features_s", wait_s, "s", Range::atLeast(0.0));
-    tolerance = r.number("tolerance", tolerance, "", Range::above(0.0));
-    timeout_s = r.number("timeout_s", timeout_s, "s", Range::above(0.0));
-    truth_topic = r.text("ground_truth_topic", "");
-    weigh_topic = r.text("weigh_topic", "");
-    weigh_experiment = r.text("weigh_experiment", "");
+    o = readOptions(pnh);
   } catch (const std::exception& e) {
     ROS_FATAL("infer_client: %s", topo_gaussian::topo_ros::asciiText(e.what()).c_str());
     return 1;
@@ -121,187 +294,49 @@ int main(int argc, char** argv) {
   spinner.start();
 
   topo_gaussian::RigGroundTruth::ConstPtr truth;
-  if (!truth_topic.empty()) {
-    truth = waitFor<topo_gaussian::RigGroundTruth>(truth_topic, 60.0, nullptr);
+  if (!o.truth_topic.empty()) {
+    truth = waitFor<topo_gaussian::RigGroundTruth>(o.truth_topic, 60.0, nullptr);
     if (!truth) {
-      ROS_FATAL("infer_client: no ground truth on %s within 60 s (is rig_simulator running?)", truth_topic.c_str());
+      ROS_FATAL("infer_client: no ground truth on %s within 60 s (is rig_simulator running?)", o.truth_topic.c_str());
       return 1;
     }
   }
-  if (!weigh_topic.empty()) {
-    // The object on a scale (a rig_simulator's scale_kg): rigid motion alone never fixes the mass.
-    const auto w = waitFor<std_msgs::Float64>(weigh_topic, 60.0, nullptr);
-    if (!w || !(w->data > 0) || !std::isfinite(w->data)) {
-      ROS_FATAL("infer_client: no positive scale reading on %s within 60 s (~weigh_topic; is the scale publishing?)",
-                weigh_topic.c_str());
-      return 1;
-    }
-    const std::string key = (weigh_experiment.empty() ? "" : weigh_experiment + ".") + "mass_kg";
-    char text[64];
-    std::snprintf(text, sizeof(text), "%.9g", w->data);
-    goal.targets.push_back(key + "=" + text);
-    std::printf("[demo] scale (%s): %s kg, target %s\n", weigh_topic.c_str(), text, key.c_str());
-    std::fflush(stdout);
-  }
-  if (wait_s > 0 && !goal.experiments.empty()) {
-    // A measured window of every experiment (motion_tracker tags them with the `experiment` topic).
-    std::set<std::string> names;
-    for (const auto& e : goal.experiments) names.insert(e.substr(0, e.find('=')));
-    std::printf("[demo] waiting up to %.0f s for measured motion of %zu experiments on motion_features ...\n", wait_s,
-                names.size());
-    std::fflush(stdout);
-    std::mutex mutex;
-    std::map<std::string, topo_gaussian::MotionFeatures> seen;
-    ros::NodeHandle nh;
-    ros::Subscriber sub = nh.subscribe<topo_gaussian::MotionFeatures>(
-        "motion_features", 10, [&](const topo_gaussian::MotionFeatures::ConstPtr& f) {
-          // A motion the task analyses as an oscillation needs one; a static pose its equilibrium.
-          const bool oscillates = f->kind == "tilt" || f->kind == "pendulum";
-          if (!(oscillates ? f->oscillation_found : measured(*f)) || !names.count(f->experiment)) return;
-          std::lock_guard<std::mutex> lock(mutex);
-          if (!seen.count(f->experiment))
-            std::printf("[demo] tracker, experiment %s (%s): period %.4f s, max tilt %.3f deg, equilibrium %.3f deg\n",
-                        f->experiment.c_str(), f->kind.c_str(), f->period_s, f->max_tilt_deg, f->equilibrium_deg);
-          std::fflush(stdout);
-          seen[f->experiment] = *f;
-        });
-    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(wait_s);
-    for (;;) {
-      {
-        std::lock_guard<std::mutex> lock(mutex);
-        if (seen.size() == names.size()) break;
-      }
-      if (!ros::ok() || ros::WallTime::now() > end) {
-        ROS_FATAL("infer_client: not every experiment was measured on motion_features within %.0f s (%zu of %zu)",
-                  wait_s, seen.size(), names.size());
-        return 1;
-      }
-      ros::WallDuration(0.2).sleep();
-    }
-  } else if (wait_s > 0) {
-    std::printf("[demo] waiting up to %.0f s for measured motion features on motion_features ...\n", wait_s);
-    std::fflush(stdout);
-    const auto f = waitFor<topo_gaussian::MotionFeatures>("motion_features", wait_s, &measured);
-    if (!f) {
-      ROS_FATAL(
-          "infer_client: no measured motion on motion_features within %.0f s (is motion_tracker seeing the camera?)",
-          wait_s);
-      return 1;
-    }
-    std::printf("[demo] tracker (%s, %s): period %.4f s, max tilt %.3f deg, bend %.3f deg\n", f->source.c_str(),
-                f->kind.c_str(), f->period_s, f->max_tilt_deg, f->bending_angle_deg);
-    // the goal carries the very window it waited for: a later, partial window (the tracker publishes
-    // its growing window every second) may not hold the motion yet
-    if (goal.features.kind.empty()) goal.features = *f;
-  }
-  actionlib::SimpleActionClient<topo_gaussian::InferInteriorAction> client("infer_interior", false);
-  if (!client.waitForServer(ros::Duration(60.0))) {
-    ROS_FATAL("infer_client: no infer_interior action server within 60 s (is interior_inference running?)");
+  if (!o.weigh_topic.empty() && !addWeighing(&o)) return 1;
+  if (o.wait_s > 0 && !(o.goal.experiments.empty() ? waitForFeatures(&o) : waitForExperiments(o))) return 1;
+  const auto res = runGoal(o);
+  if (!res) {
+    std::printf("[demo] verdict: FAIL (no result)\n");
     return 1;
   }
-  std::string list;
-  for (const auto& e : goal.experiments) list += (list.empty() ? "" : ", ") + e;
-  std::printf("[demo] goal: task %s%s%s\n", goal.task.c_str(), list.empty() ? "" : ", experiments ", list.c_str());
-  std::fflush(stdout);
-  client.sendGoal(goal, {}, {}, [](const topo_gaussian::InferInteriorFeedbackConstPtr& fb) {
-    std::printf("[demo] iteration %3d  loss %.4e  best %.4e  |grad| %.3e  %.1f s", fb->iteration, fb->loss,
-                fb->best_loss, fb->gradient_norm, fb->elapsed_s);
-    for (std::size_t k = 0; k < fb->feature_names.size() && k < 2; ++k)
-      std::printf("  %s %.5g", fb->feature_names[k].c_str(), fb->feature_values[k]);
-    std::printf("\n");
-    std::fflush(stdout);
-  });
-  if (!client.waitForResult(ros::Duration(timeout_s))) {
-    client.cancelGoal();
-    ROS_FATAL("infer_client: no result within %.0f s; goal cancelled", timeout_s);
-    return 1;
-  }
-  const auto state = client.getState();
-  const auto res = client.getResult();
-  std::printf("[demo] %s: %s\n", state.toString().c_str(), res->message.c_str());
-  if (state != actionlib::SimpleClientGoalState::SUCCEEDED) return 1;
-  for (const auto& f : res->files) std::printf("[demo] wrote %s\n", f.c_str());
-  int status = 0;
   // A feature near zero (a rest tilt, a centre-of-mass offset) is judged on its natural scale, not its
   // own size: angles on 10 deg, lengths on the object's size (the twin's true interior's extent).
   double object_size_m = NAN;
   if (truth) {
     std::vector<Eigen::Vector3d> xt;
-    std::vector<bool> st;
+    std::vector<double> st;
     readInterior(truth->interior, &xt, &st);
-    Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
-    for (const auto& x : xt) lo = lo.cwiseMin(x), hi = hi.cwiseMax(x);
-    if (!xt.empty()) object_size_m = (hi - lo).norm();
+    object_size_m = topo_gaussian::inference::objectSizeM(xt);
   }
-  auto endsWith = [](const std::string& s, const std::string& e) {
-    return s.size() >= e.size() && s.compare(s.size() - e.size(), e.size(), e) == 0;
-  };
-  std::printf("[demo] %-22s %12s %12s %12s\n", "feature", "recovered", "target", "twin truth");
-  for (std::size_t k = 0; k < res->feature_names.size(); ++k) {
-    const std::string& name = res->feature_names[k];
-    double t = NAN;
-    if (truth)
-      for (std::size_t j = 0; j < truth->feature_names.size(); ++j)
-        if (truth->feature_names[j] == name) t = truth->feature_values[j];
-    std::printf("[demo] %-22s %12.5g %12.5g %12.5g", name.c_str(), res->achieved[k], res->target[k], t);
-    if (std::isfinite(t) && std::isfinite(res->target[k])) {
-      double floor = 1e-12;
-      if (endsWith(name, "_deg")) floor = 10.0;
-      if (endsWith(name, "_m") && std::isfinite(object_size_m)) floor = object_size_m;
-      const double scale = std::max(std::abs(t), floor);
-      const double rel = std::abs(res->achieved[k] - t) / scale;
-      std::printf("   %+.2f %%%s%s", 100 * (res->achieved[k] - t) / scale, scale > std::abs(t) ? " (of the scale)" : "",
-                  rel <= tolerance ? "" : "  (outside tolerance)");
-      if (rel > tolerance) status = 3;
-    }
-    std::printf("\n");
-  }
+  std::vector<std::string> outside;
+  const double worst = printFeatures(*res, truth.get(), object_size_m, o.tolerance, &outside);
   std::printf("[demo] solid fraction %.3f (twin %.3f), %d evaluations\n", res->solid_fraction,
               truth ? truth->solid_fraction : NAN, res->iterations);
   for (std::size_t k = 0; k < res->experiment_names.size(); ++k)
     std::printf("[demo] experiment %-12s loss %.3e (weight %g)\n", res->experiment_names[k].c_str(),
                 res->experiment_losses[k], k < res->experiment_weights.size() ? res->experiment_weights[k] : 1.0);
-  if (truth && truth->center_of_mass.size() == 3 && res->center_of_mass.size() == 3 && truth->inertia.size() == 9 &&
-      res->inertia.size() == 9) {
-    // The interior itself against the twin's: several interiors may give the same motion.
-    std::printf("[demo] %-22s %12s %12s %9s\n", "interior", "recovered", "twin truth", "error");
-    auto row = [](const char* name, double got, double want, double scale) {
-      std::printf("[demo] %-22s %12.5g %12.5g %+8.2f %%\n", name, got, want, 100 * (got - want) / scale);
-    };
-    row("solid fraction", res->solid_fraction, truth->solid_fraction, truth->solid_fraction);
-    row("mass [kg]", res->mass_kg, truth->mass_kg, truth->mass_kg);
-    const char* c[3] = {"centre of mass x [m]", "centre of mass y [m]", "centre of mass z [m]"};
-    // The centre of mass relative to the object's size (its extent in the true interior cloud).
-    const double size = std::isfinite(object_size_m) ? object_size_m : 1.0;
-    for (int a = 0; a < 3; ++a) row(c[a], res->center_of_mass[a], truth->center_of_mass[a], size);
-    const char* I[3] = {"inertia xx [kg m^2]", "inertia yy [kg m^2]", "inertia zz [kg m^2]"};
-    for (int a = 0; a < 3; ++a) row(I[a], res->inertia[4 * a], truth->inertia[4 * a], truth->inertia[4 * a]);
-    double iou_cavity = NAN, iou_solid = NAN;
-    interiorIou(res->interior, truth->interior, &iou_cavity, &iou_solid);
-    std::printf("[demo] IoU of the cavity %.3f, of the solid %.3f (recovered particles against the twin's interior)\n",
-                iou_cavity, iou_solid);
-    std::printf("[demo] (centre of mass errors relative to the object's size %.4g m)\n", size);
+  if (truth) printInterior(*res, *truth, object_size_m);
+  printCertainty(*res);
+  if (!truth) {
+    std::printf("[demo] verdict: DONE (no ground truth to judge against)\n");
+    return 0;
   }
-  {  // how sure: the share of particles whose label the designs that fit (spread, region analysis) disagree on
-    bool has = false;
-    for (const auto& f : res->interior.fields) has = has || f.name == "confidence";
-    if (has && res->interior.width * res->interior.height > 0) {
-      sensor_msgs::PointCloud2ConstIterator<float> c(res->interior, "confidence");
-      std::size_t n = 0, unsure = 0;
-      for (; c != c.end(); ++c, ++n) unsure += *c < 0.999f;
-      std::printf(
-          "[demo] %.1f %% of the particles are uncertain (designs that fit the observations disagree on them)\n",
-          100.0 * double(unsure) / double(std::max<std::size_t>(n, 1)));
-    }
-  }
-  if (!res->identifiability.empty()) {
-    std::string det, fr;
-    for (const auto& m : res->determined_moments) det += (det.empty() ? "" : " ") + m;
-    for (const auto& m : res->free_moments) fr += (fr.empty() ? "" : " ") + m;
-    std::printf("[demo] determined by the experiments: %s; free: %s\n", det.empty() ? "none" : det.c_str(),
-                fr.empty() ? "none" : fr.c_str());
-    std::printf("[demo] %s\n", res->identifiability.c_str());
-    if (!res->next_experiment.empty()) std::printf("[demo] next: %s\n", res->next_experiment.c_str());
-  }
-  return status;
+  std::string names;
+  for (const auto& n : outside) names += (names.empty() ? "" : ", ") + n;
+  if (outside.empty())
+    std::printf("[demo] verdict: PASS: every feature within %.3g %% of the twin's truth (worst %.2f %%)\n",
+                100 * o.tolerance, 100 * worst);
+  else
+    std::printf("[demo] verdict: FAIL: %s outside %.3g %% of the twin's truth (worst %.2f %%)\n", names.c_str(),
+                100 * o.tolerance, 100 * worst);
+  return outside.empty() ? 0 : 3;
 }
