@@ -20,7 +20,7 @@
 // --capped -1|0|1: the evaluation kernel with its registers capped by the grid's size (the default), never,
 // or always (SoftBodyCuda::setCappedEvaluation). --warp -1|0|1: float32's evaluation finished one thread a particle
 // by the grid's size (the default), never, or always (SoftBodyCuda::setWarpEvaluation).
-// Usage: bench_gpu_soft [--quick] [--lanes L] [--capped M] [--warp M] [CASE_SUBSTRING]    (bench/README.md: building on
+// Usage: bench_gpu_soft [--quick] [--lanes L] [--capped M] [--warp M] [CASE_SUBSTRING]    (bench/gpu/README.md: building on
 // a GPU machine)
 #include <algorithm>
 #include <chrono>

@@ -36,7 +36,7 @@ const char* kInferHelp =
     "\n"
     "  --task TASK            hanging | balance | stand | tumbler | qiqi | ball, or a task YAML file\n"
     "                         (names resolve to config/tasks/TASK.yaml when it exists; $TOPO_TASK_DIR), or\n"
-    "                         a file of several experiments of one object (`experiments:` list, see README)\n"
+    "                         a file of several experiments of one object (`experiments:` list, see docs/inference.md)\n"
     "  --experiment [NAME=]FILE  one more experiment of the same object (repeatable): a task YAML file\n"
     "                         or name; NAME defaults to the file's stem. One interior fits all of them\n"
     "                         (joint loss); a target of one experiment is --target NAME.TARGET=VALUE\n"

@@ -1,6 +1,6 @@
 // `topo tasks`: the registered inference tasks with their summaries; `--markdown` prints the
 // parameter tables (common parameters, then each task's own) generated from the declarations
-// (inference/task_registry.h), the text of README.md's "Task parameters" block.
+// (inference/task_registry.h), the text of docs/tasks.md's generated block.
 #include <algorithm>
 #include <iomanip>
 #include <iostream>
@@ -21,7 +21,7 @@ const char* kTasksHelp =
     "\n"
     "Lists the inference tasks (`topo infer --task NAME`) with a one-line summary.\n"
     "  --markdown   print every task's parameters as markdown tables (parameter, unit, default, range,\n"
-    "               paper value, documentation); README.md's \"Task parameters\" block is this output\n";
+    "               paper value, documentation); docs/tasks.md's generated block is this output\n";
 
 std::string numberText(double v) {
   std::ostringstream os;

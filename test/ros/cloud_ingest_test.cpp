@@ -425,7 +425,7 @@ TEST(CloudIngest, SurfaceCloudTopicFillsSphere) {
   ASSERT_NO_THROW(c.validate("/volume"));
   const double exact = 4.0 / 3.0 * kPi * r * r * r;
   // Point clouds are filled by splats whose shell reaches ~one splat radius past the surface
-  // (README, "The density method"): the volume may exceed the sphere's by up to ~18 % (5000 points: +15.4 %), never
+  // (docs/physics.md, the density method): the volume may exceed the sphere's by up to ~18 % (5000 points: +15.4 %), never
   // fall short.
   EXPECT_GT(c.totalVolume(), 0.99 * exact);
   EXPECT_LT(c.totalVolume(), 1.18 * exact);
@@ -539,7 +539,7 @@ TEST(CloudIngestFaults, ServiceAnswersWithinASecondWhileALargeTopicFillRuns) {
   EXPECT_FALSE(from_fifo.response.success);
   EXPECT_NE(from_fifo.response.message.find("FIFO"), std::string::npos) << from_fifo.response.message;
   EXPECT_LT(fifo_s, 1.0);
-  // The large fill still completes and is published (what it costs: the README's reliability table;
+  // The large fill still completes and is published (what it costs: docs/limits.md's reliability table;
   // the density splatting, the cleaning's k-d tree and the binned signed distance take most of it).
   const auto big = g_volumes->waitBeyond(before, 300.0);
   ASSERT_TRUE(big) << "the large topic fill never published";

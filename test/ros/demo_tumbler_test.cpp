@@ -9,7 +9,7 @@
 //    ~export writes a watertight STL whose volume matches the solid particles' within 4 %;
 //  - a goal cancelled after its first feedback is PREEMPTED with the best design so far and its files,
 //    and so is a running goal when a new one arrives (which then succeeds);
-//  - the README's `rosservice call /interior_inference/infer ...` works from a shell.
+//  - docs/nodes.md's `rosservice call /interior_inference/infer ...` works from a shell.
 #include <actionlib/client/simple_action_client.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
@@ -248,7 +248,7 @@ TEST(DemoTumbler, ANewGoalPreemptsTheRunningOne) {
 }
 
 TEST(DemoTumbler, InferServiceFromAShell) {
-  // The command as the README gives it.
+  // The command as docs/nodes.md gives it.
   const std::string cmd =
       "rosservice call /interior_inference/infer \"{task: tumbler, overrides: ['contact_damping_ratio=0', "
       "'measured_cycles=1'], "

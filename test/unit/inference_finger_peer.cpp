@@ -248,13 +248,13 @@ TEST(FingerPeer, WarnsOfTheMeasuredBiasWithTheWallResolution) {
 // The convergence curve (converging with refinement): both chamber models at 2, 3, 4 and 5 particles through the 5 mm wall, each against CalculiX
 // with its segments on that lattice (2.5 mm C3D10 cells: the peer itself is converged to ~3 %, see
 // the file header). Ours at 1 mm is 40 000 particles and the whole curve takes ~10 min on 2 cores,
-// so the test runs only with TOPO_SLOW_PEERS=1 (the curve is in the README's accuracy table and the
+// so the test runs only with TOPO_SLOW_PEERS=1 (the curve is in docs/accuracy.md and the
 // file header). It asserts what the numbers show: the error shrinks with every refinement, and at 5
 // particles through the wall both chamber models are within the 5 % goal (−4.9 %, −3.4 %).
 TEST(FingerPeer, BendAngleConvergesWithRefinement) {
   REQUIRE_CALCULIX();
   if (!std::getenv("TOPO_SLOW_PEERS"))
-    GTEST_SKIP() << "about 10 minutes on 2 cores: set TOPO_SLOW_PEERS=1 to run (the measured curve is in the README)";
+    GTEST_SKIP() << "about 10 minutes on 2 cores: set TOPO_SLOW_PEERS=1 to run (the measured curve is in docs/accuracy.md)";
   const Finger f;
   double last[2] = {INFINITY, INFINITY};  // soft-solid, void
   for (const double h : {0.0025, 0.0025 / 1.5, 0.00125, 0.001}) {

@@ -388,7 +388,7 @@ TEST(RigTwin, TumblerShapeRocksAtTheExactPeriod) {
 // differences in where the sampled skin meets the ground move the period by tenths of a percent, and
 // the error wanders with the release tilt. The penalty sum over the ~35 samples under the doll moves
 // its resting height by bumps ∝ the sample spacing: hence topo fill's d / 400 on a mesh and the twin's
-// exact-surface samples (README, "accuracy on the user path").
+// exact-surface samples (docs/accuracy.md).
 TEST(RigTwin, TumblerPeriodOverReleaseTilts) {
   const DefaultShape shape = defaultShape("tumbler");
   const double R = 0.05, c = shape.hi.z();

@@ -8,7 +8,7 @@
 // 3D Gaussians and as a noisy point cloud.
 //
 // Each case prints one line "[user-path] <case> | ours ... | reference ... | error ... %" for the
-// README's "accuracy on the user path" table.
+// docs/accuracy.md's user-path table.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>

@@ -582,7 +582,7 @@ TEST(Inference, BalanceAndStandReachTheirTargets) {
 // the spin shows) must follow the ground truth's. With μ = 0.2 the contact slides through the bounce
 // and the trajectory is recovered exactly; with more friction the contact switches between sticking
 // and sliding, the loss gets rough in the design and L-BFGS stops earlier (measured: μ = 0.5 → 23x
-// lower error; μ = 1.0 → 3.2x; README, Limits).
+// lower error; μ = 1.0 → 3.2x; docs/limits.md).
 double ballRecovery(double mu, double* solid_rms) {
   const double R = 0.05;
   const VolumeCloud cloud = topo_test::latticeCloud([&](const Eigen::Vector3d& x) { return x.norm() <= R; },
