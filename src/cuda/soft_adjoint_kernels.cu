@@ -53,36 +53,6 @@ __global__ void symplecticKickDriftKernel(SoftDeviceBody<T> b, T* x_out, T* v_ou
   if (!finite) encodeFirst<T>(&b.status[1], 0, i);  // the host checks after every step and names it
 }
 
-/// P(F) of a model for given (μ, λ) (piolaAndEnergy's P).
-template <class T>
-__device__ Mat3<T> firstPiola(bool stvk, const Mat3<T>& F, T mu, T la) {
-  Mat3<T> eps;
-  if (stvk) {
-    eps = mulTn(F, F);
-#pragma unroll
-    for (int k = 0; k < 9; ++k) eps.a[k] *= T(0.5);
-    eps(0, 0) -= T(0.5);
-    eps(1, 1) -= T(0.5);
-    eps(2, 2) -= T(0.5);
-  } else {
-#pragma unroll
-    for (int c = 0; c < 3; ++c)
-#pragma unroll
-      for (int r = 0; r < 3; ++r) eps(r, c) = T(0.5) * (F(r, c) + F(c, r));
-    eps(0, 0) -= T(1);
-    eps(1, 1) -= T(1);
-    eps(2, 2) -= T(1);
-  }
-  const T tr = eps(0, 0) + eps(1, 1) + eps(2, 2);
-  Mat3<T> S;
-#pragma unroll
-  for (int k = 0; k < 9; ++k) S.a[k] = T(2) * mu * eps.a[k];
-  S(0, 0) += la * tr;
-  S(1, 1) += la * tr;
-  S(2, 2) += la * tr;
-  return stvk ? mul(F, S) : S;
-}
-
 /// corotated_sph.cpp's piolaDifferential: d P̂(F̃)[dF̃], P̂(F̃) = ∂ψ(R(F̃)ᵀF̃)/∂F̃.
 template <class T>
 __device__ Mat3<T> piolaDifferential(bool stvk, bool exact_rotation, const Mat3<T>& Ft, const Mat3<T>& R,

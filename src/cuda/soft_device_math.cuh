@@ -79,6 +79,38 @@ __device__ inline T det3(const Mat3<T>& X) {
          X(0, 2) * (X(1, 0) * X(2, 1) - X(1, 1) * X(2, 0));
 }
 
+/// First Piola–Kirchhoff stress P(F) = ∂ψ/∂F for (μ, λ) (corotated_sph.cpp, piolaAndEnergy's P):
+/// StVK P = F S(E), E = ½(FᵀF − I); corotated linear P = S(ε), ε = sym(F) − I; S(e) = 2μ e + λ tr(e) I.
+/// The forward step and the adjoint both use it.
+template <class T>
+__device__ __forceinline__ Mat3<T> firstPiola(bool stvk, const Mat3<T>& F, T mu, T la) {
+  Mat3<T> eps;
+  if (stvk) {
+    eps = mulTn(F, F);
+#pragma unroll
+    for (int k = 0; k < 9; ++k) eps.a[k] *= T(0.5);
+    eps(0, 0) -= T(0.5);
+    eps(1, 1) -= T(0.5);
+    eps(2, 2) -= T(0.5);
+  } else {
+#pragma unroll
+    for (int c = 0; c < 3; ++c)
+#pragma unroll
+      for (int r = 0; r < 3; ++r) eps(r, c) = T(0.5) * (F(r, c) + F(c, r));
+    eps(0, 0) -= T(1);
+    eps(1, 1) -= T(1);
+    eps(2, 2) -= T(1);
+  }
+  const T tr = eps(0, 0) + eps(1, 1) + eps(2, 2);
+  Mat3<T> S;
+#pragma unroll
+  for (int k = 0; k < 9; ++k) S.a[k] = T(2) * mu * eps.a[k];
+  S(0, 0) += la * tr;
+  S(1, 1) += la * tr;
+  S(2, 2) += la * tr;
+  return stvk ? mul(F, S) : S;
+}
+
 /// Newton-iteration thresholds: float64 as the CPU (corotated_sph.cpp, PolarNewton); float32 stops
 /// at its own round-off.
 template <class T>

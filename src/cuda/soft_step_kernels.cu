@@ -243,31 +243,7 @@ __device__ __forceinline__ void evaluationEpilogue(const SoftDeviceBody<T>& b, i
   if (!(det3(F) > T(0))) encodeFirst<T>(&b.status[0], *b.step, i);
   // P = ∂ψ/∂F (piolaAndEnergy).
   const T mu = early ? own.mu : b.mu[i], la = early ? own.la : b.lambda[i];
-  Mat3<T> eps;
-  if (b.stvk) {
-    eps = mulTn(F, F);
-#pragma unroll
-    for (int k = 0; k < 9; ++k) eps.a[k] *= T(0.5);
-    eps(0, 0) -= T(0.5);
-    eps(1, 1) -= T(0.5);
-    eps(2, 2) -= T(0.5);
-  } else {
-#pragma unroll
-    for (int c = 0; c < 3; ++c)
-#pragma unroll
-      for (int r = 0; r < 3; ++r) eps(r, c) = T(0.5) * (F(r, c) + F(c, r));
-    eps(0, 0) -= T(1);
-    eps(1, 1) -= T(1);
-    eps(2, 2) -= T(1);
-  }
-  const T tr = eps(0, 0) + eps(1, 1) + eps(2, 2);
-  Mat3<T> S;
-#pragma unroll
-  for (int k = 0; k < 9; ++k) S.a[k] = T(2) * mu * eps.a[k];
-  S(0, 0) += la * tr;
-  S(1, 1) += la * tr;
-  S(2, 2) += la * tr;
-  const Mat3<T> P = b.stvk ? mul(F, S) : S;
+  const Mat3<T> P = firstPiola(b.stvk != 0, F, mu, la);
   // M_i = V_i R_i P_i + c_i H_i, H_i = 2(F̃_i C_i − D_i).
   const Mat3<T> RP = mul(R, P);
   const T Vi = early ? own.V : b.V[i];
