@@ -221,14 +221,14 @@ int main(int argc, char** argv) {
     const ProblemEvaluation gt = simulateInterior(c, tumbler, cavity(tumbler, Eigen::Vector3d(0, 0.012, 0.008), 0.025));
     c.setNumber("period_s", gt.task.features[0].value);
     c.setNumber("max_tilt_deg", gt.task.features[1].value);
-    c.set("max_iterations", quick ? "10" : "60");
+    c.set("max_evaluations", quick ? "10" : "60");
     runCase("tumbler_quadric_2s", c, tumbler, true, 1000);
   }
   {
     const VolumeCloud vessel = topo_test::boxCloud(0.1, 0.12, 0.15, quick ? 0.01 : 0.005);
     TaskConfig c = TaskConfig::defaults("qiqi");
     c.set("target_tilts_deg", "10, 5, -20");
-    c.set("max_iterations", quick ? "5" : "40");
+    c.set("max_evaluations", quick ? "5" : "40");
     runCase("qiqi_quadric", c, vessel, true, 1000);
   }
   if (!g_only || std::string("pear_quadric").find(g_only) != std::string::npos) {
@@ -252,7 +252,7 @@ int main(int argc, char** argv) {
       }
     }
     c.set("target_trajectory_file", csv);
-    c.set("max_iterations", quick ? "5" : "40");
+    c.set("max_evaluations", quick ? "5" : "40");
     c.set("initial_field", "0.0");
     runCase("pear_quadric", c, pear, true, 0);
   }
@@ -270,7 +270,7 @@ int main(int argc, char** argv) {
       c.setNumber("bend_angle_deg", ev.task.features[0].value);
     }
     c.setList("initial_parameters", start);
-    c.set("max_iterations", "30");
+    c.set("max_evaluations", "30");
     runCase("finger_quadric", c, finger, true, 0);
   }
   return 0;

@@ -35,7 +35,7 @@
 // table, and one PNG per case (true over recovered slices) in the output folder.
 //
 // Usage: bench_interiors [--quick] [--check] [--unweighed] [--no-swings] [--weighed-start sphere|ellipsoid]
-//                       [--max-iterations N] [--restarts N] [--out DIR] [CASE_SUBSTRING]
+//                       [--max-evaluations N] [--restarts N] [--out DIR] [CASE_SUBSTRING]
 //   --check: exit 1 when a case's mass or inertia error, or its held-out error, exceeds the
 //   tolerances below (the quick mode's test in `make test`).
 #include <algorithm>
@@ -234,9 +234,9 @@ void hangingPose(const Vector3d& d, double* roll_deg, double* pitch_deg) {
   *pitch_deg = std::atan2(d.x(), n) * 180.0 / M_PI;
 }
 
-// max_iterations: the task default (200, with its stall rule) in the full bench: fewer (60) stop the
+// max_evaluations: the task default (200, with its stall rule) in the full bench: fewer (60) stop the
 // steel-ball tumbler while its loss is still falling (it converges at ~150 evaluations). --quick: 25.
-int g_max_iterations = 0;  // --max-iterations N (0: the task default); --quick: 25
+int g_max_evaluations = 0;  // --max-evaluations N (old name --max-iterations; 0: the task default); --quick: 25
 // restarts of the design spread (inference/design_spread.h): 0 by default (the region's uncertainty
 // comes from inference/region_uncertainty.h, seconds a case; the spread's two restarts make the full
 // bench about three times as long); --restarts 2 for the task default.
@@ -246,7 +246,7 @@ void setShared(TaskConfig& c, const CaseSpec& s) {
   c.set("representation", s.representation);
   bool rocks = false;
   for (const auto& e : s.experiments) rocks = rocks || e.task != "hanging";
-  if (g_max_iterations > 0 && rocks) c.setNumber("max_iterations", g_max_iterations);
+  if (g_max_evaluations > 0 && rocks) c.setNumber("max_evaluations", g_max_evaluations);
   if (g_restarts >= 0) c.setNumber("restarts", g_restarts);
   if (std::isfinite(s.initial_field)) c.setNumber("initial_field", s.initial_field);
   c.setNumber("density_solid", s.density_solid);
@@ -638,7 +638,7 @@ CaseResult runCase(const CaseSpec& s, bool quick, unsigned seed, const std::stri
   std::printf(
       "{\"case\": %s, \"object\": %s, \"interior\": %s, \"region\": %s, \"representation\": %s, \"pin_shell\": %s, "
       "\"particles\": %zu, \"spacing_m\": %s, \"reference_particles\": %zu, \"reference_spacing_m\": %s, "
-      "\"experiments\": %s, \"held_out\": %s, \"held_out_feature\": %s, \"max_iterations\": %d, \"iterations\": %d, "
+      "\"experiments\": %s, \"held_out\": %s, \"held_out_feature\": %s, \"max_evaluations\": %d, \"iterations\": %d, "
       "\"loss_final\": %s, \"loss_truth\": %s, "
       "\"targets_reached\": %s, \"iou_solid\": %s, \"iou_region\": %s, \"mass_err\": %s, \"com_err_over_size\": %s, "
       "\"com_err_over_shift\": %s, \"inertia_err\": %s, \"held_out_err\": %s, \"baseline_start\": {\"mass_err\": %s, "
@@ -654,7 +654,7 @@ CaseResult runCase(const CaseSpec& s, bool quick, unsigned seed, const std::stri
       json::quote(R.text()).c_str(), json::quote(s.representation).c_str(), s.pin_shell ? "true" : "false",
       coarse.size(), json::num(coarse.spacing).c_str(), fine.size(), json::num(fine.spacing).c_str(),
       json::quote(names).c_str(), json::quote(s.held_out.name).c_str(), json::quote(hf).c_str(),
-      int(joint.integer("max_iterations")), result.optimizer.iterations, json::num(result.final.loss).c_str(),
+      int(joint.integer("max_evaluations")), result.optimizer.iterations, json::num(result.final.loss).c_str(),
       json::num(out.loss_truth).c_str(), result.targets_reached ? "true" : "false", json::num(out.iou_solid).c_str(),
       json::num(out.iou_region).c_str(), json::num(out.rec.mass).c_str(), json::num(out.rec.com_size).c_str(),
       json::num(out.rec.com_shift).c_str(), json::num(out.rec.inertia).c_str(), json::num(out.rec.held_out).c_str(),
@@ -883,8 +883,9 @@ int main(int argc, char** argv) {
       quick = true;
     else if (std::strcmp(argv[i], "--check") == 0)
       check = true;
-    else if (std::strcmp(argv[i], "--max-iterations") == 0 && i + 1 < argc)
-      g_max_iterations = std::atoi(argv[++i]);
+    else if ((std::strcmp(argv[i], "--max-evaluations") == 0 || std::strcmp(argv[i], "--max-iterations") == 0) &&
+             i + 1 < argc)
+      g_max_evaluations = std::atoi(argv[++i]);
     else if (std::strcmp(argv[i], "--restarts") == 0 && i + 1 < argc)
       g_restarts = std::atoi(argv[++i]);
     else if (std::strcmp(argv[i], "--unweighed") == 0)
@@ -904,7 +905,7 @@ int main(int argc, char** argv) {
     else
       only = argv[i];
   }
-  if (quick && g_max_iterations == 0) g_max_iterations = 25;
+  if (quick && g_max_evaluations == 0) g_max_evaluations = 25;
   const auto t0 = Clock::now();
   const std::string data = sharedData();
   if (data.empty()) std::fprintf(stderr, "shared data not found: running the generated shapes only\n");

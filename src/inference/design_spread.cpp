@@ -177,7 +177,7 @@ DesignSpread exploreDesignSpread(const TaskConfig& config, const VolumeCloud& cl
     OptimizerOptions oo;
     oo.method = o.optimizer;
     oo.learning_rate = o.learning_rate;
-    oo.max_iterations = budget;
+    oo.max_evaluations = budget;
     oo.should_stop = o.should_stop;
     bool stopped = false;
     const OptimizerResult r =

@@ -46,9 +46,9 @@ struct Tracker {
       cancel();
       return refusedLoss(x, g);
     }
-    if (result.evaluations >= options.max_iterations) {  // the limit counts every evaluation
+    if (result.evaluations >= options.max_evaluations) {  // the limit counts every evaluation
       stop = true;
-      if (result.message.empty()) result.message = "iteration limit reached";
+      if (result.message.empty()) result.message = "evaluation limit (max_evaluations) reached";
       return refusedLoss(x, g);
     }
     ++result.evaluations;
@@ -106,7 +106,7 @@ struct Tracker {
 OptimizerResult runAdam(Tracker& t, Eigen::VectorXd x, const Eigen::VectorXd& lo, const Eigen::VectorXd& hi) {
   const OptimizerOptions& o = t.options;
   Eigen::VectorXd m = Eigen::VectorXd::Zero(x.size()), v = m, g(x.size());
-  for (int k = 1; k <= o.max_iterations && !t.stop; ++k) {
+  for (int k = 1; k <= o.max_evaluations && !t.stop; ++k) {
     const double loss = t.call(x, &g);
     if (t.stop) break;
     if (!std::isfinite(loss) || !g.allFinite()) {
@@ -141,7 +141,7 @@ OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, cons
     throw TopoError("optimiser bounds", "sizes differ from the number of parameters", "give one bound per parameter");
   if (!theta0.allFinite())
     throw TopoError("initial design", "contains NaN or infinity", "start from finite parameters");
-  if (options.max_iterations < 1) throw TopoError("max_iterations", "is below 1", "give at least 1 iteration");
+  if (options.max_evaluations < 1) throw TopoError("max_evaluations", "is below 1", "give at least 1 evaluation");
   Tracker t(f, progress, options);
   const Eigen::VectorXd x0 = theta0.cwiseMax(lower).cwiseMin(upper);
   if (options.method == "adam") {
@@ -152,7 +152,7 @@ OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, cons
     std::vector<double> lb(lower.data(), lower.data() + n), ub(upper.data(), upper.data() + n);
     opt.set_lower_bounds(lb);
     opt.set_upper_bounds(ub);
-    opt.set_maxeval(options.max_iterations);
+    opt.set_maxeval(options.max_evaluations);
     opt.set_ftol_rel(options.relative_tolerance);
     opt.set_stopval(options.loss_tolerance);
     auto fn = [](unsigned nn, const double* x, double* grad, void* data) -> double {
@@ -223,7 +223,7 @@ OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, cons
         opt.set_upper_bounds(ub);
       }
       best_at_start = t.have_best ? t.result.loss : best_at_start;
-      const int left = options.max_iterations - t.result.evaluations;
+      const int left = options.max_evaluations - t.result.evaluations;
       if (left < 1) break;
       opt.set_maxeval(left);
       std::vector<double> x(start.data(), start.data() + n);
@@ -242,7 +242,7 @@ OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, cons
             t.result.message = "relative loss change below relative_tolerance";
             break;
           case nlopt::MAXEVAL_REACHED:
-            t.result.message = "iteration limit reached";
+            t.result.message = "evaluation limit (max_evaluations) reached";
             break;
           default:
             t.result.converged = true;
@@ -284,7 +284,7 @@ OptimizerResult minimize(const Objective& f, const Eigen::VectorXd& theta0, cons
     r.converged = true;
     r.message = "gradient norm below gradient_tolerance";
   } else if (r.message.empty())
-    r.message = options.method == "adam" ? "iteration limit reached" : "stopped";
+    r.message = options.method == "adam" ? "evaluation limit (max_evaluations) reached" : "stopped";
   return r;
 }
 

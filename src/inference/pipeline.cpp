@@ -59,7 +59,7 @@ void exploreSpread(const TaskConfig& config, const VolumeCloud& cloud, const Pro
   }
   DesignSpreadOptions so;
   so.restarts = restarts;
-  so.max_evaluations = std::min(config.integer("max_iterations"), std::max(1, res->optimizer.evaluations));
+  so.max_evaluations = std::min(config.integer("max_evaluations"), std::max(1, res->optimizer.evaluations));
   so.should_stop = should_stop;
   so.progress = progress;
   so.first_iteration = res->optimizer.iterations;
@@ -173,7 +173,7 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   OptimizerOptions oo;
   oo.should_stop = should_stop;
   oo.method = config.text("optimizer");
-  oo.max_iterations = config.integer("max_iterations");
+  oo.max_evaluations = config.integer("max_evaluations");
   oo.learning_rate = config.number("learning_rate");
   oo.loss_tolerance = config.number("loss_tolerance");
   oo.relative_tolerance = config.number("relative_tolerance");
@@ -265,7 +265,7 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
          << "allow more material contrast), or one does and the search is caught in a local minimum"
          << localMinimumHint(res.spread, config.integer("restarts"), res.cancelled) << ".";
   } else {
-    head << msg.str() << "Not converged: raise max_iterations or try another optimizer/representation.";
+    head << msg.str() << "Not converged: raise max_evaluations or try another optimizer/representation.";
   }
   if (config.hasExperiments()) {
     head << " Per experiment (weight, loss):";

@@ -68,6 +68,32 @@ std::size_t editDistance(const std::string& a, const std::string& b, std::size_t
   return d[b.size()];
 }
 
+/// A value as text ("1200", "true", "0,0,0.1", "(unset)"), as valueText shows it.
+std::string formatValue(const ParamSpec& s, const ParamValue& v) {
+  if (!v.set) return "(unset)";
+  std::ostringstream os;
+  os.precision(10);
+  switch (s.type) {
+    case ParamType::Number:
+    case ParamType::Integer:
+      os << v.number;
+      break;
+    case ParamType::Boolean:
+      os << (v.number != 0 ? "true" : "false");
+      break;
+    case ParamType::Text:
+      os << v.text;
+      break;
+    case ParamType::Vector3:
+      os << v.vec[0] << "," << v.vec[1] << "," << v.vec[2];
+      break;
+    case ParamType::List:
+      for (std::size_t i = 0; i < v.list.size(); ++i) os << (i ? "," : "") << v.list[i];
+      break;
+  }
+  return os.str();
+}
+
 }  // namespace
 
 void TaskConfig::declare(const ParamSpec& spec, const ParamValue& value) {
@@ -140,10 +166,11 @@ void declareCommonParameters(TaskParameters& p) {
   p.number("smoothness_radius_m", 0.0, "m", "neighbour radius of the smoothness regulariser [m]; 0 = 1.5 x spacing", 0);
   // optimiser
   p.text("optimizer", "lbfgs", "lbfgs (NLopt LD_LBFGS, bounded) | adam", {"lbfgs", "adam"});
-  p.integer("max_iterations", 200, "unitless",
-            "limit on the optimiser's evaluations of loss and gradient (each simulates the design once; an L-BFGS "
-            "line search may use several per iteration), unitless",
+  p.integer("max_evaluations", 200, "unitless",
+            "limit on the objective evaluations: loss and gradient computations (each simulates the design once), "
+            "line-search trials included, not optimiser iterations (an L-BFGS iteration may use several), unitless",
             1, 1e7);
+  p.alias("max_iterations", "max_evaluations", "it always counted evaluations");
   p.number("learning_rate", 0.02, "unitless", "Adam step size, unitless", 0, 1e300, true);
   p.number("loss_tolerance", 1e-12, "unitless", "stop when the loss is below this, unitless", 0);
   p.number("relative_tolerance", 1e-10, "unitless",
@@ -188,14 +215,27 @@ TaskConfig TaskConfig::defaults(const std::string& task) {
   return c;
 }
 
-const ParamSpec* TaskConfig::spec(const std::string& key) const {
+const ParamSpec* TaskConfig::spec(const std::string& key_in) const {
+  const std::string& key = canonicalName(key_in);
   for (const auto& s : specs_)
     if (s.name == key) return &s;
   return nullptr;
 }
 
+const std::string& TaskConfig::canonicalName(const std::string& key) const {
+  for (const auto& a : aliases_)
+    if (a.name == key) return a.parameter;
+  return key;
+}
+
+std::string TaskConfig::aliasText(const std::string& name) const {
+  for (const auto& a : aliases_)
+    if (a.name == name) return a.name + ": alias of " + a.parameter + (a.note.empty() ? "" : " (" + a.note + ")");
+  return "";
+}
+
 bool TaskConfig::has(const std::string& key) const {
-  const auto it = values_.find(key);
+  const auto it = values_.find(canonicalName(key));
   return it != values_.end() && it->second.set;
 }
 
@@ -239,7 +279,7 @@ const TaskConfig& sharedParameters() {
 }
 }  // namespace
 
-bool TaskConfig::isShared(const std::string& key) { return sharedParameters().spec(key) != nullptr; }
+bool TaskConfig::isShared(const std::string& key) { return sharedParameters().spec(key) != nullptr; }  // aliases too
 
 std::vector<Experiment> TaskConfig::experimentList() const {
   if (!experiments_.empty()) return experiments_;
@@ -350,7 +390,8 @@ void TaskConfig::set(const std::string& key_in, const std::string& value_in, con
 }
 
 void TaskConfig::setOwn(const std::string& key_in, const std::string& value_in, const std::string& origin) {
-  const std::string key = trim(key_in), value = trim(value_in);
+  const std::string given = trim(key_in), value = trim(value_in);
+  const std::string key = canonicalName(given);  // an alias sets its parameter
   // A task's shorthand (e.g. one value for both materials): each listed parameter in turn, the key
   // itself last when it is one of them.
   const auto shorthand = shorthands_.find(key);
@@ -414,6 +455,26 @@ void TaskConfig::setOwn(const std::string& key_in, const std::string& value_in, 
   }
   v.set = !(s->type == ParamType::Text && v.text.empty());
   check(*s, v, origin);
+  const bool aliased =
+      std::any_of(aliases_.begin(), aliases_.end(), [&](const ParamAlias& a) { return a.parameter == key; });
+  if (aliased) {
+    // One origin (a file, the --set list, a goal's overrides) naming a parameter twice, once by its
+    // alias, must mean one value; a later origin overrides an earlier one as for any parameter.
+    const std::string text = formatValue(*s, v);
+    const auto last = alias_changes_.find(key);
+    if (last != alias_changes_.end() && last->second.origin == origin && last->second.name != given &&
+        last->second.value != text) {
+      const std::string alias_name = given == key ? last->second.name : given;
+      std::string why;
+      for (const auto& a : aliases_)
+        if (a.name == alias_name) why = a.note.empty() ? "" : " (" + a.note + ")";
+      throw TopoError(origin + " " + last->second.name + " and " + given,
+                      "name one parameter twice with different values (" + last->second.value + " and " + text + "); " +
+                          alias_name + " is an alias of " + key + why,
+                      "give only " + key + "=VALUE");
+    }
+    alias_changes_[key] = {origin, given, text};
+  }
   values_[key] = v;
   explicit_.insert(key);
 }
@@ -456,51 +517,29 @@ void requireKnown(const TaskConfig& c, const std::string& key) {
 double TaskConfig::number(const std::string& key) const {
   requireKnown(*this, key);
   if (!has(key)) throw TopoError("parameter " + key, "has no value", "set it with --set/--target " + key + "=VALUE");
-  return values_.at(key).number;
+  return values_.at(canonicalName(key)).number;
 }
 
 const std::string& TaskConfig::text(const std::string& key) const {
   requireKnown(*this, key);
-  return values_.at(key).text;
+  return values_.at(canonicalName(key)).text;
 }
 
 Eigen::Vector3d TaskConfig::vector3(const std::string& key) const {
   requireKnown(*this, key);
   if (!has(key)) throw TopoError("parameter " + key, "has no value", "set it with --set " + key + "=x,y,z");
-  return values_.at(key).vec;
+  return values_.at(canonicalName(key)).vec;
 }
 
 const std::vector<double>& TaskConfig::list(const std::string& key) const {
   requireKnown(*this, key);
-  return values_.at(key).list;
+  return values_.at(canonicalName(key)).list;
 }
 
 std::string TaskConfig::valueText(const std::string& key) const {
   const ParamSpec* s = spec(key);
   if (!s) return "";
-  const ParamValue& v = values_.at(key);
-  if (!v.set) return "(unset)";
-  std::ostringstream os;
-  os.precision(10);
-  switch (s->type) {
-    case ParamType::Number:
-    case ParamType::Integer:
-      os << v.number;
-      break;
-    case ParamType::Boolean:
-      os << (v.number != 0 ? "true" : "false");
-      break;
-    case ParamType::Text:
-      os << v.text;
-      break;
-    case ParamType::Vector3:
-      os << v.vec[0] << "," << v.vec[1] << "," << v.vec[2];
-      break;
-    case ParamType::List:
-      for (std::size_t i = 0; i < v.list.size(); ++i) os << (i ? "," : "") << v.list[i];
-      break;
-  }
-  return os.str();
+  return formatValue(*s, values_.at(s->name));
 }
 
 std::string TaskConfig::help() const {
@@ -512,6 +551,10 @@ std::string TaskConfig::help() const {
     os << "\n      " << s.doc << "\n";
     if (!s.paper_value.empty() && s.doc.find("paper: " + s.paper_value) == std::string::npos)
       os << "      paper: " << s.paper_value << "\n";
+  }
+  if (!aliases_.empty()) {
+    os << "old names, still accepted:\n";
+    for (const auto& a : aliases_) os << "  " << aliasText(a.name) << "\n";
   }
   return os.str();
 }

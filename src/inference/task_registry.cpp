@@ -106,6 +106,18 @@ void TaskParameters::shorthand(const std::string& key, std::vector<std::string> 
   c_.shorthands_[key] = std::move(parameters);
 }
 
+void TaskParameters::alias(const std::string& old_name, const std::string& parameter, const std::string& note) {
+  const std::string who = "alias " + old_name + " of task '" + c_.task() + "'";
+  if (!c_.spec(parameter))
+    throw TopoError(who, "names " + parameter + ", a parameter not declared before",
+                    "declare the parameter first (common ones are declared before the task's own)");
+  if (c_.canonicalName(parameter) != parameter)
+    throw TopoError(who, "names the alias " + parameter, "name the parameter itself: " + c_.canonicalName(parameter));
+  if (c_.spec(old_name) || c_.shorthands_.count(old_name))
+    throw TopoError(who, "is already a parameter, alias or shorthand", "give the alias a name no parameter has");
+  c_.aliases_.push_back({old_name, parameter, note});
+}
+
 namespace {
 
 TaskList buildRegistry() {

@@ -8,7 +8,8 @@
 // What `make demo` runs against demo.launch. Parameters (private):
 //   ~task (tumbler; "" when ~experiments are given), ~experiments [] ("NAME=TASK": several experiments of the
 //   object, as the goal's; the client waits for a measured window of each), ~representation (""),
-//   ~overrides [], ~targets [] (lists, or "A=1;B=2"), ~max_iterations (0),
+//   ~overrides [], ~targets [] (lists, or "A=1;B=2"), ~max_evaluations (0: the task's; objective evaluations, the
+//   goal's max_iterations; ~max_iterations is its old name, still read),
 //   ~output_dir (""), ~wait_for_features_s (120: wait for motion_features with a measured motion
 //   before sending; 0 = send at once), ~ground_truth_topic (""), ~tolerance (0.02), ~timeout_s (900),
 //   ~weigh_topic ("": a std_msgs/Float64 scale reading [kg], e.g. /scale_kg of a rig_simulator, added as the
@@ -34,6 +35,7 @@
 #include "topo_gaussian/InferInteriorAction.h"
 #include "topo_gaussian/MotionFeatures.h"
 #include "topo_gaussian/RigGroundTruth.h"
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/ros/ascii_text.h"
 #include "topo_gaussian/inference/truth_comparison.h"
 #include "topo_gaussian/ros/param_reader.h"
@@ -83,7 +85,18 @@ Options readOptions(const ros::NodeHandle& pnh) {
   // Lists, or one string with ';' between entries (what `_overrides:="a=1;b=2"` on a command line gives).
   o.goal.overrides = r.texts("overrides", {}, "\"initial_tilt_deg=8;density_solid=4000\"");
   o.goal.targets = r.texts("targets", {}, "\"period_s=1.2\"");
-  o.goal.max_iterations = int(r.integer("max_iterations", 0, "", Range::atLeast(0)));
+  // The goal's max_iterations field counts objective evaluations: ~max_evaluations, or its old name.
+  const long evaluations = r.integer("max_evaluations", 0, "", Range::atLeast(0));
+  const long old_name = r.integer("max_iterations", 0, "", Range::atLeast(0));
+  if (r.has("max_evaluations") && r.has("max_iterations") && evaluations != old_name) {
+    const std::string values = std::to_string(evaluations) + " and " + std::to_string(old_name);
+    throw topo_gaussian::TopoError(r.displayName("max_evaluations") + " and " + r.displayName("max_iterations"),
+                                   "name one limit twice with different values (" + values +
+                                       "); ~max_iterations is an alias of ~max_evaluations (it always counted "
+                                       "evaluations)",
+                                   "give only ~max_evaluations");
+  }
+  o.goal.max_iterations = int(r.has("max_evaluations") ? evaluations : old_name);
   o.goal.output_dir = r.text("output_dir", "");
   o.wait_s = r.number("wait_for_features_s", o.wait_s, "s", Range::atLeast(0.0));
   o.tolerance = r.number("tolerance", o.tolerance, "", Range::above(0.0));

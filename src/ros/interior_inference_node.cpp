@@ -183,9 +183,10 @@ inference::TaskConfig InteriorInferenceNode::configFor(const std::string& task,
 InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Feedback& feedback) {
   workflow::InferenceRunRequest run;
   run.config = configFor(rq.task, rq.experiments, rq.representation, rq.overrides, "goal");
-  if (rq.max_iterations < 0)
-    throw TopoError("goal max_iterations", "is negative", "use 0 for the task's default or a positive count");
-  if (rq.max_iterations > 0) run.config.setNumber("max_iterations", rq.max_iterations);
+  if (rq.max_evaluations < 0)
+    throw TopoError("goal max_iterations (the task's max_evaluations)", "is negative",
+                    "use 0 for the task's default or a positive count of objective evaluations");
+  if (rq.max_evaluations > 0) run.config.setNumber("max_evaluations", rq.max_evaluations);
   // The volume: the goal's, else the latest on `volume` (waiting a little for the first one after
   // launch), else the task's default shape (the library's choice).
   const bool goal_volume = std::size_t(rq.volume.width) * rq.volume.height > 0;
@@ -283,9 +284,9 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
     std::lock_guard<std::mutex> lock(eval_mutex);
     last = ev;
   };
-  ROS_INFO("interior_inference: task %s (%s), representation %s, at most %d iterations", run.config.task().c_str(),
+  ROS_INFO("interior_inference: task %s (%s), representation %s, at most %d evaluations", run.config.task().c_str(),
            run.config.source().c_str(), run.config.text("representation").c_str(),
-           run.config.integer("max_iterations"));
+           run.config.integer("max_evaluations"));
   const workflow::InferenceRunOutcome done = workflow::runInference(run);
 
   InferenceOutcome out;
@@ -499,7 +500,7 @@ void InteriorInferenceNode::execute(const topo_gaussian::InferInteriorGoalConstP
   rq.volume = goal->volume;
   rq.features = goal->features;
   rq.ignore_motion_features = goal->ignore_motion_features;
-  rq.max_iterations = goal->max_iterations;
+  rq.max_evaluations = goal->max_iterations;
   rq.output_dir = goal->output_dir;
   try {
     const InferenceOutcome out = run(rq, [&](const topo_gaussian::InferInteriorFeedback& fb) {
@@ -558,7 +559,7 @@ bool InteriorInferenceNode::onInfer(topo_gaussian::Infer::Request& req, topo_gau
   rq.overrides = req.overrides;
   rq.targets = req.targets;
   rq.ignore_motion_features = req.ignore_motion_features;
-  rq.max_iterations = req.max_iterations;
+  rq.max_evaluations = req.max_iterations;
   rq.output_dir = req.output_dir;
   return guardService("interior_inference", infer_srv_.getService(), res, [&] {
     const InferenceOutcome out = run(rq, [](const topo_gaussian::InferInteriorFeedback& fb) {

@@ -162,7 +162,7 @@ int inferCommand(const std::vector<std::string>& argv) {
               << "), weight " << e.weight << "\n";
   std::cerr << "[topo infer] task " << config.task() << " (" << config.source() << "), representation "
             << config.text("representation") << ", optimizer " << config.text("optimizer") << ", at most "
-            << config.integer("max_iterations") << " evaluations (max_iterations)\n";
+            << config.integer("max_evaluations") << " evaluations (max_evaluations)\n";
   std::string backend_line;  // refuses backend cuda without a GPU before anything runs
   resolveBackend(parseComputeBackend(config.text("backend"), "--backend"), "--backend", &backend_line);
   std::cerr << "[topo infer] " << backend_line << "\n";

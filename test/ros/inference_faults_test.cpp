@@ -198,7 +198,7 @@ TEST(InferenceFaults, ANodeRestoresARunOfTheCli) {
       << out;
   const int rc = shell(topo + " infer --task tumbler --volume " + dir +
                            "/tumbler.ply --target period_s=0.5 "
-                           "--set max_iterations=2 --no-export --quiet --output " +
+                           "--set max_evaluations=2 --no-export --quiet --output " +
                            dir + "/tumbler_cli",
                        &out);
   ASSERT_TRUE(rc == 0 || rc == 3) << out;

@@ -329,7 +329,7 @@ TEST(DesignSpread, ALocalMinimumThatMissesTheTargetIsNotCalledTheNearestReachabl
   c.setNumber("period_s", gt.task.features[0].value);
   c.setNumber("max_tilt_deg", gt.task.features[1].value);
   c.setNumber("restarts", 2);
-  c.set("max_iterations", "60");
+  c.set("max_evaluations", "60");
   // The truth reaches both targets: a claim that nothing does would be false.
   const inference::ProblemEvaluation at_truth = inference::simulateInterior(c, tumbler, truth);
   ASSERT_TRUE(inference::allTargetsReached(at_truth));

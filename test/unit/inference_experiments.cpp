@@ -247,7 +247,7 @@ TEST(Experiments, HangingFromTwoPointsPinsTheWholeCentreOfMass) {
   const auto [roll2, pitch2] = hangingPose(box.truth.com, p2);
   TaskConfig c = TaskConfig::common();
   c.set("representation", "quadric");
-  c.set("max_iterations", "300");
+  c.set("max_evaluations", "300");
   for (int k = 0; k < 2; ++k) {
     TaskConfig h = TaskConfig::defaults("hanging");
     h.setVector("hanging_point", k == 0 ? p1 : p2);
@@ -270,7 +270,7 @@ TEST(Experiments, HangingFromTwoPointsPinsTheWholeCentreOfMass) {
 TEST(Experiments, ObservedWindowsGoToTheExperimentTheyAreTaggedWith) {
   const CavityBox box;
   TaskConfig c = TaskConfig::common();
-  c.set("max_iterations", "1");
+  c.set("max_evaluations", "1");
   TaskConfig a = TaskConfig::defaults("hanging"), b = TaskConfig::defaults("hanging");
   a.set("hanging_point", "0.05,0,0.04");
   b.set("hanging_point", "-0.05,0,0.04");
@@ -304,7 +304,7 @@ TEST(Experiments, ObservedWindowsGoToTheExperimentTheyAreTaggedWith) {
 TEST(Experiments, AnExperimentWithoutItsTargetsIsLeftOutWithAWarning) {
   const CavityBox box;
   TaskConfig c = TaskConfig::common();
-  c.set("max_iterations", "3");
+  c.set("max_evaluations", "3");
   TaskConfig rock = TaskConfig::defaults("tumbler");  // no period_s, no max_tilt_deg
   TaskConfig hang = TaskConfig::defaults("hanging");
   hang.set("hanging_point", "0.05,0,0.04");

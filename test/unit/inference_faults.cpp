@@ -178,7 +178,7 @@ TEST(IterationLimit, CountsEvaluationsForBothMethods) {
       c.set("hanging_point", "0.05,0.02,0.03");
       c.set("representation", "quadric");
       c.set("optimizer", method);
-      c.setNumber("max_iterations", k);
+      c.setNumber("max_evaluations", k);
       int evaluations = 0;
       const InferenceResult r = runInference(c, cloud, nullptr, [&](const ProblemEvaluation&) { ++evaluations; });
       EXPECT_EQ(r.theta.size(), 10) << method << " " << k;
@@ -226,7 +226,7 @@ TEST(PointOutside, HangingPointFarFromTheObjectIsAWarningAndNamedInTheMessage) {
   const VolumeCloud cloud = topo_test::boxCloud(0.2, 0.1, 0.06, 0.01);
   TaskConfig c = TaskConfig::defaults("hanging");
   c.set("hanging_point", "0.5,0,0.03");
-  c.set("max_iterations", "20");
+  c.set("max_evaluations", "20");
   const InferenceResult r = runInference(c, cloud);
   ASSERT_EQ(r.warnings.size(), 1u);
   EXPECT_NE(r.warnings[0].find("hanging_point"), std::string::npos) << r.warnings[0];
@@ -321,7 +321,7 @@ TEST(Cli, ATaskThatIsADirectoryOrAMapValueIsNamedWithFileAndKey) {
 TEST(Cli, OneIterationRunsAndAPointOutsideIsAWarningLine) {
   const CliFiles& f = cliFiles();
   const topo_test::ToolRun r = topo_test::runTopo("infer --task hanging --volume " + f.volume +
-                                                  " --set max_iterations=1 --set hanging_point=0.5,0,0.02 " +
+                                                  " --set max_evaluations=1 --set hanging_point=0.5,0,0.02 " +
                                                   "--no-export --output " + f.dir + "/one");
   EXPECT_EQ(r.code, 3) << r.out;  // ran, target not reached
   EXPECT_EQ(r.out.find("0 values"), std::string::npos) << r.out;

@@ -98,7 +98,7 @@ TEST(Recovery, TumblerPeriodAndTilt) {
   ASSERT_GT(std::abs(featureValue(solid, "period_s") - T), 0.02 * T) << "ground truth too close to the solid start";
   c.setNumber("period_s", T);
   c.setNumber("max_tilt_deg", tilt);
-  c.set("max_iterations", "80");
+  c.set("max_evaluations", "80");
   const InferenceResult res = runInference(c, cloud);
   const double T1 = featureValue(res.final, "period_s"), tilt1 = featureValue(res.final, "max_tilt_deg");
   std::printf("[recovery] tumbler inferred: period %.4f s, max tilt %.3f deg, %d evaluations, %.1f s\n", T1, tilt1,

@@ -39,7 +39,7 @@ class RunFolder : public testing::Test {
   static workflow::InferenceRunRequest nodeLikeRequest(const std::string& parent) {
     workflow::InferenceRunRequest rq;
     rq.config = inference::TaskConfig::defaults("tumbler");
-    rq.config.setNumber("max_iterations", 2);
+    rq.config.setNumber("max_evaluations", 2);
     rq.volume = volume_;
     rq.targets = {"period_s=0.5"};
     rq.targets_origin = "goal targets";
@@ -58,7 +58,7 @@ std::shared_ptr<VolumeCloud> RunFolder::volume_;
 TEST_F(RunFolder, ACliRunLoadsAsTheNodeLoadsIt) {
   const std::string out = dir_ + "/cli/tumbler_cli";
   const ToolRun r = runTopo("infer --task tumbler --volume " + dir_ +
-                            "/tumbler.ply --target period_s=0.5 --set max_iterations=2 "
+                            "/tumbler.ply --target period_s=0.5 --set max_evaluations=2 "
                             "--quiet --output " +
                             out);
   ASSERT_TRUE(r.code == 0 || r.code == 3) << r.out;

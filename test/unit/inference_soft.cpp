@@ -219,7 +219,7 @@ TEST(SoftTasks, FingerRecoveryReachesTheBendingAngle) {
   const double target = feature(ev.task, "bend_angle_deg");
   c.setNumber("bend_angle_deg", target);
   c.setList("initial_parameters", start);
-  c.set("max_iterations", "30");
+  c.set("max_evaluations", "30");
   const InferenceResult res = runInference(c, cloud);
   const double a0 = feature(res.initial.task, "bend_angle_deg"), a1 = feature(res.final.task, "bend_angle_deg");
   std::printf(
@@ -252,7 +252,7 @@ TEST(SoftTasks, PearRecoveryReproducesTrajectories) {
     }
   }
   c.set("target_trajectory_file", csv);
-  c.set("max_iterations", "40");
+  c.set("max_evaluations", "40");
   c.set("initial_field", "0.0");  // r = 0.5 everywhere: the sigmoid is not saturated
   const InferenceResult res = runInference(c, cloud);
   const double rel0 = feature(res.initial.task, "trajectory_rms_relative");

@@ -1,9 +1,12 @@
 // The task registry (inference/task_registry.h): every registered task builds its defaults and its
 // task, declares each parameter once with a default inside its range and a unit its documentation
 // states, and the registry's answers (names, default shapes, shorthands, the rig twin's tasks) are
-// those the callers relied on when they branched on task names.
+// those the callers relied on when they branched on task names. An alias (an old parameter name) sets
+// and reads its parameter and is listed with its note.
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <set>
 
 #include "test_clouds.h"
@@ -18,6 +21,7 @@
 using namespace topo_gaussian;
 using namespace topo_gaussian::inference;
 using topo_test::errorOf;
+using topo_test::runTopo;
 
 TEST(TaskRegistry, NamesInOrderAndTheUnknownTaskErrorListsThem) {
   const std::vector<std::string> expected = {"hanging", "balance", "stand", "tumbler",   "qiqi",
@@ -131,4 +135,65 @@ TEST(TaskRegistry, TaskSpecificDefaultsOfCommonParameters) {
   EXPECT_EQ(TaskConfig::defaults("cantilever").integer("gradient_order"), 2);
   EXPECT_EQ(TaskConfig::defaults("hanging").spec("density_solid")->paper_value, "1e3 synthetic, 5e3 real");
   EXPECT_EQ(TaskConfig::defaults("tumbler").spec("dt_s")->unit, "s");
+}
+
+TEST(TaskRegistry, MaxIterationsIsAnAliasOfMaxEvaluations) {
+  // The old name sets and reads the limit it always was: objective evaluations.
+  TaskConfig c = TaskConfig::defaults("tumbler");
+  EXPECT_EQ(c.integer("max_evaluations"), 200);
+  c.set("max_iterations", "17");
+  EXPECT_EQ(c.integer("max_evaluations"), 17);
+  EXPECT_EQ(c.integer("max_iterations"), 17);
+  EXPECT_EQ(c.explicitKeys().count("max_evaluations"), 1u);
+  EXPECT_EQ(c.spec("max_iterations"), c.spec("max_evaluations"));
+  EXPECT_EQ(c.aliasText("max_iterations"), "max_iterations: alias of max_evaluations (it always counted evaluations)");
+  // One origin giving both names different values is refused, naming both; the same value is one value.
+  const std::string both = errorOf([&] { c.set("max_evaluations", "18", "--set"); });
+  EXPECT_NE(both.find("max_iterations"), std::string::npos) << both;
+  EXPECT_NE(both.find("max_evaluations"), std::string::npos) << both;
+  EXPECT_NE(both.find("17"), std::string::npos) << both;
+  EXPECT_NE(both.find("18"), std::string::npos) << both;
+  EXPECT_NO_THROW(c.set("max_evaluations", "17", "--set"));
+  // A later origin overrides an earlier one, whichever name each used.
+  EXPECT_NO_THROW(c.set("max_evaluations", "19", "goal overrides"));
+  EXPECT_EQ(c.integer("max_evaluations"), 19);
+
+  // A task file: the old name works, both names with different values are refused.
+  const std::string dir = ::testing::TempDir() + "/alias_max_iterations";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir + "/old.yaml") << "task: hanging\nmax_iterations: 50\n";
+  std::ofstream(dir + "/both.yaml") << "task: hanging\nmax_iterations: 50\nmax_evaluations: 60\n";
+  TaskConfig old_file = TaskConfig::fromYamlFile(dir + "/old.yaml");
+  EXPECT_EQ(old_file.integer("max_evaluations"), 50);
+  old_file.setAssignment("max_evaluations=60");
+  EXPECT_EQ(old_file.integer("max_evaluations"), 60) << "--set overrides the file";
+  const std::string file_both = errorOf([&] { TaskConfig::fromYamlFile(dir + "/both.yaml"); });
+  EXPECT_NE(file_both.find("max_iterations and max_evaluations"), std::string::npos) << file_both;
+
+  // Several experiments: the alias is a shared parameter like its parameter.
+  EXPECT_TRUE(TaskConfig::isShared("max_iterations"));
+  TaskConfig joint = TaskConfig::loadWithExperiments("tumbler", {"hanging"}, "", {"max_iterations=7"});
+  joint.setAssignment("max_iterations=7");
+  EXPECT_EQ(joint.integer("max_evaluations"), 7);
+  for (const auto& e : joint.experiments()) EXPECT_EQ(e.config.integer("max_evaluations"), 7) << e.name;
+
+  // The declaration refuses an alias of nothing, or one named like a parameter.
+  TaskConfig bare;
+  TaskParameters p(bare);
+  p.integer("count", 1, "unitless", "a count, unitless", 0, 10);
+  EXPECT_NE(errorOf([&] { p.alias("old_count", "no_such", ""); }).find("not declared"), std::string::npos);
+  EXPECT_NE(errorOf([&] { p.alias("count", "count", ""); }).find("already a parameter"), std::string::npos);
+
+  // The command line: --set with the old name, both refused, and --list-params / topo tasks show the alias.
+  topo_test::ToolRun r = runTopo("infer --task hanging --set max_iterations=3 --list-params");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("--set max_evaluations=3"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("max_iterations: alias of max_evaluations (it always counted evaluations)"), std::string::npos)
+      << r.out;
+  r = runTopo("infer --task hanging --set max_iterations=3 --set max_evaluations=4 --list-params");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("max_iterations and max_evaluations"), std::string::npos) << r.out;
+  r = runTopo("tasks");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("max_iterations: alias of max_evaluations"), std::string::npos) << r.out;
 }

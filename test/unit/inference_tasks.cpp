@@ -459,7 +459,7 @@ TEST(Optimizer, LbfgsAndAdamMinimiseAQuadraticAndCancel) {
   EXPECT_TRUE(r1.converged) << r1.message;
   EXPECT_LT((r1.theta - target).norm(), 1e-6);
   o.method = "adam";
-  o.max_iterations = 3000;
+  o.max_evaluations = 3000;
   o.learning_rate = 0.01;
   o.loss_tolerance = 1e-10;
   const auto r2 = minimize(f, Eigen::Vector3d::Zero(), Eigen::VectorXd(), Eigen::VectorXd(), o);
@@ -495,7 +495,7 @@ TEST(Inference, UnreachableTargetIsReportedWithTheNearestValue) {
   const VolumeCloud cloud = topo_test::boxCloud(0.2, 0.1, 0.06, 0.01);
   TaskConfig c = TaskConfig::defaults("hanging");
   c.set("hanging_point", "0.5,0,0.03");
-  c.set("max_iterations", "100");
+  c.set("max_evaluations", "100");
   const InferenceResult r = runInference(c, cloud);
   EXPECT_FALSE(r.targets_reached);
   EXPECT_FALSE(r.converged);
@@ -614,7 +614,7 @@ double ballRecovery(double mu, double* solid_rms) {
   }
   c.set("target_trajectory_file", csv, "--target");
   *solid_rms = simulateInterior(c, cloud, {}).task.features[0].value;
-  c.set("max_iterations", "150");
+  c.set("max_evaluations", "150");
   const InferenceResult r = runInference(c, cloud);
   const double rms = r.final.task.features[0].value;
   std::printf("[ball] mu %.1f: rms error solid %.3e m -> inferred %.3e m (%d evaluations, %.1f s)\n", mu, *solid_rms,

@@ -28,7 +28,7 @@ TEST(TrackToInfer, TheTrackersDocumentSetsTheTaskTargets) {
 
   ASSERT_EQ(topo_test::runTopo("shape beam --spacing 0.005 --volume " + dir + "/beam.ply").code, 0);
   const auto run = topo_test::runTopo("infer --task hanging --volume " + dir + "/beam.ply --features " + dir +
-                                      "/seen.json --set max_iterations=3 --no-export --quiet --output " + dir + "/run");
+                                      "/seen.json --set max_evaluations=3 --no-export --quiet --output " + dir + "/run");
   ASSERT_TRUE(run.code == 0 || run.code == 3) << run.out;
   EXPECT_NE(run.out.find("target_roll_deg"), std::string::npos) << run.out;
   EXPECT_NE(run.out.find("from the motion features"), std::string::npos) << run.out;
@@ -39,7 +39,7 @@ TEST(TrackToInfer, TheTrackersDocumentSetsTheTaskTargets) {
   // An explicit --target wins over the tracked one; a document that is not one is named.
   const auto explicit_target = topo_test::runTopo(
       "infer --task hanging --volume " + dir + "/beam.ply --features " + dir +
-      "/seen.json --target target_roll_deg=2 --set max_iterations=2 --no-export --quiet --output " + dir + "/run2");
+      "/seen.json --target target_roll_deg=2 --set max_evaluations=2 --no-export --quiet --output " + dir + "/run2");
   ASSERT_TRUE(explicit_target.code == 0 || explicit_target.code == 3) << explicit_target.out;
   const nlohmann::json report2 = nlohmann::json::parse(io::readTextFile(dir + "/run2/report.json"));
   EXPECT_DOUBLE_EQ(report2["targets"]["target_roll_deg"].get<double>(), 2.0);

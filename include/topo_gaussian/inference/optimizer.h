@@ -4,10 +4,10 @@
 // simulation polling it too throws SimulationCancelled, which ends the run), and always return the
 // best design seen.
 //
-// max_iterations counts evaluations of the loss and its gradient (each simulates one design once),
+// max_evaluations counts evaluations of the loss and its gradient (each simulates one design once),
 // for both methods, failed evaluations included: an L-BFGS iteration may evaluate several trial
 // designs in its line search, an Adam iteration evaluates one. OptimizerResult::iterations is that
-// count of the evaluations that succeeded; it never exceeds max_iterations.
+// count of the evaluations that succeeded; it never exceeds max_evaluations.
 #pragma once
 
 #include <Eigen/Core>
@@ -21,7 +21,7 @@ namespace topo_gaussian::inference {
 
 struct OptimizerOptions {
   std::string method = "lbfgs";  ///< lbfgs | adam
-  int max_iterations = 200;      ///< evaluations of loss and gradient (see the header comment)
+  int max_evaluations = 200;     ///< evaluations of loss and gradient (see the header comment)
   double learning_rate = 0.02;   ///< Adam
   double beta1 = 0.9, beta2 = 0.999, adam_eps = 1e-8;
   double loss_tolerance = 1e-12;      ///< stop when loss ≤ this
@@ -46,9 +46,9 @@ struct IterationInfo {
 struct OptimizerResult {
   Eigen::VectorXd theta;  ///< the best design seen
   double loss = 0.0;
-  int iterations = 0;      ///< objective evaluations with gradient that succeeded (≤ max_iterations)
-  int evaluations = 0;     ///< every objective call, failed ones included (≤ max_iterations)
-  bool converged = false;  ///< a stopping criterion was met (not the iteration limit)
+  int iterations = 0;      ///< objective evaluations with gradient that succeeded (≤ max_evaluations)
+  int evaluations = 0;     ///< every objective call, failed ones included (≤ max_evaluations)
+  bool converged = false;  ///< a stopping criterion was met (not the evaluation limit)
   bool cancelled = false;
   std::string message;  ///< why it stopped
   std::vector<IterationInfo> history;

@@ -66,7 +66,7 @@ using EvaluationCallback = std::function<void(const ProblemEvaluation&)>;
 /// progress call of its iteration. should_stop (optional) is polled inside every simulation's time
 /// loop and between evaluations: a cancel takes effect within a few ms of work and returns the best
 /// design evaluated so far (the start design, unevaluated, when the first evaluation was cut short)
-/// without simulating it again. max_iterations bounds the optimiser's evaluations (optimizer.h);
+/// without simulating it again. max_evaluations bounds the optimiser's evaluations (optimizer.h);
 /// the run also evaluates the start design before them. Throws TopoError for bad input before the
 /// optimisation starts, including a simulation over its step or memory budget (run_limits.h).
 InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,

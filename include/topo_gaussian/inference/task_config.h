@@ -29,6 +29,14 @@ struct ParamSpec {
   std::string paper_value;           ///< the value the TopoGaussian paper uses, "" where it gives none
 };
 
+/// Another name of a parameter (an old name kept for the files and calls that use it): setting or
+/// reading `name` sets or reads `parameter`; `--list-params` and `topo tasks --markdown` show the note.
+struct ParamAlias {
+  std::string name;
+  std::string parameter;
+  std::string note;  ///< why the name changed, e.g. "it always counted evaluations"
+};
+
 struct ParamValue {
   double number = 0.0;
   std::string text;
@@ -100,7 +108,9 @@ class TaskConfig {
   const std::set<std::string>& explicitKeys() const { return explicit_; }
 
   /// Sets one parameter from text ("1200", "true", "0,0,0.1", "[0.1, 0.2]"). Throws TopoError for
-  /// unknown keys (with the nearest known key) and invalid values (with the allowed range).
+  /// unknown keys (with the nearest known key) and invalid values (with the allowed range). An alias
+  /// (aliases()) sets its parameter; one origin (a file, the --set list, a goal's overrides) giving
+  /// both names different values is refused, naming both.
   /// With experiments: "NAME.KEY" sets KEY of experiment NAME; a shared KEY is set for all; another
   /// KEY is set in every experiment whose task has it, except a target, which must name its
   /// experiment when more than one has it.
@@ -120,7 +130,14 @@ class TaskConfig {
   const std::vector<double>& list(const std::string& key) const;
 
   const std::vector<ParamSpec>& specs() const { return specs_; }
+  /// The spec of a parameter, or of the parameter an alias names; nullptr for an unknown key.
   const ParamSpec* spec(const std::string& key) const;
+  /// Old names still accepted, in declaration order (TaskParameters::alias).
+  const std::vector<ParamAlias>& aliases() const { return aliases_; }
+  /// The parameter `key` names: itself, or the parameter of the alias `key`.
+  const std::string& canonicalName(const std::string& key) const;
+  /// "NAME: alias of PARAMETER (NOTE)" for the alias `name`, "" for any other key.
+  std::string aliasText(const std::string& name) const;
   /// "key = value" text of one parameter (for reports).
   std::string valueText(const std::string& key) const;
   /// Help text: every parameter with its default, unit, documentation and paper value.
@@ -134,6 +151,13 @@ class TaskConfig {
   /// Shorthand keys (a task's declaration): setting the key sets each listed parameter to the same
   /// value; the key itself may be one of them.
   std::map<std::string, std::vector<std::string>> shorthands_;
+  std::vector<ParamAlias> aliases_;
+  /// Of a parameter with an alias: the origin, the name used and the value text of its last change
+  /// (to refuse one origin giving both names different values).
+  struct NamedChange {
+    std::string origin, name, value;
+  };
+  std::map<std::string, NamedChange> alias_changes_;
   std::vector<Experiment> experiments_;
   std::set<std::string> explicit_;
   void declare(const ParamSpec& spec, const ParamValue& value);

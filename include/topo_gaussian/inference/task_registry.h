@@ -66,6 +66,9 @@ class TaskParameters {
   /// A shorthand key: setting it sets each listed parameter to the same value (the key itself may be
   /// one of them, then it is set last).
   void shorthand(const std::string& key, std::vector<std::string> parameters);
+  /// Another name of a declared parameter (an old name kept working): setting or reading `old_name` sets or
+  /// reads `parameter`; `note` says why it changed (`--list-params` shows "OLD: alias of NEW (NOTE)").
+  void alias(const std::string& old_name, const std::string& parameter, const std::string& note);
 
  private:
   Declared add(ParamSpec spec, ParamValue value);

@@ -85,7 +85,7 @@ struct InferenceRequest {
   sensor_msgs::PointCloud2 volume;         ///< no points = the latest `volume`
   topo_gaussian::MotionFeatures features;  ///< empty kind = the latest `motion_features`
   bool ignore_motion_features = false;
-  int max_iterations = 0;
+  int max_evaluations = 0;  ///< the goal's max_iterations field: objective evaluations; 0 = the task's
   std::string output_dir;
 };
 
