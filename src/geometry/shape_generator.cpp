@@ -133,46 +133,21 @@ SurfaceData makeDefaultShapeMesh(const std::string& name, int resolution) {
   if (resolution < 8 || resolution > 4096)
     throw TopoError("mesh resolution " + std::to_string(resolution), "is out of range",
                     "give 8 to 4096 segments around a full circle (default 64)");
-  namespace d = default_shape_dims;
   const std::string source = "default " + name + " shape";
-  if (name == "beam") {
-    SurfaceData m = makeBox(shape.hi - shape.lo);
-    const Eigen::Vector3d mid = 0.5 * (shape.lo + shape.hi);
-    for (auto& p : m.points) p += mid;
-    m.source = source;
-    return m;
+  const ShapeOutline outline = shape.outline(resolution);
+  switch (outline.kind) {
+    case ShapeOutline::Kind::ExtrudedAlongY:
+      return extrudeY(outline.curve, outline.half_width, source);
+    case ShapeOutline::Kind::RevolvedAboutZ:
+      return revolve(outline.curve, resolution, source);
+    case ShapeOutline::Kind::Box:
+      break;
   }
-  if (name == "finger") {
-    const double t = d::kFingerHalfHeight, x0 = d::kFingerTipCentreX;
-    const int tip = std::max(2, resolution / 2);
-    std::vector<Eigen::Vector2d> poly{{0.0, -t}};
-    for (int i = 0; i <= tip; ++i) {  // half-disc from (x0, −t) over the tip to (x0, t)
-      const double a = -M_PI / 2 + M_PI * i / tip;
-      poly.emplace_back(i == 0 || i == tip ? x0 : x0 + t * std::cos(a), t * std::sin(a));
-    }
-    poly.emplace_back(0.0, t);
-    return extrudeY(poly, d::kFingerHalfWidth, source);
-  }
-  std::vector<Eigen::Vector2d> profile;
-  if (name == "pear") {
-    // Rings clustered towards the poles (z = H (1 − cos πs)/2): there r ~ √z, so r grows linearly in s.
-    const int rings = std::max(4, resolution / 2);
-    for (int i = 0; i <= rings; ++i) {
-      const double z = i == rings ? d::kPearHeight : 0.5 * d::kPearHeight * (1.0 - std::cos(M_PI * i / rings));
-      profile.emplace_back(i == 0 || i == rings ? 0.0 : pearRadius(z), z);
-    }
-  } else {  // tumbler: the spherical arc from the bottom pole to the cut, then the flat cap inwards
-    const double R = d::kTumblerRadius, c = d::kTumblerCutZ;
-    const double top = std::asin(c / R), rc = std::sqrt(R * R - c * c);
-    const int arc = std::max(3, int(std::lround(0.5 * resolution * (top + M_PI / 2) / M_PI)));
-    for (int i = 0; i < arc; ++i) {
-      const double a = -M_PI / 2 + (top + M_PI / 2) * i / arc;
-      profile.emplace_back(i == 0 ? 0.0 : R * std::cos(a), R * std::sin(a));
-    }
-    const int cap = std::max(2, resolution / 8);
-    for (int j = 0; j <= cap; ++j) profile.emplace_back(rc * (1.0 - double(j) / cap), c);
-  }
-  return revolve(profile, resolution, source);
+  SurfaceData m = makeBox(shape.hi - shape.lo);
+  const Eigen::Vector3d mid = 0.5 * (shape.lo + shape.hi);
+  for (auto& p : m.points) p += mid;
+  m.source = source;
+  return m;
 }
 
 void writeObj(const SurfaceData& mesh, const std::string& path) {

@@ -472,6 +472,7 @@ void registerFingerTask(TaskList* tasks) {
   };
   t.default_shape = "finger";
   t.motion_targets = bendingTargets;
+  t.pressure_twin = true;  // the rig simulator's pneumatic twin (workflow/finger_twin.h) bends it
   tasks->push_back(t);
 }
 

@@ -9,6 +9,7 @@
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/common/stopwatch.h"
+#include "topo_gaussian/inference/task_registry.h"
 #include "topo_gaussian/topology/indicator.h"
 
 namespace topo_gaussian::inference {
@@ -62,6 +63,14 @@ TaskConfig candidateConfig(const std::string& task, const TaskConfig& object, co
   for (const auto& sp : object.specs())
     if (TaskConfig::isShared(sp.name)) copy(object, sp.name);
   return c;
+}
+
+/// The tasks whose experiment rocks the object about an axis, for messages: "tumbler".
+std::string rockingTaskList() {
+  std::string s;
+  for (const auto& t : taskDefinitions())
+    if (!t.rocking_axis_parameter.empty()) s += (s.empty() ? "" : ", ") + t.name;
+  return s;
 }
 
 /// Up to n points spread over the surface: farthest-point sampling from the highest one.
@@ -307,17 +316,24 @@ void suggestNextExperiment(const InteriorProblem& problem, const std::vector<dou
     analysis->candidates.push_back(std::move(swing));
   }
 
-  // Rock about another horizontal axis, when a tumbler experiment shows the object rocks.
-  const TaskConfig* tumbler = nullptr;
+  // Rock about another horizontal axis, when an experiment of a rocking task (one that declares its
+  // rocking_axis_parameter) shows the object rocks; the first such experiment is the model.
+  const TaskConfig* rocking = nullptr;
+  std::string axis_parameter;
   std::vector<Eigen::Vector3d> used;
-  for (std::size_t e = 0; e < problem.numExperiments(); ++e)
-    if (problem.experiment(e).config.task() == "tumbler") {
-      if (!tumbler) tumbler = &problem.experiment(e).config;
-      used.push_back(problem.experiment(e).config.vector3("rocking_axis").normalized());
+  for (std::size_t e = 0; e < problem.numExperiments(); ++e) {
+    const TaskConfig& config = problem.experiment(e).config;
+    const TaskDefinition* definition = findTaskDefinition(config.task());
+    if (!definition || definition->rocking_axis_parameter.empty()) continue;
+    if (!rocking) {
+      rocking = &config;
+      axis_parameter = definition->rocking_axis_parameter;
     }
-  if (!tumbler) {
-    analysis->notes.push_back(
-        "rocking candidates skipped: no tumbler experiment shows that the object rocks on a rounded base");
+    used.push_back(config.vector3(definition->rocking_axis_parameter).normalized());
+  }
+  if (!rocking) {
+    analysis->notes.push_back("rocking candidates skipped: no experiment of a rocking task (" + rockingTaskList() +
+                              ") shows that the object rocks on a rounded base");
   } else {
     const auto t0 = Clock::now();
     int tried = 0;
@@ -337,8 +353,8 @@ void suggestNextExperiment(const InteriorProblem& problem, const std::vector<dou
       ExperimentSuggestion cand;
       cand.kind = "rock";
       cand.axis = axis;
-      cand.config = candidateConfig("tumbler", problem.config(), tumbler);
-      cand.config.setVector("rocking_axis", axis);
+      cand.config = candidateConfig(rocking->task(), problem.config(), rocking);
+      cand.config.setVector(axis_parameter, axis);
       try {
         const auto task = makeTask(cand.config, cloud);
         task->setShouldStop(problem.task().shouldStop());

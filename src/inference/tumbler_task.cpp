@@ -380,6 +380,7 @@ void registerTumblerTask(TaskList* tasks) {
     return std::make_unique<TumblerTask>(config, cloud);
   };
   t.motion_targets = rockingTargets;
+  t.rocking_axis_parameter = "rocking_axis";  // identifiability: rock it about another axis too
   RigTwinMotion rocking;  // the twin of a tumbler rig: released at rest, it rocks
   rocking.duration_parameter = "duration_s";
   rocking.period_feature = "period_s";

@@ -41,11 +41,6 @@ double pearVolume() {
 
 }  // namespace
 
-const std::vector<std::string>& defaultShapeNames() {
-  static const std::vector<std::string> names{"finger", "pear", "beam", "tumbler"};
-  return names;
-}
-
 double pearField(const Eigen::Vector3d& x) {
   const double rho2 = x.x() * x.x() + x.y() * x.y();
   const double a = std::sqrt(rho2 + (x.z() - d::kPearBulbCentreZ) * (x.z() - d::kPearBulbCentreZ)) - d::kPearBulbRadius;
@@ -68,56 +63,139 @@ double pearRadius(double z) {
   return lo;
 }
 
-DefaultShape defaultShape(const std::string& name) {
+namespace {
+
+// One function per shape: its dimensions, exact inside test and outline (the mesh's recipe).
+
+DefaultShape beamShape() {
   DefaultShape s;
-  s.name = name;
-  if (name == "beam") {
-    s.description = "cantilever beam, box 0.2 x 0.02 x 0.02 m along +x, clamped at x = 0";
-    s.lo = Eigen::Vector3d(0, -d::kBeamHalfWidth, -d::kBeamHalfHeight);
-    s.hi = Eigen::Vector3d(d::kBeamLength, d::kBeamHalfWidth, d::kBeamHalfHeight);
-    s.thickness_m = 2 * std::min(d::kBeamHalfWidth, d::kBeamHalfHeight);
-    s.volume_m3 = d::kBeamLength * 4 * d::kBeamHalfWidth * d::kBeamHalfHeight;
-    const Eigen::Vector3d lo = s.lo, hi = s.hi;
-    s.inside = [lo, hi](const Eigen::Vector3d& x) {
-      return (x.array() >= lo.array()).all() && (x.array() <= hi.array()).all();
-    };
-  } else if (name == "finger") {
-    s.description =
-        "pneumatic finger along +x, base at x = 0: box 0.1 x 0.02 x 0.015 m with a half-cylinder tip of radius 0.0075 "
-        "m";
-    s.lo = Eigen::Vector3d(0, -d::kFingerHalfWidth, -d::kFingerHalfHeight);
-    s.hi = Eigen::Vector3d(d::kFingerLength, d::kFingerHalfWidth, d::kFingerHalfHeight);
-    s.thickness_m = 2 * std::min(d::kFingerHalfWidth, d::kFingerHalfHeight);
-    s.volume_m3 = d::kFingerTipCentreX * 4 * d::kFingerHalfWidth * d::kFingerHalfHeight +
-                  0.5 * M_PI * d::kFingerTipRadius * d::kFingerTipRadius * 2 * d::kFingerHalfWidth;
-    const Eigen::Vector3d lo = s.lo, hi = s.hi;
-    s.inside = [lo, hi](const Eigen::Vector3d& x) {
-      if (!((x.array() >= lo.array()).all() && (x.array() <= hi.array()).all())) return false;
-      if (x.x() <= d::kFingerTipCentreX) return true;
-      const double dx = x.x() - d::kFingerTipCentreX;
-      return dx * dx + x.z() * x.z() <= d::kFingerTipRadius * d::kFingerTipRadius;
-    };
-  } else if (name == "pear") {
-    s.description =
-        "pear about z, bottom at z = 0, height 0.12 m: bulb radius 0.04 m at z = 0.04, neck ~0.022 m at z = 0.1";
-    s.lo = Eigen::Vector3d(-d::kPearBulbRadius, -d::kPearBulbRadius, 0);
-    s.hi = Eigen::Vector3d(d::kPearBulbRadius, d::kPearBulbRadius, d::kPearHeight);
-    s.thickness_m = 2 * d::kPearHeadRadius;
-    static const double volume = pearVolume();
-    s.volume_m3 = volume;
-    s.inside = [](const Eigen::Vector3d& x) { return pearField(x) <= 0.0; };
-  } else if (name == "tumbler") {
-    const double R = d::kTumblerRadius, c = d::kTumblerCutZ;
-    s.description = "tumbler body: sphere of radius 0.05 m centred at the origin, cut flat at z = 0.02";
-    s.lo = Eigen::Vector3d(-R, -R, -R);
-    s.hi = Eigen::Vector3d(R, R, c);
-    s.thickness_m = R + c;
-    s.volume_m3 = 4.0 / 3.0 * M_PI * R * R * R - M_PI * (R - c) * (R - c) * (2 * R + c) / 3.0;
-    s.inside = [R, c](const Eigen::Vector3d& x) { return x.norm() <= R && x.z() <= c; };
-  } else {
-    throw TopoError("shape '" + name + "'", "is not a default shape", "use one of: " + joinedNames());
-  }
+  s.description = "cantilever beam, box 0.2 x 0.02 x 0.02 m along +x, clamped at x = 0";
+  s.lo = Eigen::Vector3d(0, -d::kBeamHalfWidth, -d::kBeamHalfHeight);
+  s.hi = Eigen::Vector3d(d::kBeamLength, d::kBeamHalfWidth, d::kBeamHalfHeight);
+  s.thickness_m = 2 * std::min(d::kBeamHalfWidth, d::kBeamHalfHeight);
+  s.volume_m3 = d::kBeamLength * 4 * d::kBeamHalfWidth * d::kBeamHalfHeight;
+  const Eigen::Vector3d lo = s.lo, hi = s.hi;
+  s.inside = [lo, hi](const Eigen::Vector3d& x) {
+    return (x.array() >= lo.array()).all() && (x.array() <= hi.array()).all();
+  };
+  s.outline = [](int) { return ShapeOutline(); };
   return s;
+}
+
+DefaultShape fingerShape() {
+  DefaultShape s;
+  s.description =
+      "pneumatic finger along +x, base at x = 0: box 0.1 x 0.02 x 0.015 m with a half-cylinder tip of radius 0.0075 "
+      "m";
+  s.lo = Eigen::Vector3d(0, -d::kFingerHalfWidth, -d::kFingerHalfHeight);
+  s.hi = Eigen::Vector3d(d::kFingerLength, d::kFingerHalfWidth, d::kFingerHalfHeight);
+  s.thickness_m = 2 * std::min(d::kFingerHalfWidth, d::kFingerHalfHeight);
+  s.volume_m3 = d::kFingerTipCentreX * 4 * d::kFingerHalfWidth * d::kFingerHalfHeight +
+                0.5 * M_PI * d::kFingerTipRadius * d::kFingerTipRadius * 2 * d::kFingerHalfWidth;
+  const Eigen::Vector3d lo = s.lo, hi = s.hi;
+  s.inside = [lo, hi](const Eigen::Vector3d& x) {
+    if (!((x.array() >= lo.array()).all() && (x.array() <= hi.array()).all())) return false;
+    if (x.x() <= d::kFingerTipCentreX) return true;
+    const double dx = x.x() - d::kFingerTipCentreX;
+    return dx * dx + x.z() * x.z() <= d::kFingerTipRadius * d::kFingerTipRadius;
+  };
+  s.outline = [](int resolution) {  // the rectangle with the half-disc tip, extruded along y
+    ShapeOutline o;
+    o.kind = ShapeOutline::Kind::ExtrudedAlongY;
+    o.half_width = d::kFingerHalfWidth;
+    const double t = d::kFingerHalfHeight, x0 = d::kFingerTipCentreX;
+    const int tip = std::max(2, resolution / 2);
+    o.curve.emplace_back(0.0, -t);
+    for (int i = 0; i <= tip; ++i) {  // half-disc from (x0, −t) over the tip to (x0, t)
+      const double a = -M_PI / 2 + M_PI * i / tip;
+      o.curve.emplace_back(i == 0 || i == tip ? x0 : x0 + t * std::cos(a), t * std::sin(a));
+    }
+    o.curve.emplace_back(0.0, t);
+    return o;
+  };
+  return s;
+}
+
+DefaultShape pearShape() {
+  DefaultShape s;
+  s.description =
+      "pear about z, bottom at z = 0, height 0.12 m: bulb radius 0.04 m at z = 0.04, neck ~0.022 m at z = 0.1";
+  s.lo = Eigen::Vector3d(-d::kPearBulbRadius, -d::kPearBulbRadius, 0);
+  s.hi = Eigen::Vector3d(d::kPearBulbRadius, d::kPearBulbRadius, d::kPearHeight);
+  s.thickness_m = 2 * d::kPearHeadRadius;
+  static const double volume = pearVolume();
+  s.volume_m3 = volume;
+  s.inside = [](const Eigen::Vector3d& x) { return pearField(x) <= 0.0; };
+  s.outline = [](int resolution) {
+    ShapeOutline o;
+    o.kind = ShapeOutline::Kind::RevolvedAboutZ;
+    // Rings clustered towards the poles (z = H (1 − cos πs)/2): there r ~ √z, so r grows linearly in s.
+    const int rings = std::max(4, resolution / 2);
+    for (int i = 0; i <= rings; ++i) {
+      const double z = i == rings ? d::kPearHeight : 0.5 * d::kPearHeight * (1.0 - std::cos(M_PI * i / rings));
+      o.curve.emplace_back(i == 0 || i == rings ? 0.0 : pearRadius(z), z);
+    }
+    return o;
+  };
+  return s;
+}
+
+DefaultShape tumblerShape() {
+  DefaultShape s;
+  const double R = d::kTumblerRadius, c = d::kTumblerCutZ;
+  s.description = "tumbler body: sphere of radius 0.05 m centred at the origin, cut flat at z = 0.02";
+  s.lo = Eigen::Vector3d(-R, -R, -R);
+  s.hi = Eigen::Vector3d(R, R, c);
+  s.thickness_m = R + c;
+  s.volume_m3 = 4.0 / 3.0 * M_PI * R * R * R - M_PI * (R - c) * (R - c) * (2 * R + c) / 3.0;
+  s.inside = [R, c](const Eigen::Vector3d& x) { return x.norm() <= R && x.z() <= c; };
+  s.outline = [R, c](int resolution) {  // the spherical arc from the bottom pole to the cut, then the flat cap
+    ShapeOutline o;
+    o.kind = ShapeOutline::Kind::RevolvedAboutZ;
+    const double top = std::asin(c / R), rc = std::sqrt(R * R - c * c);
+    const int arc = std::max(3, int(std::lround(0.5 * resolution * (top + M_PI / 2) / M_PI)));
+    for (int i = 0; i < arc; ++i) {
+      const double a = -M_PI / 2 + (top + M_PI / 2) * i / arc;
+      o.curve.emplace_back(i == 0 ? 0.0 : R * std::cos(a), R * std::sin(a));
+    }
+    const int cap = std::max(2, resolution / 8);
+    for (int j = 0; j <= cap; ++j) o.curve.emplace_back(rc * (1.0 - double(j) / cap), c);
+    return o;
+  };
+  return s;
+}
+
+struct ShapeEntry {
+  const char* name;
+  DefaultShape (*build)();
+};
+
+/// Every default shape, in the order defaultShapeNames() lists them: a new shape is one line here.
+const std::vector<ShapeEntry>& shapeRegistry() {
+  static const std::vector<ShapeEntry> shapes{
+      {"finger", fingerShape}, {"pear", pearShape}, {"beam", beamShape}, {"tumbler", tumblerShape}};
+  return shapes;
+}
+
+}  // namespace
+
+const std::vector<std::string>& defaultShapeNames() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> n;
+    for (const auto& e : shapeRegistry()) n.emplace_back(e.name);
+    return n;
+  }();
+  return names;
+}
+
+DefaultShape defaultShape(const std::string& name) {
+  for (const auto& e : shapeRegistry())
+    if (name == e.name) {
+      DefaultShape s = e.build();
+      s.name = name;
+      return s;
+    }
+  throw TopoError("shape '" + name + "'", "is not a default shape", "use one of: " + joinedNames());
 }
 
 VolumeCloud defaultShapeCloud(const std::string& name, double spacing_m) {

@@ -13,6 +13,7 @@
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/inference/pipeline.h"
+#include "topo_gaussian/inference/task_registry.h"
 #include "topo_gaussian/io/task_dir.h"
 #include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/ros/ascii_text.h"
@@ -38,10 +39,18 @@ void requireColour(const std::string& name, const std::vector<double>& bgr) {
       throw TopoError("~" + name + " " + listText(bgr), "must be three numbers 0..255 (B, G, R)", "e.g. [40, 40, 150]");
 }
 
+/// The task that brings `shape` and whose motion the pressure twin replays (TaskDefinition::
+/// pressure_twin; the finger task for the finger), or nullptr.
+const inference::TaskDefinition* pressureTwinTask(const std::string& shape) {
+  for (const auto& t : inference::taskDefinitions())
+    if (t.pressure_twin && t.default_shape == shape) return &t;
+  return nullptr;
+}
+
 }  // namespace
 
 namespace {
-void loadFingerParams(const ParamReader& r, RigSimulatorParams* params);
+void loadFingerParams(const ParamReader& r, const inference::TaskDefinition& task, RigSimulatorParams* params);
 void loadRigidTwinParams(const ParamReader& r, RigSimulatorParams* params);
 void loadCameraParams(const ParamReader& r, RigSimulatorParams* params);
 }  // namespace
@@ -58,20 +67,23 @@ RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
   } catch (const TopoError& e) {
     throw TopoError(std::string("~object: ") + e.what());
   }
-  // the finger shape with the finger task (or none named): the pneumatic finger twin; with another
-  // task (e.g. hanging) the finger is a rigid body like any other shape
-  bool finger = false;
-  if (t.shape == "finger") {
+  // a shape that a pressure-twin task brings (the finger), with such a task or none named: the pneumatic
+  // twin; with another task (e.g. hanging) the shape is a rigid body like any other
+  const inference::TaskDefinition* pressure = pressureTwinTask(t.shape);
+  if (pressure) {
     const std::string task = r.text("task", "");
     try {
-      finger = task.empty() ||
-               inference::TaskConfig::load(task, r.text("task_dir", io::defaultTaskDir())).task() == "finger";
+      if (!task.empty()) {
+        const inference::TaskDefinition& named = inference::taskDefinition(
+            inference::TaskConfig::load(task, r.text("task_dir", io::defaultTaskDir())).task());
+        if (!named.pressure_twin || named.default_shape != t.shape) pressure = nullptr;
+      }
     } catch (const TopoError& e) {
       throw TopoError(std::string("~task: ") + e.what());
     }
   }
-  if (finger) {
-    loadFingerParams(r, &p);
+  if (pressure) {
+    loadFingerParams(r, *pressure, &p);
   } else {
     loadRigidTwinParams(r, &p);
   }
@@ -81,15 +93,15 @@ RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
 
 namespace {
 
-void loadFingerParams(const ParamReader& r, RigSimulatorParams* params) {
+void loadFingerParams(const ParamReader& r, const inference::TaskDefinition& task, RigSimulatorParams* params) {
   RigSimulatorParams& p = *params;
   workflow::FingerTwinOptions& f = p.finger_twin;
   p.finger = true;
   f.spacing_m = r.number("spacing_m", f.spacing_m, "m");
-  const DefaultShape shape = defaultShape("finger");
+  const DefaultShape shape = defaultShape(task.default_shape);
   requireRange("spacing_m", f.spacing_m, 5e-4, shape.thickness_m / 3.0,
                "use e.g. 0.002 (at most a third of the finger's thickness, " + numberText(shape.thickness_m) + " m)");
-  f.task = r.text("task", f.task);
+  f.task = r.text("task", task.name);
   f.task_dir = r.text("task_dir", io::defaultTaskDir());
   f.overrides = r.texts("set", f.overrides, "['youngs_modulus_solid=2e6']", "; \t");
   if (!r.texts("experiments", {}, "[]", "; \t").empty())
@@ -97,9 +109,10 @@ void loadFingerParams(const ParamReader& r, RigSimulatorParams* params) {
                     "drive several pressures with ~pressure_profile instead; leave ~experiments unset");
   try {
     inference::TaskConfig c = inference::TaskConfig::load(f.task, f.task_dir);
-    if (c.task() != "finger")
+    const inference::TaskDefinition& named = inference::taskDefinition(c.task());
+    if (!named.pressure_twin || named.default_shape != task.default_shape)
       throw TopoError("~task '" + f.task + "'", "is the " + c.task() + " task",
-                      "use the finger task (or leave it unset)");
+                      "use the " + task.name + " task (or leave it unset)");
     for (const auto& a : f.overrides) c.setAssignment(a, "~set");
   } catch (const TopoError& e) {
     throw TopoError(std::string("~task/~set: ") + e.what());

@@ -7,6 +7,7 @@
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/inference/task_registry.h"
 #include "topo_gaussian/workflow/shape_surface.h"
 
 namespace topo_gaussian::workflow {
@@ -54,7 +55,8 @@ FingerTwin::FingerTwin(const FingerTwinOptions& options) : options_(options) {
     throw TopoError("finger twin pressure levels " + std::to_string(options_.pressure_levels), "must be 2..100",
                     "use about 6 (the shape between levels is interpolated)");
   config_ = TaskConfig::load(options_.task, options_.task_dir);
-  if (config_.task() != "finger")
+  const TaskDefinition& definition = taskDefinition(config_.task());
+  if (!definition.pressure_twin)  // a task this twin replays (TaskDefinition::pressure_twin)
     throw TopoError("finger twin task '" + options_.task + "'", "is the " + config_.task() + " task",
                     "give the finger task (or a YAML file with task: finger)");
   for (const auto& a : options_.overrides) config_.setAssignment(a, "finger twin set");
@@ -66,7 +68,7 @@ FingerTwin::FingerTwin(const FingerTwinOptions& options) : options_(options) {
                     "must be a gauge pressure in (0, 1e8) Pa", "e.g. 5e5 (the paper's finger)");
   config_.setNumber("pressure_pa", options_.max_pressure_pa);
 
-  shape_ = defaultShape("finger");
+  shape_ = defaultShape(definition.default_shape);
   cloud_ = defaultShapeCloud(shape_, options_.spacing_m);  // throws naming the spacing
   std::vector<Eigen::Vector3d> points;
   projectSurfaceOntoShape(shape_, &cloud_, &points, &surface_normals_);

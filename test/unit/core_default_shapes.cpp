@@ -49,6 +49,33 @@ TEST(DefaultShapes, NamesAndBounds) {
   EXPECT_TRUE(f.inside({0.0925 + 0.0075 * std::cos(0.7) - 1e-5, 0.0, 0.0075 * std::sin(0.7)}));
 }
 
+// Each shape declares its outline beside its inside test (one entry per shape, default_shapes.cpp); the
+// mesh (geometry/shape_generator.h) is built from it. The curve's points lie on the solid's boundary:
+// inside, and outside just beyond along the outward direction from the shape's middle.
+TEST(DefaultShapes, EveryShapeDeclaresItsOutlineOnItsBoundary) {
+  for (const auto& n : defaultShapeNames()) {
+    const DefaultShape s = defaultShape(n);
+    ASSERT_TRUE(bool(s.outline)) << n;
+    const ShapeOutline o = s.outline(64);
+    if (o.kind == ShapeOutline::Kind::Box) {
+      EXPECT_TRUE(o.curve.empty()) << n;
+      EXPECT_TRUE(s.inside(s.lo) && s.inside(s.hi)) << n;
+      continue;
+    }
+    ASSERT_GE(o.curve.size(), 3u) << n;
+    if (o.kind == ShapeOutline::Kind::ExtrudedAlongY) EXPECT_DOUBLE_EQ(o.half_width, s.hi.y()) << n;
+    const Eigen::Vector3d mid = 0.5 * (s.lo + s.hi);
+    for (const auto& q : o.curve) {
+      // the extrusion's polygon at y = 0; the profile (r, z) on the meridian y = 0
+      const Eigen::Vector3d p(q.x(), 0.0, q.y());
+      EXPECT_TRUE(s.inside(p + 1e-9 * (mid - p).normalized())) << n << " (" << q.transpose() << ")";
+      Eigen::Vector3d out = p - mid;
+      out.y() = 0.0;
+      EXPECT_FALSE(s.inside(p + 1e-6 * out.normalized())) << n << " (" << q.transpose() << ")";
+    }
+  }
+}
+
 TEST(DefaultShapes, PearProfileIsAPear) {
   EXPECT_EQ(pearRadius(0.0), 0.0);
   EXPECT_EQ(pearRadius(0.12), 0.0);

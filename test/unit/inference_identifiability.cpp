@@ -19,6 +19,7 @@
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/inference/report.h"
 #include "topo_gaussian/inference/task.h"
+#include "topo_gaussian/inference/task_registry.h"
 
 using namespace topo_gaussian;
 using namespace topo_gaussian::inference;
@@ -331,6 +332,60 @@ TEST(Identifiability, RockingAboutXAndYMovesIxxIyyButNotIzzOrTheProducts) {
       analyseMomentJacobian(rowsOf(ex), naturalMomentUnits(1000.0 * cloud.totalVolume(), 0.15));
   EXPECT_GT(ax.moments[5].std_relative, 1e3);
   EXPECT_FALSE(a.moments[0].determined);
+}
+
+// The registry's capability, not a task's name, proposes rocking: a task that declares its rocking axis
+// parameter (TaskDefinition::rocking_axis_parameter) gets candidates about the horizontal axes it has not
+// rocked about yet, set through that parameter; an experiment of a task without it gets none.
+TEST(Identifiability, RockingCandidatesComeFromTheTaskThatDeclaresItsRockingAxis) {
+  const TaskDefinition* rocking = nullptr;
+  for (const auto& t : taskDefinitions()) {
+    if (t.rocking_axis_parameter.empty()) continue;
+    const TaskConfig c = TaskConfig::defaults(t.name);
+    const ParamSpec* spec = c.spec(t.rocking_axis_parameter);
+    ASSERT_NE(spec, nullptr) << t.name << " declares no parameter " << t.rocking_axis_parameter;
+    EXPECT_EQ(spec->type, ParamType::Vector3) << t.name;
+    if (!rocking) rocking = &t;
+  }
+  ASSERT_NE(rocking, nullptr) << "no task declares a rocking axis";
+  EXPECT_EQ(taskDefinition("tumbler").rocking_axis_parameter, "rocking_axis");
+
+  const VolumeCloud cloud = topo_test::tumblerCloud(0.05, 0.5, 0.01);
+  TaskConfig c = TaskConfig::defaults(rocking->name);
+  c.set("duration_s", "1.0");
+  c.set("initial_tilt_deg", "8");
+  c.set("period_s", "0.3");
+  c.set("max_tilt_deg", "8");
+  c.set(rocking->rocking_axis_parameter, "1,0,0");
+  IdentifiabilityOptions options;
+  options.hanging_candidates = 0;
+  options.max_dynamic_candidates = 1;
+  auto analyse = [&](const TaskConfig& config, const VolumeCloud& body) {
+    const InteriorProblem problem(config, body);
+    const Eigen::VectorXd theta = problem.initialParameters();
+    ProblemEvaluation at;
+    problem.evaluate(theta, nullptr, &at);
+    return analyseIdentifiability(problem, theta, at, options);
+  };
+  const IdentifiabilityAnalysis a = analyse(c, cloud);
+  ASSERT_EQ(a.candidates.size(), 1u) << a.summary;
+  const ExperimentSuggestion& rock = a.candidates[0];
+  EXPECT_EQ(rock.kind, "rock");
+  EXPECT_EQ(rock.config.task(), rocking->name);
+  EXPECT_LT((rock.axis - Eigen::Vector3d::UnitY()).norm(), 1e-12) << "x is rocked already: y is next";
+  EXPECT_LT((rock.config.vector3(rocking->rocking_axis_parameter) - Eigen::Vector3d::UnitY()).norm(), 1e-12);
+
+  const HangSetup s;
+  TaskConfig hanging = TaskConfig::defaults("hanging");
+  hanging.setVector("hanging_point", Eigen::Vector3d(s.c.x(), s.c.y(), 0.04));
+  ASSERT_TRUE(taskDefinition("hanging").rocking_axis_parameter.empty());
+  const IdentifiabilityAnalysis h = analyse(hanging, s.cloud);
+  EXPECT_TRUE(h.candidates.empty());
+  bool noted = false;
+  for (const auto& n : h.notes)
+    noted = noted || (n.find("rocking candidates skipped") != std::string::npos &&
+                      n.find(rocking->name) != std::string::npos);
+  EXPECT_TRUE(noted) << "the note names the rocking tasks";
 }
 
 TEST(Identifiability, AfterOneHangFromTheTopItSuggestsAHangOffThatVertical) {

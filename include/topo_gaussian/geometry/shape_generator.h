@@ -23,12 +23,11 @@ const std::vector<std::string>& shapeNames();
 SurfaceData makeShape(const std::string& name, double size);
 
 /// Closed, outward-oriented, watertight mesh of a default soft-body shape (finger, pear, beam,
-/// tumbler; the solids of topo_gaussian/physics/default_shapes.h, same dimensions in metres):
-/// beam a box; finger the extrusion along y of its rounded cross-section (rectangle + half-disc
-/// tip); pear and tumbler surfaces of revolution about z (the tumbler with its flat cap at
-/// z = 0.02). `resolution` is the number of segments around a full circle (8..4096; the finger's
-/// half-round tip gets resolution/2, the profiles of pear and tumbler resolution/2 rings from pole
-/// to pole). Throws TopoError for an unknown name (listing the valid ones) or a bad resolution.
+/// tumbler; the solids of topo_gaussian/physics/default_shapes.h, same dimensions in metres), built
+/// from the outline the shape declares there (DefaultShape::outline): a box, a polygon extruded along
+/// y (the finger), or a profile revolved about z (pear, tumbler). `resolution` is the number of
+/// segments around a full circle (8..4096). Throws TopoError for an unknown name (listing the valid
+/// ones) or a bad resolution.
 SurfaceData makeDefaultShapeMesh(const std::string& name, int resolution = 64);
 
 /// Writes a mesh as Wavefront OBJ. Throws TopoError when the file cannot be written.

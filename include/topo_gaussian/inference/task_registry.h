@@ -5,7 +5,8 @@
 // Each task file has one register function; taskDefinitions() calls them from one explicit list
 // (task_registry.cpp), so there is no static-initialisation order to get wrong and nothing for the
 // linker to drop. Nothing outside a task's file branches on its name: TaskConfig::defaults, makeTask,
-// defaultShapeForTask, targetsFromMotion and RigTwin ask the registry.
+// defaultShapeForTask, targetsFromMotion, RigTwin, the identifiability analysis and the rig simulator
+// ask the registry.
 #pragma once
 
 #include <Eigen/Core>
@@ -112,6 +113,13 @@ struct TaskDefinition {
   MotionTargetRule motion_targets;
   /// Set when the rig twin can replay the task's motion.
   std::optional<RigTwinMotion> twin;
+  /// Set when the task's experiment rocks the object on a rounded base about a horizontal body axis:
+  /// the name of its Vector3 parameter holding that axis. The identifiability analysis then proposes
+  /// rocking the object about other axes with this task (inference/identifiability.h).
+  std::string rocking_axis_parameter;
+  /// Set when the pressure-actuated soft twin (workflow/finger_twin.h) replays the task on its default
+  /// shape: the rig simulator runs that twin for the shape with this task, or with none named.
+  bool pressure_twin = false;
 };
 
 using TaskList = std::vector<TaskDefinition>;

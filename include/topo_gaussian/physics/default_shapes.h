@@ -44,6 +44,18 @@ constexpr double kPearBlend = 0.04;  ///< smooth-minimum width k
 constexpr double kTumblerRadius = 0.05, kTumblerCutZ = 0.02;
 }  // namespace default_shape_dims
 
+/// How a closed surface of a shape is built (geometry/shape_generator.h meshes it), in the shape's
+/// own terms so that a shape is declared in one place: the box [lo, hi]; a convex polygon in the x-z
+/// plane, counter-clockwise (x right, z up), extruded along y ∈ [−half_width, half_width]; or a
+/// meridian profile (r, z) from the bottom pole (r = 0) to the top pole (r = 0), the solid on its left,
+/// revolved about z.
+struct ShapeOutline {
+  enum class Kind { Box, ExtrudedAlongY, RevolvedAboutZ };
+  Kind kind = Kind::Box;
+  std::vector<Eigen::Vector2d> curve;  ///< the polygon (x, z) or the profile (r, z); empty for the box
+  double half_width = 0.0;             ///< of the extrusion [m]
+};
+
 struct DefaultShape {
   std::string name;
   std::string description;   ///< one line with the dimensions, for help texts and messages
@@ -51,9 +63,13 @@ struct DefaultShape {
   double thickness_m = 0.0;  ///< thinnest dimension (beam 0.02, finger 0.015, pear 0.04 = head, tumbler 0.07)
   double volume_m3 = 0.0;    ///< exact volume (pear: its profile integrated to 1e-9 relative)
   std::function<bool(const Eigen::Vector3d&)> inside;  ///< closed solid: the boundary counts as inside
+  /// Its surface at `resolution` segments around a full circle (8..4096; a half-round part gets
+  /// resolution / 2).
+  std::function<ShapeOutline(int resolution)> outline;
 };
 
-/// {"finger", "pear", "beam", "tumbler"}.
+/// {"finger", "pear", "beam", "tumbler"}: the shapes of the one list in default_shapes.cpp, where
+/// each shape declares its dimensions, inside test and outline (a new shape is one entry there).
 const std::vector<std::string>& defaultShapeNames();
 
 /// The shape by name. Throws TopoError for an unknown name, listing the valid ones.
