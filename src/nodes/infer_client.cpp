@@ -37,8 +37,8 @@
 #include "topo_gaussian/RigGroundTruth.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/ros/ascii_text.h"
-#include "topo_gaussian/inference/truth_comparison.h"
 #include "topo_gaussian/ros/param_reader.h"
+#include "topo_gaussian/ros/truth_comparison_msg.h"
 
 namespace {
 
@@ -58,15 +58,6 @@ typename Msg::ConstPtr waitFor(const std::string& topic, double timeout_s, bool 
 bool measured(const topo_gaussian::MotionFeatures& f) {
   if (f.kind == "finger") return f.bending_confidence >= 0.5;
   return f.oscillation_found || f.bending_confidence > 0 || f.equilibrium_confidence > 0;
-}
-
-/// x y z and solid (1 where solid ≥ 0.5, else 0) of an interior cloud.
-void readInterior(const sensor_msgs::PointCloud2& c, std::vector<Eigen::Vector3d>* x, std::vector<double>* solid) {
-  sensor_msgs::PointCloud2ConstIterator<float> px(c, "x"), ps(c, "solid");
-  for (; px != px.end(); ++px, ++ps) {
-    x->emplace_back(px[0], px[1], px[2]);
-    solid->push_back(*ps >= 0.5f ? 1.0 : 0.0);
-  }
 }
 
 struct Options {
@@ -216,7 +207,7 @@ topo_gaussian::InferInteriorResultConstPtr runGoal(const Options& o) {
 /// the features outside the tolerance.
 double printFeatures(const topo_gaussian::InferInteriorResult& res, const topo_gaussian::RigGroundTruth* truth,
                      double object_size_m, double tolerance, std::vector<std::string>* outside) {
-  namespace inference = topo_gaussian::inference;
+  namespace tr = topo_gaussian::topo_ros;
   double worst = 0.0;
   std::printf("[demo] %-22s %12s %12s %12s\n", "feature", "recovered", "target", "twin truth");
   for (std::size_t k = 0; k < res.feature_names.size(); ++k) {
@@ -227,7 +218,7 @@ double printFeatures(const topo_gaussian::InferInteriorResult& res, const topo_g
         if (truth->feature_names[j] == name) t = truth->feature_values[j];
     std::printf("[demo] %-22s %12.5g %12.5g %12.5g", name.c_str(), res.achieved[k], res.target[k], t);
     if (std::isfinite(t) && std::isfinite(res.target[k])) {
-      const inference::FeatureComparison c = inference::compareFeature(name, res.achieved[k], t, object_size_m, tolerance);
+      const tr::FeatureComparison c = tr::compareFeature(name, res.achieved[k], t, object_size_m, tolerance);
       std::printf("   %+.2f %%%s%s", 100 * c.relative_error, c.of_the_scale ? " (of the scale)" : "",
                   c.within ? "" : "  (outside tolerance)");
       worst = std::max(worst, std::abs(c.relative_error));
@@ -256,12 +247,8 @@ void printInterior(const topo_gaussian::InferInteriorResult& res, const topo_gau
   for (int a = 0; a < 3; ++a) row(c[a], res.center_of_mass[a], truth.center_of_mass[a], size);
   const char* I[3] = {"inertia xx [kg m^2]", "inertia yy [kg m^2]", "inertia zz [kg m^2]"};
   for (int a = 0; a < 3; ++a) row(I[a], res.inertia[4 * a], truth.inertia[4 * a], truth.inertia[4 * a]);
-  std::vector<Eigen::Vector3d> xr, xt;
-  std::vector<double> sr, st;
-  readInterior(res.interior, &xr, &sr);
-  readInterior(truth.interior, &xt, &st);
-  if (!xr.empty() && !xt.empty()) {
-    const auto iou = topo_gaussian::inference::interiorIou(xr, sr, {}, xt, st);
+  if (res.interior.width * res.interior.height > 0 && truth.interior.width * truth.interior.height > 0) {
+    const auto iou = topo_gaussian::topo_ros::interiorIou(res.interior, truth.interior);
     std::printf("[demo] IoU of the cavity %.3f, of the solid %.3f (recovered particles against the twin's interior)\n",
                 iou.cavity, iou.solid);
   }
@@ -323,13 +310,7 @@ int main(int argc, char** argv) {
   }
   // A feature near zero (a rest tilt, a centre-of-mass offset) is judged on its natural scale, not its
   // own size: angles on 10 deg, lengths on the object's size (the twin's true interior's extent).
-  double object_size_m = NAN;
-  if (truth) {
-    std::vector<Eigen::Vector3d> xt;
-    std::vector<double> st;
-    readInterior(truth->interior, &xt, &st);
-    object_size_m = topo_gaussian::inference::objectSizeM(xt);
-  }
+  const double object_size_m = truth ? topo_gaussian::topo_ros::objectSizeM(truth->interior) : NAN;
   std::vector<std::string> outside;
   const double worst = printFeatures(*res, truth.get(), object_size_m, o.tolerance, &outside);
   std::printf("[demo] solid fraction %.3f (twin %.3f), %d evaluations\n", res->solid_fraction,
