@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include "rigid_options.h"
@@ -16,6 +17,7 @@
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/inference/oscillation.h"
+#include "topo_gaussian/inference/task_options.h"
 #include "topo_gaussian/physics/rigid_body.h"
 
 namespace topo_gaussian::inference {
@@ -23,38 +25,77 @@ namespace {
 
 constexpr double kDeg = 180.0 / M_PI;
 
+/// The tumbler's own parameters, typed (the rigid motion's are RigidSimOptions, rigid_options.h).
+struct TumblerOptions {
+  double initial_tilt_deg = 0, initial_angular_velocity_rad_s = 0;
+  Eigen::Vector3d rocking_axis = Eigen::Vector3d::UnitX(), up_axis = Eigen::Vector3d::UnitZ();
+  int measured_cycles = 2;
+  double weight_period = 1, weight_tilt = 1, weight_amplitude = 1, weight_equilibrium = 1;
+  std::optional<double> period_s, max_tilt_deg, amplitude_deg, equilibrium_tilt_deg, equilibrium_from_release_deg;
+};
+
+/// Its declaration and reading (task_options.h), in the order `topo tasks` lists them.
+constexpr auto kTumblerFields = [](auto& f) {
+  using O = TumblerOptions;
+  f.number("initial_tilt_deg", &O::initial_tilt_deg, 10.0, "deg", "release tilt about rocking_axis [deg]", -89, 89);
+  f.number("initial_angular_velocity_rad_s", &O::initial_angular_velocity_rad_s, 0.0, "rad/s",
+           "initial angular velocity about rocking_axis [rad/s]");
+  f.vector3("rocking_axis", &O::rocking_axis, Eigen::Vector3d(1, 0, 0), "unitless",
+            "rocking axis in the body frame (horizontal at rest), a unitless direction");
+  f.vector3("up_axis", &O::up_axis, Eigen::Vector3d(0, 0, 1), "unitless",
+            "the body's up direction (the tilt is measured from it), a unitless direction");
+  f.integer("measured_cycles", &O::measured_cycles, 2, "unitless",
+            "period and equilibrium from the first N full cycles, unitless (0 = all in duration_s)", 0, 1000);
+  f.number("weight_period", &O::weight_period, 1.0, "unitless", "loss weight of ((T - T*)/T*)^2, unitless", 0);
+  f.number("weight_tilt", &O::weight_tilt, 1.0, "unitless", "loss weight of ((tilt - tilt*)/tilt*)^2, unitless", 0);
+  f.target("period_s", &O::period_s, "s", "observed rocking period [s]", 0, 1e300, true);
+  f.target("max_tilt_deg", &O::max_tilt_deg, "deg", "observed maximum tilt [deg]", 0, 90, true);
+  f.number("weight_amplitude", &O::weight_amplitude, 1.0, "unitless", "loss weight of ((A - A*)/A*)^2, unitless", 0);
+  f.target("amplitude_deg", &O::amplitude_deg, "deg",
+           "observed rocking amplitude, the mean half peak-to-peak swing over the measured cycles [deg]: with "
+           "the release tilt it fixes the tilt the doll rests at",
+           0, 90, true);
+  f.number("weight_equilibrium", &O::weight_equilibrium, 1.0, "unitless",
+           "loss weight of ((eq - eq*)/max(1 deg, release tilt))^2, unitless", 0);
+  f.target("equilibrium_tilt_deg", &O::equilibrium_tilt_deg, "deg",
+           "observed tilt the doll rocks about, the mean of its turning points [deg] (0: it rests upright): it "
+           "fixes the centre of mass across the rocking axis (its magnitude is compared: a camera on the other "
+           "side sees the sign mirrored)",
+           -90, 90);
+  f.target("equilibrium_from_release_deg", &O::equilibrium_from_release_deg, "deg",
+           "the same signed towards the release's side [deg] (+: it rests on the side it was released from, -: "
+           "on the other; a mirror flips the release too, so the sign counts): what a clip from the release "
+           "gives; instead of equilibrium_tilt_deg",
+           -90, 90);
+};
+
 class TumblerTask : public Task {
  public:
   TumblerTask(const TaskConfig& c, const VolumeCloud& cloud) : Task(c, cloud) {
     options_ = rigidOptionsFromConfig(c, geometry_.gravity);
-    axis_ = c.vector3("rocking_axis");
-    up_ = c.vector3("up_axis");
+    const TumblerOptions o = readOptions<TumblerOptions>(c, kTumblerFields);
+    axis_ = o.rocking_axis;
+    up_ = o.up_axis;
     if (axis_.norm() == 0 || up_.norm() == 0)
       throw TopoError("rocking_axis/up_axis", "is zero", "give non-zero directions");
     axis_.normalize();
     up_.normalize();
-    tilt0_ = c.number("initial_tilt_deg") / kDeg;
-    omega0_ = c.number("initial_angular_velocity_rad_s");
-    w_period_ = c.number("weight_period");
-    w_tilt_ = c.number("weight_tilt");
-    w_amplitude_ = c.number("weight_amplitude");
-    if (c.has("amplitude_deg")) amplitude_target_ = c.number("amplitude_deg");
-    w_equilibrium_ = c.number("weight_equilibrium");
-    if (c.has("equilibrium_tilt_deg") && c.has("equilibrium_from_release_deg"))
+    tilt0_ = o.initial_tilt_deg / kDeg;
+    omega0_ = o.initial_angular_velocity_rad_s;
+    w_period_ = o.weight_period;
+    w_tilt_ = o.weight_tilt;
+    w_amplitude_ = o.weight_amplitude;
+    amplitude_target_ = o.amplitude_deg.value_or(-1);
+    w_equilibrium_ = o.weight_equilibrium;
+    if (o.equilibrium_tilt_deg && o.equilibrium_from_release_deg)
       throw TopoError("tumbler targets", "give both equilibrium_tilt_deg and equilibrium_from_release_deg",
                       "give one: equilibrium_from_release_deg when the sign relative to the release is known");
-    if (c.has("equilibrium_tilt_deg")) {
-      equilibrium_target_ = c.number("equilibrium_tilt_deg");
-      has_equilibrium_target_ = true;
-    }
-    if (c.has("equilibrium_from_release_deg")) {
-      equilibrium_target_ = c.number("equilibrium_from_release_deg");
-      has_equilibrium_target_ = true;
-      equilibrium_from_release_ = true;
-    }
-    cycles_ = c.integer("measured_cycles");
-    if (c.has("period_s")) period_target_ = c.number("period_s");
-    if (c.has("max_tilt_deg")) tilt_target_ = c.number("max_tilt_deg");
+    has_equilibrium_target_ = o.equilibrium_tilt_deg || o.equilibrium_from_release_deg;
+    equilibrium_from_release_ = o.equilibrium_from_release_deg.has_value();
+    equilibrium_target_ = o.equilibrium_from_release_deg.value_or(o.equilibrium_tilt_deg.value_or(0.0));
+    cycles_ = o.measured_cycles;
+    period_target_ = o.period_s.value_or(-1);
+    tilt_target_ = o.max_tilt_deg.value_or(-1);
     std::string note;
     all_contact_ = groundContactPoints(cloud, &note, &all_weights_);
     if (!note.empty()) notes_.push_back(note);
@@ -272,7 +313,8 @@ MotionTargets rockingTargets(const TaskConfig& config, const motion::MotionFeatu
   // Released at rest at initial_tilt_deg, the doll's largest tilt is at least the release tilt: an
   // observed maximum at or below it (within 1 %: tracking error) says the swing never went past the
   // release, so the target is the release tilt itself (anything below is unreachable).
-  const double release = config.has("initial_tilt_deg") ? std::abs(config.number("initial_tilt_deg")) : 0.0;
+  const TumblerOptions options = readOptions<TumblerOptions>(config, kTumblerFields);
+  const double release = std::abs(options.initial_tilt_deg);
   std::ostringstream os;
   double period = f.period_s, tilt = f.amplitude_confidence > 0 ? f.max_tilt_deg : 0.0, amplitude = 0.0;
   double from_release = NAN;  // the equilibrium signed towards the release's side (a release window)
@@ -289,7 +331,7 @@ MotionTargets rockingTargets(const TaskConfig& config, const motion::MotionFeatu
     double lo = y[0], hi = y[0], peak = 0;
     for (double v : y) lo = std::min(lo, v), hi = std::max(hi, v), peak = std::max(peak, std::abs(v));
     const bool at_rest = std::abs(y[1] - y[0]) < 0.05 * (hi - lo) && std::abs(y[0]) >= 0.5 * peak;
-    const int cycles = config.has("measured_cycles") ? config.integer("measured_cycles") : 2;
+    const int cycles = options.measured_cycles;
     const OscillationFeatures<double> o =
         at_rest ? analyseOscillation(y, 0.0, dt, cycles, true) : OscillationFeatures<double>{};
     if (o.valid && o.period > 0) {
@@ -344,43 +386,15 @@ void registerTumblerTask(TaskList* tasks) {
   t.summary = "a wobbly doll released at a tilt rocks on the ground: rocking period and maximum tilt";
   t.declare_parameters = [](TaskParameters& p) {
     declareRigidMotionParameters(p, 2.0, 0.1);
-    p.number("initial_tilt_deg", 10.0, "deg", "release tilt about rocking_axis [deg]", -89, 89);
-    p.number("initial_angular_velocity_rad_s", 0.0, "rad/s", "initial angular velocity about rocking_axis [rad/s]");
-    const Eigen::Vector3d ex(1, 0, 0), ez(0, 0, 1);
-    p.vector3("rocking_axis", &ex, "unitless",
-              "rocking axis in the body frame (horizontal at rest), a unitless direction");
-    p.vector3("up_axis", &ez, "unitless",
-              "the body's up direction (the tilt is measured from it), a unitless direction");
+    declareOptions<TumblerOptions>(p, kTumblerFields);
     p.setDefault("loss_tolerance", 1e-8);  // relative feature errors of 1e-4 are plenty
-    p.integer("measured_cycles", 2, "unitless",
-              "period and equilibrium from the first N full cycles, unitless (0 = all in duration_s)", 0, 1000);
-    p.number("weight_period", 1.0, "unitless", "loss weight of ((T - T*)/T*)^2, unitless", 0);
-    p.number("weight_tilt", 1.0, "unitless", "loss weight of ((tilt - tilt*)/tilt*)^2, unitless", 0);
-    p.target("period_s", ParamType::Number, "s", "observed rocking period [s]", 0, 1e300, true);
-    p.target("max_tilt_deg", ParamType::Number, "deg", "observed maximum tilt [deg]", 0, 90, true);
-    p.number("weight_amplitude", 1.0, "unitless", "loss weight of ((A - A*)/A*)^2, unitless", 0);
-    p.target("amplitude_deg", ParamType::Number, "deg",
-             "observed rocking amplitude, the mean half peak-to-peak swing over the measured cycles [deg]: with "
-             "the release tilt it fixes the tilt the doll rests at",
-             0, 90, true);
-    p.number("weight_equilibrium", 1.0, "unitless", "loss weight of ((eq - eq*)/max(1 deg, release tilt))^2, unitless",
-             0);
-    p.target("equilibrium_tilt_deg", ParamType::Number, "deg",
-             "observed tilt the doll rocks about, the mean of its turning points [deg] (0: it rests upright): it "
-             "fixes the centre of mass across the rocking axis (its magnitude is compared: a camera on the other "
-             "side sees the sign mirrored)",
-             -90, 90);
-    p.target("equilibrium_from_release_deg", ParamType::Number, "deg",
-             "the same signed towards the release's side [deg] (+: it rests on the side it was released from, -: "
-             "on the other; a mirror flips the release too, so the sign counts): what a clip from the release "
-             "gives; instead of equilibrium_tilt_deg",
-             -90, 90);
   };
   t.make = [](const TaskConfig& config, const VolumeCloud& cloud) -> std::unique_ptr<Task> {
     return std::make_unique<TumblerTask>(config, cloud);
   };
   t.motion_targets = rockingTargets;
   t.rocking_axis_parameter = "rocking_axis";  // identifiability: rock it about another axis too
+
   RigTwinMotion rocking;  // the twin of a tumbler rig: released at rest, it rocks
   rocking.duration_parameter = "duration_s";
   rocking.period_feature = "period_s";

@@ -383,8 +383,8 @@ TEST(Identifiability, RockingCandidatesComeFromTheTaskThatDeclaresItsRockingAxis
   EXPECT_TRUE(h.candidates.empty());
   bool noted = false;
   for (const auto& n : h.notes)
-    noted = noted || (n.find("rocking candidates skipped") != std::string::npos &&
-                      n.find(rocking->name) != std::string::npos);
+    noted = noted ||
+            (n.find("rocking candidates skipped") != std::string::npos && n.find(rocking->name) != std::string::npos);
   EXPECT_TRUE(noted) << "the note names the rocking tasks";
 }
 
