@@ -8,24 +8,48 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #include "rigid_options.h"
 #include "task_factories.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/inference/task_options.h"
 #include "topo_gaussian/io/trajectory_csv.h"
 #include "topo_gaussian/physics/rigid_body.h"
 
 namespace topo_gaussian::inference {
 namespace {
 
+/// The ball's own parameters, typed (the rigid motion's are RigidSimOptions, rigid_options.h).
+struct BallOptions {
+  double initial_height_m = 0;
+  Eigen::Vector3d initial_velocity = Eigen::Vector3d::Zero(), initial_angular_velocity = Eigen::Vector3d::Zero();
+  std::vector<double> pivot_points;
+  std::optional<std::string> target_trajectory_file;
+};
+
+/// Its declaration and reading (inference/task_options.h), in the order `topo tasks` lists them.
+constexpr auto kBallFields = [](auto& f) {
+  using O = BallOptions;
+  f.number("initial_height_m", &O::initial_height_m, 0.3, "m", "drop height of the lowest point above the ground [m]",
+           0);
+  f.vector3("initial_velocity", &O::initial_velocity, Eigen::Vector3d::Zero(), "m/s", "initial velocity [m/s]");
+  f.vector3("initial_angular_velocity", &O::initial_angular_velocity, Eigen::Vector3d::Zero(), "rad/s",
+            "initial angular velocity, world frame [rad/s]");
+  f.list("pivot_points", &O::pivot_points, {}, "m",
+         "tracked body points x,y,z,... [m]; default: centroid and two surface points");
+  f.target("target_trajectory_file", &O::target_trajectory_file, "", "CSV: t, then x y z of each pivot point [s, m]");
+};
+
 class BallTask : public Task {
  public:
   BallTask(const TaskConfig& c, const VolumeCloud& cloud) : Task(c, cloud) {
     options_ = rigidOptionsFromConfig(c, geometry_.gravity);
-    height_ = c.number("initial_height_m");
-    v0_ = c.vector3("initial_velocity");
-    w0_ = c.vector3("initial_angular_velocity");
+    const BallOptions o = readOptions<BallOptions>(c, kBallFields);
+    height_ = o.initial_height_m;
+    v0_ = o.initial_velocity;
+    w0_ = o.initial_angular_velocity;
     centroid_ = cloud.centroid();
     std::string note;
     contact_ = groundContactPoints(cloud, &note, &options_.ground.point_weights);
@@ -33,7 +57,7 @@ class BallTask : public Task {
     if (contact_.empty())
       throw TopoError("volume cloud", "has neither contact samples nor surface particles for ground contact",
                       "fill it with `topo fill`");
-    const auto& pp = c.list("pivot_points");
+    const std::vector<double>& pp = o.pivot_points;
     if (!pp.empty()) {
       if (pp.size() % 3 != 0) throw TopoError("pivot_points", "needs x,y,z triples", "give 3 numbers per point");
       for (std::size_t k = 0; k < pp.size(); k += 3) pivots_.emplace_back(pp[k], pp[k + 1], pp[k + 2]);
@@ -50,7 +74,7 @@ class BallTask : public Task {
     }
     zmin_ = 1e300;
     for (const auto& p : contact_) zmin_ = std::min(zmin_, p.z());
-    if (c.has("target_trajectory_file")) readTrajectory(c.text("target_trajectory_file"));
+    if (o.target_trajectory_file) readTrajectory(*o.target_trajectory_file);
   }
 
   const std::vector<Eigen::Vector3d>& pivots() const { return pivots_; }
@@ -187,12 +211,7 @@ void registerBallTask(TaskList* tasks) {
     // Contact damping 0.05: a bounce keeps ~85 % of its speed, and a rolling ball loses < 0.5 % of g sin β
     // to the damper (0.3 made it roll 2.6 % slow down a 15° incline).
     declareRigidMotionParameters(p, 1.0, 0.05);
-    const Eigen::Vector3d zero(0, 0, 0);
-    p.number("initial_height_m", 0.3, "m", "drop height of the lowest point above the ground [m]", 0);
-    p.vector3("initial_velocity", &zero, "m/s", "initial velocity [m/s]");
-    p.vector3("initial_angular_velocity", &zero, "rad/s", "initial angular velocity, world frame [rad/s]");
-    p.list("pivot_points", {}, "m", "tracked body points x,y,z,... [m]; default: centroid and two surface points");
-    p.target("target_trajectory_file", ParamType::Text, "", "CSV: t, then x y z of each pivot point [s, m]");
+    declareOptions<BallOptions>(p, kBallFields);
   };
   t.make = [](const TaskConfig& config, const VolumeCloud& cloud) -> std::unique_ptr<Task> {
     return std::make_unique<BallTask>(config, cloud);

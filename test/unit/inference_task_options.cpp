@@ -1,6 +1,6 @@
 // Typed task options (inference/task_options.h): one list of fields declares the parameters as
 // TaskParameters does and reads them back into a struct: defaults, set values, targets only when
-// given; the tumbler reads its own parameters this way.
+// given; the tumbler and the ball read their own parameters this way.
 #include <gtest/gtest.h>
 
 #include <optional>
@@ -22,7 +22,9 @@ struct ProbeOptions {
   int count = 0;
   bool enabled = false;
   Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+  std::vector<double> points;
   std::optional<double> observed_s;
+  std::optional<std::string> observed_file;
 };
 
 constexpr auto kProbeFields = [](auto& f) {
@@ -31,7 +33,9 @@ constexpr auto kProbeFields = [](auto& f) {
   f.integer("probe_count", &O::count, 3, "unitless", "a count, unitless", 1, 9);
   f.flag("probe_enabled", &O::enabled, true, "a switch");
   f.vector3("probe_axis", &O::axis, Eigen::Vector3d(0, 1, 0), "unitless", "a direction, unitless");
+  f.list("probe_points", &O::points, {}, "m", "points x,y,z,... [m]");
   f.target("probe_observed_s", &O::observed_s, "s", "an observed time [s]", 0, 1e300, true);
+  f.target("probe_observed_file", &O::observed_file, "", "an observed file");
 };
 
 }  // namespace
@@ -49,25 +53,32 @@ TEST(TaskOptions, OneListDeclaresAndReadsTypedFields) {
   EXPECT_EQ(c.spec("probe_count")->type, ParamType::Integer);
   EXPECT_EQ(c.spec("probe_enabled")->type, ParamType::Boolean);
   EXPECT_EQ(c.spec("probe_axis")->type, ParamType::Vector3);
+  EXPECT_EQ(c.spec("probe_points")->type, ParamType::List);
   EXPECT_TRUE(c.spec("probe_observed_s")->is_target);
+  EXPECT_EQ(c.spec("probe_observed_file")->type, ParamType::Text);
+  EXPECT_TRUE(c.spec("probe_observed_file")->is_target);
   std::vector<std::string> order;
   for (const auto& s : c.specs())
     if (s.name.rfind("probe_", 0) == 0) order.push_back(s.name);
   EXPECT_EQ(order, (std::vector<std::string>{"probe_length_m", "probe_count", "probe_enabled", "probe_axis",
-                                             "probe_observed_s"}));
+                                             "probe_points", "probe_observed_s", "probe_observed_file"}));
   // the defaults read back; a target only when given
   ProbeOptions o = readOptions<ProbeOptions>(c, kProbeFields);
   EXPECT_DOUBLE_EQ(o.length_m, 0.25);
   EXPECT_EQ(o.count, 3);
   EXPECT_TRUE(o.enabled);
   EXPECT_EQ(o.axis, Eigen::Vector3d(0, 1, 0));
+  EXPECT_TRUE(o.points.empty());
   EXPECT_FALSE(o.observed_s.has_value());
+  EXPECT_FALSE(o.observed_file.has_value());
   // values set as text (a file, --set, a goal) read back typed; ranges are the declaration's
   c.set("probe_length_m", "1.5", "test");
   c.set("probe_count", "7", "test");
   c.set("probe_enabled", "false", "test");
   c.set("probe_axis", "0,0,1", "test");
+  c.set("probe_points", "0,0,0.1,0,0,0.2", "test");
   c.set("probe_observed_s", "0.4", "test");
+  c.set("probe_observed_file", "track.csv", "test");
   o = readOptions<ProbeOptions>(c, kProbeFields);
   EXPECT_DOUBLE_EQ(o.length_m, 1.5);
   EXPECT_EQ(o.count, 7);
@@ -75,6 +86,8 @@ TEST(TaskOptions, OneListDeclaresAndReadsTypedFields) {
   EXPECT_EQ(o.axis, Eigen::Vector3d(0, 0, 1));
   ASSERT_TRUE(o.observed_s.has_value());
   EXPECT_DOUBLE_EQ(*o.observed_s, 0.4);
+  EXPECT_EQ(o.points, (std::vector<double>{0, 0, 0.1, 0, 0, 0.2}));
+  EXPECT_EQ(o.observed_file, std::optional<std::string>("track.csv"));
   EXPECT_THROW(c.set("probe_count", "12", "test"), TopoError);
 }
 

@@ -11,13 +11,15 @@
 // Its declaration calls declareOptions<TumblerOptions>(p, kTumblerFields) (each field declared as
 // TaskParameters declares it: name, default, unit, documentation, range; `.paper("...")` chains as there),
 // its factory readOptions<TumblerOptions>(config, kTumblerFields) (each field read back from the config:
-// no key typed twice, no field read with the wrong type).
+// no key typed twice, no field read with the wrong type). Fields: number, integer, flag, vector3, list,
+// and targets (no default) as std::optional<double> or std::optional<std::string>, set only when given.
 #pragma once
 
 #include <Eigen/Core>
 #include <optional>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "topo_gaussian/inference/task_config.h"
 #include "topo_gaussian/inference/task_registry.h"
@@ -45,10 +47,20 @@ class DeclareFields {
                                    const std::string& unit, const std::string& doc) {
     return p_.vector3(name, &def, unit, doc);
   }
+  template <class... Rest>
+  TaskParameters::Declared list(const std::string& name, std::vector<double> Options::*, std::vector<double> def,
+                                Rest&&... rest) {
+    return p_.list(name, std::move(def), std::forward<Rest>(rest)...);
+  }
   /// An observed number (a target, without a default): the field holds it when it is given.
   template <class... Rest>
   TaskParameters::Declared target(const std::string& name, std::optional<double> Options::*, Rest&&... rest) {
     return p_.target(name, ParamType::Number, std::forward<Rest>(rest)...);
+  }
+  /// An observed text (a target file): the field holds it when it is given.
+  TaskParameters::Declared target(const std::string& name, std::optional<std::string> Options::*,
+                                  const std::string& unit, const std::string& doc) {
+    return p_.target(name, ParamType::Text, unit, doc);
   }
 
  private:
@@ -87,8 +99,18 @@ class ReadFields {
     return {};
   }
   template <class... Rest>
+  Read list(const std::string& name, std::vector<double> Options::*field, const std::vector<double>&, Rest&&...) {
+    o_.*field = c_.list(name);
+    return {};
+  }
+  template <class... Rest>
   Read target(const std::string& name, std::optional<double> Options::*field, Rest&&...) {
     if (c_.has(name)) o_.*field = c_.number(name);
+    return {};
+  }
+  template <class... Rest>
+  Read target(const std::string& name, std::optional<std::string> Options::*field, Rest&&...) {
+    if (c_.has(name)) o_.*field = c_.text(name);
     return {};
   }
 
