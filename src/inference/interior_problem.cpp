@@ -45,7 +45,7 @@ InteriorProblem::InteriorProblem(const TaskConfig& config, const VolumeCloud& cl
   total_volume_ = cloud_.totalVolume();
   if (w_smooth_ > 0) {
     double radius = config_.number("smoothness_radius_m");
-    if (radius <= 0) radius = 1.5 * (cloud_.spacing > 0 ? cloud_.spacing : 0.01 * task().size());
+    if (radius <= 0) radius = 1.5 * cloud_.spacing;  // carried by the volume (the task validated it)
     neighbors_ = buildNeighborList(cloud_.X, radius);
   }
   // After the pinned shell: the weighed start's bisection uses the indicator.
@@ -53,7 +53,7 @@ InteriorProblem::InteriorProblem(const TaskConfig& config, const VolumeCloud& cl
     const std::string field = config_.text("quadric_field");
     if (field == "distance" || (field == "auto" && weighedMassKg() > 0)) {
       double w = config_.number("quadric_boundary_m");
-      if (!(w > 0)) w = 0.5 * (cloud_.spacing > 0 ? cloud_.spacing : 0.01 * task().size());
+      if (!(w > 0)) w = 0.5 * cloud_.spacing;
       quadric->setDistanceUnit(w / (indicator_.epsilon * quadric->frame().scale));
       // The distance field of a constant design (A = b = 0: no surface) has no gradient: the start must
       // have a surface. auto keeps the paper's field when the weighed start is not made.

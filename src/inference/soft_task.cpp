@@ -60,20 +60,13 @@ CorotatedSphOptions sphOptionsFromConfig(const TaskConfig& c, double spacing) {
 
 namespace {
 
-double cloudSpacing(const VolumeCloud& cloud) {
-  if (cloud.spacing > 0.0) return cloud.spacing;
-  double v = 0.0;
-  for (double x : cloud.V) v += x;
-  return std::cbrt(v / static_cast<double>(cloud.size()));
-}
-
 /// The spacing of a cloud whose interior particles lie on a lattice (every offset from the first
 /// interior particle a whole number of spacings, within 5 %): SPH needs lattice neighbourhoods. A
 /// boundary particle (surface flag) of `topo fill` sits at the centroid of its cell's inside part, up
 /// to half a spacing (and a little more where a sliver of a neighbouring cell was merged into it) from
 /// its cell centre; it may be up to 0.75 spacings off. Throws naming the first particle off the lattice.
 double latticeSpacing(const VolumeCloud& cloud, const std::string& task) {
-  const double h = cloudSpacing(cloud);
+  const double h = cloud.spacing;  // carried by every volume (Task validated it)
   auto boundary = [&](std::size_t i) { return i < cloud.surface.size() && cloud.surface[i]; };
   std::size_t ref = 0;
   while (ref < cloud.size() && boundary(ref)) ++ref;
@@ -133,7 +126,7 @@ std::shared_ptr<const ContactEmbedding> SoftTask::embedContactSamples(const Volu
                      "its true surface); fill it again with `topo fill` to get them");
     return nullptr;
   }
-  const double h = cloudSpacing(cloud);
+  const double h = cloud.spacing;
   std::vector<Eigen::Vector3d> Y = cloud.contact.X, normal = cloud.contact.normal;
   std::vector<double> area = cloud.contact.area;
   // About 2 samples per spacing are enough for the contact; finer ones only cost (the embedding is

@@ -98,7 +98,7 @@ std::string pointOutsideObjectNote(const TaskGeometry& geometry, const VolumeClo
   if (!geometry.has_point || cloud.empty()) return "";
   Eigen::Vector3d lo, hi;
   cloud.bounds(&lo, &hi);
-  const double h = cloud.spacing > 0 ? cloud.spacing : std::cbrt(cloud.totalVolume() / double(cloud.size()));
+  const double h = cloud.spacing;  // carried by every volume (the task validated it)
   const Eigen::Vector3d& p = geometry.point;
   double nearest = std::numeric_limits<double>::infinity();
   for (const auto& x : cloud.X) nearest = std::min(nearest, (x - p).squaredNorm());

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <iostream>
 #include <sstream>
 
 #include "own_ply.h"
@@ -52,7 +53,7 @@ void writeVolumePly(const VolumeCloud& c, const std::string& path) {
   writeOwnPly(path, kLayout, comments, c.size(), buf, cs.size(), contact);
 }
 
-VolumeCloud readVolumePly(const std::string& path) {
+VolumeCloud readVolumePly(const std::string& path, std::string* warning) {
   std::size_t n = 0, body = 0;
   std::vector<std::string> comments;
   std::size_t n_contact = 0, contact_body = 0;
@@ -98,16 +99,14 @@ VolumeCloud readVolumePly(const std::string& path) {
                         " particles have a volume that is not a positive finite number (the first: particle " +
                         std::to_string(first_bad) + ", volume " + std::to_string(c.V[first_bad]) + " m^3)",
                     "every particle needs its volume in m^3 (> 0); write the file with `topo fill --output FILE.ply`");
-  if (!(c.spacing > 0.0) || !std::isfinite(c.spacing)) {
-    if (n == 0) {
-      c.validate(path);
-      return c;
-    }
-    // No (valid) "comment spacing h": a lattice particle's volume is h³.
-    std::vector<double> v(c.V.begin(), c.V.end());
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    c.spacing = std::cbrt(v[v.size() / 2]);
-  }
+  // A file written before the spacing (or the contact samples' spacing) was carried: the one fallback.
+  std::string note = deriveMissingSpacing(&c, path);
+  const std::string contact_note = deriveMissingSpacing(&c.contact, path);
+  if (!contact_note.empty()) note += (note.empty() ? "" : "; ") + contact_note;
+  if (warning)
+    *warning = note;
+  else if (!note.empty())
+    std::cerr << "[topo] warning: " << note << "\n";
   c.validate(path);
   return c;
 }

@@ -233,12 +233,8 @@ CorotatedSph::CorotatedSph(const std::vector<Eigen::Vector3d>& X, const std::vec
   if (opt_.smoothing_length > 0.0) {
     h_ = opt_.smoothing_length;
   } else {
-    double s = opt_.spacing;
-    if (!(s > 0.0)) {
-      double mean = 0.0;
-      for (double v : V) mean += v;
-      s = std::cbrt(mean / static_cast<double>(n));
-    }
+    // The volume's spacing (fromCloud passes it on); particles given without one: the one fallback.
+    const double s = opt_.spacing > 0.0 ? opt_.spacing : spacingFromVolumes(V);
     h_ = opt_.smoothing_factor * s;
   }
   if (!std::isfinite(h_) || h_ <= 0.0)

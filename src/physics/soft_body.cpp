@@ -57,9 +57,7 @@ void SoftBodySimulator::updateStability() {
   dx_ = std::cbrt(vmin);
   // The typical spacing (median volume): a fill's partial boundary cells (down to half a cell) must not
   // soften the automatic contact stiffness k = k_max · spacing.
-  std::vector<double> v(sph_.volumes().begin(), sph_.volumes().end());
-  std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(v.size() / 2), v.end());
-  dx_typical_ = std::cbrt(v[v.size() / 2]);
+  dx_typical_ = spacingFromVolumes(sph_.volumes());
   if (!(c_max_ > 0.0) || !std::isfinite(c_max_))
     throw TopoError("SoftBodySimulator", "the wave speed sqrt((lambda + 2 mu)/rho) is not positive and finite",
                     "check the material parameters and the density");

@@ -1,9 +1,11 @@
 #include "topo_gaussian/physics/volume_cloud.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 
 namespace topo_gaussian {
 
@@ -37,6 +39,39 @@ std::vector<Eigen::Vector3d> groundContactPoints(const VolumeCloud& cloud, std::
 
 double groundContactSpacing(const VolumeCloud& cloud) {
   return cloud.contact.empty() || !(cloud.contact.spacing > 0) ? cloud.spacing : cloud.contact.spacing;
+}
+
+namespace {
+
+double positiveMedian(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const auto mid = v.begin() + std::ptrdiff_t(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid > 0.0 && std::isfinite(*mid) ? *mid : 0.0;
+}
+
+bool carried(double spacing) { return spacing > 0.0 && std::isfinite(spacing); }
+
+}  // namespace
+
+double spacingFromVolumes(const std::vector<double>& V) { return std::cbrt(positiveMedian(V)); }
+
+double spacingFromAreas(const std::vector<double>& area) { return std::sqrt(positiveMedian(area)); }
+
+std::string deriveMissingSpacing(VolumeCloud* cloud, const std::string& source) {
+  if (carried(cloud->spacing) || cloud->empty()) return "";
+  cloud->spacing = spacingFromVolumes(cloud->V);
+  return source + " does not carry the volume's spacing (written by an older version): derived " +
+         numberText(cloud->spacing, 6) +
+         " m as the cube root of the median particle volume, which can differ from the spacing it was filled "
+         "at; fill it again (topo fill, cloud_ingest) to carry it";
+}
+
+std::string deriveMissingSpacing(ContactSamples* samples, const std::string& source) {
+  if (carried(samples->spacing) || samples->empty()) return "";
+  samples->spacing = spacingFromAreas(samples->area);
+  return source + " does not carry the contact samples' spacing (written by an older version): derived " +
+         numberText(samples->spacing, 6) + " m as the square root of the median sample area";
 }
 
 double VolumeCloud::totalVolume() const {

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <iostream>
 #include <sstream>
 #include <vector>
 
@@ -176,6 +177,29 @@ class CloudReader {
     return loadAs(f.datatype, p);
   }
 
+  /// The spacing carried in field `spacing` (the same value in every point: a PointCloud2 has no
+  /// slot for one number), or 0 when the cloud has no such field or no points. Throws when the field
+  /// is not FLOAT32/FLOAT64, its value is not a positive finite length, or two points disagree.
+  double carriedSpacing() const {
+    const int f = find("spacing");
+    if (f < 0 || count_ == 0) return 0.0;
+    const auto t = msg_.fields[std::size_t(f)].datatype;
+    if (t != PointField::FLOAT32 && t != PointField::FLOAT64)
+      throw TopoError(source_, "field 'spacing' has type " + datatypeName(t) + ", not a length in metres",
+                      "publish the spacing as FLOAT64 (or FLOAT32) metres");
+    const double h = get(0, f);
+    if (!(h > 0.0) || !std::isfinite(h))
+      throw TopoError(source_, "field 'spacing' is " + numberText(h, 6) + ", not a positive length in metres",
+                      "publish the spacing the volume was filled at (m) in every point");
+    for (std::size_t i = 1; i < count_; ++i)
+      if (get(i, f) != h)
+        throw TopoError(source_,
+                        "point " + std::to_string(i) + " has spacing " + numberText(get(i, f), 6) +
+                            " m but point 0 has " + numberText(h, 6) + " m",
+                        "publish one volume per message, with its one spacing in every point");
+    return h;
+  }
+
  private:
   const sensor_msgs::PointCloud2& msg_;
   std::string source_;
@@ -196,14 +220,20 @@ sensor_msgs::PointCloud2 toPointCloud2(const VolumeCloud& cloud, const std::stri
                     "has " + std::to_string(n) + " positions but " + std::to_string(cloud.V.size()) + " volumes and " +
                         std::to_string(cloud.surface.size()) + " surface flags",
                     "give one volume (and one surface flag) per particle");
+  if (n > 0 && !(cloud.spacing > 0.0 && std::isfinite(cloud.spacing)))
+    throw TopoError("volume cloud", "has spacing " + numberText(cloud.spacing, 6) + ", which the message carries",
+                    "set the spacing the volume was made at (m) where it is made");
   sensor_msgs::PointCloud2 msg;
   msg.header.frame_id = frame_id;
   msg.header.stamp = stamp;
   msg.height = 1;
   sensor_msgs::PointCloud2Modifier modifier(msg);
-  modifier.setPointCloud2Fields(5, "x", 1, PointField::FLOAT32, "y", 1, PointField::FLOAT32, "z", 1,
-                                PointField::FLOAT32, "volume", 1, PointField::FLOAT32, "surface", 1, PointField::UINT8);
-  msg.point_step = 20;  // 17 bytes of fields, padded so the floats of every point stay 4-byte aligned
+  modifier.setPointCloud2Fields(6, "x", 1, PointField::FLOAT32, "y", 1, PointField::FLOAT32, "z", 1,
+                                PointField::FLOAT32, "volume", 1, PointField::FLOAT32, "surface", 1, PointField::UINT8,
+                                "spacing", 1, PointField::FLOAT64);
+  // 17 bytes of fields, padded so that the spacing (and every point's floats) stay aligned.
+  msg.fields[5].offset = 24;
+  msg.point_step = 32;
   modifier.resize(n);
   msg.is_dense = true;
   msg.is_bigendian = false;
@@ -211,12 +241,14 @@ sensor_msgs::PointCloud2 toPointCloud2(const VolumeCloud& cloud, const std::stri
 
   sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z"), v(msg, "volume");
   sensor_msgs::PointCloud2Iterator<std::uint8_t> s(msg, "surface");
-  for (std::size_t i = 0; i < n; ++i, ++x, ++y, ++z, ++v, ++s) {
+  sensor_msgs::PointCloud2Iterator<double> h(msg, "spacing");
+  for (std::size_t i = 0; i < n; ++i, ++x, ++y, ++z, ++v, ++s, ++h) {
     *x = float(cloud.X[i].x());
     *y = float(cloud.X[i].y());
     *z = float(cloud.X[i].z());
     *v = float(cloud.V[i]);
     *s = cloud.surface.empty() ? 0 : cloud.surface[i];
+    *h = cloud.spacing;
     if (!(std::isfinite(*x) && std::isfinite(*y) && std::isfinite(*z) && std::isfinite(*v))) msg.is_dense = false;
   }
   return msg;
@@ -248,7 +280,19 @@ geometry::SurfaceData toSurfaceData(const sensor_msgs::PointCloud2& msg, const s
   return s;
 }
 
-VolumeCloud fromPointCloud2(const sensor_msgs::PointCloud2& msg, const std::string& source) {
+namespace {
+
+/// A reader's warning (a spacing derived for an older message): into `*warning` when given, else std::cerr.
+void passOn(const std::string& note, std::string* warning) {
+  if (warning)
+    *warning = note;
+  else if (!note.empty())
+    std::cerr << "[topo] warning: " << note << "\n";
+}
+
+}  // namespace
+
+VolumeCloud fromPointCloud2(const sensor_msgs::PointCloud2& msg, const std::string& source, std::string* warning) {
   const CloudReader in(msg, source);
   const std::string layout = "the volume layout: x y z volume (FLOAT32) and surface (UINT8)";
   const int fx = in.requirePosition("x", layout), fy = in.requirePosition("y", layout),
@@ -265,12 +309,8 @@ VolumeCloud fromPointCloud2(const sensor_msgs::PointCloud2& msg, const std::stri
     c.V.push_back(in.get(i, fv));
     c.surface.push_back(fs >= 0 && in.get(i, fs) != 0.0 ? 1 : 0);
   }
-  if (!c.V.empty()) {
-    std::vector<double> v = c.V;
-    auto mid = v.begin() + std::ptrdiff_t(v.size() / 2);
-    std::nth_element(v.begin(), mid, v.end());
-    c.spacing = *mid > 0.0 && std::isfinite(*mid) ? std::cbrt(*mid) : 0.0;
-  }
+  c.spacing = in.carriedSpacing();
+  passOn(deriveMissingSpacing(&c, source), warning);  // a message from before the field: the one fallback
   return c;
 }
 
@@ -282,21 +322,28 @@ sensor_msgs::PointCloud2 toContactCloud(const ContactSamples& c, const std::stri
                     "has " + std::to_string(n) + " positions but " + std::to_string(c.normal.size()) + " normals and " +
                         std::to_string(c.area.size()) + " areas",
                     "give one normal and one area per sample");
+  if (n > 0 && !(c.spacing > 0.0 && std::isfinite(c.spacing)))
+    throw TopoError("contact samples", "have spacing " + numberText(c.spacing, 6) + ", which the message carries",
+                    "set the samples' spacing (m) where they are made");
   sensor_msgs::PointCloud2 msg;
   msg.header.frame_id = frame_id;
   msg.header.stamp = stamp;
   msg.height = 1;
   sensor_msgs::PointCloud2Modifier modifier(msg);
-  modifier.setPointCloud2Fields(7, "x", 1, PointField::FLOAT32, "y", 1, PointField::FLOAT32, "z", 1,
+  modifier.setPointCloud2Fields(8, "x", 1, PointField::FLOAT32, "y", 1, PointField::FLOAT32, "z", 1,
                                 PointField::FLOAT32, "normal_x", 1, PointField::FLOAT32, "normal_y", 1,
                                 PointField::FLOAT32, "normal_z", 1, PointField::FLOAT32, "area", 1,
-                                PointField::FLOAT32);
+                                PointField::FLOAT32, "spacing", 1, PointField::FLOAT64);
+  msg.fields[7].offset = 32;  // 28 bytes of floats, padded so that the spacing stays aligned
+  msg.point_step = 40;
   modifier.resize(n);
   msg.is_dense = true;
   msg.is_bigendian = false;
   if (n == 0) return msg;
   sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), nx(msg, "normal_x"), a(msg, "area");
-  for (std::size_t k = 0; k < n; ++k, ++x, ++nx, ++a) {
+  sensor_msgs::PointCloud2Iterator<double> h(msg, "spacing");
+  for (std::size_t k = 0; k < n; ++k, ++x, ++nx, ++a, ++h) {
+    *h = c.spacing;
     for (int d = 0; d < 3; ++d) {
       x[d] = float(c.X[k][d]);
       nx[d] = float(c.normal[k][d]);
@@ -306,7 +353,8 @@ sensor_msgs::PointCloud2 toContactCloud(const ContactSamples& c, const std::stri
   return msg;
 }
 
-ContactSamples fromContactCloud(const sensor_msgs::PointCloud2& msg, const std::string& source) {
+ContactSamples fromContactCloud(const sensor_msgs::PointCloud2& msg, const std::string& source,
+                                std::string* warning) {
   const CloudReader in(msg, source);
   const std::string layout = "the contact layout: x y z normal_x normal_y normal_z area (FLOAT32)";
   const int fx = in.requirePosition("x", layout), fy = in.requirePosition("y", layout),
@@ -321,12 +369,8 @@ ContactSamples fromContactCloud(const sensor_msgs::PointCloud2& msg, const std::
     c.normal.push_back(n.norm() > 0 ? Eigen::Vector3d(n.normalized()) : n);
     c.area.push_back(in.get(i, fa));
   }
-  if (!c.area.empty()) {
-    std::vector<double> v = c.area;
-    auto mid = v.begin() + std::ptrdiff_t(v.size() / 2);
-    std::nth_element(v.begin(), mid, v.end());
-    c.spacing = *mid > 0.0 && std::isfinite(*mid) ? std::sqrt(*mid) : 0.0;
-  }
+  c.spacing = in.carriedSpacing();
+  passOn(deriveMissingSpacing(&c, source), warning);
   return c;
 }
 

@@ -8,7 +8,7 @@
 //   u8 datatype, u32 count; the rest is msg.data.
 // A TopoError is the expected answer to a bad cloud; any other exception escaping, a sanitizer report,
 // or a result that breaks the conversions' promises (one point per width*height, the volume round
-// trip) is a bug. Header-only ROS: the message types, and librostime for ros::Time.
+// trip with its spacing) is a bug. Header-only ROS: the message types, and librostime for ros::Time.
 #include <sensor_msgs/PointCloud2.h>
 #include <sensor_msgs/PointField.h>
 
@@ -27,7 +27,8 @@ namespace {
 using namespace topo_gaussian;
 
 const char* const kNames[] = {"x",       "y",     "z",   "normal_x", "normal_y",  "normal_z",  "volume",
-                              "surface", "solid", "rgb", "density",  "stiffness", "intensity", ""};
+                              "surface", "solid", "rgb", "density",  "stiffness", "intensity", "",
+                              "spacing"};  // appended: the corpus's earlier indices keep their names
 
 class Bytes {
  public:
@@ -85,12 +86,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   } catch (const TopoError&) {
   }
   try {
-    const VolumeCloud c = topo_ros::fromPointCloud2(msg, "/fuzz");
+    std::string warning;  // a cloud without the spacing field: derived, with a warning (not printed here)
+    const VolumeCloud c = topo_ros::fromPointCloud2(msg, "/fuzz", &warning);
     if (c.X.size() != points || c.V.size() != points || c.surface.size() != points) std::abort();
     if (!std::isfinite(c.spacing) || c.spacing < 0) std::abort();
-    // Round trip: what we publish reads back as the same number of particles.
+    // Round trip: what we publish reads back as the same particles with the same spacing, no warning.
     const sensor_msgs::PointCloud2 again = topo_ros::toPointCloud2(c, "object", ros::Time());
-    if (topo_ros::fromPointCloud2(again, "/fuzz again").size() != points) std::abort();
+    const VolumeCloud back = topo_ros::fromPointCloud2(again, "/fuzz again", &warning);
+    if (back.size() != points || (points > 0 && (back.spacing != c.spacing || !warning.empty()))) std::abort();
   } catch (const TopoError&) {
   }
   try {

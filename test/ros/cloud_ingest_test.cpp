@@ -141,7 +141,8 @@ TEST(Conversions, VolumeCloudRoundTrip) {
   const VolumeCloud back = tr::fromPointCloud2(msg, "round trip");
   ASSERT_EQ(back.size(), 27u);
   EXPECT_NEAR(back.totalVolume(), 27e-6, 27e-6 * 1e-6);
-  EXPECT_NEAR(back.spacing, 0.01, 1e-7);
+  EXPECT_EQ(back.spacing, 0.01);  // carried (field spacing), not derived
+  EXPECT_TRUE(tr::hasField(msg, "spacing"));
   EXPECT_EQ(back.surfaceCount(), 26u);
   for (std::size_t i = 0; i < 27; ++i) EXPECT_LT((back.X[i] - c.X[i]).norm(), 1e-7);
 }
@@ -294,11 +295,11 @@ TEST(CloudIngest, LatchedVolumeFromFile) {
   ASSERT_TRUE(g_setup->first) << "no latched volume from " << g_setup->surface_file;
   const PointCloud2& msg = *g_setup->first;
   EXPECT_EQ(msg.header.frame_id, g_setup->node_params.frame_id);
-  const char* names[] = {"x", "y", "z", "volume", "surface"};
+  const char* names[] = {"x", "y", "z", "volume", "surface", "spacing"};
   const std::uint8_t types[] = {PointField::FLOAT32, PointField::FLOAT32, PointField::FLOAT32, PointField::FLOAT32,
-                                PointField::UINT8};
-  ASSERT_EQ(msg.fields.size(), 5u);
-  for (int i = 0; i < 5; ++i) {
+                                PointField::UINT8,   PointField::FLOAT64};
+  ASSERT_EQ(msg.fields.size(), 6u);
+  for (int i = 0; i < 6; ++i) {
     const PointField* f = field(msg, names[i]);
     ASSERT_NE(f, nullptr) << "field " << names[i];
     EXPECT_EQ(f->datatype, types[i]) << "field " << names[i];
@@ -310,6 +311,7 @@ TEST(CloudIngest, LatchedVolumeFromFile) {
   const VolumeCloud& e = g_setup->expected.cloud;
   // Same file, same options, deterministic fill (no jitter): the same particles.
   EXPECT_EQ(c.size(), e.size());
+  EXPECT_EQ(c.spacing, e.spacing);  // carried by the message, not derived
   EXPECT_EQ(c.surfaceCount(), e.surfaceCount());
   EXPECT_NEAR(c.totalVolume(), e.totalVolume(), 1e-5 * e.totalVolume());
   // The particle count meets ~fill_count within the library's 15 %.
@@ -343,7 +345,10 @@ TEST(CloudIngest, ServiceFillsFileAtSpacing) {
   EXPECT_NEAR(srv.response.total_volume_m3, exact, 0.03 * exact);
   // A lattice of spacing h: count ≈ V / h³ (every particle has volume h³).
   EXPECT_NEAR(double(srv.response.count), exact / std::pow(0.004, 3), 0.03 * exact / std::pow(0.004, 3));
-  const VolumeCloud c = tr::fromPointCloud2(srv.response.volume, "response");
+  std::string warning = "not set";
+  const VolumeCloud c = tr::fromPointCloud2(srv.response.volume, "response", &warning);
+  EXPECT_EQ(c.spacing, srv.response.spacing_m);  // the fill's spacing, carried by the message
+  EXPECT_EQ(warning, "");
   EXPECT_EQ(c.size(), srv.response.count);
   EXPECT_NEAR(c.totalVolume(), srv.response.total_volume_m3, 1e-5 * srv.response.total_volume_m3);
   EXPECT_EQ(srv.response.volume.header.frame_id, g_setup->node_params.frame_id);

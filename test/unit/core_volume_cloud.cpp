@@ -63,3 +63,37 @@ TEST(VolumeCloud, ValidateNamesTheProblem) {
   c.spacing = -1;
   expectError(c, "spacing");
 }
+
+// The one fallback for a volume read from an older file or message without its spacing: the cube
+// root of the median volume (not the mean, which a fill's partial boundary cells pull down), set only
+// where the spacing is missing, with a warning that names the source and says it was derived.
+TEST(VolumeCloud, DerivesAMissingSpacingOnceAndSaysSo) {
+  using topo_gaussian::ContactSamples;
+  using topo_gaussian::deriveMissingSpacing;
+  using topo_gaussian::spacingFromAreas;
+  using topo_gaussian::spacingFromVolumes;
+  EXPECT_DOUBLE_EQ(spacingFromVolumes({0.5e-6, 1e-6, 1e-6, 1e-6, 0.6e-6}), 0.01);  // the mean would give 0.0095
+  EXPECT_EQ(spacingFromVolumes({}), 0.0);
+  EXPECT_EQ(spacingFromVolumes({-1.0, -2.0, 1.0}), 0.0);
+  EXPECT_DOUBLE_EQ(spacingFromAreas({4e-6, 1e-6, 4e-6}), 0.002);
+
+  VolumeCloud c = twoParticles();  // carries 0.01
+  EXPECT_EQ(deriveMissingSpacing(&c, "volume.ply"), "");
+  EXPECT_EQ(c.spacing, 0.01);
+  c.spacing = 0.0;
+  const std::string warning = deriveMissingSpacing(&c, "old.ply");
+  EXPECT_DOUBLE_EQ(c.spacing, std::cbrt(3.0));  // the median of {1, 3}: the upper one
+  EXPECT_NE(warning.find("old.ply"), std::string::npos) << warning;
+  EXPECT_NE(warning.find("derived"), std::string::npos) << warning;
+  VolumeCloud empty;
+  EXPECT_EQ(deriveMissingSpacing(&empty, "none"), "");
+  EXPECT_EQ(empty.spacing, 0.0);
+
+  ContactSamples s;
+  s.X = {Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX()};
+  s.normal = {Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitZ()};
+  s.area = {1e-6, 4e-6};
+  EXPECT_NE(deriveMissingSpacing(&s, "/contact_samples").find("/contact_samples"), std::string::npos);
+  EXPECT_DOUBLE_EQ(s.spacing, 0.002);
+  EXPECT_EQ(deriveMissingSpacing(&s, "/contact_samples"), "");
+}

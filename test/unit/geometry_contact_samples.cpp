@@ -8,6 +8,7 @@
 #include <fstream>
 #include <random>
 
+#include "test_clouds.h"
 #include "test_util.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/geometry/contact_samples.h"
@@ -316,4 +317,27 @@ TEST(ContactSamples, DenseScanIsBinnedAndKeepsItsSamples) {
   EXPECT_NEAR(c.totalArea() / (4 * M_PI * R * R), 1.0, 0.02);
   EXPECT_GT(p10, 0.8 * c.spacing);
   EXPECT_LT(p90, 1.2 * c.spacing);
+}
+
+// volume.ply carries the spacing the volume was filled at (comment spacing, 17 digits): read back
+// exactly. A file without the comment (an older writer's) gets the one fallback, the cube root of the
+// median volume, with a warning; for a small object (mostly partial boundary cells) that is 0.80 h.
+TEST(ContactSamples, VolumePlyKeepsTheSpacing) {
+  const VolumeCloud cloud = topo_test::smallBallCloud(0.003);
+  const std::string path = ::testing::TempDir() + "spacing_roundtrip.ply";
+  io::writeVolumePly(cloud, path);
+  std::string warning = "not set";
+  EXPECT_EQ(io::readVolumePly(path, &warning).spacing, cloud.spacing);
+  EXPECT_EQ(warning, "");
+
+  std::string bytes = io::readTextFile(path);
+  const std::size_t at = bytes.find("comment spacing ");
+  ASSERT_NE(at, std::string::npos);
+  bytes.erase(at, bytes.find('\n', at) + 1 - at);
+  io::writeTextFile(path, bytes);
+  const VolumeCloud old = io::readVolumePly(path, &warning);
+  EXPECT_NEAR(old.spacing, spacingFromVolumes(cloud.V), 1e-6 * cloud.spacing);  // volumes stored as float32
+  EXPECT_GT(std::abs(old.spacing / cloud.spacing - 1.0), 0.02);
+  EXPECT_NE(warning.find(path), std::string::npos) << warning;
+  EXPECT_NE(warning.find("derived"), std::string::npos) << warning;
 }

@@ -10,6 +10,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <string>
 
@@ -110,6 +111,35 @@ TEST(RosConversions, EmptyCloudsConvertBothWays) {
   const PointCloud2 interior = topo_ros::toInteriorCloud(empty, {}, {}, {}, "object", ros::Time(1.0));
   EXPECT_EQ(interior.width * interior.height, 0u);
   EXPECT_TRUE(topo_ros::fromInteriorCloud(interior, "/interior").X.empty());
+}
+
+// The spacing field is one positive length, the same in every point: anything else is named (a
+// cloud without it is an older one and gets the fallback: ros_interior_messages).
+TEST(RosConversions, SpacingFieldIsOneLength) {
+  VolumeCloud c;
+  c.spacing = 0.01;
+  c.X = {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0.01, 0, 0)};
+  c.V = {1e-6, 1e-6};
+  c.surface = {1, 1};
+  const PointCloud2 good = topo_ros::toPointCloud2(c, "object", ros::Time(1.0));
+  auto withSpacing = [&](std::size_t point, double h) {
+    PointCloud2 m = good;
+    std::memcpy(m.data.data() + point * m.point_step + 24, &h, sizeof(h));
+    return m;
+  };
+  EXPECT_NE(errorOf([&] { topo_ros::fromPointCloud2(withSpacing(1, 0.02), "/volume"); }).find("point 1 has spacing"),
+            std::string::npos);
+  EXPECT_NE(errorOf([&] { topo_ros::fromPointCloud2(withSpacing(0, 0.0), "/volume"); }).find("not a positive"),
+            std::string::npos);
+  EXPECT_NE(errorOf([&] { topo_ros::fromPointCloud2(withSpacing(0, std::nan("")), "/volume"); }).find("spacing"),
+            std::string::npos);
+  PointCloud2 integer = good;
+  integer.fields[5].datatype = PointField::UINT8;
+  EXPECT_NE(errorOf([&] { topo_ros::fromPointCloud2(integer, "/volume"); }).find("UINT8"), std::string::npos);
+  // A volume without a spacing is not published with a made-up one.
+  c.spacing = 0.0;
+  EXPECT_NE(errorOf([&] { topo_ros::toPointCloud2(c, "object", ros::Time(1.0)); }).find("spacing 0"),
+            std::string::npos);
 }
 
 TEST(RosAsciiText, SymbolsAreSpelledInAscii) {

@@ -3,6 +3,7 @@
 // motion features are a library rule: test/unit/inference_motion_targets.cpp.)
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -140,8 +141,9 @@ TEST(BodyMotion, TumblerMotionPlacesTheComAtTheSimulatedState) {
   }
 }
 
-// contact_samples (the volume's true surface, published by cloud_ingest): the layout round trip, the
-// spacing recovered from the areas, and a cloud without the normals named.
+// contact_samples (the volume's true surface, published by cloud_ingest): the layout round trip with
+// the samples' spacing, an older cloud without it (derived from the areas), and a cloud without the
+// normals named.
 TEST(ContactCloud, LayoutRoundTripAndMissingFields) {
   ContactSamples c;
   c.spacing = 0.002;
@@ -161,7 +163,14 @@ TEST(ContactCloud, LayoutRoundTripAndMissingFields) {
     EXPECT_LT((back.normal[k] - c.normal[k]).norm(), 1e-6);
     EXPECT_NEAR(back.area[k], c.area[k], 1e-12);
   }
-  EXPECT_NEAR(back.spacing, std::sqrt(4.04e-6), 1e-5);
+  EXPECT_EQ(back.spacing, c.spacing);  // carried (field spacing), not derived from the areas
+  // A contact cloud recorded before the field: the square root of the median area, with a warning.
+  sensor_msgs::PointCloud2 old = msg;
+  old.fields.erase(std::remove_if(old.fields.begin(), old.fields.end(), [](const auto& f) { return f.name == "spacing"; }),
+                   old.fields.end());
+  std::string warning;
+  EXPECT_NEAR(topo_ros::fromContactCloud(old, "/contact_samples", &warning).spacing, std::sqrt(4.04e-6), 1e-9);  // areas via float32
+  EXPECT_NE(warning.find("derived"), std::string::npos) << warning;
   VolumeCloud v = topo_test::tumblerCloud(0.05, 0.4, 0.01);
   v.contact = back;
   EXPECT_NO_THROW(v.validate("volume with contact samples"));
@@ -172,6 +181,33 @@ TEST(ContactCloud, LayoutRoundTripAndMissingFields) {
   } catch (const TopoError& e) {
     EXPECT_NE(std::string(e.what()).find("normal_x"), std::string::npos) << e.what();
   }
+}
+
+// `volume` carries the spacing the volume was filled at (field spacing, FLOAT64, the same in every
+// point), so the round trip keeps it exactly. A small object has more partial boundary particles than
+// whole cells, so the cube root of the median volume (what the message gave before the field, and
+// what a cloud from an older bag still gets, with a warning) is not the spacing: 0.80 h here.
+TEST(VolumeMessage, CarriesTheSpacingExactly) {
+  const VolumeCloud cloud = topo_test::smallBallCloud(0.004);
+  const double derived = spacingFromVolumes(cloud.V);
+  EXPECT_NEAR(derived / cloud.spacing, 0.7984, 1e-3);
+
+  const sensor_msgs::PointCloud2 msg = topo_ros::toPointCloud2(cloud, "object", ros::Time(2.0));
+  for (const char* f : {"x", "y", "z", "volume", "surface", "spacing"}) EXPECT_TRUE(topo_ros::hasField(msg, f)) << f;
+  std::string warning = "not set";
+  const VolumeCloud back = topo_ros::fromPointCloud2(msg, "/volume", &warning);
+  EXPECT_EQ(back.spacing, cloud.spacing);
+  EXPECT_EQ(warning, "");
+  ASSERT_EQ(back.size(), cloud.size());
+
+  sensor_msgs::PointCloud2 old = msg;  // as recorded before the field
+  old.fields.erase(std::remove_if(old.fields.begin(), old.fields.end(), [](const auto& f) { return f.name == "spacing"; }),
+                   old.fields.end());
+  const VolumeCloud guessed = topo_ros::fromPointCloud2(old, "/volume (2025 bag)", &warning);
+  EXPECT_NEAR(guessed.spacing, derived, 1e-6 * derived);  // the volumes went through float32
+  EXPECT_NE(guessed.spacing, cloud.spacing);
+  EXPECT_NE(warning.find("/volume (2025 bag)"), std::string::npos) << warning;
+  EXPECT_NE(warning.find("derived"), std::string::npos) << warning;
 }
 
 // The cut-away: of a box with a spherical cavity, the markers keep the half away from the viewer

@@ -54,7 +54,7 @@ struct CorotatedSphOptions {
   /// Smoothing length h [m]; ≤ 0 picks smoothing_factor × spacing.
   double smoothing_length = 0.0;
   double smoothing_factor = 1.5;
-  /// Lattice spacing [m]; ≤ 0 estimates it as ∛(mean V_i).
+  /// Lattice spacing [m] (fromCloud: the volume's); ≤ 0 derives it with spacingFromVolumes (∛ median V_i).
   double spacing = 0.0;
   /// Mass density ρ0 [kg/m³]: m_i = ρ0 V_i (used for A_pq and the SPH rest density).
   double density = 1000.0;

@@ -47,6 +47,22 @@ struct VolumeCloud {
   void validate(const std::string& what = "volume cloud") const;
 };
 
+/// The spacing of a volume: set once where it is made (the fill, a default shape) and carried by the
+/// volume .ply (comment `spacing`) and the `volume` PointCloud2 (field `spacing`). The one fallback for
+/// a file or message written before it was carried: the cube root of the median particle volume (a
+/// lattice cell holds h^3; the median passes over a fill's partial boundary cells, whose volumes lie
+/// between h^3/2 and about 2 h^3). 0 when that median is not a positive finite number (no particles).
+double spacingFromVolumes(const std::vector<double>& V);
+/// The contact samples' fallback: the square root of the median area (0 likewise).
+double spacingFromAreas(const std::vector<double>& area);
+/// For the readers of volume files and messages whose input did not carry the spacing: sets
+/// `cloud->spacing` with spacingFromVolumes when it is not a positive finite number, and returns a
+/// warning for a person that names `source` and says it was derived; "" when the spacing was there
+/// or the cloud is empty.
+std::string deriveMissingSpacing(VolumeCloud* cloud, const std::string& source);
+/// The same for contact samples (spacingFromAreas); "" when they carry a spacing or are empty.
+std::string deriveMissingSpacing(ContactSamples* samples, const std::string& source);
+
 /// The body points that touch the ground: the contact samples when the cloud has them, else the
 /// surface particles (the lattice staircase). `*note` (optional) is set to a warning for a person
 /// when the staircase is used, "" otherwise. `*weights` (optional): each point's area over the mean

@@ -1,7 +1,7 @@
 // CloudIngestNode: the ROS face of the first stage (surface -> filled VolumeCloud).
 //   in : ~surface_file (parameter, filled once at start), topic `surface_cloud` (PointCloud2),
 //        service ~fill_interior (FillInterior.srv)
-//   out: topic `volume` (PointCloud2, latched; fields x y z volume surface) and `contact_samples`
+//   out: topic `volume` (PointCloud2, latched; fields x y z volume surface spacing) and `contact_samples`
 //        (PointCloud2, latched, same stamp; x y z normal_x normal_y normal_z area: the true surface)
 // The node owns the ROS handles and the parameters; geometry::ingestFile/ingestSurface do the work.
 // Threads: clouds on `surface_cloud` and the ~surface_file at start are filled on the node's own

@@ -1,11 +1,13 @@
 // Conversions between the library's types and ROS messages.
-//  - VolumeCloud  -> sensor_msgs/PointCloud2 "volume layout": x y z volume (FLOAT32, m and m^3) and
-//    surface (UINT8, 1 within one spacing of the boundary), padded to a 20-byte point.
+//  - VolumeCloud  -> sensor_msgs/PointCloud2 "volume layout": x y z volume (FLOAT32, m and m^3),
+//    surface (UINT8, 1 within one spacing of the boundary) and spacing (FLOAT64 at offset 24, m: the
+//    lattice spacing the volume was filled at, the same in every point, as a PointCloud2 has no slot
+//    for one number; a field survives rosbag, PCL and rviz), a 32-byte point.
 //  - PointCloud2  -> geometry::SurfaceData (kind Points) for filling: x y z required, FLOAT32 or
 //    FLOAT64; normal_x/y/z used when all three are present. NaN points are kept here, cleaning drops them.
-//  - PointCloud2 (volume layout) -> VolumeCloud, for tests and later nodes.
+//  - PointCloud2 (volume layout) -> VolumeCloud, for interior_inference (`volume`, a goal's volume) and tests.
 //  - ContactSamples <-> PointCloud2 "contact layout": x y z normal_x normal_y normal_z area (FLOAT32;
-//    m, unit, m^2), published by cloud_ingest on `contact_samples` beside `volume` with the same stamp.
+//    m, unit, m^2) and spacing (FLOAT64 at offset 32, m, the same in every point), published by cloud_ingest on `contact_samples` beside `volume` with the same stamp.
 //  - an inferred interior <-> PointCloud2 "interior layout": x y z solid density stiffness confidence
 //    rgb, all FLOAT32 (m, r in [0, 1], kg/m^3, Pa or 0 for rigid tasks, the agreement in [0, 1] of
 //    the designs that fit as well with this particle's solid/hollow label (inference/design_spread.h;
@@ -41,19 +43,24 @@ constexpr double kMaxCoordinateM = 1e6;
 /// coordinate beyond ±kMaxCoordinateM (NaN points are kept: cleaning drops them).
 geometry::SurfaceData toSurfaceData(const sensor_msgs::PointCloud2& msg, const std::string& source);
 
-/// Reads a cloud in the volume layout (x y z volume required, x y z FLOAT32/FLOAT64; surface optional = 0). The spacing
-/// is not carried by the message: it is recovered as the cube root of the median particle volume. Throws TopoError
-/// naming `source` for missing fields or malformed data (not for bad values: call VolumeCloud::validate for that).
-VolumeCloud fromPointCloud2(const sensor_msgs::PointCloud2& msg, const std::string& source);
+/// Reads a cloud in the volume layout (x y z volume required, x y z FLOAT32/FLOAT64; surface optional = 0;
+/// spacing FLOAT64/FLOAT32). A cloud without the spacing field (recorded by an older version) gets the one
+/// fallback, deriveMissingSpacing (physics/volume_cloud.h), and a warning: into `*warning` when given ("" when
+/// the spacing was carried), else on std::cerr. Throws TopoError naming `source` for missing fields, malformed
+/// data or a spacing field that is not one positive length (not for other bad values: call
+/// VolumeCloud::validate for that).
+VolumeCloud fromPointCloud2(const sensor_msgs::PointCloud2& msg, const std::string& source,
+                            std::string* warning = nullptr);
 
 /// Contact samples on the true surface as a PointCloud2 in the contact layout.
 sensor_msgs::PointCloud2 toContactCloud(const ContactSamples& samples, const std::string& frame_id,
                                         const ::ros::Time& stamp);
 
-/// Reads the contact layout (x y z normal_x normal_y normal_z area required). The spacing is not carried
-/// by the message: it is recovered as the square root of the median area. Throws TopoError naming
-/// `source` for missing fields or malformed data.
-ContactSamples fromContactCloud(const sensor_msgs::PointCloud2& msg, const std::string& source);
+/// Reads the contact layout (x y z normal_x normal_y normal_z area required; spacing as in fromPointCloud2,
+/// without it the fallback deriveMissingSpacing and a warning likewise). Throws TopoError naming `source`
+/// for missing fields or malformed data.
+ContactSamples fromContactCloud(const sensor_msgs::PointCloud2& msg, const std::string& source,
+                                std::string* warning = nullptr);
 
 /// Colours of the interior layout (0xRRGGBB).
 constexpr std::uint32_t kSolidRgb = 0xDC2828, kHollowRgb = 0x2864DC;
