@@ -1,5 +1,6 @@
 # topo_gaussian: `make demo` runs the full lab loop headless on the digital twins (RIG=tumbler|finger|all),
-# `make test` runs every test.
+# `make test` runs every test binary and rostest without the slow cases (test/slow_tests.txt),
+# `make test-full` everything (what CI runs).
 # Both install the Debian packages they need (scripts/install_deps.sh) and build into build/.
 SHELL := /bin/bash
 export PATH := /usr/bin:$(PATH)
@@ -8,7 +9,7 @@ JOBS ?= $(shell nproc)
 DEMO_DIR ?= $(BUILD)/demo
 RIG ?= all  # make demo RIG=tumbler|finger|all
 
-.PHONY: all deps configure build test demo bench core clean
+.PHONY: all deps configure build test test-full demo bench core clean
 
 all: build
 
@@ -23,7 +24,10 @@ build: configure
 	@echo "[make build] done: source $(BUILD)/devel/setup.bash, then rosrun/roslaunch topo_gaussian ..."
 
 test: build
-	@./scripts/run_tests.sh $(BUILD)
+	@./scripts/run_tests.sh $(BUILD) quick
+
+test-full: build
+	@./scripts/run_tests.sh $(BUILD) full
 
 demo: build
 	@RIG=$(RIG) ./scripts/demo.sh $(BUILD) $(DEMO_DIR)

@@ -1,10 +1,28 @@
 #!/usr/bin/env bash
 # Builds and runs every unit test, rostest and the bounded fuzz run of a configured build dir,
 # then prints the verdict from the JUnit results: a line "N passed, N failed". Exit 1 if any failed.
+#   scripts/run_tests.sh [BUILD_DIR] [quick|full]
+# quick (`make test`): every test binary and rostest, without the test cases listed in
+#   test/slow_tests.txt (peer curves, long inferences: `make test-full` runs them) and with 10 s
+#   per fuzz target;
+# full (`make test-full`, what CI runs): everything, 30 s per fuzz target.
 set -uo pipefail
 export PATH=/usr/bin:$PATH
 BUILD=${1:-build}
+SCOPE=${2:-${TOPO_TEST_SCOPE:-full}}
 JOBS=${JOBS:-$(nproc)}
+HERE=$(cd "$(dirname "$0")/.." && pwd)
+case "$SCOPE" in
+  quick)
+    # gtest reads GTEST_FILTER from the environment: '-A:B' runs everything but A and B
+    slow=$(grep -vE '^\s*(#|$)' "$HERE/test/slow_tests.txt" | awk '{print $1}' | paste -sd: -)
+    [ -n "$slow" ] && export GTEST_FILTER="-$slow"
+    export TOPO_FUZZ_SECONDS=${TOPO_FUZZ_SECONDS:-10}
+    echo "[run_tests] quick: $(grep -cvE '^\s*(#|$)' "$HERE/test/slow_tests.txt") slow test patterns left to make test-full (test/slow_tests.txt)"
+    ;;
+  full) ;;
+  *) echo "[run_tests] scope '$SCOPE': use quick or full" >&2; exit 2 ;;
+esac
 
 rm -rf "$BUILD/test_results"
 cmake --build "$BUILD" --target tests -j"$JOBS" || { echo "[run_tests] building the tests failed"; echo "0 passed, 1 failed"; exit 1; }

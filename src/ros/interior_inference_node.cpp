@@ -110,7 +110,9 @@ InteriorInferenceNode::InteriorInferenceNode(const ::ros::NodeHandle& nh, const 
 
 void InteriorInferenceNode::onVolume(const sensor_msgs::PointCloud2ConstPtr& msg) {
   try {
-    auto cloud = std::make_shared<VolumeCloud>(fromPointCloud2(*msg, volume_sub_.getTopic()));
+    std::string derived;  // an older message without the spacing field: derived, and said so
+    auto cloud = std::make_shared<VolumeCloud>(fromPointCloud2(*msg, volume_sub_.getTopic(), &derived));
+    if (!derived.empty()) ROS_WARN("interior_inference: %s", asciiText(derived).c_str());
     cloud->validate(volume_sub_.getTopic());
     std::lock_guard<std::mutex> lock(state_mutex_);
     if (contact_ && contact_stamp_ == msg->header.stamp) cloud->contact = *contact_;
@@ -129,7 +131,9 @@ void InteriorInferenceNode::onVolume(const sensor_msgs::PointCloud2ConstPtr& msg
 
 void InteriorInferenceNode::onContactSamples(const sensor_msgs::PointCloud2ConstPtr& msg) {
   try {
-    auto samples = std::make_shared<ContactSamples>(fromContactCloud(*msg, contact_sub_.getTopic()));
+    std::string derived;
+    auto samples = std::make_shared<ContactSamples>(fromContactCloud(*msg, contact_sub_.getTopic(), &derived));
+    if (!derived.empty()) ROS_WARN("interior_inference: %s", asciiText(derived).c_str());
     std::lock_guard<std::mutex> lock(state_mutex_);
     contact_ = samples;
     contact_stamp_ = msg->header.stamp;
@@ -192,7 +196,9 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
   const bool goal_volume = std::size_t(rq.volume.width) * rq.volume.height > 0;
   const bool has_default_shape = !inference::defaultShapeForTask(run.config.task()).empty();
   if (goal_volume) {
-    run.volume = std::make_shared<VolumeCloud>(fromPointCloud2(rq.volume, "goal volume"));
+    std::string derived;
+    run.volume = std::make_shared<VolumeCloud>(fromPointCloud2(rq.volume, "goal volume", &derived));
+    if (!derived.empty()) ROS_WARN("interior_inference: %s", asciiText(derived).c_str());
   } else {
     const ::ros::WallTime until =
         ::ros::WallTime::now() + ::ros::WallDuration(has_default_shape ? 0.0 : params_.volume_wait_s);
