@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""docs/nodes.md's interface blocks against the running nodes (issue 48).
+"""docs/nodes.md's interface blocks against the running nodes.
 
 node_interfaces.test starts each node in a namespace of its own, with TOPO_DESCRIBE_PARAMS naming a
 file: every parameter a node reads through ParamReader (ros/param_reader.h) is described there, one
