@@ -416,7 +416,7 @@ class NodeInterfaces(unittest.TestCase):
                 regs = registrations(state, node)
                 if seen.get(node, (None,))[0] != regs:
                     seen[node] = (regs, now)
-                if node not in pids:
+                if pids.get(node) is None:  # not registered yet at the last look: ask again
                     pids[node] = node_pid(self.master, node)
                 sleeping = pids[node] is not None and main_thread_sleeps(pids[node])
                 if not sleeping or node not in described:
