@@ -57,8 +57,13 @@ const std::vector<std::string> kTwinOverrides{"contact_damping_ratio=0", "measur
 const std::vector<std::string> kExperiments{"rock10=tumbler", "rock25=tumbler", "hang=hanging"};
 const std::vector<std::string> kExperimentNames{"rock10", "rock25", "hang"};
 
-/// One experiment, the task alone (for the tests of cancel and preempt, which give their own targets).
+/// One experiment, the task alone (for the tests of cancel and preempt, which give their own targets),
+/// once cloud_ingest has published the twin's filled scan: without it the goal would take the task's
+/// finer default shape, whose first evaluation is slow (these tests must not depend on running after
+/// the end-to-end test, which `make test` leaves out).
 topo_gaussian::InferInteriorGoal singleGoal() {
+  EXPECT_TRUE(ros::topic::waitForMessage<sensor_msgs::PointCloud2>("/volume", ros::Duration(300.0)))
+      << "no volume from cloud_ingest within 300 s";
   topo_gaussian::InferInteriorGoal g;
   g.task = "tumbler";
   g.overrides = kTwinOverrides;
