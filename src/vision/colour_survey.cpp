@@ -45,6 +45,7 @@ void ColourSurvey::addFrame(const cv::Mat& bgr) {
   cv::Mat small;
   cv::resize(bgr(region), small, cv::Size(), scale_, scale_, cv::INTER_AREA);
   frames_.push_back(small);
+  ++kept_;
   if (frames_.size() >= kMaxFrames) {  // keep every other one, sample half as often from now on
     std::vector<cv::Mat> kept;
     for (std::size_t i = 0; i < frames_.size(); i += 2) kept.push_back(frames_[i]);
@@ -54,6 +55,14 @@ void ColourSurvey::addFrame(const cv::Mat& bgr) {
 }
 
 ColourSuggestion ColourSurvey::suggest() const {
+  if (suggested_at_ != kept_) {
+    suggestion_ = compute();
+    suggested_at_ = kept_;
+  }
+  return suggestion_;
+}
+
+ColourSuggestion ColourSurvey::compute() const {
   ColourSuggestion s;
   if (frames_.size() < 4) {
     s.text = "too few frames (" + std::to_string(frames_.size()) + ") to see what moves";

@@ -45,7 +45,8 @@ class ColourSurvey {
   /// Offer one BGR frame (every frame of the clip, in order); a few are kept.
   void addFrame(const cv::Mat& bgr);
   int framesKept() const { return static_cast<int>(frames_.size()); }
-  /// The suggestion from the frames kept so far (at least 4 needed).
+  /// The suggestion from the frames kept so far (at least 4 needed). Computed again only when a frame
+  /// was kept since the last call (a live tracker asks at every publication of a refused window).
   ColourSuggestion suggest() const;
 
  private:
@@ -55,6 +56,10 @@ class ColourSurvey {
   long offered_ = 0;
   long stride_ = 1;
   std::vector<cv::Mat> frames_;  ///< downscaled BGR crops of the region
+  long kept_ = 0;                 ///< frames kept so far (the cache's key)
+  mutable long suggested_at_ = -1;
+  mutable ColourSuggestion suggestion_;
+  ColourSuggestion compute() const;
 };
 
 }  // namespace topo_gaussian::vision
