@@ -25,18 +25,43 @@
 #include "task_factories.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/inference/task_options.h"
 
 namespace topo_gaussian::inference {
 namespace {
 
+/// The cantilever's own parameters, typed (the soft body's are SoftSimOptions, soft_task.h).
+struct CantileverOptions {
+  double clamp_length_m = 0, clamp_stiffness_factor = 100;
+  bool vibration = false;
+  double vibration_periods = 1;
+};
+
+/// Its declaration and reading (inference/task_options.h), in the order `topo tasks` lists them.
+constexpr auto kCantileverFields = [](auto& f) {
+  using O = CantileverOptions;
+  f.number("clamp_length_m", &O::clamp_length_m, 0.0, "m",
+           "the beam's first this much along x (from its minimum-x face) is clamped [m]; 0 = 3 spacings", 0);
+  f.number("clamp_stiffness_factor", &O::clamp_stiffness_factor, 100.0, "unitless",
+           "clamped particles' stiffness relative to the material (rigid clamp: their strain is penalised), "
+           "unitless",
+           1, 1e4);
+  f.flag("vibration", &O::vibration, false,
+         "also release the static shape without gravity and measure the first frequency by explicit time "
+         "stepping (first_frequency_hz; minutes on 2 cores); modal_frequency_hz is always given");
+  f.number("vibration_periods", &O::vibration_periods, 1.0, "unitless",
+           "free vibration: full periods to measure, unitless", 0.5, 20);
+};
+
 class CantileverTask : public SoftTask {
  public:
   CantileverTask(const TaskConfig& c, const VolumeCloud& cloud) : SoftTask(c, cloud) {
+    const CantileverOptions o = readOptions<CantileverOptions>(c, kCantileverFields);
     spacing_ = sph_.options().spacing;
-    const double clamp = c.number("clamp_length_m") > 0 ? c.number("clamp_length_m") : 3.0 * spacing_;
-    vibration_ = c.boolean("vibration");
-    periods_ = c.number("vibration_periods");
-    clamp_stiffness_ = c.number("clamp_stiffness_factor");
+    const double clamp = o.clamp_length_m > 0 ? o.clamp_length_m : 3.0 * spacing_;
+    vibration_ = o.vibration;
+    periods_ = o.vibration_periods;
+    clamp_stiffness_ = o.clamp_stiffness_factor;
     x_clamp_ = lo_.x() - 0.5 * spacing_ + clamp;  // the clamp's edge, from the box's minimum-x face
     clamp_.assign(cloud.size(), 0);
     for (std::size_t i = 0; i < cloud.size(); ++i) {
@@ -160,16 +185,7 @@ void registerCantileverTask(TaskList* tasks) {
     d.default_spacing_m = 0.004;
     d.density_hollow = 1000.0;
     declareSoftParameters(p, d);
-    p.number("clamp_length_m", 0.0, "m",
-             "the beam's first this much along x (from its minimum-x face) is clamped [m]; 0 = 3 spacings", 0);
-    p.number("clamp_stiffness_factor", 100.0, "unitless",
-             "clamped particles' stiffness relative to the material (rigid clamp: their strain is penalised), "
-             "unitless",
-             1, 1e4);
-    p.flag("vibration", false,
-           "also release the static shape without gravity and measure the first frequency by explicit time "
-           "stepping (first_frequency_hz; minutes on 2 cores); modal_frequency_hz is always given");
-    p.number("vibration_periods", 1.0, "unitless", "free vibration: full periods to measure, unitless", 0.5, 20);
+    declareOptions<CantileverOptions>(p, kCantileverFields);
     // Uniform-material shorthands: one value for both materials.
     p.shorthand("youngs_modulus", {"youngs_modulus_solid", "youngs_modulus_hollow"});
     p.shorthand("density", {"density_solid", "density_hollow"});

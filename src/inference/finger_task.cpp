@@ -40,22 +40,93 @@
 #include <cmath>
 #include <iostream>
 #include <mutex>
+#include <optional>
+#include <string>
 
 #include "soft_task.h"
 #include "task_factories.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
+#include "topo_gaussian/inference/task_options.h"
 
 namespace topo_gaussian::inference {
 namespace {
 
 constexpr double kDeg = 180.0 / M_PI;
 
+/// The finger's own parameters, typed (the soft body's are SoftSimOptions, soft_task.h).
+struct FingerOptions {
+  double pressure_pa = 5e5, clamp_length_m = 0.01, clamp_stiffness_factor = 100;
+  std::string mode = "static";
+  int load_steps = 2;
+  bool warm_start = true;
+  double duration_s = 0.2, dt_s = 0.01;
+  Eigen::Vector3d finger_axis = Eigen::Vector3d::UnitX(), bend_normal = Eigen::Vector3d::UnitZ();
+  double tip_fraction = 0.15;
+  std::string obstacle = "none";
+  std::optional<Eigen::Vector3d> obstacle_point;
+  Eigen::Vector3d obstacle_normal = -Eigen::Vector3d::UnitZ();
+  double contact_stiffness_n_per_m = 0, friction_mu = 0;
+  std::optional<double> bend_angle_deg;
+};
+
+/// Its declaration and reading (inference/task_options.h), in the order `topo tasks` lists them.
+constexpr auto kFingerFields = [](auto& f) {
+  using O = FingerOptions;
+  f.number("pressure_pa", &O::pressure_pa, 5e5, "Pa", "chamber gauge pressure at the end of the ramp [Pa] (paper: 5e5)")
+      .paper("5e5");
+  f.number("clamp_length_m", &O::clamp_length_m, 0.01, "m",
+           "particles within this distance of the base (min x) are clamped [m]", 0, 1e300, true);
+  f.number("clamp_stiffness_factor", &O::clamp_stiffness_factor, 100.0, "unitless",
+           "clamped particles' stiffness relative to their material (rigid clamp: their strain is penalised), "
+           "unitless",
+           1, 1e4);
+  f.text("mode", &O::mode, "static",
+         "static (quasi-static equilibrium at the full pressure) | implicit (implicit Euler over the ramp)",
+         {"static", "implicit"});
+  f.integer("load_steps", &O::load_steps, 2, "unitless",
+            "static mode: pressure increments of the Newton solve, unitless", 1, 100);
+  f.flag("warm_start", &O::warm_start, true,
+         "static mode: start each design's Newton solve at the full pressure from the equilibrium of the design "
+         "evaluated before it (fewer iterations than the load steps from rest; the rest shape is kept when it is "
+         "the equilibrium already, e.g. no chamber), falling back to the load steps from rest when it does not "
+         "converge in 8, and the gradient's adjoint solve from that design's adjoint; the same equilibrium to "
+         "newton_tolerance and the same gradient to the adjoint's 1e-10 where the equilibrium is unique (a body "
+         "with several, e.g. snapping through or pressed against an obstacle, may land on another than the load "
+         "steps from rest reach: set 0 there)");
+  f.number("duration_s", &O::duration_s, 0.2, "s", "implicit mode: simulated time; the pressure ramps over it [s]", 0,
+           1e300, true);
+  f.number("dt_s", &O::dt_s, 0.01, "s", "implicit mode: time step [s]", 0, 1e300, true);
+  f.vector3("finger_axis", &O::finger_axis, Eigen::Vector3d(1, 0, 0), "unitless",
+            "the finger's long axis from base to tip (rest state), a unitless direction");
+  f.vector3("bend_normal", &O::bend_normal, Eigen::Vector3d(0, 0, 1), "unitless",
+            "positive bending angle = tip turning towards this direction, a unitless direction");
+  f.number("tip_fraction", &O::tip_fraction, 0.15, "unitless",
+           "the tip segment: the last fraction of the length, unitless; the segment before it has the same length",
+           0.02, 0.45);
+  f.text("obstacle", &O::obstacle, "none",
+         "none | plane: a rigid plane the bending finger presses against (through obstacle_point, normal "
+         "obstacle_normal), touched by the finger's true surface (the volume's contact samples)",
+         {"none", "plane"});
+  f.vector3("obstacle_point", &O::obstacle_point, "m", "obstacle plane: a point on it in the finger's frame [m]");
+  f.vector3("obstacle_normal", &O::obstacle_normal, Eigen::Vector3d(0, 0, -1), "unitless",
+            "obstacle plane: its normal, pointing towards the finger, a unitless direction");
+  f.number("contact_stiffness_n_per_m", &O::contact_stiffness_n_per_m, 0.0, "N/m",
+           "obstacle penalty stiffness per surface particle's area [N/m]; 0 = automatic ((lambda + 2 mu) h of the "
+           "wall material)",
+           0);
+  f.number("friction_mu", &O::friction_mu, 0.0, "unitless",
+           "obstacle Coulomb friction, unitless (implicit mode only: the static equilibrium is frictionless)", 0);
+  f.target("bend_angle_deg", &O::bend_angle_deg, "deg", "observed bending angle of the tip at the full pressure [deg]",
+           -180, 180);
+};
+
 class FingerTask : public SoftTask {
  public:
   FingerTask(const TaskConfig& c, const VolumeCloud& cloud) : SoftTask(c, cloud) {
-    axis_ = c.vector3("finger_axis");
-    normal_ = c.vector3("bend_normal");
+    const FingerOptions o = readOptions<FingerOptions>(c, kFingerFields);
+    axis_ = o.finger_axis;
+    normal_ = o.bend_normal;
     if (axis_.norm() == 0 || normal_.norm() == 0)
       throw TopoError("finger_axis/bend_normal", "is zero", "give directions");
     axis_.normalize();
@@ -63,17 +134,17 @@ class FingerTask : public SoftTask {
     if (normal_.norm() < 1e-9)
       throw TopoError("bend_normal", "is parallel to finger_axis", "give a bend normal across the finger, e.g. 0,0,1");
     normal_.normalize();
-    pressure_ = c.number("pressure_pa");
-    implicit_ = c.text("mode") == "implicit";
-    load_steps_ = c.integer("load_steps");
-    warm_start_ = c.boolean("warm_start");
-    newton_.tolerance = c.number("newton_tolerance");
-    duration_ = c.number("duration_s");
-    dt_ = c.number("dt_s");
-    clamp_stiffness_ = c.number("clamp_stiffness_factor");
+    pressure_ = o.pressure_pa;
+    implicit_ = o.mode == "implicit";
+    load_steps_ = o.load_steps;
+    warm_start_ = o.warm_start;
+    newton_.tolerance = soft_.newton_tolerance;
+    duration_ = o.duration_s;
+    dt_ = o.dt_s;
+    clamp_stiffness_ = o.clamp_stiffness_factor;
     spacing_ = sph_.options().spacing;
-    if (c.has("bend_angle_deg")) target_ = c.number("bend_angle_deg"), has_target_ = true;
-    if (c.text("obstacle") == "plane") setUpObstacle(c, cloud);
+    if (o.bend_angle_deg) target_ = *o.bend_angle_deg, has_target_ = true;
+    if (o.obstacle == "plane") setUpObstacle(o, cloud);
     // Rest coordinate along the axis; clamp and segments.
     double smin = 1e300, smax = -1e300;
     std::vector<double> s(cloud.size());
@@ -82,7 +153,7 @@ class FingerTask : public SoftTask {
       smin = std::min(smin, s[i]);
       smax = std::max(smax, s[i]);
     }
-    const double len = smax - smin, f = c.number("tip_fraction"), clamp = c.number("clamp_length_m");
+    const double len = smax - smin, f = o.tip_fraction, clamp = o.clamp_length_m;
     if (clamp >= 0.5 * len)
       throw TopoError(
           "clamp_length_m",
@@ -106,26 +177,26 @@ class FingerTask : public SoftTask {
 
   /// The obstacle plane (obstacle plane): validated against the rest shape, which must lie on its
   /// free side.
-  void setUpObstacle(const TaskConfig& c, const VolumeCloud& cloud) {
-    if (!c.has("obstacle_point"))
+  void setUpObstacle(const FingerOptions& o, const VolumeCloud& cloud) {
+    if (!o.obstacle_point)
       throw TopoError("obstacle_point", "is not given but obstacle is plane",
                       "give a point on the plane in the finger's frame [m], e.g. obstacle_point=0.1,0,0.009");
-    Eigen::Vector3d n = c.vector3("obstacle_normal");
+    Eigen::Vector3d n = o.obstacle_normal;
     if (!(n.norm() > 0) || !n.allFinite())
       throw TopoError("obstacle_normal", "is zero", "give the plane's normal pointing towards the finger, e.g. 0,0,-1");
     n.normalize();
-    const Eigen::Vector3d p = c.vector3("obstacle_point");
+    const Eigen::Vector3d p = *o.obstacle_point;
     obstacle_ = ContactObstacle::ground(0.0);
     obstacle_.normal = n;
     obstacle_.offset = n.dot(p);
-    contact_opt_.stiffness = c.number("contact_stiffness_n_per_m");
+    contact_opt_.stiffness = o.contact_stiffness_n_per_m;
     if (!(contact_opt_.stiffness > 0.0)) {
       // Automatic: the wall material's (λ + 2μ) h, fixed for every design (the simulator's own default
       // takes the stiffest particle, which here is the clamp at clamp_stiffness_factor × the wall).
-      const double E = c.number("youngs_modulus_solid"), nu = c.number("poisson_ratio");
+      const double E = soft_.youngs_modulus_solid, nu = soft_.poisson_ratio;
       contact_opt_.stiffness = E * (1.0 - nu) / ((1.0 + nu) * (1.0 - 2.0 * nu)) * spacing_;
     }
-    contact_opt_.friction = c.number("friction_mu");
+    contact_opt_.friction = o.friction_mu;
     contact_opt_.slip_velocity = 0.01;
     contact_embedding_ = embedContactSamples(cloud);
     contact_mask_ = cloud.surface;
@@ -419,53 +490,9 @@ void registerFingerTask(TaskList* tasks) {
     // corotated linear model's (Cauchy strain) only ×1.35 / ×2.56 (inference_finger_peer).
     d.energy_model = "stvk";
     declareSoftParameters(p, d);
-    const Eigen::Vector3d ex(1, 0, 0), ez(0, 0, 1);
-    p.number("pressure_pa", 5e5, "Pa", "chamber gauge pressure at the end of the ramp [Pa] (paper: 5e5)").paper("5e5");
-    p.number("clamp_length_m", 0.01, "m", "particles within this distance of the base (min x) are clamped [m]", 0,
-             1e300, true);
-    p.number("clamp_stiffness_factor", 100.0, "unitless",
-             "clamped particles' stiffness relative to their material (rigid clamp: their strain is penalised), "
-             "unitless",
-             1, 1e4);
-    p.text("mode", "static",
-           "static (quasi-static equilibrium at the full pressure) | implicit (implicit Euler over the ramp)",
-           {"static", "implicit"});
-    p.integer("load_steps", 2, "unitless", "static mode: pressure increments of the Newton solve, unitless", 1, 100);
-    p.flag("warm_start", true,
-           "static mode: start each design's Newton solve at the full pressure from the equilibrium of the design "
-           "evaluated before it (fewer iterations than the load steps from rest; the rest shape is kept when it is "
-           "the equilibrium already, e.g. no chamber), falling back to the load steps from rest when it does not "
-           "converge in 8, and the gradient's adjoint solve from that design's adjoint; the same equilibrium to "
-           "newton_tolerance and the same gradient to the adjoint's 1e-10 where the equilibrium is unique (a body "
-           "with several, e.g. snapping through or pressed against an obstacle, may land on another than the load "
-           "steps from rest reach: set 0 there)");
-    p.number("duration_s", 0.2, "s", "implicit mode: simulated time; the pressure ramps over it [s]", 0, 1e300, true);
-    p.number("dt_s", 0.01, "s", "implicit mode: time step [s]", 0, 1e300, true);
-    p.vector3("finger_axis", &ex, "unitless",
-              "the finger's long axis from base to tip (rest state), a unitless direction");
-    p.vector3("bend_normal", &ez, "unitless",
-              "positive bending angle = tip turning towards this direction, a unitless direction");
-    p.number("tip_fraction", 0.15, "unitless",
-             "the tip segment: the last fraction of the length, unitless; the segment before it has the same length",
-             0.02, 0.45);
-    p.text("obstacle", "none",
-           "none | plane: a rigid plane the bending finger presses against (through obstacle_point, normal "
-           "obstacle_normal), touched by the finger's true surface (the volume's contact samples)",
-           {"none", "plane"});
-    p.vector3("obstacle_point", nullptr, "m", "obstacle plane: a point on it in the finger's frame [m]");
-    const Eigen::Vector3d down(0, 0, -1);
-    p.vector3("obstacle_normal", &down, "unitless",
-              "obstacle plane: its normal, pointing towards the finger, a unitless direction");
-    p.number("contact_stiffness_n_per_m", 0.0, "N/m",
-             "obstacle penalty stiffness per surface particle's area [N/m]; 0 = automatic ((lambda + 2 mu) h of the "
-             "wall material)",
-             0);
-    p.number("friction_mu", 0.0, "unitless",
-             "obstacle Coulomb friction, unitless (implicit mode only: the static equilibrium is frictionless)", 0);
+    declareOptions<FingerOptions>(p, kFingerFields);
     p.setDefault("gravity", Eigen::Vector3d(0, 0, 0));  // the paper's finger task: actuation only
     p.setDefault("loss_tolerance", 1e-8);
-    p.target("bend_angle_deg", ParamType::Number, "deg", "observed bending angle of the tip at the full pressure [deg]",
-             -180, 180);
   };
   t.make = [](const TaskConfig& config, const VolumeCloud& cloud) -> std::unique_ptr<Task> {
     return std::make_unique<FingerTask>(config, cloud);

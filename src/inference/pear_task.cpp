@@ -9,22 +9,53 @@
 // checkpointing (SoftRollout). The target format is the ball task's: CSV rows t, x y z per point.
 #include <Eigen/Geometry>
 #include <cmath>
+#include <optional>
 
 #include "soft_task.h"
 #include "task_factories.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/cuda/soft_rollout_cuda.h"
+#include "topo_gaussian/inference/task_options.h"
 #include "topo_gaussian/io/trajectory_csv.h"
 
 namespace topo_gaussian::inference {
 namespace {
 
+/// The pear's own parameters, typed (the soft body's are SoftSimOptions, soft_task.h).
+struct PearOptions {
+  double duration_s = 0.12, dt_s = 0, sample_dt_s = 0.005, initial_height_m = 0.01;
+  Eigen::Vector3d initial_velocity = Eigen::Vector3d::Zero();
+  double initial_tilt_deg = 15, contact_stiffness_n_per_m = 0, friction_mu = 0.5;
+  std::vector<double> pivot_points;
+  std::optional<std::string> target_trajectory_file;
+};
+
+/// Its declaration and reading (inference/task_options.h), in the order `topo tasks` lists them.
+constexpr auto kPearFields = [](auto& f) {
+  using O = PearOptions;
+  f.number("duration_s", &O::duration_s, 0.12, "s", "simulated time [s]", 0, 1e300, true);
+  f.number("dt_s", &O::dt_s, 0.0, "s", "integration step [s]; 0 = 0.9 x the explicit stability limit", 0);
+  f.number("sample_dt_s", &O::sample_dt_s, 0.005, "s", "spacing of the compared trajectory samples [s]", 0, 1e300,
+           true);
+  f.number("initial_height_m", &O::initial_height_m, 0.01, "m",
+           "gap between the lowest point and the ground at release [m]", 0);
+  f.vector3("initial_velocity", &O::initial_velocity, Eigen::Vector3d::Zero(), "m/s", "initial velocity [m/s]");
+  f.number("initial_tilt_deg", &O::initial_tilt_deg, 15.0, "deg", "release tilt about world x [deg]", -89, 89);
+  f.number("contact_stiffness_n_per_m", &O::contact_stiffness_n_per_m, 0.0, "N/m",
+           "ground penalty stiffness per particle [N/m]; 0 = automatic", 0);
+  f.number("friction_mu", &O::friction_mu, 0.5, "unitless", "Coulomb friction coefficient, unitless", 0);
+  f.list("pivot_points", &O::pivot_points, {}, "m",
+         "tracked body points x,y,z,... [m]; default: top, bottom and two side points");
+  f.target("target_trajectory_file", &O::target_trajectory_file, "", "CSV: t, then x y z of each pivot point [s, m]");
+};
+
 class PearTask : public SoftTask {
  public:
   PearTask(const TaskConfig& c, const VolumeCloud& cloud) : SoftTask(c, cloud) {
-    duration_ = c.number("duration_s");
-    sample_dt_ = c.number("sample_dt_s");
-    const double tilt = c.number("initial_tilt_deg") * M_PI / 180.0;
+    const PearOptions o = readOptions<PearOptions>(c, kPearFields);
+    duration_ = o.duration_s;
+    sample_dt_ = o.sample_dt_s;
+    const double tilt = o.initial_tilt_deg * M_PI / 180.0;
     const Eigen::Matrix3d R = Eigen::AngleAxisd(tilt, Eigen::Vector3d::UnitX()).toRotationMatrix();
     const Eigen::Vector3d centre = cloud.centroid();
     contact_embedding_ = embedContactSamples(cloud);
@@ -37,17 +68,17 @@ class PearTask : public SoftTask {
     // The lowest point: of the true surface (the samples move with the particles' rotation exactly).
     if (contact_embedding_)
       for (const auto& y : cloud.contact.X) zmin = std::min(zmin, (R * (y - centre) + centre).z());
-    const Eigen::Vector3d shift(0, 0, c.number("initial_height_m") - zmin);
+    const Eigen::Vector3d shift(0, 0, o.initial_height_m - zmin);
     for (auto& p : x0_) p += shift;
-    v0_ = c.vector3("initial_velocity");
-    contact_opt_.stiffness = c.number("contact_stiffness_n_per_m");
-    contact_opt_.friction = c.number("friction_mu");
+    v0_ = o.initial_velocity;
+    contact_opt_.stiffness = o.contact_stiffness_n_per_m;
+    contact_opt_.friction = o.friction_mu;
     contact_opt_.slip_velocity = 0.01;
     contact_mask_ = cloud.surface;
     if (std::count(contact_mask_.begin(), contact_mask_.end(), 1) == 0) contact_mask_.assign(cloud.size(), 1);
     // Pivot points (body frame) → nearest particles.
     std::vector<Eigen::Vector3d> pts;
-    const auto& pp = c.list("pivot_points");
+    const std::vector<double>& pp = o.pivot_points;
     if (!pp.empty()) {
       if (pp.size() % 3 != 0) throw TopoError("pivot_points", "needs x,y,z triples", "give 3 numbers per point");
       for (std::size_t k = 0; k < pp.size(); k += 3) pts.emplace_back(pp[k], pp[k + 1], pp[k + 2]);
@@ -61,9 +92,8 @@ class PearTask : public SoftTask {
         if ((cloud.X[i] - p).squaredNorm() < (cloud.X[best] - p).squaredNorm()) best = i;
       pivots_.push_back(best);
     }
-    dt_user_ = c.number("dt_s");
-    if (c.has("target_trajectory_file"))
-      io::readTrajectoryCsv(c.text("target_trajectory_file"), pivots_.size(), &obs_t_, &obs_);
+    dt_user_ = o.dt_s;
+    if (o.target_trajectory_file) io::readTrajectoryCsv(*o.target_trajectory_file, pivots_.size(), &obs_t_, &obs_);
     geometry_.has_point = false;
   }
 
@@ -195,17 +225,7 @@ void registerPearTask(TaskList* tasks) {
     d.default_spacing_m = 0.008;
     d.density_hollow = 1000.0;
     declareSoftParameters(p, d);
-    const Eigen::Vector3d zero(0, 0, 0);
-    p.number("duration_s", 0.12, "s", "simulated time [s]", 0, 1e300, true);
-    p.number("dt_s", 0.0, "s", "integration step [s]; 0 = 0.9 x the explicit stability limit", 0);
-    p.number("sample_dt_s", 0.005, "s", "spacing of the compared trajectory samples [s]", 0, 1e300, true);
-    p.number("initial_height_m", 0.01, "m", "gap between the lowest point and the ground at release [m]", 0);
-    p.vector3("initial_velocity", &zero, "m/s", "initial velocity [m/s]");
-    p.number("initial_tilt_deg", 15.0, "deg", "release tilt about world x [deg]", -89, 89);
-    p.number("contact_stiffness_n_per_m", 0.0, "N/m", "ground penalty stiffness per particle [N/m]; 0 = automatic", 0);
-    p.number("friction_mu", 0.5, "unitless", "Coulomb friction coefficient, unitless", 0);
-    p.list("pivot_points", {}, "m", "tracked body points x,y,z,... [m]; default: top, bottom and two side points");
-    p.target("target_trajectory_file", ParamType::Text, "", "CSV: t, then x y z of each pivot point [s, m]");
+    declareOptions<PearOptions>(p, kPearFields);
   };
   t.make = [](const TaskConfig& config, const VolumeCloud& cloud) -> std::unique_ptr<Task> {
     return std::make_unique<PearTask>(config, cloud);

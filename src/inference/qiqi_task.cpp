@@ -8,9 +8,12 @@
 //   dφ*/dr = −(τ_r + τ_h h_r) / (τ_φ + τ_h h_φ),  h_r = −G_r / G_h,  h_φ = −G_φ / G_h.
 #include <Eigen/Geometry>
 #include <cmath>
+#include <optional>
+#include <vector>
 
 #include "task_factories.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/inference/task_options.h"
 #include "topo_gaussian/topology/indicator.h"
 
 namespace topo_gaussian::inference {
@@ -20,30 +23,54 @@ constexpr double kDeg = 180.0 / M_PI;
 
 double sigmoid(double x) { return x >= 0 ? 1.0 / (1.0 + std::exp(-x)) : std::exp(x) / (1.0 + std::exp(x)); }
 
+/// The vessel's own parameters, typed.
+struct QiqiOptions {
+  std::optional<Eigen::Vector3d> pivot_point;
+  Eigen::Vector3d hinge_axis = Eigen::Vector3d::UnitX();
+  std::vector<double> fill_levels;
+  double water_density = 1000, water_smoothing = 0.01;
+  std::optional<std::vector<double>> target_tilts_deg;
+};
+
+/// Its declaration and reading (inference/task_options.h), in the order `topo tasks` lists them.
+constexpr auto kQiqiFields = [](auto& f) {
+  using O = QiqiOptions;
+  f.vector3("pivot_point", &O::pivot_point, "m",
+            "hinge pivot in the body frame [m]; default: bounds centre, 1/4 of the height above it");
+  f.vector3("hinge_axis", &O::hinge_axis, Eigen::Vector3d(1, 0, 0), "unitless",
+            "hinge axis (body = world at zero tilt), a unitless direction");
+  f.list("fill_levels", &O::fill_levels, {0.0, 0.5, 0.95}, "unitless",
+         "water volume as fractions of the cavity volume, one per pose, unitless", 0, 1);
+  f.number("water_density", &O::water_density, 1000.0, "kg/m^3", "density of the water [kg/m^3]", 0, 1e300, true);
+  f.number("water_smoothing", &O::water_smoothing, 0.01, "unitless",
+           "width of the water surface as a fraction of the object size, unitless", 0, 1, true);
+  f.target("target_tilts_deg", &O::target_tilts_deg, "deg", "observed tilt at each fill level [deg]");
+};
+
 class QiqiTask : public Task {
  public:
   QiqiTask(const TaskConfig& c, const VolumeCloud& cloud) : Task(c, cloud) {
+    const QiqiOptions o = readOptions<QiqiOptions>(c, kQiqiFields);
     const Eigen::Vector3d centre = 0.5 * (lo_ + hi_);
-    pivot_ = c.has("pivot_point") ? c.vector3("pivot_point")
-                                  : Eigen::Vector3d(centre.x(), centre.y(), centre.z() + 0.25 * (hi_.z() - lo_.z()));
-    axis_ = c.vector3("hinge_axis");
+    pivot_ = o.pivot_point.value_or(Eigen::Vector3d(centre.x(), centre.y(), centre.z() + 0.25 * (hi_.z() - lo_.z())));
+    axis_ = o.hinge_axis;
     if (axis_.norm() == 0) throw TopoError("hinge_axis", "is zero", "give a direction such as 1,0,0");
     axis_.normalize();
     if (std::abs(axis_.dot(geometry_.gravity.normalized())) > 1e-6)
       throw TopoError("hinge_axis", "is not horizontal (not perpendicular to gravity)",
                       "give a horizontal axis such as 1,0,0");
-    fills_ = c.list("fill_levels");
+    fills_ = o.fill_levels;
     if (fills_.empty()) throw TopoError("fill_levels", "is empty", "give the water fractions, e.g. 0,0.5,0.95");
-    if (c.has("target_tilts_deg")) {
-      targets_ = c.list("target_tilts_deg");
+    if (o.target_tilts_deg) {
+      targets_ = *o.target_tilts_deg;
       if (targets_.size() != fills_.size())
         throw TopoError(
             "target_tilts_deg",
             "has " + std::to_string(targets_.size()) + " values for " + std::to_string(fills_.size()) + " fill levels",
             "give one observed tilt per fill level");
     }
-    rho_w_ = c.number("water_density");
-    eps_w_ = c.number("water_smoothing") * size_;
+    rho_w_ = o.water_density;
+    eps_w_ = o.water_smoothing * size_;
     pinned_ = c.boolean("pin_shell") ? boundaryShell(cloud.X, cloud.surface, c.number("shell_thickness_m"))
                                      : std::vector<std::uint8_t>(cloud.size(), 0);
     geometry_.has_point = true;
@@ -227,18 +254,7 @@ void registerQiqiTask(TaskList* tasks) {
   TaskDefinition t;
   t.name = "qiqi";
   t.summary = "a vessel on a hinge tilts as water fills its cavity: equilibrium tilt at each fill level";
-  t.declare_parameters = [](TaskParameters& p) {
-    const Eigen::Vector3d ex(1, 0, 0);
-    p.vector3("pivot_point", nullptr, "m",
-              "hinge pivot in the body frame [m]; default: bounds centre, 1/4 of the height above it");
-    p.vector3("hinge_axis", &ex, "unitless", "hinge axis (body = world at zero tilt), a unitless direction");
-    p.list("fill_levels", {0.0, 0.5, 0.95}, "unitless",
-           "water volume as fractions of the cavity volume, one per pose, unitless", 0, 1);
-    p.number("water_density", 1000.0, "kg/m^3", "density of the water [kg/m^3]", 0, 1e300, true);
-    p.number("water_smoothing", 0.01, "unitless",
-             "width of the water surface as a fraction of the object size, unitless", 0, 1, true);
-    p.target("target_tilts_deg", ParamType::List, "deg", "observed tilt at each fill level [deg]");
-  };
+  t.declare_parameters = [](TaskParameters& p) { declareOptions<QiqiOptions>(p, kQiqiFields); };
   t.make = [](const TaskConfig& config, const VolumeCloud& cloud) -> std::unique_ptr<Task> {
     return std::make_unique<QiqiTask>(config, cloud);
   };

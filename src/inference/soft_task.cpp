@@ -14,44 +14,21 @@
 namespace topo_gaussian::inference {
 
 void declareSoftParameters(TaskParameters& p, const SoftDefaults& d) {
-  p.number("youngs_modulus_solid", d.youngs_modulus_solid, "Pa",
-           "Young's modulus of the r = 1 material [Pa] (paper: stiff 3e7, real finger 1e7)", 0, 1e300, true)
-      .paper("stiff 3e7, real finger 1e7");
-  p.number("youngs_modulus_hollow", d.youngs_modulus_hollow, "Pa", d.youngs_modulus_hollow_doc, 0, 1e300, true)
-      .paper(d.youngs_modulus_hollow_paper);
-  p.number("poisson_ratio", d.poisson_ratio, "unitless",
-           "Poisson ratio nu of the r = 1 material, unitless (paper: 0.4; real finger 0.49)", -0.99, 0.499)
-      .paper("0.4; real finger 0.49");
-  p.number("poisson_ratio_hollow", d.poisson_ratio_hollow, "unitless", d.poisson_ratio_hollow_doc, -0.99, 0.499);
-  p.number("stiffness_power", d.stiffness_power, "unitless",
-           "SIMP power of the Young's modulus interpolation, unitless", 1, 10);
-  p.text("energy_model", d.energy_model, "corotated_linear (Cauchy strain) | stvk (Green strain)",
-         {"corotated_linear", "stvk"});
-  p.integer("gradient_order", d.gradient_order, "unitless",
-            "SPH kernel gradient, unitless: 1 corrected (paper), 2 quadratic MLS (exact in bending)", 1, 2)
-      .paper("1");
-  p.number("smoothing_factor", 1.5, "unitless",
-           "SPH smoothing length h as a multiple of the particle spacing, unitless", 0.8, 3);
-  p.number("hourglass_alpha", 0.1, "unitless", "zero-energy-mode penalty relative to mu, unitless", 0);
-  p.number("damping_per_s", 0.0, "1/s", "mass-proportional damping c [1/s]", 0);
-  p.number("newton_tolerance", 1e-8, "unitless", "Newton convergence: max residual force / load scale, unitless", 0, 1,
-           true);
-  p.number("default_spacing_m", d.default_spacing_m, "m",
-           "particle spacing of the generated default shape when no volume is given [m]", 0, 1e300, true);
+  declareOptions<SoftSimOptions>(p, softSimFields(d));
   p.setDefault("density_hollow", d.density_hollow);
   p.setDefault("density_solid", 1000.0);
   p.setDefault("pin_shell", d.pin_shell ? 1.0 : 0.0);
   p.setDefault("restarts", 0.0);  // a soft fit costs minutes: the design spread only when asked for
 }
 
-CorotatedSphOptions sphOptionsFromConfig(const TaskConfig& c, double spacing) {
+CorotatedSphOptions sphOptions(const SoftSimOptions& soft, double density, double spacing) {
   CorotatedSphOptions o;
   o.spacing = spacing;
-  o.smoothing_factor = c.number("smoothing_factor");
-  o.hourglass_alpha = c.number("hourglass_alpha");
-  o.gradient_order = c.integer("gradient_order");
-  o.density = c.number("density_solid");
-  o.model = c.text("energy_model") == "stvk" ? SphEnergyModel::StVK : SphEnergyModel::CorotatedLinear;
+  o.smoothing_factor = soft.smoothing_factor;
+  o.hourglass_alpha = soft.hourglass_alpha;
+  o.gradient_order = soft.gradient_order;
+  o.density = density;
+  o.model = soft.energy_model == "stvk" ? SphEnergyModel::StVK : SphEnergyModel::CorotatedLinear;
   // Rotations from the corrected gradient: the forces are then the exact gradient of the energy,
   // which Newton's line search and the adjoints need.
   o.rotation = SphRotationSource::CorrectedGradient;
@@ -88,16 +65,17 @@ double latticeSpacing(const VolumeCloud& cloud, const std::string& task) {
 
 SoftTask::SoftTask(const TaskConfig& c, const VolumeCloud& cloud)
     : Task(c, cloud, false),
-      sph_(cloud.X, cloud.V, lameFromYoung(c.number("youngs_modulus_solid"), c.number("poisson_ratio")),
-           sphOptionsFromConfig(c, latticeSpacing(cloud, c.task()))) {
+      soft_(readOptions<SoftSimOptions>(c, softSimFields())),
+      sph_(cloud.X, cloud.V, lameFromYoung(soft_.youngs_modulus_solid, soft_.poisson_ratio),
+           sphOptions(soft_, c.number("density_solid"), latticeSpacing(cloud, c.task()))) {
   backend_requested_ = parseComputeBackend(c.text("backend"), "task parameter backend");
   backend_ = resolveBackend(backend_requested_, "task parameter backend");
-  const LameParameters solid = lameFromYoung(c.number("youngs_modulus_solid"), c.number("poisson_ratio"));
-  const LameParameters hollow = lameFromYoung(c.number("youngs_modulus_hollow"), c.number("poisson_ratio_hollow"));
-  E_solid_ = c.number("youngs_modulus_solid");
-  rho_solid_ = c.number("density_solid");
+  const LameParameters solid = lameFromYoung(soft_.youngs_modulus_solid, soft_.poisson_ratio);
+  const LameParameters hollow = lameFromYoung(soft_.youngs_modulus_hollow, soft_.poisson_ratio_hollow);
+  E_solid_ = soft_.youngs_modulus_solid;
+  rho_solid_ = sph_.options().density;  // density_solid, as the SPH took it
   for (auto* m : {&mu_interp_, &lambda_interp_}) {
-    m->power = c.number("stiffness_power");
+    m->power = soft_.stiffness_power;
     m->continuous = c.boolean("continuous_material");
   }
   mu_interp_.value_r0 = hollow.mu;
@@ -109,7 +87,7 @@ SoftTask::SoftTask(const TaskConfig& c, const VolumeCloud& cloud)
   mu_interp_.validate("shear modulus (youngs_modulus, poisson_ratio)");
   lambda_interp_.validate("Lame lambda (youngs_modulus, poisson_ratio)");
   sim_options_.gravity = geometry_.gravity;
-  sim_options_.damping = c.number("damping_per_s");
+  sim_options_.damping = soft_.damping_per_s;
 }
 
 SoftTask::~SoftTask() {

@@ -10,10 +10,21 @@
 
 #include "topo_gaussian/cuda/backend.h"
 #include "topo_gaussian/inference/task.h"
+#include "topo_gaussian/inference/task_options.h"
 #include "topo_gaussian/inference/task_registry.h"
 #include "topo_gaussian/physics/soft_rollout.h"
 
 namespace topo_gaussian::inference {
+
+/// The parameters every soft task has, typed (declared and read by softSimFields below).
+struct SoftSimOptions {
+  double youngs_modulus_solid = 1e7, youngs_modulus_hollow = 1e7;  ///< [Pa]
+  double poisson_ratio = 0.3, poisson_ratio_hollow = 0.3, stiffness_power = 1.0;
+  std::string energy_model = "corotated_linear";
+  int gradient_order = 1;
+  double smoothing_factor = 1.5, hourglass_alpha = 0.1, damping_per_s = 0.0, newton_tolerance = 1e-8;
+  double default_spacing_m = 0.004;  ///< [m]
+};
 
 class SoftTask : public Task {
  public:
@@ -56,7 +67,8 @@ class SoftTask : public Task {
   /// Mutable: backend auto falls back to the CPU for good when the GPU lacks memory (with a note).
   mutable ComputeBackend backend_ = ComputeBackend::Cpu;
   ComputeBackend backend_requested_ = ComputeBackend::Auto;
-  CorotatedSph sph_;  ///< rest discretisation, material replaced per evaluation
+  SoftSimOptions soft_;  ///< the shared soft parameters, as the config gives them
+  CorotatedSph sph_;     ///< rest discretisation, material replaced per evaluation
   /// The Lamé parameters are interpolated between the two materials' values (from E and ν of each)
   /// with the SIMP power of the stiffness.
   MaterialInterpolation mu_interp_, lambda_interp_;
@@ -78,11 +90,48 @@ struct SoftDefaults {
   std::string energy_model = "corotated_linear";  ///< corotated_linear | stvk
 };
 
-/// Declares the parameters every soft task reads (materials, SPH, Newton, default spacing; paper
-/// §6.1 soft, table 2: Young's modulus interpolated by r like the density).
+/// The fields of SoftSimOptions (inference/task_options.h) with the defaults of d, in the order `topo tasks`
+/// lists them: materials, SPH, Newton, default spacing (paper §6.1 soft, table 2: Young's modulus
+/// interpolated by r like the density). Reading needs no defaults: readOptions<SoftSimOptions>(c, softSimFields()).
+inline auto softSimFields(const SoftDefaults& d = SoftDefaults()) {
+  return [d](auto& f) {
+    using O = SoftSimOptions;
+    f.number("youngs_modulus_solid", &O::youngs_modulus_solid, d.youngs_modulus_solid, "Pa",
+             "Young's modulus of the r = 1 material [Pa] (paper: stiff 3e7, real finger 1e7)", 0, 1e300, true)
+        .paper("stiff 3e7, real finger 1e7");
+    f.number("youngs_modulus_hollow", &O::youngs_modulus_hollow, d.youngs_modulus_hollow, "Pa",
+             d.youngs_modulus_hollow_doc, 0, 1e300, true)
+        .paper(d.youngs_modulus_hollow_paper);
+    f.number("poisson_ratio", &O::poisson_ratio, d.poisson_ratio, "unitless",
+             "Poisson ratio nu of the r = 1 material, unitless (paper: 0.4; real finger 0.49)", -0.99, 0.499)
+        .paper("0.4; real finger 0.49");
+    f.number("poisson_ratio_hollow", &O::poisson_ratio_hollow, d.poisson_ratio_hollow, "unitless",
+             d.poisson_ratio_hollow_doc, -0.99, 0.499);
+    f.number("stiffness_power", &O::stiffness_power, d.stiffness_power, "unitless",
+             "SIMP power of the Young's modulus interpolation, unitless", 1, 10);
+    f.text("energy_model", &O::energy_model, d.energy_model, "corotated_linear (Cauchy strain) | stvk (Green strain)",
+           {"corotated_linear", "stvk"});
+    f.integer("gradient_order", &O::gradient_order, d.gradient_order, "unitless",
+              "SPH kernel gradient, unitless: 1 corrected (paper), 2 quadratic MLS (exact in bending)", 1, 2)
+        .paper("1");
+    f.number("smoothing_factor", &O::smoothing_factor, 1.5, "unitless",
+             "SPH smoothing length h as a multiple of the particle spacing, unitless", 0.8, 3);
+    f.number("hourglass_alpha", &O::hourglass_alpha, 0.1, "unitless",
+             "zero-energy-mode penalty relative to mu, unitless", 0);
+    f.number("damping_per_s", &O::damping_per_s, 0.0, "1/s", "mass-proportional damping c [1/s]", 0);
+    f.number("newton_tolerance", &O::newton_tolerance, 1e-8, "unitless",
+             "Newton convergence: max residual force / load scale, unitless", 0, 1, true);
+    f.number("default_spacing_m", &O::default_spacing_m, d.default_spacing_m, "m",
+             "particle spacing of the generated default shape when no volume is given [m]", 0, 1e300, true);
+  };
+}
+
+/// Declares the parameters every soft task reads (softSimFields(d)) and the common defaults the soft
+/// tasks change (densities, pin_shell, restarts).
 void declareSoftParameters(TaskParameters& p, const SoftDefaults& d);
 
-/// ½ Σ (x − X)·… helpers are per task; this one is shared: the CorotatedSph options of a config.
-CorotatedSphOptions sphOptionsFromConfig(const TaskConfig& c, double spacing);
+/// ½ Σ (x − X)·… helpers are per task; this one is shared: the CorotatedSph options of the soft
+/// parameters, for the r = 1 material's density [kg/m^3] and the lattice spacing [m].
+CorotatedSphOptions sphOptions(const SoftSimOptions& o, double density, double spacing);
 
 }  // namespace topo_gaussian::inference

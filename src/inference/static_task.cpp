@@ -17,10 +17,12 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "task_factories.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/inference/oscillation.h"
+#include "topo_gaussian/inference/task_options.h"
 #include "topo_gaussian/physics/rigid_body.h"
 
 namespace topo_gaussian::inference {
@@ -61,39 +63,113 @@ double insideMargin(const std::vector<Eigen::Vector2d>& hull, const Eigen::Vecto
   return m;
 }
 
+/// The parameters of each static task, typed, and their declaration and reading (inference/task_options.h), in
+/// the order `topo tasks` lists them: the task's own, then the target pose every static task has.
+struct HangingOptions {
+  std::optional<Eigen::Vector3d> hanging_point;
+  double swing_duration_s = 0, swing_tilt_deg = 3, axle_heading_deg = 0, axle_swing_amplitude_deg = 3;
+  std::optional<double> axle_swing_period_s, cross_axle_swing_period_s;
+};
+
+constexpr auto kHangingFields = [](auto& f) {
+  using O = HangingOptions;
+  f.vector3("hanging_point", &O::hanging_point, "m",
+            "hanging point in the body frame [m]; default: top centre of the bounds");
+  f.number("swing_duration_s", &O::swing_duration_s, 0.0, "s",
+           "also simulate the design swinging on the hanging point for this long [s] (0 = off)", 0);
+  f.number("swing_tilt_deg", &O::swing_tilt_deg, 3.0, "deg", "release angle of that swing about world x [deg]", -80,
+           80);
+  f.number("axle_heading_deg", &O::axle_heading_deg, 0.0, "deg",
+           "axle_swing_period_s: the horizontal axle through hanging_point points this far from world x "
+           "towards world y [deg] (0: along x; 90: along y); cross_axle_swing_period_s's axle 90 more",
+           -360, 360);
+  f.number("axle_swing_amplitude_deg", &O::axle_swing_amplitude_deg, 3.0, "deg",
+           "the measured axle swings' amplitude [deg] (the period grows with it, +0.02 % at 3)", 0, 80);
+  f.target("axle_swing_period_s", &O::axle_swing_period_s, "s",
+           "period of small swings on a horizontal axle (knife edge) through hanging_point [s]: fixes the inertia "
+           "about that axle (T = 2 pi sqrt(I_a / (m g d)))",
+           0, 1e300, true);
+  f.target("cross_axle_swing_period_s", &O::cross_axle_swing_period_s, "s",
+           "the same with the axle turned 90 deg about the vertical (heading axle_heading_deg + 90) [s]", 0, 1e300,
+           true);
+};
+
+struct BalanceOptions {
+  std::optional<Eigen::Vector3d> support_point;
+  bool require_stable = true;
+  double stability_margin_m = 0;
+};
+
+constexpr auto kBalanceFields = [](auto& f) {
+  using O = BalanceOptions;
+  f.vector3("support_point", &O::support_point, "m",
+            "support point in the body frame [m]; default: top centre of the bounds");
+  f.flag("require_stable", &O::require_stable, true, "the centre of mass must lie below the support point");
+  f.number("stability_margin_m", &O::stability_margin_m, 0.0, "m",
+           "required depth of the centre of mass below the support point [m]", 0);
+};
+
+struct StandOptions {
+  double base_tolerance_m = 0;
+};
+
+constexpr auto kStandFields = [](auto& f) {
+  f.number("base_tolerance_m", &StandOptions::base_tolerance_m, 0.0, "m",
+           "particles this close to the lowest point form the base [m]; 0 = 1.5 x spacing", 0);
+};
+
+struct TargetPoseOptions {
+  std::optional<double> target_roll_deg, target_pitch_deg, mass_kg;
+};
+
+constexpr auto kTargetPoseFields = [](auto& f) {
+  using O = TargetPoseOptions;
+  f.target("target_roll_deg", &O::target_roll_deg, "deg",
+           "target orientation: roll about world x [deg] (default 0: the rest pose)");
+  f.target("target_pitch_deg", &O::target_pitch_deg, "deg",
+           "target orientation: pitch about world y [deg] (default 0)");
+  f.target("mass_kg", &O::mass_kg, "kg",
+           "the object weighed on a scale [kg]: the one number rigid motion never fixes (loss ((m - m*)/m*)^2)", 0,
+           1e300, true);
+};
+
 class StaticTask : public Task {
  public:
   StaticTask(const TaskConfig& c, const VolumeCloud& cloud) : Task(c, cloud) {
-    roll_ = c.has("target_roll_deg") ? c.number("target_roll_deg") : 0.0;
-    pitch_ = c.has("target_pitch_deg") ? c.number("target_pitch_deg") : 0.0;
+    const TargetPoseOptions pose = readOptions<TargetPoseOptions>(c, kTargetPoseFields);
+    roll_ = pose.target_roll_deg.value_or(0.0);
+    pitch_ = pose.target_pitch_deg.value_or(0.0);
     R_ = targetRotation(roll_, pitch_);
-    if (c.has("mass_kg")) mass_target_ = c.number("mass_kg");
+    if (pose.mass_kg) mass_target_ = *pose.mass_kg;
     g_hat_ = geometry_.gravity.normalized();
     const Eigen::Vector3d top((lo_.x() + hi_.x()) / 2, (lo_.y() + hi_.y()) / 2, hi_.z());
     if (name_ == "hanging") {
-      point_ = c.has("hanging_point") ? c.vector3("hanging_point") : top;
+      const HangingOptions o = readOptions<HangingOptions>(c, kHangingFields);
+      point_ = o.hanging_point.value_or(top);
       geometry_.point_name = "hanging_point";
-      swing_duration_ = c.number("swing_duration_s");
-      swing_tilt_ = c.number("swing_tilt_deg");
-      const double heading = c.number("axle_heading_deg") * M_PI / 180.0;
-      axle_amplitude_ = c.number("axle_swing_amplitude_deg") * M_PI / 180.0;
+      swing_duration_ = o.swing_duration_s;
+      swing_tilt_ = o.swing_tilt_deg;
+      const double heading = o.axle_heading_deg * M_PI / 180.0;
+      axle_amplitude_ = o.axle_swing_amplitude_deg * M_PI / 180.0;
       Eigen::Vector3d h1, h2;
       horizontalAxes(&h1, &h2);
       const char* names[2] = {"axle_swing_period_s", "cross_axle_swing_period_s"};
+      const std::optional<double> targets[2] = {o.axle_swing_period_s, o.cross_axle_swing_period_s};
       for (int k = 0; k < 2; ++k) {
         const double psi = heading + k * M_PI / 2;
         axles_[k].name = names[k];
         axles_[k].axis_body = R_.transpose() * (std::cos(psi) * h1 + std::sin(psi) * h2);
-        if (c.has(names[k])) axles_[k].target = c.number(names[k]);
+        if (targets[k]) axles_[k].target = *targets[k];
       }
     } else if (name_ == "balance") {
-      point_ = c.has("support_point") ? c.vector3("support_point") : top;
+      const BalanceOptions o = readOptions<BalanceOptions>(c, kBalanceFields);
+      point_ = o.support_point.value_or(top);
       geometry_.point_name = "support_point";
-      require_stable_ = c.boolean("require_stable");
-      margin_ = c.number("stability_margin_m");
+      require_stable_ = o.require_stable;
+      margin_ = o.stability_margin_m;
     } else {
       // stand: the base is the set of particles within tolerance of the lowest point in the target pose.
-      double tol = c.number("base_tolerance_m");
+      double tol = readOptions<StandOptions>(c, kStandFields).base_tolerance_m;
       if (tol <= 0) tol = 1.5 * cloud.spacing;
       if (tol <= 0) tol = 0.01 * size_;
       const Eigen::Vector3d up = -g_hat_;
@@ -293,15 +369,6 @@ std::unique_ptr<Task> makeStaticTask(const TaskConfig& config, const VolumeCloud
   return std::make_unique<StaticTask>(config, cloud);
 }
 
-void declareTargetPose(TaskParameters& p) {
-  p.target("target_roll_deg", ParamType::Number, "deg",
-           "target orientation: roll about world x [deg] (default 0: the rest pose)");
-  p.target("target_pitch_deg", ParamType::Number, "deg", "target orientation: pitch about world y [deg] (default 0)");
-  p.target("mass_kg", ParamType::Number, "kg",
-           "the object weighed on a scale [kg]: the one number rigid motion never fixes (loss ((m - m*)/m*)^2)", 0,
-           1e300, true);
-}
-
 /// The camera looks along world x, so the observed equilibrium angle is the roll of the target pose.
 MotionTargets equilibriumTargets(const TaskConfig&, const motion::MotionFeatures& f) {
   MotionTargets out;
@@ -319,24 +386,8 @@ void registerStaticTasks(TaskList* tasks) {
   hanging.name = "hanging";
   hanging.summary = "hangs from a point in a target orientation (centre of mass below the point); optionally swings";
   hanging.declare_parameters = [](TaskParameters& p) {
-    p.vector3("hanging_point", nullptr, "m", "hanging point in the body frame [m]; default: top centre of the bounds");
-    p.number("swing_duration_s", 0.0, "s",
-             "also simulate the design swinging on the hanging point for this long [s] (0 = off)", 0);
-    p.number("swing_tilt_deg", 3.0, "deg", "release angle of that swing about world x [deg]", -80, 80);
-    p.number("axle_heading_deg", 0.0, "deg",
-             "axle_swing_period_s: the horizontal axle through hanging_point points this far from world x "
-             "towards world y [deg] (0: along x; 90: along y); cross_axle_swing_period_s's axle 90 more",
-             -360, 360);
-    p.number("axle_swing_amplitude_deg", 3.0, "deg",
-             "the measured axle swings' amplitude [deg] (the period grows with it, +0.02 % at 3)", 0, 80);
-    p.target("axle_swing_period_s", ParamType::Number, "s",
-             "period of small swings on a horizontal axle (knife edge) through hanging_point [s]: fixes the inertia "
-             "about that axle (T = 2 pi sqrt(I_a / (m g d)))",
-             0, 1e300, true);
-    p.target("cross_axle_swing_period_s", ParamType::Number, "s",
-             "the same with the axle turned 90 deg about the vertical (heading axle_heading_deg + 90) [s]", 0, 1e300,
-             true);
-    declareTargetPose(p);
+    declareOptions<HangingOptions>(p, kHangingFields);
+    declareOptions<TargetPoseOptions>(p, kTargetPoseFields);
   };
   hanging.make = makeStaticTask;
   hanging.motion_targets = equilibriumTargets;
@@ -355,10 +406,8 @@ void registerStaticTasks(TaskList* tasks) {
   balance.name = "balance";
   balance.summary = "balances on a support point in a target orientation (centre of mass on its vertical, below it)";
   balance.declare_parameters = [](TaskParameters& p) {
-    p.vector3("support_point", nullptr, "m", "support point in the body frame [m]; default: top centre of the bounds");
-    p.flag("require_stable", true, "the centre of mass must lie below the support point");
-    p.number("stability_margin_m", 0.0, "m", "required depth of the centre of mass below the support point [m]", 0);
-    declareTargetPose(p);
+    declareOptions<BalanceOptions>(p, kBalanceFields);
+    declareOptions<TargetPoseOptions>(p, kTargetPoseFields);
   };
   balance.make = makeStaticTask;
   balance.motion_targets = equilibriumTargets;
@@ -368,9 +417,8 @@ void registerStaticTasks(TaskList* tasks) {
   stand.name = "stand";
   stand.summary = "stands on its base in a target orientation (centre of mass over the base)";
   stand.declare_parameters = [](TaskParameters& p) {
-    p.number("base_tolerance_m", 0.0, "m",
-             "particles this close to the lowest point form the base [m]; 0 = 1.5 x spacing", 0);
-    declareTargetPose(p);
+    declareOptions<StandOptions>(p, kStandFields);
+    declareOptions<TargetPoseOptions>(p, kTargetPoseFields);
   };
   stand.make = makeStaticTask;
   stand.motion_targets = equilibriumTargets;

@@ -1,6 +1,6 @@
 // Typed task options (inference/task_options.h): one list of fields declares the parameters as
 // TaskParameters does and reads them back into a struct: defaults, set values, targets only when
-// given; the tumbler and the ball read their own parameters this way.
+// given; every task reads its own parameters this way.
 #include <gtest/gtest.h>
 
 #include <optional>
@@ -89,6 +89,50 @@ TEST(TaskOptions, OneListDeclaresAndReadsTypedFields) {
   EXPECT_EQ(o.points, (std::vector<double>{0, 0, 0.1, 0, 0, 0.2}));
   EXPECT_EQ(o.observed_file, std::optional<std::string>("track.csv"));
   EXPECT_THROW(c.set("probe_count", "12", "test"), TopoError);
+}
+
+namespace {
+
+struct ProbeExtraOptions {
+  std::string mode;
+  std::optional<Eigen::Vector3d> point;
+  std::optional<std::vector<double>> observed;
+};
+
+constexpr auto kProbeExtraFields = [](auto& f) {
+  using O = ProbeExtraOptions;
+  f.text("probe_mode", &O::mode, "slow", "slow | fast", {"slow", "fast"});
+  f.vector3("probe_point", &O::point, "m", "an optional point [m]");
+  f.target("probe_observed_deg", &O::observed, "deg", "observed angles, one per pose [deg]", -90, 90);
+};
+
+}  // namespace
+
+// Text with choices, an optional point and an observed list: declared as TaskParameters declares them, the
+// point and the list read back only when given.
+TEST(TaskOptions, TextOptionalPointAndObservedList) {
+  TaskConfig c = TaskConfig::defaults("hanging");
+  TaskParameters p(c);
+  declareOptions<ProbeExtraOptions>(p, kProbeExtraFields);
+  EXPECT_EQ(c.spec("probe_mode")->type, ParamType::Text);
+  EXPECT_EQ(c.spec("probe_mode")->choices, (std::vector<std::string>{"slow", "fast"}));
+  EXPECT_EQ(c.spec("probe_point")->type, ParamType::Vector3);
+  EXPECT_FALSE(c.spec("probe_point")->is_target);
+  EXPECT_EQ(c.spec("probe_observed_deg")->type, ParamType::List);
+  EXPECT_TRUE(c.spec("probe_observed_deg")->is_target);
+  ProbeExtraOptions o = readOptions<ProbeExtraOptions>(c, kProbeExtraFields);
+  EXPECT_EQ(o.mode, "slow");
+  EXPECT_FALSE(o.point.has_value());
+  EXPECT_FALSE(o.observed.has_value());
+  c.set("probe_mode", "fast", "test");
+  c.set("probe_point", "0,0,0.1", "test");
+  c.set("probe_observed_deg", "20,0,-45", "test");
+  o = readOptions<ProbeExtraOptions>(c, kProbeExtraFields);
+  EXPECT_EQ(o.mode, "fast");
+  EXPECT_EQ(o.point, std::optional<Eigen::Vector3d>(Eigen::Vector3d(0, 0, 0.1)));
+  EXPECT_EQ(o.observed, std::optional<std::vector<double>>(std::vector<double>{20, 0, -45}));
+  EXPECT_THROW(c.set("probe_mode", "medium", "test"), TopoError);
+  EXPECT_THROW(c.set("probe_observed_deg", "0,100", "test"), TopoError);
 }
 
 // The tumbler reads its own parameters as TumblerOptions: its targets are used only when given, and the

@@ -11,8 +11,11 @@
 // Its declaration calls declareOptions<TumblerOptions>(p, kTumblerFields) (each field declared as
 // TaskParameters declares it: name, default, unit, documentation, range; `.paper("...")` chains as there),
 // its factory readOptions<TumblerOptions>(config, kTumblerFields) (each field read back from the config:
-// no key typed twice, no field read with the wrong type). Fields: number, integer, flag, vector3, list,
-// and targets (no default) as std::optional<double> or std::optional<std::string>, set only when given.
+// no key typed twice, no field read with the wrong type). Fields: number, integer, flag, text, vector3 (with
+// a default, or as std::optional<Eigen::Vector3d> without one, set only when given), list, and targets (no
+// default) as std::optional<double>, std::optional<std::string> or std::optional<std::vector<double>>, set
+// only when given. A field list whose defaults differ per task (the soft tasks' SoftSimOptions,
+// src/inference/soft_task.h) is a function of those defaults that returns the list.
 #pragma once
 
 #include <Eigen/Core>
@@ -43,9 +46,18 @@ class DeclareFields {
   TaskParameters::Declared flag(const std::string& name, bool Options::*, bool def, const std::string& doc) {
     return p_.flag(name, def, doc);
   }
+  TaskParameters::Declared text(const std::string& name, std::string Options::*, const std::string& def,
+                                const std::string& doc, std::vector<std::string> choices = {}) {
+    return p_.text(name, def, doc, std::move(choices));
+  }
   TaskParameters::Declared vector3(const std::string& name, Eigen::Vector3d Options::*, const Eigen::Vector3d& def,
                                    const std::string& unit, const std::string& doc) {
     return p_.vector3(name, &def, unit, doc);
+  }
+  /// An optional point or direction (no default): the field holds it when it is given.
+  TaskParameters::Declared vector3(const std::string& name, std::optional<Eigen::Vector3d> Options::*,
+                                   const std::string& unit, const std::string& doc) {
+    return p_.vector3(name, nullptr, unit, doc);
   }
   template <class... Rest>
   TaskParameters::Declared list(const std::string& name, std::vector<double> Options::*, std::vector<double> def,
@@ -61,6 +73,12 @@ class DeclareFields {
   TaskParameters::Declared target(const std::string& name, std::optional<std::string> Options::*,
                                   const std::string& unit, const std::string& doc) {
     return p_.target(name, ParamType::Text, unit, doc);
+  }
+  /// An observed list (one value per pose, ...): the field holds it when it is given.
+  template <class... Rest>
+  TaskParameters::Declared target(const std::string& name, std::optional<std::vector<double>> Options::*,
+                                  Rest&&... rest) {
+    return p_.target(name, ParamType::List, std::forward<Rest>(rest)...);
   }
 
  private:
@@ -93,9 +111,19 @@ class ReadFields {
     o_.*field = c_.boolean(name);
     return {};
   }
+  Read text(const std::string& name, std::string Options::*field, const std::string&, const std::string&,
+            const std::vector<std::string>& = {}) {
+    o_.*field = c_.text(name);
+    return {};
+  }
   template <class... Rest>
   Read vector3(const std::string& name, Eigen::Vector3d Options::*field, Rest&&...) {
     o_.*field = c_.vector3(name);
+    return {};
+  }
+  template <class... Rest>
+  Read vector3(const std::string& name, std::optional<Eigen::Vector3d> Options::*field, Rest&&...) {
+    if (c_.has(name)) o_.*field = c_.vector3(name);
     return {};
   }
   template <class... Rest>
@@ -111,6 +139,11 @@ class ReadFields {
   template <class... Rest>
   Read target(const std::string& name, std::optional<std::string> Options::*field, Rest&&...) {
     if (c_.has(name)) o_.*field = c_.text(name);
+    return {};
+  }
+  template <class... Rest>
+  Read target(const std::string& name, std::optional<std::vector<double>> Options::*field, Rest&&...) {
+    if (c_.has(name)) o_.*field = c_.list(name);
     return {};
   }
 
