@@ -318,6 +318,7 @@ MotionTargets rockingTargets(const TaskConfig& config, const motion::MotionFeatu
   std::ostringstream os;
   double period = f.period_s, tilt = f.amplitude_confidence > 0 ? f.max_tilt_deg : 0.0, amplitude = 0.0;
   double from_release = NAN;  // the equilibrium signed towards the release's side (a release window)
+  double first = NAN;         // |tilt| the tracker read at the release (a release window)
   std::vector<double> y;
   double dt = 0;
   // An absolute tilt the tracker could not tell (confidence 0: an axis known only modulo 90 deg, a
@@ -341,6 +342,7 @@ MotionTargets rockingTargets(const TaskConfig& config, const motion::MotionFeatu
       // started mid-swing the swing may have decayed, so it is used only here).
       amplitude = o.amplitude;
       from_release = (y[0] < 0 ? -1.0 : 1.0) * o.equilibrium;
+      first = std::abs(y[0]);
       os << "the window starts at a release: the task's analysis of the observed signal (" << y.size()
          << " samples, first " << cycles << " cycles) gives period " << o.period << " s, max tilt " << o.max_abs
          << " deg, amplitude " << o.amplitude << " deg (the tracker's own over the window: " << f.period_s << " s, "
@@ -350,12 +352,22 @@ MotionTargets rockingTargets(const TaskConfig& config, const motion::MotionFeatu
     }
   }
   out.targets.emplace_back("period_s", period);
-  if (tilt > 1.01 * release) {
+  // From a release window the largest tilt is compared with the tilt the same tracker read at the
+  // release, so its own bias cancels (a silhouette's axis seen in perspective reads a tilted doll ~2 %
+  // high): beyond it, the largest tilt scaled by release / first; otherwise the release tilt.
+  const bool beyond = std::isfinite(first) && first > 0 ? tilt > 1.01 * first : tilt > 1.01 * release;
+  if (beyond) {
+    if (std::isfinite(first) && first > 0 && release > 0) {
+      os << "; the largest tilt " << tilt << " deg, read against the release's " << first << " deg, is "
+         << tilt * release / first << " deg";
+      tilt *= release / first;
+    }
     out.targets.emplace_back("max_tilt_deg", tilt);
   } else if (release > 0) {
     out.targets.emplace_back("max_tilt_deg", release);
-    os << "; the max tilt " << tilt << " deg does not exceed the release tilt, so its target is the release tilt "
-       << release << " deg";
+    os << "; the max tilt " << tilt << " deg does not exceed the release tilt"
+       << (std::isfinite(first) ? " as the tracker read it (" + numberText(first, 4) + " deg)" : std::string())
+       << ", so its target is the release tilt " << release << " deg";
   } else {
     os << "; the tilt was not measured, only the period is used";
   }

@@ -101,6 +101,15 @@ TEST(MotionTargets, TumblerSignalGetsTheTasksOwnAnalysis) {
   ASSERT_EQ(low.targets.size(), 2u) << low.note;
   EXPECT_DOUBLE_EQ(low.targets[1].second, 10.0) << low.note;
   EXPECT_NE(low.note.find("does not exceed the release tilt"), std::string::npos) << low.note;
+  // a tracker that reads every tilt 2 % high (a silhouette's axis seen in perspective): from a release
+  // window its largest tilt is read against its own reading at the release (10.2 deg for the 10 the task
+  // knows), so the bias cancels and the target is the simulation's own largest tilt, not 2 % above it
+  auto high = m;
+  for (double& a : high.angle_deg) a *= 1.02;
+  const inference::MotionTargets th = inference::targetsFromMotion(c, high);
+  ASSERT_GE(th.targets.size(), 2u) << th.note;
+  EXPECT_NEAR(th.targets[1].second, tilt, 1e-9) << th.note;
+  EXPECT_NE(th.note.find("read against the release"), std::string::npos) << th.note;
   // without a signal: the tracker's numbers; without an oscillation: nothing, with the reason
   m.time_s.clear();
   m.angle_deg.clear();
