@@ -823,8 +823,8 @@ std::string sharedData() {
   return "";
 }
 
-geometry::SurfaceData ellipsoid(const Vector3d& semi) {
-  geometry::SurfaceData s = geometry::makeSphere(1.0, 96, 48);
+geometry::SurfaceData ellipsoid(const Vector3d& semi, int segments = 96) {
+  geometry::SurfaceData s = geometry::makeSphere(1.0, segments, segments / 2);
   for (auto& p : s.points) p = p.cwiseProduct(semi);
   s.normals.clear();
   s.source = "generated ellipsoid";
@@ -887,6 +887,7 @@ std::vector<CaseSpec> cases(const std::string& data) {
     c.object = "generated ellipsoid, semi-axes 0.06 x 0.045 x 0.04 m";
     c.interior = "hollow shell: inner ellipsoid 0.8 x the semi-axes, 4 mm above the centre";
     c.surface = [] { return ellipsoid(Vector3d(0.06, 0.045, 0.04)); };
+    c.peer_surface = [] { return ellipsoid(Vector3d(0.06, 0.045, 0.04), 512); };
     c.region = [](const VolumeCloud&) {
       Region R;
       R.kind = Region::Ellipsoid;
