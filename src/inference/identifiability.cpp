@@ -114,6 +114,46 @@ MomentVector naturalMomentUnits(double solid_mass_kg, double size_m) {
   return u;
 }
 
+MomentVector ownMomentScales(const MassProperties& d, double solid_mass_kg, double size_m) {
+  const Eigen::Vector3d I = d.inertia.diagonal();
+  if (!(d.mass > 0) || !(I.minCoeff() > 0) || !d.inertia.allFinite())
+    return naturalMomentUnits(solid_mass_kg, size_m);
+  const double k = std::sqrt(I.sum() / (2.0 * d.mass));  // radius of gyration
+  MomentVector u;
+  u << d.mass, k, k, k, I.x(), I.y(), I.z(), std::sqrt(I.x() * I.y()), std::sqrt(I.x() * I.z()),
+      std::sqrt(I.y() * I.z());
+  return u;
+}
+
+// χ²_q(k) by Wilson–Hilferty: k (1 − 2/(9k) + z_q √(2/(9k)))³. At k = 1 its lower decile is 0.0053
+// against the exact 0.0158: σ̂ then comes out √3 too large, on the safe side.
+double chiSquareLowerDecile(int k) {
+  const double a = 2.0 / (9.0 * k), z_q = -1.2815516;
+  const double c = std::max(1.0 - a + z_q * std::sqrt(a), 1e-3);
+  return k * c * c * c;
+}
+
+double fitNoiseScale(double chi2, int dof) {
+  // An exact fit (χ² → 0) would claim exact observations: σ̂ is floored at 1 % of the tolerances.
+  return dof > 0 ? std::max(0.01, std::sqrt(chi2 / chiSquareLowerDecile(dof))) : 1.0;
+}
+
+MeasuredResidual measuredResidual(const ProblemEvaluation& at) {
+  MeasuredResidual out;
+  std::vector<double> rows;
+  for (const auto& xe : at.experiments)
+    for (const auto& o : xe.eval.observations) {
+      if (!o.has_target) continue;
+      const double e = xe.weight > 0 ? std::sqrt(xe.weight) * (o.value - o.target) / o.noise : 0.0;
+      rows.push_back(e);
+      if (!(xe.weight > 0)) continue;  // a weight-0 experiment's rows are zero
+      out.chi2 += e * e;
+      ++out.count;
+    }
+  out.residual = Eigen::Map<const Eigen::VectorXd>(rows.data(), static_cast<Eigen::Index>(rows.size()));
+  return out;
+}
+
 void appendObservationRows(const TaskEvaluation& evaluation, double weight, bool only_targets, MomentJacobian* J) {
   for (const auto& o : evaluation.observations) {
     if (only_targets && !o.has_target) continue;
@@ -125,8 +165,12 @@ void appendObservationRows(const TaskEvaluation& evaluation, double weight, bool
   }
 }
 
-IdentifiabilityAnalysis analyseMomentJacobian(const MomentJacobian& J_si, const MomentVector& u, double threshold) {
+IdentifiabilityAnalysis analyseMomentJacobian(const MomentJacobian& J_si, const MomentVector& u, double threshold,
+                                              double noise_scale) {
   if (!(threshold > 0)) throw TopoError("determined_threshold", "is not positive", "give e.g. 0.02 (2 %)");
+  if (!(noise_scale > 0) || !std::isfinite(noise_scale))
+    throw TopoError("noise scale of the identifiability analysis", "is not positive and finite",
+                    "give the fit's sigma (1: the tolerances)");
   if (!((u.array() > 0).all()))
     throw TopoError("natural units of the mass moments", "are not all positive", "use naturalMomentUnits");
   if (!J_si.allFinite())
@@ -135,6 +179,7 @@ IdentifiabilityAnalysis analyseMomentJacobian(const MomentJacobian& J_si, const 
   IdentifiabilityAnalysis a;
   a.available = true;
   a.threshold = threshold;
+  a.noise_scale = noise_scale;
   a.natural_units = u;
   a.observations = static_cast<int>(J_si.rows());
   a.J = J_si * u.asDiagonal();
@@ -149,7 +194,7 @@ IdentifiabilityAnalysis analyseMomentJacobian(const MomentJacobian& J_si, const 
   for (int k = 0; k < 10; ++k) {
     null[k] = !(smax > 0) || a.singular_values(k) <= 1e-12 * smax;
     if (!null[k]) ++a.rank;
-    if (!null[k] && 1.0 / a.singular_values(k) < threshold) ++a.determined_directions;
+    if (!null[k] && noise_scale / a.singular_values(k) < threshold) ++a.determined_directions;
   }
   static const char* words[10] = {"the mass",
                                   "the centre of mass along x",
@@ -176,7 +221,7 @@ IdentifiabilityAnalysis analyseMomentJacobian(const MomentJacobian& J_si, const 
       else
         var += v2 / (a.singular_values(k) * a.singular_values(k));
     }
-    mi.std_relative = in_null > 1e-12 ? kInf : std::sqrt(var);
+    mi.std_relative = in_null > 1e-12 ? kInf : noise_scale * std::sqrt(var);
     mi.std = mi.std_relative * u(j);
     mi.determined = mi.std_relative < threshold;
     (mi.determined ? determined : free).push_back(j);
@@ -198,7 +243,10 @@ IdentifiabilityAnalysis analyseMomentJacobian(const MomentJacobian& J_si, const 
   else
     s << "; " << momentWords(free) << (free.size() == 1 ? " is" : " are")
       << " not determined by these experiments (std above " << numberText(100 * threshold, 2)
-      << " % of its natural unit).";
+      << " % of its own size).";
+  if (noise_scale != 1.0)
+    s << " The fit's residual puts the observations' noise at " << numberText(noise_scale, 3)
+      << " x their tolerances, and these standard deviations with it.";
   if (!a.moments[0].determined)
     s << " Rigid motion alone never fixes the mass (a heavier copy with the same centre of mass and inertia per "
          "kilogram moves alike): weigh it (a mass_kg target of a hanging, balance or stand experiment).";
@@ -214,7 +262,7 @@ double undeterminedScore(const IdentifiabilityAnalysis& a) {
   // stays free) lowers no single moment's std yet is progress. −Σ_k log clamp(threshold·s_k, 1e-8, 1):
   // 0 when every direction is determined, +18.4 for each free one.
   for (int k = 0; k < a.singular_values.size(); ++k)
-    s -= std::log(std::clamp(a.threshold * a.singular_values(k), 1e-8, 1.0));
+    s -= std::log(std::clamp(a.threshold * a.singular_values(k) / a.noise_scale, 1e-8, 1.0));
   return s;
 }
 
@@ -255,14 +303,15 @@ void suggestNextExperiment(const InteriorProblem& problem, const std::vector<dou
                            const IdentifiabilityOptions& options, IdentifiabilityAnalysis* analysis) {
   const VolumeCloud& cloud = problem.cloud();
   const MomentVector& u = analysis->natural_units;
-  const double base = undeterminedScore(analyseMomentJacobian(J_si, u, options.determined_threshold));
+  const double sigma = analysis->noise_scale;  // a new experiment is expected to fit as the others do
+  const double base = undeterminedScore(analyseMomentJacobian(J_si, u, options.determined_threshold, sigma));
   std::vector<double> m;
   problem.task().masses(r, &m, nullptr);
   const MassProperties props = computeMassProperties(cloud.X, m, cubeCellVariance(cloud.spacing));
   auto score = [&](ExperimentSuggestion& cand, const TaskEvaluation& ev) {
     MomentJacobian J = J_si;
     appendObservationRows(ev, 1.0, false, &J);
-    const IdentifiabilityAnalysis a = analyseMomentJacobian(J, u, options.determined_threshold);
+    const IdentifiabilityAnalysis a = analyseMomentJacobian(J, u, options.determined_threshold, sigma);
     cand.score_gain = base - undeterminedScore(a);
     cand.directions_after = a.determined_directions;
     for (int j = 0; j < 10; ++j)
@@ -294,6 +343,7 @@ void suggestNextExperiment(const InteriorProblem& problem, const std::vector<dou
     score(cand, hung);
     const ExperimentSuggestion hang = cand;
     analysis->candidates.push_back(std::move(cand));  // first: a tie goes to the simpler experiment
+    if (!options.swing_candidates) continue;
     // Swing it there on a horizontal axle along world x, then along y, and time both swings (hanging's
     // axle_swing_period_s and cross_axle_swing_period_s, which the hang already reports at the default
     // heading 0, set as targets to the design's own periods: only the derivatives count).
@@ -487,7 +537,7 @@ IdentifiabilityAnalysis analyseIdentifiability(const InteriorProblem& problem, c
   double solid = 0;
   for (double v : problem.cloud().V) solid += v;
   solid *= problem.task().density().value_r1;
-  const MomentVector u = naturalMomentUnits(solid, problem.task().size());
+  const MomentVector u = ownMomentScales(at.task.mass, solid, problem.task().size());
   if (with == 0) {
     IdentifiabilityAnalysis a;
     a.notes = notes;
@@ -516,7 +566,12 @@ IdentifiabilityAnalysis analyseIdentifiability(const InteriorProblem& problem, c
     a.seconds = secondsSince(t0);
     return a;
   }
-  IdentifiabilityAnalysis a = analyseMomentJacobian(J, u, options.determined_threshold);
+  // σ̂ from the fit's residual over its redundant observations (the rank of J taken by a first analysis).
+  const int rank = analyseMomentJacobian(J, u, options.determined_threshold).rank;
+  const MeasuredResidual res = measuredResidual(at);
+  const int dof = res.count - rank;
+  const double sigma = fitNoiseScale(res.chi2, dof);
+  IdentifiabilityAnalysis a = analyseMomentJacobian(J, u, options.determined_threshold, sigma);
   a.notes = notes;
   thetaRanks(problem, theta, r, options, &a);
   if (options.suggest) suggestNextExperiment(problem, r, J, options, &a);

@@ -21,8 +21,6 @@ namespace {
 
 /// The prior's radius over the designs, as a share of |θ*|: E|θ − θ*|² = (½ |θ*|)².
 constexpr double kRegionPriorRadius = 0.5;
-/// The smallest noise σ̂ the fit may estimate, in units of the tolerances.
-constexpr double kRegionNoiseFloor = 0.01;
 /// Below this expected IoU the sentence calls the region not determined (the IoU goal).
 constexpr double kRegionDeterminedIou = 0.9;
 /// Each perturbed fit: at most this many Levenberg–Marquardt iterations, ended earlier when one lowers the
@@ -33,14 +31,7 @@ constexpr double kRegionSolveTolerance = 1e-4;
 constexpr double kGeodesicH = 0.1;
 constexpr double kGeodesicAlpha = 0.75;
 
-/// χ²_q(k) by Wilson–Hilferty: k (1 − 2/(9k) + z_q √(2/(9k)))³. At k = 1 its lower decile is 0.0053
-/// against the exact 0.0158: σ̂ then comes out √3 too large, on the safe side.
-double chiSquareQuantile(int k, double z_q) {
-  const double a = 2.0 / (9.0 * k);
-  const double c = std::max(1.0 - a + z_q * std::sqrt(a), 1e-3);
-  return k * c * c * c;
-}
-double chiSquareLowerDecile(int k) { return chiSquareQuantile(k, -1.2815516); }
+
 
 }  // namespace
 
@@ -79,24 +70,14 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
   // χ² of the measured observations, in the rows' order (identifiability: experiments, then observations).
   // The whitened residual r* = √w (y* − y)/σ row by row: the linearised fit of a design with moments p is
   // |r* + J (p − p*)|², so a design that fits better than θ* (θ* short of the best fit) is favoured.
-  Eigen::VectorXd residual = Eigen::VectorXd::Zero(J_si.rows());
-  double chi2 = 0;
-  int n = 0;
-  Eigen::Index row = 0;
-  for (const auto& xe : at.experiments)
-    for (const auto& o : xe.eval.observations) {
-      if (!o.has_target) continue;
-      const double e = xe.weight > 0 ? std::sqrt(xe.weight) * (o.value - o.target) / o.noise : 0.0;
-      if (row < residual.size()) residual[row] = e;
-      ++row;
-      if (!(xe.weight > 0)) continue;  // a weight-0 experiment's rows are zero
-      chi2 += e * e;
-      ++n;
-    }
-  if (row != J_si.rows())
+  const MeasuredResidual measured = measuredResidual(at);
+  const Eigen::VectorXd& residual = measured.residual;
+  const double chi2 = measured.chi2;
+  const int n = measured.count;
+  if (residual.size() != J_si.rows())
     throw TopoError(
         "region uncertainty Jacobian",
-        "has " + std::to_string(J_si.rows()) + " rows for " + std::to_string(row) + " measured observations",
+        "has " + std::to_string(J_si.rows()) + " rows for " + std::to_string(residual.size()) + " measured observations",
         "give the identifiability Jacobian of the same evaluation");
   out.observations = static_cast<int>(J_si.rows());
   out.chi2 = chi2;
@@ -128,8 +109,7 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
       ++out.free_directions;
   }
   const int dof = n - out.determined_directions;
-  // An exact fit (χ² → 0) would claim exact observations: σ̂ is floored at 1 % of the tolerances.
-  out.noise_scale = dof > 0 ? std::max(kRegionNoiseFloor, std::sqrt(chi2 / chiSquareLowerDecile(dof))) : 1.0;
+  out.noise_scale = fitNoiseScale(chi2, dof);
 
   // The best design's labels and region (the other material: the smaller label by volume).
   const auto& V_i = problem.cloud().V;

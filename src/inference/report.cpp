@@ -95,7 +95,8 @@ std::string regionJson(const RegionUncertainty& g) {
 std::string identifiabilityJson(const IdentifiabilityAnalysis& a) {
   std::ostringstream s;
   s << "{\"available\": " << (a.available ? "true" : "false") << ", \"summary\": " << quote(a.summary)
-    << ", \"observations\": " << a.observations << ", \"threshold\": " << num(a.threshold) << ", \"rank\": " << a.rank
+    << ", \"observations\": " << a.observations << ", \"threshold\": " << num(a.threshold)
+    << ", \"noise_scale\": " << num(a.noise_scale) << ", \"rank\": " << a.rank
     << ", \"determined_directions\": " << a.determined_directions << ", \"theta_parameters\": " << a.theta_parameters
     << ", \"theta_rank\": " << a.theta_rank << ", \"dp_dtheta_rank\": " << a.dp_dtheta_rank;
   if (a.available) {

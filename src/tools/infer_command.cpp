@@ -197,7 +197,7 @@ int inferCommand(const std::vector<std::string>& argv) {
   const inference::IdentifiabilityAnalysis& id = res.identifiability;
   if (id.available) {
     std::cerr << "[topo infer] what the experiments determine (linearised std; determined below " << 100 * id.threshold
-              << " % of the natural unit):\n";
+              << " % of its own size):\n";
     for (const auto& m : id.moments)
       std::cerr << "[topo infer]   " << std::setw(4) << std::left << m.name << " "
                 << (m.determined ? "DETERMINED" : "FREE      ") << "  std " << m.std << " " << m.unit << "\n";

@@ -15,6 +15,7 @@
 #include "test_clouds.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/inference/identifiability.h"
+#include "topo_gaussian/physics/mass_properties.h"
 #include "topo_gaussian/inference/interior_problem.h"
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/inference/report.h"
@@ -264,12 +265,23 @@ TEST(Identifiability, SwingsOnTwoAxlesAtThreeHangsFixTheInertia) {
       swings.row(swings.rows() - 1) = ev.observations.back().d_dp.transpose() / ev.observations.back().noise;
     }
   }
-  const MomentVector u = naturalMomentUnits(s.solid_mass, s.size);
+  MassProperties solid;  // the full box, the design these rows were taken at
+  {
+    const std::vector<double> m(s.cloud.size(), s.solid_mass / s.cloud.size());
+    solid = computeMassProperties(s.cloud.X, m, cubeCellVariance(s.cloud.spacing));
+  }
+  const MomentVector u = ownMomentScales(solid, s.solid_mass, s.size);
   const IdentifiabilityAnalysis without = analyseMomentJacobian(hangs, u);
   for (int j = 0; j < 4; ++j) EXPECT_TRUE(without.moments[j].determined) << without.moments[j].name;
   for (int j = 4; j < 10; ++j) EXPECT_FALSE(without.moments[j].determined) << without.moments[j].name;
+  // Timed to the tolerance (1 % of the period) the swings fix the inertia only to 4-14 % of itself (2 %
+  // of the period squared); timed to 0.1 % (ten swings on a stopwatch, a camera at 60 frames/s over a few
+  // periods) all ten moments are determined to 2 % of their own size.
   MomentJacobian all(hangs.rows() + swings.rows(), 10);
   all << hangs, swings;
+  const IdentifiabilityAnalysis rough = analyseMomentJacobian(all, u);
+  for (int j = 4; j < 10; ++j) EXPECT_FALSE(rough.moments[j].determined) << rough.moments[j].name;
+  all << hangs, 10.0 * swings;
   const IdentifiabilityAnalysis with = analyseMomentJacobian(all, u);
   for (int j = 0; j < 10; ++j) {
     EXPECT_TRUE(with.moments[j].determined) << with.moments[j].name << " std " << with.moments[j].std_relative;
@@ -278,18 +290,33 @@ TEST(Identifiability, SwingsOnTwoAxlesAtThreeHangsFixTheInertia) {
   }
   EXPECT_EQ(with.rank, 10);
   // The same three hangs and the weighing as one problem: no further hang fixes anything, a swing on two
-  // axles adds two inertia combinations, so the suggestion is a swing.
-  TaskConfig joint;
-  for (int k = 0; k < 3; ++k) {
-    TaskConfig t = config(points[k], 0);
-    if (k == 0) t.setNumber("mass_kg", 0.5);
-    joint.addExperiment("hang" + std::to_string(k), 1.0, t);
-  }
-  const InteriorProblem problem(joint, s.cloud);
+  // axles adds two inertia combinations, so the suggestion is a swing. The observations are those of the
+  // design analysed (its rest poses and mass), which it fits exactly (σ̂ at its floor; a design that
+  // misfits by k x the tolerances has its stds k times larger: UnfitObservationsWidenTheStds).
+  auto joint_of = [&](const MassProperties& design) {
+    TaskConfig joint;
+    for (int k = 0; k < 3; ++k) {
+      TaskConfig t = config(points[k], 0);
+      const RollPitch rest = hangingRestPose(design.com, points[k]);
+      t.setNumber("target_roll_deg", rest.roll_deg);
+      t.setNumber("target_pitch_deg", rest.pitch_deg);
+      if (k == 0) t.setNumber("mass_kg", design.mass);
+      joint.addExperiment("hang" + std::to_string(k), 1.0, t);
+    }
+    return joint;
+  };
+  MassProperties design;
+  design.mass = 0.5;
+  design.com = s.c;
+  ProblemEvaluation first;
+  const InteriorProblem provisional(joint_of(design), s.cloud);
+  provisional.evaluate(provisional.initialParameters(), nullptr, &first);
+  const InteriorProblem problem(joint_of(first.task.mass), s.cloud);
   const Eigen::VectorXd theta = problem.initialParameters();
   ProblemEvaluation at;
   problem.evaluate(theta, nullptr, &at);
   const IdentifiabilityAnalysis a = analyseIdentifiability(problem, theta, at);
+  EXPECT_LT(a.noise_scale, 0.02);  // it fits exactly: σ̂ at its floor
   ASSERT_TRUE(a.has_suggestion) << a.summary;
   EXPECT_EQ(a.suggestion.kind, "swing") << a.suggestion.sentence;
   EXPECT_EQ(a.suggestion.directions_after, a.determined_directions + 2) << a.suggestion.sentence;
@@ -388,6 +415,8 @@ TEST(Identifiability, RockingCandidatesComeFromTheTaskThatDeclaresItsRockingAxis
   EXPECT_TRUE(noted) << "the note names the rocking tasks";
 }
 
+// Without an axle (swing_candidates false): with an axle a swing near the centre of mass adds two
+// combinations and wins.
 TEST(Identifiability, AfterOneHangFromTheTopItSuggestsAHangOffThatVertical) {
   const HangSetup s;
   TaskConfig t = TaskConfig::defaults("hanging");
@@ -397,7 +426,9 @@ TEST(Identifiability, AfterOneHangFromTheTopItSuggestsAHangOffThatVertical) {
   const Eigen::VectorXd theta = problem.initialParameters();
   ProblemEvaluation at;
   problem.evaluate(theta, nullptr, &at);
-  const IdentifiabilityAnalysis a = analyseIdentifiability(problem, theta, at);
+  IdentifiabilityOptions no_axle;
+  no_axle.swing_candidates = false;
+  const IdentifiabilityAnalysis a = analyseIdentifiability(problem, theta, at, no_axle);
   ASSERT_TRUE(a.available);
   ASSERT_TRUE(a.has_suggestion) << a.summary;
   EXPECT_EQ(a.suggestion.kind, "hang");
@@ -580,4 +611,73 @@ TEST(RegionUncertainty, PredictsTheIouFoundAndCallsASmallBallUndetermined) {
       EXPECT_TRUE(says_undetermined) << g.sentence;
     }
   }
+}
+
+// A moment is determined relative to its own size: a box's Ixx known to 5 % of itself is not determined,
+// although 5 % of Ixx is a thirtieth of the old unit m L² (L the bounding-box diagonal), under which it
+// was; and the fit's own σ̂ multiplies every std.
+TEST(Identifiability, AMomentIsDeterminedRelativeToItsOwnSize) {
+  const VolumeCloud cloud = topo_test::boxCloud(0.12, 0.08, 0.06, 0.01);
+  const std::vector<double> m(cloud.size(), 1000.0 * cloud.totalVolume() / cloud.size());
+  const MassProperties box = computeMassProperties(cloud.X, m, cubeCellVariance(cloud.spacing));
+  Eigen::Vector3d lo, hi;
+  cloud.bounds(&lo, &hi);
+  const double L = (hi - lo).norm();
+  const MomentVector own = ownMomentScales(box, box.mass, L);
+  EXPECT_NEAR(own(4), box.inertia(0, 0), 1e-15);
+  EXPECT_NEAR(own(1), std::sqrt(box.inertia.trace() / (2 * box.mass)), 1e-15);
+  // Observations of each moment alone: std 1e-4 of its own size, Ixx's 5 %.
+  MomentJacobian J = MomentJacobian::Zero(10, 10);
+  for (int j = 0; j < 10; ++j) J(j, j) = 1.0 / ((j == 4 ? 0.05 : 1e-4) * own(j));
+  const IdentifiabilityAnalysis by_own = analyseMomentJacobian(J, own);
+  EXPECT_FALSE(by_own.moments[4].determined);
+  EXPECT_NEAR(by_own.moments[4].std, 0.05 * box.inertia(0, 0), 1e-9 * box.inertia(0, 0));
+  for (int j = 0; j < 10; ++j)
+    if (j != 4) EXPECT_TRUE(by_own.moments[j].determined) << by_own.moments[j].name;
+  const IdentifiabilityAnalysis by_size = analyseMomentJacobian(J, naturalMomentUnits(box.mass, L));
+  EXPECT_TRUE(by_size.moments[4].determined) << "the old unit: 2 % of m L^2 = "
+                                             << 0.02 * box.mass * L * L / box.inertia(0, 0) << " x Ixx";
+  // σ̂ = 3: every std three times, the mass's 3e-4 still determined, Ixx's 15 %.
+  const IdentifiabilityAnalysis misfit = analyseMomentJacobian(J, own, 0.02, 3.0);
+  EXPECT_NEAR(misfit.moments[0].std, 3.0 * by_own.moments[0].std, 1e-12 * by_own.moments[0].std);
+  EXPECT_NEAR(misfit.moments[4].std_relative, 0.15, 1e-12);
+  EXPECT_NE(misfit.summary.find("at 3 x their tolerances"), std::string::npos) << misfit.summary;
+  EXPECT_THROW(analyseMomentJacobian(J, own, 0.02, 0.0), TopoError);
+}
+
+// The stds follow the fit's σ̂ (χ² over the redundant observations), as the region analysis's noise does:
+// observations the design misses by several tolerances widen them, an exact fit narrows them to the floor.
+TEST(Identifiability, UnfitObservationsWidenTheStds) {
+  const HangSetup s;
+  const Eigen::Vector3d points[3] = {Eigen::Vector3d(s.c.x(), s.c.y(), 0.04), Eigen::Vector3d(0.05, 0.02, 0.03),
+                                     Eigen::Vector3d(-0.05, 0.03, -0.02)};
+  auto analyse = [&](double roll_error_deg) {
+    TaskConfig joint;
+    for (int k = 0; k < 3; ++k) {
+      TaskConfig t = TaskConfig::defaults("hanging");
+      t.setNumber("density_solid", 1000.0);
+      t.setVector("hanging_point", points[k]);
+      const RollPitch rest = hangingRestPose(s.c, points[k]);
+      t.setNumber("target_roll_deg", rest.roll_deg + (k == 2 ? roll_error_deg : 0.0));
+      t.setNumber("target_pitch_deg", rest.pitch_deg);
+      joint.addExperiment("hang" + std::to_string(k), 1.0, t);
+    }
+    const InteriorProblem problem(joint, s.cloud);
+    const Eigen::VectorXd theta = problem.initialParameters();
+    std::vector<double> r;
+    problem.indicator(theta, &r);
+    ProblemEvaluation at;
+    problem.evaluate(theta, nullptr, &at);
+    IdentifiabilityOptions o;
+    o.suggest = false;
+    return analyseIdentifiability(problem, theta, at, o);
+  };
+  const IdentifiabilityAnalysis fit = analyse(0.0), misfit = analyse(5.0);
+  EXPECT_LT(fit.noise_scale, 0.02) << fit.summary;  // an exact fit: the floor, 1 % of the tolerances
+  EXPECT_GT(misfit.noise_scale, 3.0) << misfit.summary;
+  // (the poses differ by the 5 deg, so the Jacobians differ by a few per cent)
+  for (int j = 1; j <= 3; ++j)
+    EXPECT_NEAR(misfit.moments[j].std / misfit.noise_scale / (fit.moments[j].std / fit.noise_scale), 1.0, 0.03)
+        << misfit.moments[j].name;
+  EXPECT_NE(misfit.summary.find("x their tolerances"), std::string::npos) << misfit.summary;
 }

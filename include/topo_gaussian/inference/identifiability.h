@@ -4,11 +4,15 @@
 // Every rigid experiment e reports observations y_k with noise σ_k and dy_k/dp (task.h Observation).
 // Linearised at the design r, the stacked, whitened Jacobian
 //   J_kj = √w_e · (∂y_k/∂p_j) / σ_k · u_j       (n × 10, dimensionless)
-// in the moments' natural units u = (M, L, L, L, M L², ×6) — M the fully solid mass Σ ρ_solid V_i,
-// L the bounding-box diagonal (Task::size) — gives the Gauss–Newton covariance of p/u:
-//   Cov = (JᵀJ)⁺,   std_j = u_j √Cov_jj,
-// with a moment FREE (std = ∞) when it has a component in the null space of J. A moment is
-// DETERMINED when std_j < threshold · u_j (default 2 %). The singular values s_k of J say how well each
+// in units of each moment's own size at the design (m, c, I): u = (m, k, k, k, Ixx, Iyy, Izz, √(Ixx Iyy),
+// √(Ixx Izz), √(Iyy Izz)) with k = √(tr I / 2m) the radius of gyration — gives the Gauss–Newton
+// covariance of p/u, scaled by the fit's own residual:
+//   Cov = σ̂² (JᵀJ)⁺,   std_j = u_j √Cov_jj,   σ̂ = fitNoiseScale(χ², n − rank)
+// (χ² = Σ whitened residuals² of the n measured observations; √(χ² / its lower decile) with n − rank
+// degrees of freedom, the region analysis's σ̂; 1 without redundant observations), with a moment
+// FREE (std = ∞) when it has a component in the null space of J. A moment is DETERMINED when
+// std_j < threshold · u_j (default 2 % of its own size: an inertia known to 2 % of itself, not of
+// m L², which for a box is about a third of its principal moments). The singular values s_k of J say how well each
 // direction V_k of p/u is pinned: its std is 1/s_k natural units. Through the representation,
 // J_θ = J · diag(1/u) · dp/dθ (dp/dθ: the indicator chain's backward pass, one per moment) has the rank
 // the observations give the design parameters θ.
@@ -57,6 +61,7 @@ struct ExperimentSuggestion {
 struct IdentifiabilityOptions {
   double determined_threshold = 0.02;  ///< std below this fraction of the natural unit: determined
   int hanging_candidates = 40;         ///< surface points tried as hanging points
+  bool swing_candidates = true;        ///< also swinging on an axle there (false: a lab without an axle)
   int max_dynamic_candidates = 3;      ///< rocking axes tried (each one simulation)
   double max_dynamic_seconds = 20.0;   ///< no further dynamic candidate once this much time is spent
   double max_theta_seconds = 10.0;     ///< budget of the backward passes for the θ ranks
@@ -68,6 +73,8 @@ struct IdentifiabilityAnalysis {
   std::vector<std::string> notes;  ///< for a person (experiments without observations, skipped candidates)
   int observations = 0;            ///< rows of J
   double threshold = 0.02;         ///< determined: std below threshold · natural unit
+  /// σ̂: the moments' stds are this many times what the tolerances alone give (see the header)
+  double noise_scale = 1.0;
   MomentVector natural_units = MomentVector::Ones();
   MomentJacobian J;                              ///< whitened, in natural units (see the header comment)
   MomentVector singular_values;                  ///< of J, descending [1 / natural unit]
@@ -85,16 +92,35 @@ struct IdentifiabilityAnalysis {
   double seconds = 0.0;
 };
 
-/// u = (M, L, L, L, M L² ×6) for the fully solid mass M [kg] and size L [m].
+/// u = (M, L, L, L, M L² ×6) for the fully solid mass M [kg] and size L [m]: the units of a design
+/// without mass or inertia of its own.
 MomentVector naturalMomentUnits(double solid_mass_kg, double size_m);
+/// Each moment's own size at the design (the header's u); naturalMomentUnits(solid_mass_kg, size_m)
+/// when the design has no positive mass or inertia.
+MomentVector ownMomentScales(const MassProperties& design, double solid_mass_kg, double size_m);
+
+/// χ² of the evaluation's measured observations (whitened: √w (y − y*)/σ per row, in the rows' order of
+/// appendObservationRows) and their count n (weight-0 experiments' rows left out).
+struct MeasuredResidual {
+  Eigen::VectorXd residual;  ///< one per measured observation row (0 for a weight-0 experiment's)
+  double chi2 = 0.0;
+  int count = 0;
+};
+MeasuredResidual measuredResidual(const ProblemEvaluation& at);
+/// The lower decile of χ² with k degrees of freedom (Wilson–Hilferty; k ≥ 1).
+double chiSquareLowerDecile(int k);
+/// σ̂ = √(χ² / χ²₀.₁(dof)), the observations' noise in units of their tolerances estimated from a fit's
+/// residual (the lower decile: on the large side for few degrees of freedom), floored at 0.01; 1 without
+/// redundant observations (dof ≤ 0).
+double fitNoiseScale(double chi2, int dof);
 
 /// Appends one row √weight · d_dp / noise per observation (only the measured ones when only_targets).
 void appendObservationRows(const TaskEvaluation& evaluation, double weight, bool only_targets, MomentJacobian* J);
 
-/// Analysis of a whitened Jacobian in SI (rows √w dy/dp / σ): singular values, moments' stds, words.
-/// Throws TopoError for a non-positive unit or threshold.
+/// Analysis of a whitened Jacobian in SI (rows √w dy/dp / σ): singular values, moments' stds (× noise_scale,
+/// the fit's σ̂), words. Throws TopoError for a non-positive unit, threshold or noise scale.
 IdentifiabilityAnalysis analyseMomentJacobian(const MomentJacobian& J_si, const MomentVector& natural_units,
-                                              double threshold = 0.02);
+                                              double threshold = 0.02, double noise_scale = 1.0);
 
 /// Σ_j log min(std_j / u_j, 1) − Σ_k log clamp(threshold · s_k, 1e-8, 1): lower is better determined (a
 /// free moment counts 0; each free direction of J counts +18.4, a determined one 0).

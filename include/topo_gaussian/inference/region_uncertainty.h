@@ -1,5 +1,5 @@
 // Region uncertainty: how well the observations fix WHERE the other material is, not only
-// its ten mass moments. The moments can be determined to 2 % of their natural units while the region is
+// its ten mass moments. The moments can be determined to 2 % of their own size while the region is
 // not: a 12 mm steel ball in a 100 mm doll changes the inertia by 0.6 %, so its shape hides below a
 // period's noise (bench/interiors: moments within 0.4 %, the ball's IoU 0.6).
 //
