@@ -479,6 +479,8 @@ struct CaseResult {
   std::size_t particles = 0;
   double iou_solid = 0, iou_region = 0, seconds = 0, loss_truth = NAN;
   double iou_expected = NAN;  ///< the inference's own region uncertainty: IoU expected of designs that fit
+  double iou_p10 = NAN, iou_p90 = NAN;  ///< its 10–90 % band, where the true region's IoU should lie
+  bool called_determined = false;       ///< the region analysis calls the region determined (mean ≥ 0.9)
   Errors rec, base, start;    ///< recovered; the body alone (unweighed start); the optimiser's start
   Errors truth_lattice;       ///< the true interior on the inference's lattice (the lattice's own error)
   bool pass = true;           ///< within the case's --check bounds
@@ -738,6 +740,9 @@ CaseResult runCase(const CaseSpec& s, bool quick, unsigned seed, const std::stri
   vision::writePng(both, png);
   out.seconds = seconds(t0);
   out.iou_expected = result.region.available ? result.region.iou_mean : NAN;
+  out.iou_p10 = result.region.available ? result.region.iou_p10 : NAN;
+  out.iou_p90 = result.region.available ? result.region.iou_p90 : NAN;
+  out.called_determined = result.region.available && result.region.iou_mean >= 0.9;
 
   // determined: the identifiability analysis: the moments the experiments determine
   // and how many combinations of the ten they pin; then how much of the volume the designs that fit
@@ -781,7 +786,7 @@ CaseResult runCase(const CaseSpec& s, bool quick, unsigned seed, const std::stri
       "\"held_out_err\": %s}, \"truth_on_lattice\": {\"mass_err\": %s, \"com_err_over_size\": %s, \"inertia_err\": %s, "
       "\"held_out_err\": %s}, "
       "\"held_out_pendulum_closed_form_err\": %s, \"solid_fraction_true\": %s, \"solid_fraction_recovered\": %s, "
-      "\"observes\": %s, \"determined\": %s, \"region_uncertainty\": {\"iou_mean\": %s, \"iou_p10\": %s, "
+      "\"observes\": %s, \"determined\": %s, \"region_uncertainty\": {\"iou_mean\": %s, \"iou_p10\": %s, \"iou_p90\": %s, "
       "\"undetermined_fraction\": %s, \"noise_scale\": %s, \"free_directions\": %d, \"sentence\": %s}, "
       "\"goal_met\": %s, \"check_note\": %s, \"png\": %s, \"seconds\": %s}\n",
       json::quote(s.name).c_str(), g_peer ? "\"peer\"" : "\"ours\"", json::quote(s.object).c_str(), json::quote(s.interior).c_str(),
@@ -801,6 +806,7 @@ CaseResult runCase(const CaseSpec& s, bool quick, unsigned seed, const std::stri
       json::num(swing_err).c_str(), json::num(truth_plain.solid_fraction).c_str(),
       json::num(result.final.solid_fraction).c_str(), json::quote(observes).c_str(), json::quote(determined).c_str(),
       json::num(result.region.iou_mean).c_str(), json::num(result.region.iou_p10).c_str(),
+      json::num(result.region.iou_p90).c_str(),
       json::num(result.region.undetermined_fraction).c_str(), json::num(result.region.noise_scale).c_str(),
       result.region.free_directions,
       json::quote(result.region.available ? result.region.sentence : result.region.note).c_str(),
@@ -1086,14 +1092,25 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "bench_interiors: %s\n", e.what());
     return 2;
   }
-  std::printf("\n%-20s %8s %7s %7s %7s %7s %8s %8s %8s %8s | start design: %4s %8s %8s %7s\n", "case", "particles",
-              "IoU", "IoU_R", "IoU_exp", "mass%", "CoM/L%", "CoM/dc%", "inert%", "held%", "mass%", "CoM/dc%", "inert%",
-              "held%");
+  std::printf("\n%-20s %8s %7s %7s %7s %13s %7s %8s %8s %8s %8s | start design: %4s %8s %8s %7s\n", "case",
+              "particles", "IoU", "IoU_R", "IoU_exp", "band 10-90%", "mass%", "CoM/L%", "CoM/dc%", "inert%", "held%",
+              "mass%", "CoM/dc%", "inert%", "held%");
   bool ok = true;
-  int met = 0;
+  int met = 0, banded = 0, in_band = 0, called = 0, called_wrong = 0;
   for (const auto& r : results) {
-    std::printf("%-20s %8zu %7.3f %7.3f %7.3f %7.2f %8.3f %8.1f %8.2f %8.2f | %18.2f %8.1f %8.2f %7.2f\n",
-                r.name.c_str(), r.particles, r.iou_solid, r.iou_region, r.iou_expected, 100 * r.rec.mass,
+    char band[40] = "-";
+    if (std::isfinite(r.iou_p10)) {
+      const bool in = r.iou_region >= r.iou_p10 && r.iou_region <= r.iou_p90;
+      std::snprintf(band, sizeof band, "%.2f-%.2f %s", r.iou_p10, r.iou_p90, in ? "in" : "out");
+      ++banded;
+      in_band += in;
+    }
+    if (r.called_determined) {
+      ++called;
+      called_wrong += r.iou_region < 0.9;
+    }
+    std::printf("%-20s %8zu %7.3f %7.3f %7.3f %13s %7.2f %8.3f %8.1f %8.2f %8.2f | %18.2f %8.1f %8.2f %7.2f\n",
+                r.name.c_str(), r.particles, r.iou_solid, r.iou_region, r.iou_expected, band, 100 * r.rec.mass,
                 100 * r.rec.com_size, 100 * r.rec.com_shift, 100 * r.rec.inertia, 100 * r.rec.held_out,
                 100 * r.base.mass, 100 * r.base.com_shift, 100 * r.base.inertia, 100 * r.base.held_out);
     ok = ok && r.pass;
@@ -1101,6 +1118,12 @@ int main(int argc, char** argv) {
   }
   std::printf("goal (mass, inertia, held out within %.0f %%): met in %d of %zu cases\n", 100 * kGoal, met,
               results.size());
+  // Calibration of the region analysis: the true region's IoU with the design found should lie in the band
+  // it reports (10-90 %) in at least 80 % of the cases, and no region called determined (expected IoU
+  // ≥ 0.9) should have a true IoU below 0.9.
+  std::printf("calibration: the true IoU_R lies in the reported 10-90 %% band in %d of %d cases; called determined: "
+              "%d, of them with IoU_R < 0.9: %d\n",
+              in_band, banded, called, called_wrong);
   std::printf("total %.1f s\n", seconds(t0));
   if (check && !ok) {
     std::printf("FAIL: a case's mass, inertia or held-out error exceeds its --check bound (see stderr)\n");

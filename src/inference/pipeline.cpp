@@ -77,8 +77,27 @@ void exploreSpread(const TaskConfig& config, const VolumeCloud& cloud, const Pro
     *message << " A search from another solid fraction found a design with a lower loss (" << res->final.loss << " < "
              << before << "): it is the result.";
   }
-  *message << " " << res->spread.sentence;
 }
+/// One statement of how uncertain the interior is: the region analysis's (designs that fit the observations
+/// perturbed by their noise), with the design spread's designs from other solid fractions folded in as
+/// one share of the volume that changes label; the spread's own sentence when there is no region analysis.
+std::string uncertaintyStatement(const DesignSpread& spread, const RegionUncertainty& region,
+                                 const std::vector<double>& V, const std::vector<double>& confidence) {
+  if (!region.available) return spread.computed ? " " + spread.sentence : std::string();
+  std::string out = " " + region.sentence;
+  if (spread.computed && spread.accepted > 1 && spread.undetermined_fraction > 0 && confidence.size() == V.size()) {
+    double uncertain = 0, total = 0;  // a particle either set of designs disagrees on (solid_confidence < 0.95)
+    for (std::size_t i = 0; i < V.size(); ++i) {
+      total += V[i];
+      if (confidence[i] < 0.95) uncertain += V[i];
+    }
+    out += " With the " + std::to_string(spread.accepted) +
+           " designs the searches from other solid fractions found fitting as well, " +
+           numberText(100.0 * uncertain / std::max(total, 1e-300), 3) + " % of the volume is uncertain in all.";
+  }
+  return out;
+}
+
 /// What the design spread says about a local minimum, for the message of a run that misses its targets.
 std::string localMinimumHint(const DesignSpread& spread, int restarts, bool cancelled) {
   if (!spread.computed && cancelled)
@@ -252,17 +271,19 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
     head << "All targets reached.";
   } else if (res.optimizer.converged && res.final.experiments.size() > 1) {
     // A gradient search that stops has found a local minimum, not proved that nothing fits better.
-    head << msg.str() << "The optimiser stopped at a minimum that misses them: either no single interior of this "
-         << "representation fits all " << res.final.experiments.size()
+    head << msg.str() << "The optimiser stopped at a minimum that misses them: either the observations are "
+         << "noisier than their tolerances (a tracker, scale or timing off by more than stated: then no interior "
+         << "meets them all), or no single interior of this representation fits all " << res.final.experiments.size()
          << " experiments together (they may contradict each other: another object, material, hanging point or "
          << "release; or they need more material contrast), or the search is caught in a local minimum"
          << localMinimumHint(res.spread, config.integer("restarts"), res.cancelled)
          << "; the per-experiment losses below show which one disagrees (lower its "
          << "weight or check its targets).";
   } else if (res.optimizer.converged) {
-    head << msg.str() << "The optimiser stopped at a minimum that misses the target: either no interior of this "
-         << "representation within the material bounds reaches it (check the target, the hanging/support point, or "
-         << "allow more material contrast), or one does and the search is caught in a local minimum"
+    head << msg.str() << "The optimiser stopped at a minimum that misses the target: either the observation is "
+         << "noisier than its tolerance, or no interior of this representation within the material bounds reaches "
+         << "it (check the target, the hanging/support point, or allow more material contrast), or one does and the "
+         << "search is caught in a local minimum"
          << localMinimumHint(res.spread, config.integer("restarts"), res.cancelled) << ".";
   } else {
     head << msg.str() << "Not converged: raise max_evaluations or try another optimizer/representation.";
@@ -285,6 +306,11 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
   } else {
     try {
       res.identifiability = analyseIdentifiability(problem, res.theta, res.final);
+      if (!res.targets_reached && res.identifiability.available && res.identifiability.noise_scale > 1.0)
+        res.message += " The misfit is what observation noise of " +
+                       numberText(res.identifiability.noise_scale, 3) +
+                       " x the stated tolerances would give: if the observations are that noisy, this design fits "
+                       "them as well as any, and its moments are known that much less well.";
       if (res.identifiability.available) {
         const MomentJacobian J_si =
             res.identifiability.J * res.identifiability.natural_units.cwiseInverse().asDiagonal();
@@ -295,7 +321,6 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
           else
             for (std::size_t i = 0; i < res.solid_confidence.size(); ++i)
               res.solid_confidence[i] = std::min(res.solid_confidence[i], res.region.confidence[i]);
-          res.message += " " + res.region.sentence;
         } else {
           res.identifiability.notes.push_back("region uncertainty: " + res.region.note);
         }
@@ -306,6 +331,7 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
       res.identifiability.notes.push_back("not analysed: cancelled while simulating a candidate experiment");
     }
   }
+  res.message += uncertaintyStatement(res.spread, res.region, cloud.V, res.solid_confidence);
   return res;
 }
 

@@ -271,7 +271,8 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
   for (double v : ious) sum += v;
   out.iou_mean = sum / static_cast<double>(ious.size());
   out.iou_p10 = ious[static_cast<std::size_t>(0.1 * static_cast<double>(ious.size() - 1))];
-  if (out.free_directions > 0) out.iou_mean = out.iou_p10 = NAN;
+  out.iou_p90 = ious[static_cast<std::size_t>(std::ceil(0.9 * static_cast<double>(ious.size() - 1)))];
+  if (out.free_directions > 0) out.iou_mean = out.iou_p10 = out.iou_p90 = NAN;
   out.available = true;
 
   std::ostringstream os;
@@ -284,8 +285,8 @@ RegionUncertainty analyseRegionUncertainty(const InteriorProblem& problem, const
        << " fits to observations perturbed by it, " << out.iterations << " Levenberg-Marquardt iterations; noise "
        << numberText(out.noise_scale, 3) << " x the tolerances" << (dof > 0 ? ", from the fit" : "") << ") give "
        << what << " (" << numberText(100 * out.region_fraction, 3) << " % of the volume) an IoU of "
-       << numberText(out.iou_mean, 3) << " on average with this design (10 % below " << numberText(out.iou_p10, 3)
-       << "); " << numberText(100 * out.undetermined_fraction, 3) << " % of the volume changes label in more than "
+       << numberText(out.iou_mean, 3) << " on average with this design (10–90 %: " << numberText(out.iou_p10, 3)
+       << "–" << numberText(out.iou_p90, 3) << "); " << numberText(100 * out.undetermined_fraction, 3) << " % of the volume changes label in more than "
        << numberText(100 * (1 - options.confident_level), 2) << " % of them.";
     if (out.iou_mean < kRegionDeterminedIou)
       os << " The region is not determined: read it as one of the designs that fit.";

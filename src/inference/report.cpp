@@ -87,7 +87,7 @@ std::string regionJson(const RegionUncertainty& g) {
     << ", \"chi2\": " << num(g.chi2) << ", \"noise_scale\": " << num(g.noise_scale) << ", \"samples\": " << g.samples
     << ", \"iterations\": " << g.iterations << ", \"solves_converged\": " << g.solves_converged
     << ", \"region_fraction\": " << num(g.region_fraction) << ", \"iou_mean\": " << num(g.iou_mean)
-    << ", \"iou_p10\": " << num(g.iou_p10) << ", \"undetermined_fraction\": " << num(g.undetermined_fraction)
+    << ", \"iou_p10\": " << num(g.iou_p10) << ", \"iou_p90\": " << num(g.iou_p90) << ", \"undetermined_fraction\": " << num(g.undetermined_fraction)
     << ", \"sentence\": " << quote(g.sentence) << "}";
   return s.str();
 }

@@ -352,6 +352,7 @@ sensor_msgs::PointCloud2 InteriorInferenceNode::show(const VolumeCloud& cloud, c
   mi.cut_normal = Eigen::Vector3d(params_.cut_normal[0], params_.cut_normal[1], params_.cut_normal[2]);
   mi.colour_by = params_.colour_by;
   mi.confidence = &confidence;
+  mi.experiments = ev.experiments.empty() ? 1 : static_cast<int>(ev.experiments.size());
   std::vector<inference::BodyPose> motion = ev.task.motion;
   if (motion.empty())
     motion.push_back(inference::BodyPose{});  // no rigid motion: the object frame sits at the world origin

@@ -75,6 +75,21 @@ std::string featuresText(const std::vector<inference::Feature>& features) {
   return s;
 }
 
+std::string experimentsText(int experiments, const VolumeCloud& cloud, const std::vector<double>* confidence) {
+  if (experiments <= 0) return "";
+  std::ostringstream os;
+  os << "from " << experiments << (experiments == 1 ? " experiment" : " experiments");
+  if (confidence && confidence->size() == cloud.size()) {
+    double uncertain = 0, total = 0;
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      total += cloud.V[i];
+      if ((*confidence)[i] < 0.95) uncertain += cloud.V[i];
+    }
+    os << std::setprecision(3) << "; " << 100.0 * uncertain / std::max(total, 1e-300) << " % of the volume uncertain";
+  }
+  return os.str();
+}
+
 visualization_msgs::MarkerArray makeInteriorMarkers(const InteriorMarkerInput& in, const ::ros::Time& stamp) {
   if (!in.cloud || !in.r || in.r->size() != in.cloud->size())
     throw TopoError("interior markers", "need one indicator value per particle of the volume cloud",
@@ -182,7 +197,8 @@ visualization_msgs::MarkerArray makeInteriorMarkers(const InteriorMarkerInput& i
   text.pose.position = point(Eigen::Vector3d(0.5 * (lo.x() + hi.x()), 0.5 * (lo.y() + hi.y()), hi.z() + 0.3 * size));
   text.scale.z = 0.035 * size;
   text.color = colour(0xFFFFFF, 1.0);
-  text.text = featuresText(in.features);
+  const std::string head = experimentsText(in.experiments, cloud, in.confidence), body = featuresText(in.features);
+  text.text = head.empty() ? body : body.empty() ? head : head + "\n" + body;
   if (!text.text.empty()) out.markers.push_back(text);
   return out;
 }

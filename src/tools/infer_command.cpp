@@ -186,7 +186,8 @@ int inferCommand(const std::vector<std::string>& argv) {
               << " Levenberg-Marquardt iterations, " << g.solves_converged << " converged); " << g.free_directions
               << " of " << g.directions << " directions free; ";
     if (g.free_directions == 0)
-      std::cerr << "region IoU with this design " << g.iou_mean << " (10 % below " << g.iou_p10 << "); ";
+      std::cerr << "region IoU with this design " << g.iou_mean << " (10-90 %: " << g.iou_p10 << "-" << g.iou_p90
+                << "); ";
     std::cerr << "undetermined volume " << 100.0 * g.undetermined_fraction << " %\n";
   }
   for (const auto& f : res.final.task.features) {

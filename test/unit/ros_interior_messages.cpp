@@ -101,6 +101,21 @@ TEST(InteriorMarkers, CentreOfMassSolidCubesGravityAndText) {
   EXPECT_NEAR(gravity->points[0].z, 1.0 - 0.02, 1e-12) << "starts at the com placed in the world";
   EXPECT_LT(gravity->points[1].z, gravity->points[0].z) << "points down";
   EXPECT_EQ(text->text, "period_s = 0.3 s (target 0.31)");
+  // The experiment count and the uncertain share (confidence < 0.95) head the text: a quarter of the
+  // particles (equal volumes) uncertain.
+  std::vector<double> confidence(cloud.size(), 1.0);
+  for (std::size_t i = 0; i < confidence.size(); i += 4) confidence[i] = 0.6;
+  const double share = 100.0 * ((confidence.size() + 3) / 4) / double(confidence.size());
+  in.experiments = 3;
+  in.confidence = &confidence;
+  std::string head;
+  for (const auto& m : topo_ros::makeInteriorMarkers(in, ros::Time(1.0)).markers)
+    if (m.type == visualization_msgs::Marker::TEXT_VIEW_FACING) head = m.text.substr(0, m.text.find('\n'));
+  char want[80];
+  std::snprintf(want, sizeof want, "from 3 experiments; %.3g %% of the volume uncertain", share);
+  EXPECT_EQ(head, want);
+  in.experiments = 0;
+  in.confidence = nullptr;
   std::vector<double> short_r(3, 1.0);
   in.r = &short_r;
   EXPECT_NE(errorOf([&] { topo_ros::makeInteriorMarkers(in, ros::Time()); }).find("one indicator value"),

@@ -56,7 +56,9 @@ struct RegionUncertainty {
   int iterations = 0;                    ///< Levenberg–Marquardt iterations over all the fits
   int solves_converged = 0;              ///< fits that reached their minimum (fewer than half: not available)
   double region_fraction = 0.0;          ///< volume of the region (the other material) / total volume
-  double iou_mean = 0.0, iou_p10 = 0.0;  ///< IoU of the drawn designs' region with the best's (NaN when free)
+  /// IoU of the drawn designs' region with the best's: mean, 10th and 90th percentiles (NaN when free); the
+  /// band the true region's IoU with this design is expected in
+  double iou_mean = 0.0, iou_p10 = 0.0, iou_p90 = 0.0;
   double undetermined_fraction = 0.0;    ///< volume with confidence below confident_level / total volume
   std::vector<double> confidence;        ///< per particle (1 = every drawn design agrees with the best)
   std::string sentence;                  ///< for a person

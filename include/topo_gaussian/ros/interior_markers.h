@@ -43,7 +43,14 @@ struct InteriorMarkerInput {
   Eigen::Vector3d cut_normal = Eigen::Vector3d(0.955, 0.296, 0.0);
   std::string colour_by = "indicator";              ///< indicator | confidence
   const std::vector<double>* confidence = nullptr;  ///< per particle, 0..1 (colour_by confidence)
+  /// Experiments the design was inferred from (0: not said); the text's first line counts them and,
+  /// with `confidence`, gives the share of the volume whose label is uncertain (confidence < 0.95).
+  int experiments = 0;
 };
+
+/// First line of the features marker: "from N experiments; X % of the volume uncertain" (empty when
+/// experiments is 0).
+std::string experimentsText(int experiments, const VolumeCloud& cloud, const std::vector<double>* confidence);
 
 /// Text of the features marker: one line per feature, "name = value unit (target T)".
 std::string featuresText(const std::vector<inference::Feature>& features);
