@@ -191,6 +191,24 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
     throw TopoError("goal max_iterations (the task's max_evaluations)", "is negative",
                     "use 0 for the task's default or a positive count of objective evaluations");
   if (rq.max_evaluations > 0) run.config.setNumber("max_evaluations", rq.max_evaluations);
+  // An object named in the goal: its earlier experiments (with the targets they were run with) join the
+  // goal's; only the goal's own experiments take motion features.
+  std::vector<std::string> own;
+  if (!rq.object_id.empty()) {
+    const inference::TaskConfig goal_config = run.config;
+    std::lock_guard<std::mutex> lock(state_mutex_);
+    const bool earlier = !objects_.experimentNames(rq.object_id).empty();  // else the goal runs as it is
+    run.config = objects_.withEarlier(rq.object_id, goal_config);
+    if (earlier && goal_config.hasExperiments())
+      for (const auto& e : goal_config.experiments()) own.push_back(e.name);
+    else if (earlier)
+      own.push_back(run.config.experiments().back().name);
+    ROS_INFO("interior_inference: object '%s': %zu experiment(s) with the earlier ones", rq.object_id.c_str(),
+             run.config.hasExperiments() ? run.config.experiments().size() : std::size_t(1));
+  }
+  const auto is_own = [&](const std::string& name) {
+    return own.empty() || std::find(own.begin(), own.end(), name) != own.end();
+  };
   // The volume: the goal's, else the latest on `volume` (waiting a little for the first one after
   // launch), else the task's default shape (the library's choice).
   const bool goal_volume = std::size_t(rq.volume.width) * rq.volume.height > 0;
@@ -220,7 +238,13 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
   // The observed motion: the goal's features, else the latest on `motion_features` (not too old).
   if (!rq.ignore_motion_features) {
     if (!rq.features.kind.empty()) {
-      run.observed = std::make_shared<motion::MotionFeatures>(fromMotionFeaturesMsg(rq.features));
+      auto window = std::make_shared<motion::MotionFeatures>(fromMotionFeaturesMsg(rq.features));
+      if (own.empty()) {
+        run.observed = window;
+      } else {  // the goal's features are its own experiment's, not the object's first
+        window->experiment = own.front();
+        run.observed_experiments.push_back(window);
+      }
     } else {
       std::lock_guard<std::mutex> lock(state_mutex_);
       const auto fresh = [&](const ::ros::Time& received) {
@@ -232,11 +256,13 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
                           "check the camera and motion_tracker, or give the targets in the goal");
       };
       if (run.config.hasExperiments()) {
-        // Each experiment's latest tagged window; an untagged one counts for the first experiment.
+        // Each experiment's latest tagged window; an untagged one counts for the first experiment (of an
+        // object's, the goal's first own one: the earlier ones keep the targets they were run with).
+        const std::string first = own.empty() ? run.config.experiments().front().name : own.front();
         for (const auto& e : run.config.experiments()) {
+          if (!is_own(e.name)) continue;
           auto it = features_by_experiment_.find(e.name);
-          if (it == features_by_experiment_.end() && &e == &run.config.experiments().front())
-            it = features_by_experiment_.find("");
+          if (it == features_by_experiment_.end() && e.name == first) it = features_by_experiment_.find("");
           if (it == features_by_experiment_.end()) continue;
           fresh(it->second.second);
           auto window = std::make_shared<motion::MotionFeatures>(fromMotionFeaturesMsg(*it->second.first));
@@ -250,6 +276,11 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
     }
   }
   run.targets = rq.targets;
+  if (own.size() == 1)  // an object's goal: its plain targets are its own experiment's
+    for (std::string& t : run.targets)
+      if (t.find(inference::kExperimentKeySeparator) == std::string::npos ||
+          t.find(inference::kExperimentKeySeparator) > t.find('='))
+        t = own.front() + inference::kExperimentKeySeparator + t;
   run.targets_origin = "goal targets";
   run.parameters_origin = "goal overrides";
   if (!run.observed && run.observed_experiments.empty())
@@ -294,6 +325,10 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
            run.config.source().c_str(), run.config.text("representation").c_str(),
            run.config.integer("max_evaluations"));
   const workflow::InferenceRunOutcome done = workflow::runInference(run);
+  if (!rq.object_id.empty() && !done.cancelled && !stopped) {
+    std::lock_guard<std::mutex> lock(state_mutex_);
+    objects_.remember(rq.object_id, done.config);
+  }
 
   InferenceOutcome out;
   out.result = done.result;
@@ -509,6 +544,7 @@ void InteriorInferenceNode::execute(const topo_gaussian::InferInteriorGoalConstP
   rq.ignore_motion_features = goal->ignore_motion_features;
   rq.max_evaluations = goal->max_iterations;
   rq.output_dir = goal->output_dir;
+  rq.object_id = goal->object_id;
   try {
     const InferenceOutcome out = run(rq, [&](const topo_gaussian::InferInteriorFeedback& fb) {
       server_->publishFeedback(fb);

@@ -12,6 +12,7 @@
 
 #include <cstdio>
 #include <string>
+#include <vector>
 
 #include "topo_gaussian/ExportInterior.h"
 #include "topo_gaussian/InferInteriorAction.h"
@@ -143,6 +144,37 @@ TEST(InferenceFaults, TheNodeStillServesAValidGoal) {
   EXPECT_FALSE(c.getResult()->files.empty());
   g_valid_result_points = c.getResult()->interior.width;
   g_valid_result_dir = c.getResult()->output_dir;
+}
+
+// Goals that name an object add their experiment to its earlier ones, with the targets those were run
+// with; another material for the same object is refused naming it, and the record stays as it was.
+TEST(InferenceFaults, AnObjectsExperimentsAccumulateAcrossGoals) {
+  Client c("infer_interior", false);
+  ASSERT_TRUE(c.waitForServer(ros::Duration(30.0)));
+  auto send = [&](const std::vector<std::string>& targets, const std::vector<std::string>& overrides) {
+    topo_gaussian::InferInteriorGoal g;
+    g.task = "hanging";
+    g.volume = tumblerVolume();
+    g.targets = targets;
+    g.overrides = overrides;
+    g.ignore_motion_features = true;
+    g.max_iterations = 3;
+    g.object_id = "doll";
+    c.sendGoal(g);
+    EXPECT_TRUE(c.waitForResult(ros::Duration(60.0)));
+    return *c.getResult();
+  };
+  const auto first = send({"target_roll_deg=5", "target_pitch_deg=0"}, {});
+  EXPECT_EQ(c.getState(), actionlib::SimpleClientGoalState::SUCCEEDED) << first.message;
+  EXPECT_EQ(first.experiment_names.size(), 1u) << first.message;
+  const auto second = send({"target_roll_deg=-4", "target_pitch_deg=2"}, {});
+  EXPECT_EQ(c.getState(), actionlib::SimpleClientGoalState::SUCCEEDED) << second.message;
+  EXPECT_EQ(second.experiment_names, std::vector<std::string>({"hanging", "hanging_2"})) << second.message;
+  const std::string refused = send({"target_roll_deg=1", "target_pitch_deg=0"}, {"density_solid=7800"}).message;
+  EXPECT_EQ(c.getState(), actionlib::SimpleClientGoalState::ABORTED) << refused;
+  EXPECT_NE(refused.find("object 'doll'"), std::string::npos) << refused;
+  const auto third = send({"target_roll_deg=0", "target_pitch_deg=-3"}, {});
+  EXPECT_EQ(third.experiment_names, std::vector<std::string>({"hanging", "hanging_2", "hanging_3"})) << third.message;
 }
 
 TEST(InferenceFaults, ARestartedNodeRestoresTheLatestResult) {

@@ -38,6 +38,7 @@
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/inference/task_config.h"
 #include "topo_gaussian/io/run_files.h"
+#include "topo_gaussian/workflow/object_experiments.h"
 
 namespace topo_gaussian::topo_ros {
 
@@ -87,6 +88,8 @@ struct InferenceRequest {
   bool ignore_motion_features = false;
   int max_evaluations = 0;  ///< the goal's max_iterations field: objective evaluations; 0 = the task's
   std::string output_dir;
+  /// The goal's object_id: its earlier experiments join this goal's (workflow/object_experiments.h).
+  std::string object_id;
 };
 
 /// What came out of one inference.
@@ -156,6 +159,8 @@ class InteriorInferenceNode {
   ::ros::Time features_received_;
   /// The latest window of each experiment (MotionFeatures.experiment, "" = untagged) and when it came.
   std::map<std::string, std::pair<std::shared_ptr<topo_gaussian::MotionFeatures>, ::ros::Time>> features_by_experiment_;
+  /// Each goal's object_id: the experiments it was inferred from, with their targets.
+  workflow::ObjectExperiments objects_;
   // the latest result (for ~export and ~simulate)
   bool has_result_ = false;
   std::shared_ptr<const VolumeCloud> result_cloud_;
