@@ -143,15 +143,21 @@ std::string motionFeaturesJson(const motion::MotionFeatures& f, bool with_series
   doc["source"] = f.source;
   doc["message"] = f.message;
   if (!f.experiment.empty()) doc["experiment"] = f.experiment;
-  doc["features"] = {
-      {"oscillation_found", f.oscillation_found},     {"period_s", number(f.period_s)},
-      {"amplitude_deg", number(f.amplitude_deg)},     {"max_tilt_deg", number(f.max_tilt_deg)},
-      {"equilibrium_deg", number(f.equilibrium_deg)}, {"log_decrement", number(f.log_decrement)},
-      {"damping_ratio", number(f.damping_ratio)},     {"bending_angle_deg", number(f.bending_angle_deg)}};
+  doc["features"] = {{"oscillation_found", f.oscillation_found},
+                     {"period_s", number(f.period_s)},
+                     {"amplitude_deg", number(f.amplitude_deg)},
+                     {"max_tilt_deg", number(f.max_tilt_deg)},
+                     {"equilibrium_deg", number(f.equilibrium_deg)},
+                     {"log_decrement", number(f.log_decrement)},
+                     {"damping_ratio", number(f.damping_ratio)},
+                     {"bending_angle_deg", number(f.bending_angle_deg)},
+                     {"bend_profile_deg", f.bend_profile_deg.empty() ? json(nullptr) : numbers(f.bend_profile_deg)},
+                     {"profile_segments", f.profile_segments}};
   doc["confidence"] = {{"period_s", number(f.period_confidence)},
                        {"amplitude_deg", number(f.amplitude_confidence)},
                        {"equilibrium_deg", number(f.equilibrium_confidence)},
-                       {"bending_angle_deg", number(f.bending_confidence)}};
+                       {"bending_angle_deg", number(f.bending_confidence)},
+                       {"bend_profile_deg", number(f.bend_profile_confidence)}};
   doc["range"] = {{"start_time_s", number(f.start_time_s)}, {"end_time_s", number(f.end_time_s)},
                   {"first_frame", f.first_frame},           {"last_frame", f.last_frame},
                   {"frames_used", f.frames_used},           {"frames_lost", f.frames_lost}};
@@ -221,6 +227,20 @@ motion::MotionFeatures parseMotionFeaturesJson(const std::string& text, const st
   measured(feat.number("bending_angle_deg"), conf.number("bending_angle_deg"), conf, "bending_angle_deg",
            f.bending_angle_deg, f.bending_confidence);
   if (!std::isfinite(period_s)) f.oscillation_found = false;  // a period that was not measured is no oscillation
+  // the bend profile: a list, null or absent when not measured; any null angle leaves it unmeasured
+  f.bend_profile_deg = feat.series("bend_profile_deg");
+  f.profile_segments = feat.integer("profile_segments", static_cast<int>(f.bend_profile_deg.size()));
+  if (!f.bend_profile_deg.empty() && f.profile_segments != static_cast<int>(f.bend_profile_deg.size()))
+    throw TopoError(origin,
+                    "'features.bend_profile_deg' has " + std::to_string(f.bend_profile_deg.size()) +
+                        " angles but 'features.profile_segments' is " + std::to_string(f.profile_segments),
+                    "give one chord angle per segment, or write the file again with `topo track --json`");
+  bool profile_known = !f.bend_profile_deg.empty();
+  for (double v : f.bend_profile_deg) profile_known = profile_known && std::isfinite(v);
+  double profile_flag = 0.0;  // measured() takes one number: the profile's being known stands for it
+  measured(profile_known ? 0.0 : kNotMeasured, conf.number("bend_profile_deg"), conf, "bend_profile_deg", profile_flag,
+           f.bend_profile_confidence);
+  if (!profile_known) f.bend_profile_deg.clear();
   f.max_tilt_deg = orZero(feat.number("max_tilt_deg"));
   f.log_decrement = orZero(feat.number("log_decrement"));
   f.damping_ratio = orZero(feat.number("damping_ratio"));

@@ -5,13 +5,15 @@ namespace topo_gaussian::topo_ros {
 namespace {
 
 // The scalar fields, in the order of MotionFeatures.msg; F(name) expands for each.
-#define TOPO_MOTION_FEATURE_FIELDS(F)                                                                           \
-  F(kind)                                                                                                       \
-  F(method)                                                                                                     \
-  F(source) F(message) F(experiment) F(oscillation_found) F(period_s) F(amplitude_deg) F(max_tilt_deg)          \
-      F(equilibrium_deg) F(log_decrement) F(damping_ratio) F(bending_angle_deg) F(period_confidence)            \
-          F(amplitude_confidence) F(equilibrium_confidence) F(bending_confidence) F(start_time_s) F(end_time_s) \
-              F(first_frame) F(last_frame) F(frames_used) F(frames_lost) F(time_s) F(angle_deg)
+#define TOPO_MOTION_FEATURE_FIELDS(F)                                                                              \
+  F(kind)                                                                                                          \
+  F(method)                                                                                                        \
+  F(source)                                                                                                        \
+  F(message) F(experiment) F(oscillation_found) F(period_s) F(amplitude_deg) F(max_tilt_deg) F(equilibrium_deg)    \
+      F(log_decrement) F(damping_ratio) F(bending_angle_deg) F(bend_profile_deg) F(profile_segments)               \
+          F(period_confidence) F(amplitude_confidence) F(equilibrium_confidence) F(bending_confidence)             \
+              F(bend_profile_confidence) F(start_time_s) F(end_time_s) F(first_frame) F(last_frame) F(frames_used) \
+                  F(frames_lost) F(time_s) F(angle_deg)
 
 template <typename To, typename From>
 void copyScalars(To& to, const From& from) {

@@ -74,6 +74,8 @@ MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh) {
   p.options.tracker.polarity = r.text("polarity", p.options.tracker.polarity);
   p.options.rotate_deg = int(r.integer("rotate_deg", 0, "deg", Range::between(0, 270)));
   p.options.tip_fraction = r.number("tip_fraction", p.options.tip_fraction, "unitless");
+  p.options.profile_segments =
+      int(r.integer("profile_segments", p.options.profile_segments, "", Range::between(2, 64)));
   const std::vector<double> gravity = r.numbers("gravity", {}, 2, "", "[0, 1] (image-down)");
   if (!gravity.empty()) p.options.gravity = cv::Vec2d(gravity[0], gravity[1]);
   const std::vector<double> hsv_lower = r.numbers("hsv_lower", {}, 3, "", "[35, 45, 150] (OpenCV H 0..180, S, V)");

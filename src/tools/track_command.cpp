@@ -51,6 +51,8 @@ const char* kTrackHelp =
     "  --gravity x,y          image direction of gravity in the (rotated) frame (default 0,1: down)\n"
     "  --tip-fraction F       finger: tip segment and the one before it, each F of the length (default\n"
     "                         0.15, the finger task's tip_fraction; the bend is that task's angle)\n"
+    "  --profile-segments K   finger: the bend profile's number of equal arc-length segments from the\n"
+    "                         base end to the tip, 2..64 (default 8, the finger task's profile_segments)\n"
     "  --tilt-reference DEG   tilt: the tilt the object starts near, degrees from image-up, clockwise\n"
     "                         positive (default 0: upright). A silhouette's axes are known modulo 90 deg,\n"
     "                         so an object hung off its axis (resting ~50 deg over) needs it within 45 deg\n"
@@ -182,11 +184,11 @@ void writePlot(const vision::TrackResult& r, const std::string& path) {
 }  // namespace
 
 int trackCommand(const std::vector<std::string>& argv) {
-  const Args a(
-      argv, {"help", "json", "series"},
-      {"video",       "method",    "kind",      "roi",         "start",    "end",          "stride",        "fps",
-       "pivot",       "hsv-lower", "hsv-upper", "foreground",  "polarity", "rotate",       "gravity",       "min-area",
-       "debug-video", "plot",      "camera",    "camera-pose", "plane",    "tip-fraction", "tilt-reference"});
+  const Args a(argv, {"help", "json", "series"},
+               {"video",    "method",      "kind",    "roi",          "start",          "end",
+                "stride",   "fps",         "pivot",   "hsv-lower",    "hsv-upper",      "foreground",
+                "polarity", "rotate",      "gravity", "min-area",     "debug-video",    "plot",
+                "camera",   "camera-pose", "plane",   "tip-fraction", "tilt-reference", "profile-segments"});
   if (a.has("help")) {
     std::cout << kTrackHelp;
     return 0;
@@ -199,6 +201,7 @@ int trackCommand(const std::vector<std::string>& argv) {
   o.tracker.polarity = a.str("polarity", "auto");
   o.rotate_deg = static_cast<int>(a.integer("rotate", 0));
   o.tip_fraction = a.num("tip-fraction", o.tip_fraction);
+  o.profile_segments = static_cast<int>(a.integer("profile-segments", o.profile_segments));
   o.tilt_reference_deg = a.num("tilt-reference", o.tilt_reference_deg);
   if (a.has("gravity")) {
     const auto v = numbers(a, "gravity", 2);
@@ -298,7 +301,7 @@ int trackCommand(const std::vector<std::string>& argv) {
     // The motion-features document (io/motion_features_json.h, what `topo infer --features` reads),
     // with the tracker-only details under "tracker".
     nlohmann::json doc = nlohmann::json::parse(io::motionFeaturesJson(vision::toMotionFeatures(r), a.has("series")));
-    doc["tracker"] = nlohmann::json::parse(vision::trackerJson(r));
+    doc["tracker"] = nlohmann::json::parse(vision::trackerJson(r, a.has("series")));
     std::cout << doc.dump() << "\n";
   } else {
     std::printf("source          %s (%.3f fps, frames %d..%d of %d, %.3f..%.3f s)\n", r.source.c_str(), r.fps,
@@ -340,6 +343,10 @@ int trackCommand(const std::vector<std::string>& argv) {
                   r.bend_held_frames);
       std::printf("bend_final_deg  %.3f\n", r.bend_final_deg);
       std::printf("bend_max_deg    %.3f at %.3f s\n", r.bend_max_deg, r.bend_t_max_s);
+      std::printf("bend_profile_deg");
+      if (r.bend_profile_deg.empty()) std::printf(" not measured");
+      for (double v : r.bend_profile_deg) std::printf(" %.3f", v);
+      std::printf(" (%d equal arc-length segments, base to tip, at the full pressure)\n", r.profile_segments);
     }
     for (const auto& kv : r.confidence) std::printf("confidence      %s %.3f\n", kv.first.c_str(), kv.second);
     std::printf("message         %s\n", r.message.c_str());

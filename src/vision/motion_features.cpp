@@ -17,6 +17,8 @@ motion::MotionFeatures toMotionFeatures(const TrackResult& r) {
   m.log_decrement = r.signal.log_decrement;
   m.damping_ratio = r.signal.damping_ratio;
   m.bending_angle_deg = r.bend_held_deg;  // the bend at the full pressure (the held plateau)
+  m.bend_profile_deg = r.bend_profile_deg;  // at the same held frames
+  m.profile_segments = r.profile_segments;
   auto conf = [&](const char* k) {
     const auto it = r.confidence.find(k);
     return it == r.confidence.end() ? 0.0 : it->second;
@@ -25,11 +27,12 @@ motion::MotionFeatures toMotionFeatures(const TrackResult& r) {
   m.amplitude_confidence = conf("amplitude_deg");
   // The tracker's confidence keys (motion_tracker.cpp): "equilibrium_deg" (tilt; 0 when the axis is
   // ambiguous), else the oscillation's centre (as sure as the period) or the static pose; the bend is
-  // "bend_deg".
+  // "bend_deg", the profile "bend_profile_deg".
   m.equilibrium_confidence = r.confidence.count("equilibrium_deg") ? conf("equilibrium_deg")
                              : r.signal.oscillation_found          ? conf("period_s")
                                                                    : conf("static_angle_deg");
   m.bending_confidence = conf("bend_deg");
+  m.bend_profile_confidence = m.bend_profile_deg.empty() ? 0.0 : conf("bend_profile_deg");
   m.start_time_s = r.t_start_s;
   m.end_time_s = r.t_end_s;
   m.first_frame = r.first_frame;

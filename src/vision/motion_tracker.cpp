@@ -13,6 +13,8 @@
 #include "topo_gaussian/common/json.h"
 #include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/common/statistics.h"
+#include "topo_gaussian/vision/finger_centreline.h"
+#include "topo_gaussian/vision/finger_profile.h"
 
 namespace topo_gaussian::vision {
 namespace {
@@ -223,6 +225,9 @@ struct MotionTracker::Impl {
   std::vector<cv::Point2d> centroid;
   std::vector<double> axis_deg;
   std::vector<EndFit> ends;
+  /// finger: each frame's centreline, from the end it starts at (oriented base first in finish(),
+  /// once the base end is known)
+  std::vector<ProfileFrame> centrelines;
   std::vector<Measurement> meas;  ///< per frame, without the mask (object checks, overlays)
   std::map<int, std::vector<TrajectorySample>> klt_tracks;
   cv::Vec2d u_prev{0, 0};
@@ -261,6 +266,9 @@ void validateTrackOptions(const TrackOptions& o) {
   if (!(o.tip_fraction > 0.0 && o.tip_fraction <= 0.25))
     throw TopoError("--tip_fraction " + numberText(o.tip_fraction), "must be in (0, 0.25]",
                     "use the finger task's tip_fraction (default 0.15)");
+  if (o.profile_segments < 2 || o.profile_segments > 64)
+    throw TopoError("--profile-segments " + std::to_string(o.profile_segments), "must be a whole number in 2..64",
+                    "use the finger task's profile_segments (default 8)");
   if (!(std::abs(o.tilt_reference_deg) <= 180.0))
     throw TopoError("--tilt-reference " + numberText(o.tilt_reference_deg), "must be a tilt in -180..180 deg",
                     "give roughly the tilt the object starts near (0: upright), e.g. 50 for a doll hung off its axis");
@@ -329,6 +337,16 @@ void MotionTracker::addFrame(const cv::Mat& frame_in, double t_s) {
   s.axis_deg.push_back(me.axis_angle_deg);
   if (s.opt.kind == "finger") {
     s.ends.push_back(me.found ? fitEnds(me.mask, s.roi.tl(), s.opt.tip_fraction, s.u_prev) : EndFit());
+    ProfileFrame pf;
+    if (me.found) {
+      const FingerCentreline c = fingerCentreline(me.mask, s.roi.tl(), CentrelineOptions(), bgr(s.roi));
+      pf.ok = c.ok;
+      if (c.ok) pf.centreline = c.points;
+      pf.length_px = c.length_px;
+      pf.base_at_border = c.start_at_border;
+      pf.tip_at_border = c.end_at_border;
+    }
+    s.centrelines.push_back(std::move(pf));
   }
   if (me.found && s.opt.tracker.method == "klt") {
     for (std::size_t i = 0; i < me.points.size(); ++i)
@@ -449,6 +467,13 @@ cv::Mat MotionTracker::overlayWithResult(const cv::Mat& frame_in, int index, con
                  cv::Scalar(255, 0, 0), 2 * thick, cv::LINE_AA);
       }
     }
+    if (index < static_cast<int>(s.centrelines.size()) && s.centrelines[index].ok) {  // the profile's stations
+      const std::vector<cv::Point2d> st = equalArcStations(s.centrelines[index].centreline, s.opt.profile_segments);
+      for (std::size_t k = 0; k < st.size(); ++k) {
+        if (k > 0) cv::line(img, st[k - 1], st[k], cv::Scalar(0, 140, 255), thick, cv::LINE_AA);
+        cv::circle(img, st[k], 3 * thick, cv::Scalar(0, 140, 255), cv::FILLED, cv::LINE_AA);
+      }
+    }
     if (std::isfinite(value)) lines.push_back("bend " + fixedText(value, 1) + " deg (signed)");
   } else if (r.kind == "trajectory") {
     if (std::isfinite(r.floor_y_px)) {
@@ -521,13 +546,14 @@ TrackResult MotionTracker::finish() const {
   // every feature this kind gives, at 0 until measured
   const std::vector<std::string> keys = r.kind == "trajectory" ? std::vector<std::string>{"bounces", "restitution"}
                                         : r.kind == "finger"
-                                            ? std::vector<std::string>{"bend_deg"}
+                                            ? std::vector<std::string>{"bend_deg", "bend_profile_deg"}
                                             : std::vector<std::string>{"period_s", "amplitude_deg", "static_angle_deg"};
   for (const auto& k : keys) r.confidence[k] = 0.0;
   if (r.kind == "pendulum") r.confidence["pivot"] = 0.0;
   r.signal.period_s = r.signal.amplitude_deg = r.signal.equilibrium_deg = r.signal.max_tilt_deg = kNaN;
   r.signal.log_decrement = r.signal.damping_ratio = kNaN;
   r.bend_final_deg = r.bend_max_deg = r.bend_t_max_s = r.bend_held_deg = kNaN;
+  if (r.kind == "finger") r.profile_segments = s.opt.profile_segments;
   auto refuse = [&](const std::string& why) {
     r.refused = true;
     notes.insert(notes.begin(), "refused: " + why);
@@ -697,8 +723,10 @@ TrackResult MotionTracker::finish() const {
   } else {  // finger
     std::vector<cv::Point2d> ca, cb;
     std::vector<double> tb, bend;
+    std::vector<int> frame_of;  // the frame of each bend sample
     for (int i = 0; i < n; ++i)
       if (s.found[i] && s.ends[i].ok) {
+        frame_of.push_back(i);
         ca.push_back(s.ends[i].ca);
         cb.push_back(s.ends[i].cb);
         tb.push_back(s.t_all[i]);
@@ -735,14 +763,16 @@ TrackResult MotionTracker::finish() const {
     for (double v : bend) least = std::min(least, std::abs(v));
     std::vector<double> rest_dirs;
     std::vector<double> chord_dirs;
-    for (std::size_t j = 0, i = 0; i < static_cast<std::size_t>(n); ++i) {
-      if (!(s.found[i] && s.ends[i].ok)) continue;
-      const EndFit& e = s.ends[i];
+    std::vector<std::size_t> rest_samples;  // the straightest frames' bend samples
+    for (std::size_t j = 0; j < frame_of.size(); ++j) {
+      const EndFit& e = s.ends[frame_of[j]];
       const cv::Vec2d base = base_is_a ? e.va : -e.vb, chord = base_is_a ? e.chord_b : e.chord_a;
       const double base_dir = std::atan2(base[1], base[0]) * kDeg;
       chord_dirs.push_back(std::atan2(chord[1], chord[0]) * kDeg);
-      if (std::abs(bend[j]) <= least + 0.15) rest_dirs.push_back(base_dir);
-      ++j;
+      if (std::abs(bend[j]) <= least + 0.15) {
+        rest_dirs.push_back(base_dir);
+        rest_samples.push_back(j);
+      }
     }
     // the median of angles near one another (unwrapped about the first)
     for (double& v : rest_dirs) v = rest_dirs.front() + wrapDeg(v - rest_dirs.front());
@@ -767,9 +797,13 @@ TrackResult MotionTracker::finish() const {
     // of the largest |bend| on its side (a step or ramp to the full pressure and back: the plateau,
     // whatever part of the cycle the window ends in)
     std::vector<double> held;
+    std::vector<std::size_t> held_samples;
     const double held_tol = std::max(0.2, 0.1 * std::abs(r.bend_max_deg));
-    for (double v : bend)
-      if (v * r.bend_max_deg >= 0 && std::abs(v) >= std::abs(r.bend_max_deg) - held_tol) held.push_back(v);
+    for (std::size_t j = 0; j < bend.size(); ++j)
+      if (bend[j] * r.bend_max_deg >= 0 && std::abs(bend[j]) >= std::abs(r.bend_max_deg) - held_tol) {
+        held.push_back(bend[j]);
+        held_samples.push_back(j);
+      }
     r.bend_held_deg = median(held);
     r.bend_held_frames = static_cast<int>(held.size());
     double mad = 0;  // spread of the held frames about their median
@@ -809,6 +843,30 @@ TrackResult MotionTracker::finish() const {
       notes.push_back("the finger is never straight in this clip (its least curl is " + fixedText(least, 1) +
                       " deg): the bend is measured from the straightest frame's base line, not from rest; record "
                       "the finger at zero pressure first");
+    // The bend profile at the same held frames, from the same straightest frames' base: each frame's
+    // centreline base first (the end nearer that frame's base-end centroid), and the profile's
+    // confidence the bend's (less its cut-silhouette halving: the profile checks its own ends) times
+    // its own factor.
+    std::vector<ProfileFrame> profile_frames;
+    for (int i : frame_of) {
+      ProfileFrame pf = s.centrelines[i];
+      const cv::Point2d base_centroid = base_is_a ? s.ends[i].ca : s.ends[i].cb;
+      if (pf.ok && cv::norm(pf.centreline.back() - base_centroid) < cv::norm(pf.centreline.front() - base_centroid)) {
+        std::reverse(pf.centreline.begin(), pf.centreline.end());
+        std::swap(pf.base_at_border, pf.tip_at_border);
+      }
+      profile_frames.push_back(std::move(pf));
+    }
+    const BendProfile profile =
+        analyseBendProfile(profile_frames, rest_samples, held_samples, rest_dir, s.opt.profile_segments);
+    r.bend_profile_deg = profile.held_deg;
+    r.bend_profile_series_deg = profile.frames_deg;
+    r.profile_rest_length_px = profile.rest_length_px;
+    r.profile_rest_axis_deg = profile.rest_axis_deg;
+    r.profile_held_length_px = profile.held_length_px;
+    r.confidence["bend_profile_deg"] =
+        bent && !profile.held_deg.empty() ? base * (least > 2.0 ? 0.25 : 1.0) * profile.confidence_factor : 0.0;
+    notes.insert(notes.end(), profile.notes.begin(), profile.notes.end());
   }
   for (std::size_t i = 0; i < notes.size(); ++i) r.message += (i ? "; " : "") + notes[i];
   return r;
@@ -870,7 +928,7 @@ TrackResult trackVideo(const std::string& path, const TrackOptions& options,
   return r;
 }
 
-std::string trackerJson(const TrackResult& r) {
+std::string trackerJson(const TrackResult& r, bool with_series) {
   using json::num;
   using json::quote;
   auto array = [](const std::vector<double>& v) {
@@ -933,6 +991,18 @@ std::string trackerJson(const TrackResult& r) {
   } else if (r.kind == "finger") {
     o << ",\"bend_held_deg\":" << num(r.bend_held_deg) << ",\"bend_final_deg\":" << num(r.bend_final_deg)
       << ",\"bend_max_deg\":" << num(r.bend_max_deg) << ",\"bend_t_max_s\":" << num(r.bend_t_max_s);
+    auto profile = [&](const std::vector<double>& v) { return v.empty() ? std::string("null") : array(v); };
+    const bool profiled = r.profile_held_length_px > 0;  // a held frame had a centreline
+    o << ",\"profile_segments\":" << r.profile_segments << ",\"bend_profile_deg\":" << profile(r.bend_profile_deg)
+      << ",\"profile_rest_axis_deg\":" << measured(profiled, r.profile_rest_axis_deg)
+      << ",\"profile_rest_length_px\":" << measured(r.profile_rest_length_px > 0, r.profile_rest_length_px)
+      << ",\"profile_held_length_px\":" << measured(profiled, r.profile_held_length_px);
+    if (with_series) {
+      o << ",\"bend_profile_series_deg\":[";
+      for (std::size_t i = 0; i < r.bend_profile_series_deg.size(); ++i)
+        o << (i ? "," : "") << profile(r.bend_profile_series_deg[i]);
+      o << "]";
+    }
   }
   o << ",\"confidence\":{";
   bool first = true;

@@ -41,11 +41,18 @@ struct MotionFeatures {
   double log_decrement = 0.0;    ///< damping per cycle
   double damping_ratio = 0.0;
   double bending_angle_deg = 0.0;  ///< finger: tip direction minus base direction, final value
+  /// finger: the bend profile at the full pressure, θ_k [deg] for k = 1..profile_segments: the chord
+  /// between consecutive stations at equal arc length along the centreline from the base end (the
+  /// clamp's edge) to the tip, minus the rest axis, signed as bending_angle_deg (vision/finger_profile.h);
+  /// empty: not measured
+  std::vector<double> bend_profile_deg;
+  int profile_segments = 0;  ///< finger: K, the number of segments the profile was asked for (0: not a finger)
 
   double period_confidence = 0.0;  ///< 0..1
   double amplitude_confidence = 0.0;
   double equilibrium_confidence = 0.0;
   double bending_confidence = 0.0;
+  double bend_profile_confidence = 0.0;
 
   double start_time_s = 0.0, end_time_s = 0.0;  ///< time range used
   int first_frame = 0, last_frame = -1, frames_used = 0, frames_lost = 0;

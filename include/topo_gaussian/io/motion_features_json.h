@@ -3,8 +3,9 @@
 //   "format": "topo_gaussian.motion_features", "version": 1,
 //   "kind" (pendulum | tilt | trajectory | finger), "method", "source", "message",
 //   "features":   {oscillation_found, period_s, amplitude_deg, max_tilt_deg, equilibrium_deg,
-//                  log_decrement, damping_ratio, bending_angle_deg},
-//   "confidence": {period_s, amplitude_deg, equilibrium_deg, bending_angle_deg}   (0..1),
+//                  log_decrement, damping_ratio, bending_angle_deg, bend_profile_deg: [θ_1 .. θ_K] or null,
+//                  profile_segments: K},
+//   "confidence": {period_s, amplitude_deg, equilibrium_deg, bending_angle_deg, bend_profile_deg} (0..1),
 //   "range":      {start_time_s, end_time_s, first_frame, last_frame, frames_used, frames_lost},
 //   "series":     {time_s: [...], angle_deg: [...]}                     (with_series only),
 //   "trajectories": [{name, time_s, x_px, y_px, points_on_plane: [[x, y, z], ...]}]
@@ -26,7 +27,8 @@ std::string motionFeaturesJson(const motion::MotionFeatures& features, bool with
 
 /// Reads a document written by motionFeaturesJson (or `topo track --json > FILE`). Throws TopoError
 /// naming the file, the key and the fix for an unreadable file, text that is not JSON, an unknown
-/// kind, a value of the wrong type, or a confidence outside 0..1.
+/// kind, a value of the wrong type, a confidence outside 0..1, or a bend profile with another number of
+/// angles than its profile_segments.
 motion::MotionFeatures readMotionFeaturesJson(const std::string& path);
 
 /// The same from JSON text; `origin` names it in errors (the file, or e.g. "motion features").

@@ -11,7 +11,7 @@ namespace topo_gaussian::vision {
 
 /// Features of a tracking result: the signal's period, amplitude, max tilt, damping; the
 /// equilibrium is the oscillation centre, or the static pose when no oscillation was found; the
-/// bending angle (finger); a confidence per feature from result.confidence (absent → 0, "not
+/// bending angle and the bend profile (finger); a confidence per feature from result.confidence (absent → 0, "not
 /// measured"; the equilibrium's is the period's, or the static pose's when no oscillation); frame and time range; the
 /// sampled signal; one PixelTrajectory "point_<k>" per tracked point, with its points_on_plane when placeOnPlane was
 /// called.

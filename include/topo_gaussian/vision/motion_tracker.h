@@ -21,6 +21,11 @@
 //                       its free part. The base is the end that moves least; signed, with its maximum
 //                       |bend| and when it happened. On a rendered side view of the simulated finger
 //                       (test/unit/vision_finger_bend.cpp) it is the task's angle within 0.3 deg.
+//                       Also the bend profile (vision/finger_profile.h): the chord angles of
+//                       profile_segments equal arc-length segments of the silhouette's centreline
+//                       (vision/finger_centreline.h) from the base end to the tip, against the line
+//                       of its base third in the same straightest frames, per frame and at the held
+//                       bend.
 // Before any feature, what was tracked must behave like one rigid object (vision/object_checks.h);
 // otherwise the result is a refusal (refused = true, every feature confidence 0, the reason in
 // `message`). Every confidence = tracking share × object score × the feature's own fit confidence.
@@ -61,6 +66,9 @@ struct TrackOptions {
   /// finger: the tip segment and the one before it are each this fraction of the silhouette's
   /// length (the finger task's tip_fraction, whose bend the tracker measures)
   double tip_fraction = 0.15;
+  /// finger: K, the number of equal arc-length segments of the bend profile (the finger task's
+  /// profile_segments), 2..64
+  int profile_segments = 8;
   /// tilt: the silhouette's principal axes are a line pair, known modulo 90°: the first frame takes
   /// the one nearest this tilt [deg from image-up, clockwise positive], later frames follow by
   /// continuity. 0 (upright) for a doll rocking on the ground; about the tilt it hangs at for an
@@ -117,6 +125,14 @@ struct TrackResult {
   int bend_held_frames = 0;
   double bend_rest_axis_deg = 0.0;    ///< image direction of the rest axis (the straightest frames' base line)
   double bend_straightest_deg = 0.0;  ///< tip-minus-base line angle of the straightest frame (0: a straight finger)
+  /// The bend profile (vision/finger_profile.h): θ_k [deg], k = 1..profile_segments, chords between
+  /// equal arc-length stations from the base end to the tip minus the rest axis, signed as the bend.
+  int profile_segments = 0;
+  std::vector<double> bend_profile_deg;  ///< at the held bend (median of the held frames); empty: not measured
+  std::vector<std::vector<double>> bend_profile_series_deg;  ///< per sample of `t` (empty: no centreline)
+  double profile_rest_axis_deg = 0.0;   ///< the profile's rest axis: its base third's line at rest (image angle)
+  double profile_rest_length_px = 0.0;  ///< centreline length at rest (the straightest frames)
+  double profile_held_length_px = 0.0;  ///< centreline length at the held bend
   // trajectory (y: image coordinate along gravity; heights along −gravity)
   std::vector<double> bounce_times_s, bounce_y_px, apex_times_s, apex_y_px, apex_heights_px;
   double floor_y_px = 0.0;
@@ -167,9 +183,10 @@ class CameraModel;
 void placeOnPlane(const CameraModel& camera, const cv::Vec3d& plane_normal, double plane_d, TrackResult& result);
 
 /// The tracker-only details as one JSON object (fps, frame counts, lost/dropped frames; pendulum/tilt:
-/// cycles, static pose, pivot; trajectory: bounces, apexes, floor line; every confidence). The
-/// features themselves go through toMotionFeatures (vision/motion_features.h) and
+/// cycles, static pose, pivot; trajectory: bounces, apexes, floor line; finger: the held, final and
+/// largest bend, the bend profile and, with_series, the profile of every sample; every confidence).
+/// The features themselves go through toMotionFeatures (vision/motion_features.h) and
 /// io::motionFeaturesJson; `topo track --json` puts this object under their "tracker" key.
-std::string trackerJson(const TrackResult& result);
+std::string trackerJson(const TrackResult& result, bool with_series = false);
 
 }  // namespace topo_gaussian::vision
