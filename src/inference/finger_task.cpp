@@ -1,16 +1,33 @@
 // Pneumatic finger (paper §7 "Pneumatic Finger"): a soft finger clamped at its base with an air
 // chamber inside; at the chamber pressure p the tip bends. Infer the chamber (r = 0: chamber, air
-// at pressure p, soft; r = 1: solid wall material) so that the bending angle at the full pressure
-// matches the observed one. Loss (θ − θ*)² [deg²]. Static mode solves the quasi-static equilibrium
-// at p (Newton, load steps from rest; with warm_start, the default, Newton at the full pressure from
-// the equilibrium of the design evaluated before, and the adjoint from its adjoint: an evaluation
-// then depends on the one before it to the solvers' tolerances, newton_tolerance and 1e-10, not
-// more; one task object is not for concurrent evaluations) and differentiates it by one adjoint
-// solve; implicit mode integrates
-// the pressure ramp with implicit Euler and differentiates through time (SoftRollout).
+// at pressure p, soft; r = 1: solid wall material) so that the bend at the full pressure matches the
+// observed one: the tip's bending angle θ, the bend profile θ_k along the length (below), or both;
+// several pressures are several experiments of one object (TaskConfig::addExperiment). Loss
+// (θ − θ*)² + weight_profile · Σ_k (θ_k − θ_k*)² / K [deg²], each term when its target is given.
+// Static mode solves the quasi-static equilibrium at p (Newton, load steps from rest; with
+// warm_start, the default, Newton at the full pressure from the equilibrium of the design evaluated
+// before, and the adjoint from its adjoint: an evaluation then depends on the one before it to the
+// solvers' tolerances, newton_tolerance and 1e-10, not more; one task object is not for concurrent
+// evaluations) and differentiates it by one adjoint solve; implicit mode integrates the pressure
+// ramp with implicit Euler and differentiates through time (SoftRollout).
 //
 // Bending angle: d = centroid(tip segment) − centroid(the segment before it), segments by rest
 // coordinate along finger_axis; θ = atan2(d·n, d·a) with a the axis and n the bend normal (0 at rest).
+//
+// Bend profile (bend_profile_deg, K = profile_segments values): θ_k = atan2(d_k·n, d_k·a) [deg],
+// d_k = P_{k+1} − P_k, k = 0 … K−1 (0 at the clamp, K−1 at the tip), where P_0 … P_K are K + 1
+// stations at equal arc length along the bent finger's centreline in the (a, n) plane, from its
+// clamped end to its tip: the chord of each of K equal pieces of the centreline, against the rest
+// axis a, + towards n, 0 at rest. The centreline: the free particles (rest coordinate u = (X − X_base)·a
+// ≥ clamp_length_m) in M = round(free length / spacing) slabs of equal width by u (empty ones
+// dropped); vertex v_j = ((c_j·a), (c_j·n)) with c_j the centroid of slab j's deformed positions;
+// arc length S_j = Σ_{m<j} |v_{m+1} − v_m|; station P_k = the point at S = (k/K) S_{M−1} on the
+// polyline. A side camera measures the same from the silhouette: its midline from the clamp's edge
+// (on the rest finger clamp_length_m from the base end) to the tip, cut into K pieces of equal length
+// along it, each chord's angle against the rest frames' axis; the task's polyline starts and ends
+// half a slab inside those ends (its first and last slabs' centroids). Loss term
+// weight_profile · Σ_k (θ_k − θ_k*)² / K [deg²], beside the tip's (θ − θ*)² when both are given;
+// dL/dx of both goes to the one adjoint solve (static) or the rollout's final-state loss (implicit).
 //
 // Rigid clamp (as the cantilever, cantilever_task.cpp): the clamped particles get
 // clamp_stiffness_factor × their Lamé parameters, so their kernel fit over the free particles beyond
@@ -67,7 +84,10 @@ struct FingerOptions {
   std::optional<Eigen::Vector3d> obstacle_point;
   Eigen::Vector3d obstacle_normal = -Eigen::Vector3d::UnitZ();
   double contact_stiffness_n_per_m = 0, friction_mu = 0;
+  int profile_segments = 8;
+  double weight_profile = 1.0;
   std::optional<double> bend_angle_deg;
+  std::optional<std::vector<double>> bend_profile_deg;
 };
 
 /// Its declaration and reading (inference/task_options.h), in the order `topo tasks` lists them.
@@ -117,7 +137,17 @@ constexpr auto kFingerFields = [](auto& f) {
            0);
   f.number("friction_mu", &O::friction_mu, 0.0, "unitless",
            "obstacle Coulomb friction, unitless (implicit mode only: the static equilibrium is frictionless)", 0);
+  f.integer("profile_segments", &O::profile_segments, 8, "unitless",
+            "bend profile: the free length beyond the clamp in this many pieces of equal arc length along the bent "
+            "centreline, unitless (bend_profile_deg holds one chord angle per piece)",
+            2, 64);
+  f.number("weight_profile", &O::weight_profile, 1.0, "unitless",
+           "weight of the bend profile's mean squared error [deg^2] in the loss, unitless (the tip angle's is 1)", 0);
   f.target("bend_angle_deg", &O::bend_angle_deg, "deg", "observed bending angle of the tip at the full pressure [deg]",
+           -180, 180);
+  f.target("bend_profile_deg", &O::bend_profile_deg, "deg",
+           "observed bend profile at the full pressure: profile_segments chord angles from the clamp to the tip, "
+           "each piece of the centreline against the rest axis, + towards bend_normal [deg]",
            -180, 180);
 };
 
@@ -144,6 +174,17 @@ class FingerTask : public SoftTask {
     clamp_stiffness_ = o.clamp_stiffness_factor;
     spacing_ = sph_.options().spacing;
     if (o.bend_angle_deg) target_ = *o.bend_angle_deg, has_target_ = true;
+    segments_ = o.profile_segments;
+    weight_profile_ = o.weight_profile;
+    if (o.bend_profile_deg) {
+      profile_target_ = *o.bend_profile_deg;
+      if (profile_target_.size() != std::size_t(segments_))
+        throw TopoError("bend_profile_deg",
+                        "has " + std::to_string(profile_target_.size()) + " angles for profile_segments " +
+                            std::to_string(segments_),
+                        "give one observed chord angle per piece from the clamp to the tip, or set profile_segments "
+                        "to the number of angles");
+    }
     if (o.obstacle == "plane") setUpObstacle(o, cloud);
     // Rest coordinate along the axis; clamp and segments.
     double smin = 1e300, smax = -1e300;
@@ -171,6 +212,21 @@ class FingerTask : public SoftTask {
     if (tip_.empty() || pre_.empty() || std::count(clamp_.begin(), clamp_.end(), 1) == 0)
       throw TopoError("finger volume", "has no particles in the clamp, the tip or the segment before it",
                       "check finger_axis, clamp_length_m and tip_fraction against the shape");
+    // The profile's centreline slabs (see the header): about one spacing wide over the free length.
+    const double free_len = len - clamp;
+    const int slabs = std::max(2, static_cast<int>(std::lround(free_len / spacing_)));
+    std::vector<std::vector<std::size_t>> slab(slabs);
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      const double u = s[i] - smin - clamp;
+      if (u < 0.0) continue;
+      slab[std::min(slabs - 1, static_cast<int>(u / free_len * slabs))].push_back(i);
+    }
+    for (auto& b : slab)
+      if (!b.empty()) slabs_.push_back(std::move(b));
+    if (slabs_.size() < 2)
+      throw TopoError("finger volume",
+                      "has fewer than two slabs of free particles beyond the clamp for the bend profile",
+                      "check finger_axis and clamp_length_m against the shape, or give a finer spacing");
     geometry_.has_point = false;
     usePreconditionerOnGpu(has_obstacle_);
   }
@@ -228,9 +284,10 @@ class FingerTask : public SoftTask {
   }
 
   void requireTargets() const override {
-    if (!has_target_)
-      throw TopoError("finger target", "bend_angle_deg is not given",
-                      "give the observed angle: --target bend_angle_deg=30");
+    if (!has_target_ && profile_target_.empty())
+      throw TopoError("finger target", "neither bend_angle_deg nor bend_profile_deg is given",
+                      "give the observed angle, --target bend_angle_deg=30, or the observed profile of " +
+                          std::to_string(segments_) + " chord angles, --target bend_profile_deg=0.5,1.2,...");
   }
 
   /// θ [deg] and dθ/dx (when grad != nullptr).
@@ -249,6 +306,110 @@ class FingerTask : public SoftTask {
       for (auto i : pre_) (*grad)[i] -= dd / double(pre_.size());
     }
     return std::atan2(Y, X) * kDeg;
+  }
+
+  /// The bend profile θ_k [deg] (see the header) at positions x; with dL_dtheta (dL/dθ_k), adds
+  /// dL/dx = Σ_k dL/dθ_k dθ_k/dx to *grad (reverse mode through the slab centroids, the arc lengths
+  /// and the stations' interpolation).
+  std::vector<double> profile(const std::vector<Eigen::Vector3d>& x, const std::vector<double>* dL_dtheta,
+                              std::vector<Eigen::Vector3d>* grad) const {
+    const std::size_t M = slabs_.size(), K = static_cast<std::size_t>(segments_);
+    std::vector<Eigen::Vector2d> v(M), E(M - 1);
+    for (std::size_t j = 0; j < M; ++j) {
+      Eigen::Vector3d c = Eigen::Vector3d::Zero();
+      for (auto i : slabs_[j]) c += x[i];
+      c /= double(slabs_[j].size());
+      v[j] = Eigen::Vector2d(c.dot(axis_), c.dot(normal_));
+    }
+    std::vector<double> len(M - 1), S(M, 0.0);
+    for (std::size_t j = 0; j + 1 < M; ++j) {
+      E[j] = v[j + 1] - v[j];
+      len[j] = E[j].norm();
+      S[j + 1] = S[j] + len[j];
+    }
+    const double total = S[M - 1];
+    // Stations: edge and fraction along it.
+    std::vector<std::size_t> edge(K + 1);
+    std::vector<double> t(K + 1);
+    std::vector<Eigen::Vector2d> P(K + 1);
+    std::size_t j = 0;
+    for (std::size_t k = 0; k <= K; ++k) {
+      const double sigma = total * double(k) / double(K);
+      while (j + 2 < M && S[j + 1] <= sigma) ++j;
+      edge[k] = j;
+      t[k] = len[j] > 0.0 ? (sigma - S[j]) / len[j] : 0.0;
+      P[k] = v[j] + t[k] * E[j];
+    }
+    std::vector<double> theta(K);
+    std::vector<Eigen::Vector2d> Pbar(K + 1, Eigen::Vector2d::Zero());
+    for (std::size_t k = 0; k < K; ++k) {
+      const Eigen::Vector2d d = P[k + 1] - P[k];
+      theta[k] = std::atan2(d.y(), d.x()) * kDeg;
+      if (!dL_dtheta) continue;
+      const Eigen::Vector2d dd = (*dL_dtheta)[k] * kDeg * Eigen::Vector2d(-d.y(), d.x()) / d.squaredNorm();
+      Pbar[k + 1] += dd;
+      Pbar[k] -= dd;
+    }
+    if (!dL_dtheta) return theta;
+    // P_k = v_j + t E_j with t = (σ_k − S_j) / ℓ_j, σ_k = (k/K) S_{M−1}, S_j = Σ_{m<j} ℓ_m, ℓ_j = |E_j|.
+    std::vector<Eigen::Vector2d> vbar(M, Eigen::Vector2d::Zero());
+    std::vector<double> lenbar(M - 1, 0.0), Sbar(M, 0.0);
+    for (std::size_t k = 0; k <= K; ++k) {
+      const std::size_t e = edge[k];
+      vbar[e] += (1.0 - t[k]) * Pbar[k];
+      vbar[e + 1] += t[k] * Pbar[k];
+      if (!(len[e] > 0.0)) continue;
+      const double tbar = Pbar[k].dot(E[e]);
+      Sbar[M - 1] += tbar / len[e] * double(k) / double(K);
+      Sbar[e] -= tbar / len[e];
+      lenbar[e] -= tbar * t[k] / len[e];
+    }
+    double suffix = 0.0;
+    for (std::size_t m = M - 1; m >= 1; --m) {
+      suffix += Sbar[m];
+      lenbar[m - 1] += suffix;
+    }
+    for (std::size_t m = 0; m + 1 < M; ++m) {
+      if (!(len[m] > 0.0)) continue;
+      const Eigen::Vector2d Ebar = lenbar[m] * E[m] / len[m];
+      vbar[m + 1] += Ebar;
+      vbar[m] -= Ebar;
+    }
+    for (std::size_t m = 0; m < M; ++m) {
+      const Eigen::Vector3d g = (vbar[m].x() * axis_ + vbar[m].y() * normal_) / double(slabs_[m].size());
+      for (auto i : slabs_[m]) (*grad)[i] += g;
+    }
+    return theta;
+  }
+
+  /// What the finger shows at positions x: the tip angle θ, the profile θ_k and the loss against the
+  /// targets (see the header); with dL_dx, its gradient (assigned).
+  struct Observed {
+    double theta = 0.0, loss = 0.0;
+    std::vector<double> profile;
+  };
+  Observed observe(const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Vector3d>* dL_dx) const {
+    Observed o;
+    std::vector<Eigen::Vector3d> dth;
+    o.theta = angle(x, dL_dx ? &dth : nullptr);
+    if (dL_dx) dL_dx->assign(x.size(), Eigen::Vector3d::Zero());
+    if (has_target_) {
+      o.loss += (o.theta - target_) * (o.theta - target_);
+      if (dL_dx)
+        for (std::size_t i = 0; i < x.size(); ++i) (*dL_dx)[i] += 2.0 * (o.theta - target_) * dth[i];
+    }
+    o.profile = profile(x, nullptr, nullptr);
+    if (!profile_target_.empty()) {
+      const double K = double(segments_);
+      std::vector<double> G(profile_target_.size());
+      for (std::size_t k = 0; k < G.size(); ++k) {
+        const double e = o.profile[k] - profile_target_[k];
+        o.loss += weight_profile_ * e * e / K;
+        G[k] = 2.0 * weight_profile_ * e / K;
+      }
+      if (dL_dx) profile(x, &G, dL_dx);
+    }
+    return o;
   }
 
   /// Particles through the thinnest chamber wall of design r: the smallest distance from a surface
@@ -326,14 +487,20 @@ class FingerTask : public SoftTask {
         sim->setContact(SoftContact({obstacle_}, contact_opt_, contact_mask_));
     }
     TaskEvaluation ev;
-    double theta = 0.0;
     SoftDesignGradient g;
-    std::vector<Eigen::Vector3d> dth;
-    const double w = has_target_ ? 1.0 : 0.0;
     if (!implicit_) {
       solveEquilibrium(sim.get());
-      theta = angle(sim->positions(), dL_dr ? &dth : nullptr);
-      if (dL_dr) g = equilibriumGradient(*sim, &dth, w * 2.0 * (theta - target_));
+      if (dL_dr) {
+        if (profile_target_.empty()) {  // the tip alone: the adjoint of dθ/dx, scaled (equilibriumGradient)
+          std::vector<Eigen::Vector3d> dth;
+          const double theta = angle(sim->positions(), &dth);
+          g = equilibriumGradient(*sim, &dth, has_target_ ? 2.0 * (theta - target_) : 0.0);
+        } else {
+          std::vector<Eigen::Vector3d> dL_dx;
+          observe(sim->positions(), &dL_dx);
+          g = equilibriumGradient(*sim, &dL_dx, 1.0, false);
+        }
+      }
     } else {
       SoftRolloutOptions ro;
       ro.integrator = SoftIntegrator::ImplicitEuler;
@@ -347,18 +514,19 @@ class FingerTask : public SoftTask {
               std::vector<Eigen::Vector3d>* gx, std::vector<Eigen::Vector3d>*) {
             if (k != N) return 0.0;
             std::vector<Eigen::Vector3d> gg;
-            const double th = angle(x, gx ? &gg : nullptr);
+            const Observed o = observe(x, gx ? &gg : nullptr);
             if (gx)
-              for (std::size_t i = 0; i < x.size(); ++i) (*gx)[i] += w * 2.0 * (th - target_) * gg[i];
-            return w * (th - target_) * (th - target_);
+              for (std::size_t i = 0; i < x.size(); ++i) (*gx)[i] += gg[i];
+            return o.loss;
           },
           dL_dr != nullptr);
-      theta = angle(sim->positions(), nullptr);
       g = res.gradient;
       ev.signal_name = "pressure_pa";
     }
+    const Observed seen = observe(sim->positions(), nullptr);
+    const double theta = seen.theta;
     notePreconditioner(*sim);
-    ev.loss = w * (theta - target_) * (theta - target_);
+    ev.loss = seen.loss;
     double vch = 0.0, vtot = 0.0;
     for (std::size_t i = 0; i < r.size(); ++i) {
       vch += mat.chamber[i] * cloud_.V[i];
@@ -376,6 +544,12 @@ class FingerTask : public SoftTask {
       const double clearance = obstacleClearance(*sim, &touching);
       ev.features.push_back(Feature{"obstacle_clearance_m", clearance, "m"});
       ev.features.push_back(Feature{"obstacle_contact_points", double(touching), ""});
+    }
+    // The profile, one feature per piece (0.1 deg near zero, 1 % beyond 10 deg: a camera's resolution).
+    for (std::size_t k = 0; k < seen.profile.size(); ++k) {
+      const bool has = !profile_target_.empty();
+      ev.features.push_back(Feature{"bend_profile_deg[" + std::to_string(k) + "]", seen.profile[k], "deg", has,
+                                    has ? profile_target_[k] : 0.0, 10.0, 0.01});
     }
     std::vector<double> m;
     masses(r, &m, nullptr);
@@ -405,32 +579,61 @@ class FingerTask : public SoftTask {
     }
   }
 
-  /// dL/d(material) at the equilibrium for dL/dx = s · dθ/dx: the adjoint of dθ/dx (the same shape for
-  /// every design and target) solved from the last design's (warm_start), then scaled by s.
-  SoftDesignGradient equilibriumGradient(const SoftBodySimulator& sim, std::vector<Eigen::Vector3d>* dth,
-                                         double s) const {
+  /// dL/d(material) at the equilibrium for dL/dx = s · shape. fixed_shape (the tip alone: shape = dθ/dx,
+  /// nearly the same for every design and target): its adjoint solved from the last design's, then scaled
+  /// by s. Otherwise (the profile: dL/dx's direction changes with the residuals) the last design's adjoint,
+  /// times the α that minimises the energy norm of its error (α = λ₀·b / λ₀·Hλ₀, no worse than no guess),
+  /// is the guess for the adjoint of s · shape.
+  SoftDesignGradient equilibriumGradient(const SoftBodySimulator& sim, std::vector<Eigen::Vector3d>* shape, double s,
+                                         bool fixed_shape = true) const {
     if (s == 0.0 || !warm_start_) {
-      for (auto& v : *dth) v *= s;
-      return staticEquilibriumGradient(sim, *dth);
+      for (auto& v : *shape) v *= s;
+      return staticEquilibriumGradient(sim, *shape);
     }
     std::vector<Eigen::Vector3d> adjoint;
     {
       std::lock_guard<std::mutex> lock(equilibrium_mutex_);
       adjoint = last_adjoint_;
     }
-    SoftDesignGradient g = staticEquilibriumGradient(sim, *dth, 1e-10, &adjoint);  // the default tolerance
+    if (!fixed_shape) {
+      for (auto& v : *shape) v *= s;
+      s = 1.0;
+      if (adjoint.size() == shape->size()) scaleGuess(sim, *shape, &adjoint);
+    }
+    SoftDesignGradient g = staticEquilibriumGradient(sim, *shape, 1e-10, &adjoint);  // the default tolerance
     {
       std::lock_guard<std::mutex> lock(equilibrium_mutex_);
       last_adjoint_ = std::move(adjoint);
     }
-    for (auto* v : {&g.mass, &g.mu, &g.lambda, &g.chamber})
-      for (double& x : *v) x *= s;
+    if (s != 1.0)
+      for (auto* v : {&g.mass, &g.mu, &g.lambda, &g.chamber})
+        for (double& x : *v) x *= s;
     return g;
+  }
+
+  /// λ₀ ← α λ₀ with α = λ₀·b / λ₀·Hλ₀ (b = dL/dx, zero at the clamped particles as in the adjoint's
+  /// right-hand side); λ₀ emptied when λ₀·Hλ₀ is not positive.
+  static void scaleGuess(const SoftBodySimulator& sim, const std::vector<Eigen::Vector3d>& dL_dx,
+                         std::vector<Eigen::Vector3d>* guess) {
+    const std::size_t n = dL_dx.size();
+    Eigen::VectorXd l(3 * n), b(3 * n), Hl;
+    for (std::size_t i = 0; i < n; ++i) {
+      l.segment<3>(3 * i) = (*guess)[i];
+      b.segment<3>(3 * i) = sim.clamped()[i] ? Eigen::Vector3d::Zero() : dL_dx[i];
+    }
+    sim.systemProduct(l, 0.0, &Hl);
+    const double lHl = l.dot(Hl);
+    if (!(lHl > 0.0)) {
+      guess->clear();
+      return;
+    }
+    const double alpha = l.dot(b) / lHl;
+    for (auto& v : *guess) v *= alpha;
   }
 
   mutable std::mutex equilibrium_mutex_;
   mutable std::vector<Eigen::Vector3d> last_equilibrium_;  ///< of the last design solved (warm_start)
-  mutable std::vector<Eigen::Vector3d> last_adjoint_;      ///< its adjoint of dθ/dx (warm_start)
+  mutable std::vector<Eigen::Vector3d> last_adjoint_;      ///< its adjoint (warm_start)
   bool warm_start_ = true;
   mutable std::atomic<bool> warned_{false};
   bool has_obstacle_ = false;
@@ -442,7 +645,10 @@ class FingerTask : public SoftTask {
   Eigen::Vector3d axis_, normal_;
   double pressure_ = 0.0, duration_ = 0.2, dt_ = 0.01, target_ = 0.0;
   bool implicit_ = false, has_target_ = false;
-  int load_steps_ = 2;
+  int load_steps_ = 2, segments_ = 8;
+  double weight_profile_ = 1.0;
+  std::vector<double> profile_target_;           ///< observed θ_k [deg]; empty: none
+  std::vector<std::vector<std::size_t>> slabs_;  ///< the profile's centreline slabs, clamp to tip
   NewtonOptions newton_;
   std::vector<std::uint8_t> clamp_;
   std::vector<std::size_t> tip_, pre_;
@@ -455,6 +661,10 @@ namespace {
 /// bend_angle_deg from the observed bending angle of the tip: its magnitude. The tracker's sign is
 /// the turn on screen (clockwise +), which depends on the side the camera watches from; the task's
 /// sign is the turn towards bend_normal, the direction the user states the finger bends.
+/// bend_profile_deg (the profile_segments chord angles of equal-arc-length pieces of the centreline
+/// from the clamp's edge to the tip, against the rest axis) is defined in the header comment; a
+/// tracker that measures it maps it here, signed likewise (the bend towards bend_normal positive,
+/// e.g. every angle times the sign of the tip's chord).
 MotionTargets bendingTargets(const TaskConfig&, const motion::MotionFeatures& f) {
   MotionTargets out;
   if (f.bending_confidence > 0)
@@ -470,7 +680,7 @@ MotionTargets bendingTargets(const TaskConfig&, const motion::MotionFeatures& f)
 void registerFingerTask(TaskList* tasks) {
   TaskDefinition t;
   t.name = "finger";
-  t.summary = "a pneumatic soft finger bends under chamber pressure: bending angle of the tip";
+  t.summary = "a pneumatic soft finger bends under chamber pressure: bending angle of the tip and/or the bend profile";
   t.declare_parameters = [](TaskParameters& p) {
     SoftDefaults d;
     d.youngs_modulus_solid = 1e7;

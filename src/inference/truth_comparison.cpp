@@ -14,7 +14,13 @@ bool endsWith(const std::string& s, const std::string& e) {
 }
 }  // namespace
 
-double featureScaleFloor(const std::string& name, double object_size_m) {
+double featureScaleFloor(const std::string& name_in, double object_size_m) {
+  // an element of a list feature, NAME[k] (the finger's bend_profile_deg[k]), takes NAME's floor
+  std::string name = name_in;
+  const std::size_t open = name.rfind('[');
+  if (open != std::string::npos && name.back() == ']' && open + 2 < name.size() &&
+      name.find_first_not_of("0123456789", open + 1) == name.size() - 1)
+    name.erase(open);
   if (endsWith(name, "_deg")) return 10.0;
   if (endsWith(name, "_m") && std::isfinite(object_size_m)) return object_size_m;
   return 1e-12;

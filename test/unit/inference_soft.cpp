@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <fstream>
 
+#include "topo_gaussian/common/error.h"
 #include "topo_gaussian/inference/interior_problem.h"
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/physics/default_shapes.h"
@@ -141,10 +142,61 @@ TEST(SoftTasks, FingerGradientMatchesFiniteDifferences) {
   }
 }
 
+// The bend profile (bend_profile_deg, finger_task.cpp's header) in the loss: alone, beside the tip
+// angle with its own weight, and in implicit mode (the rollout's final state).
+TEST(SoftTasks, FingerProfileGradientMatchesFiniteDifferences) {
+  const VolumeCloud cloud = defaultShapeCloud("finger", 0.004);
+  std::vector<double> r = chamber(cloud, 0.02, 0.085, -0.006, -0.0005);
+  for (std::size_t i = 0; i < r.size(); ++i) r[i] = 0.3 + 0.4 * r[i] + 0.1 * std::sin(3.0 * i);
+  struct Case {
+    const char *name, *mode;
+    bool tip;
+  };
+  for (const Case& k : {Case{"profile static", "static", false}, Case{"profile+tip static", "static", true},
+                        Case{"profile+tip implicit", "implicit", true}}) {
+    TaskConfig c = fingerConfig();
+    c.set("mode", k.mode);
+    c.set("duration_s", "0.05");
+    c.set("dt_s", "0.01");
+    c.set("profile_segments", "6");
+    c.setList("bend_profile_deg", {1.0, 3.0, 6.0, 9.0, 14.0, 20.0});
+    if (k.tip) {
+      c.setNumber("bend_angle_deg", 25.0);
+      c.setNumber("weight_profile", 3.0);
+    }
+    c.setNumber("newton_tolerance", 1e-12);
+    taskGradientCheck(c, cloud, r, k.name);
+  }
+}
+
+// A profile of another length than profile_segments is refused naming both; a finger without either
+// target is refused naming both targets.
+TEST(SoftTasks, FingerProfileTargetsAreCheckedAgainstTheSegments) {
+  const VolumeCloud cloud = defaultShapeCloud("finger", 0.004);
+  const auto refusal = [&](const TaskConfig& c) -> std::string {
+    try {
+      makeTask(c, cloud)->requireTargets();
+    } catch (const TopoError& e) {
+      return e.what();
+    }
+    return "accepted";
+  };
+  TaskConfig c = fingerConfig();
+  c.setList("bend_profile_deg", {1.0, 2.0, 3.0});
+  const std::string wrong = refusal(c);
+  EXPECT_NE(wrong.find("bend_profile_deg"), std::string::npos) << wrong;
+  EXPECT_NE(wrong.find("profile_segments 8"), std::string::npos) << wrong;
+  c.set("profile_segments", "3");
+  EXPECT_EQ(refusal(c), "accepted");
+  const std::string none = refusal(fingerConfig());
+  EXPECT_NE(none.find("neither bend_angle_deg nor bend_profile_deg"), std::string::npos) << none;
+}
+
 // warm_start (the default): each design's equilibrium is solved from the last design's, and its
-// adjoint from the last adjoint. Design B evaluated after A gives the loss, the angle and dL/dr of B
-// evaluated alone from rest (warm_start 0) to the solver's tolerances; a design without a chamber
-// after them rests unbent.
+// adjoint from the last adjoint (the tip angle's, scaled; with the bend profile, whose dL/dx changes
+// direction with the residuals, the last adjoint times its energy-optimal factor). Design B evaluated
+// after A gives the loss, the angle and dL/dr of B evaluated alone from rest (warm_start 0) to the
+// solver's tolerances; a design without a chamber after them rests unbent, its profile straight.
 TEST(SoftTasks, FingerWarmStartGivesTheSameDesignAsFromRest) {
   const VolumeCloud cloud = defaultShapeCloud("finger", 0.004);
   std::vector<double> a = chamber(cloud, 0.02, 0.085, -0.006, -0.0005), b = a;
@@ -152,29 +204,37 @@ TEST(SoftTasks, FingerWarmStartGivesTheSameDesignAsFromRest) {
     a[i] = 0.3 + 0.4 * a[i] + 0.1 * std::sin(3.0 * i);
     b[i] = std::clamp(a[i] + 0.05 * std::cos(1.3 * i), 0.0, 1.0);
   }
-  TaskConfig c = fingerConfig();
-  c.setNumber("bend_angle_deg", 25.0);
-  const auto warm = makeTask(c, cloud);
-  c.set("warm_start", "0");
-  const auto cold = makeTask(c, cloud);
-  std::vector<double> ga, gw, gc;
-  warm->evaluate(a, &ga);
-  const TaskEvaluation ew = warm->evaluate(b, &gw), ec = cold->evaluate(b, &gc);
-  const double tw = feature(ew, "bend_angle_deg"), tc = feature(ec, "bend_angle_deg");
-  double gmax = 0.0, dmax = 0.0;
-  for (std::size_t i = 0; i < gc.size(); ++i) {
-    gmax = std::max(gmax, std::abs(gc[i]));
-    dmax = std::max(dmax, std::abs(gw[i] - gc[i]));
+  for (const bool with_profile : {false, true}) {
+    TaskConfig c = fingerConfig();
+    if (with_profile)
+      c.setList("bend_profile_deg", {0.5, 1.0, 2.0, 4.0, 6.0, 9.0, 12.0, 15.0});
+    else
+      c.setNumber("bend_angle_deg", 25.0);
+    const auto warm = makeTask(c, cloud);
+    c.set("warm_start", "0");
+    const auto cold = makeTask(c, cloud);
+    std::vector<double> ga, gw, gc;
+    warm->evaluate(a, &ga);
+    const TaskEvaluation ew = warm->evaluate(b, &gw), ec = cold->evaluate(b, &gc);
+    const double tw = feature(ew, "bend_angle_deg"), tc = feature(ec, "bend_angle_deg");
+    double gmax = 0.0, dmax = 0.0;
+    for (std::size_t i = 0; i < gc.size(); ++i) {
+      gmax = std::max(gmax, std::abs(gc[i]));
+      dmax = std::max(dmax, std::abs(gw[i] - gc[i]));
+    }
+    std::printf(
+        "[warm start%s] bend %.12f deg (from rest %.12f), loss %.10g (%.10g), dL/dr max difference %.2e of %.3e\n",
+        with_profile ? ", profile" : "", tw, tc, ew.loss, ec.loss, dmax, gmax);
+    EXPECT_GT(std::abs(tw - feature(warm->evaluate(a, nullptr), "bend_angle_deg")), 1e-3);  // B is another design
+    EXPECT_NEAR(tw, tc, 1e-8 * std::abs(tc));
+    EXPECT_NEAR(ew.loss, ec.loss, 1e-7 * ec.loss);
+    EXPECT_LT(dmax, 1e-6 * gmax);
+    const TaskEvaluation solid = warm->evaluate(std::vector<double>(cloud.size(), 1.0), nullptr);
+    EXPECT_EQ(feature(solid, "bend_angle_deg"), 0.0);
+    EXPECT_EQ(feature(solid, "tip_displacement_m"), 0.0);
+    for (int k = 0; k < 8; ++k)
+      EXPECT_NEAR(feature(solid, "bend_profile_deg[" + std::to_string(k) + "]"), 0.0, 1e-9) << k;
   }
-  std::printf("[warm start] bend %.12f deg (from rest %.12f), loss %.10g (%.10g), dL/dr max difference %.2e of %.3e\n",
-              tw, tc, ew.loss, ec.loss, dmax, gmax);
-  EXPECT_GT(std::abs(tw - feature(warm->evaluate(a, nullptr), "bend_angle_deg")), 1e-3);  // B is another design
-  EXPECT_NEAR(tw, tc, 1e-8 * std::abs(tc));
-  EXPECT_NEAR(ew.loss, ec.loss, 1e-7 * ec.loss);
-  EXPECT_LT(dmax, 1e-6 * gmax);
-  const TaskEvaluation solid = warm->evaluate(std::vector<double>(cloud.size(), 1.0), nullptr);
-  EXPECT_EQ(feature(solid, "bend_angle_deg"), 0.0);
-  EXPECT_EQ(feature(solid, "tip_displacement_m"), 0.0);
 }
 
 TEST(SoftTasks, PearGradientMatchesFiniteDifferences) {

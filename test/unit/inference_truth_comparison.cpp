@@ -28,6 +28,12 @@ TEST(TruthComparison, FeaturesAreJudgedOnTheirNaturalScale) {
   c = ti::compareFeature("bend_angle_deg", 5.763, 5.968, NAN, 0.02);
   EXPECT_NEAR(c.relative_error, (5.763 - 5.968) / 10.0, 1e-12);  // on 10 deg: the bend is below it
   EXPECT_TRUE(c.of_the_scale);
+  // an element of a list feature (the finger's bend profile) as the list: near the clamp, on 10 deg
+  c = ti::compareFeature("p500kpa.bend_profile_deg[0]", 0.08, 0.071, NAN, 0.02);
+  EXPECT_NEAR(c.relative_error, (0.08 - 0.071) / 10.0, 1e-12);
+  EXPECT_TRUE(c.within);
+  EXPECT_DOUBLE_EQ(ti::featureScaleFloor("x_deg[]", NAN), 1e-12);
+  EXPECT_DOUBLE_EQ(ti::featureScaleFloor("x_deg[1a]", NAN), 1e-12);
   // without an object size, a length has no floor
   EXPECT_DOUBLE_EQ(ti::featureScaleFloor("x_m", NAN), 1e-12);
   // not finite: not within

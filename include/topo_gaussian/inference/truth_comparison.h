@@ -3,7 +3,7 @@
 //
 // Features: the relative error e = (y − y_true) / s on the feature's natural scale
 //   s = max(|y_true|, floor),  floor = 10 deg for angles (names ending in _deg), the object's size for
-//   lengths (names ending in _m), 1e-12 otherwise,
+//   lengths (names ending in _m), 1e-12 otherwise; an element NAME[k] of a list feature as NAME,
 // so a feature near zero (a rest tilt, a centre-of-mass offset) is not judged on its own tiny size.
 // Interiors: each recovered particle takes the true label of its nearest true particle (the two
 // clouds may have different spacings), then the volume IoU of the cavity and of the solid
