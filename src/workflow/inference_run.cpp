@@ -133,6 +133,12 @@ void applyObservedTargets(const motion::MotionFeatures& window, inference::TaskC
     config->setNumber(prefix + name, value);
     notes->push_back(prefix + name + " = " + numberText(value, 6) + " from the motion features");
   }
+  for (const auto& [name, values] : mt.list_targets) {
+    config->setList(prefix + name, values);
+    std::string text;
+    for (double v : values) text += (text.empty() ? "" : ", ") + numberText(v, 4);
+    notes->push_back(prefix + name + " = [" + text + "] from the motion features");
+  }
   if (!mt.note.empty()) notes->push_back(prefix + mt.note);
 }
 

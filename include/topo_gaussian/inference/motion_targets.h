@@ -17,6 +17,8 @@
 //   hanging, balance, stand  target_roll_deg ← equilibrium_deg                   (the camera looks along
 //                            world x, so the image angle is the roll about x; equilibrium measured)
 //   finger                   bend_angle_deg ← bending_angle_deg                  (bending measured)
+//                            bend_profile_deg ← the tracker's profile × sign(bending)  (profile measured
+//                            with the task's profile_segments)
 // Tasks without a rule (qiqi, ball, pear, cantilever) take their targets from files or goal targets.
 // A feature is used only when the tracker measured it (confidence > 0 / oscillation found).
 #pragma once
@@ -32,6 +34,8 @@ namespace topo_gaussian::inference {
 
 struct MotionTargets {
   std::vector<std::pair<std::string, double>> targets;  ///< task target name → value
+  /// List targets (a finger's bend_profile_deg: one value per segment) → their values
+  std::vector<std::pair<std::string, std::vector<double>>> list_targets;
   std::string note;  ///< why nothing (or not everything) was taken, empty when all was
 };
 
