@@ -663,29 +663,21 @@ namespace {
 /// sign is the turn towards bend_normal, the direction the user states the finger bends.
 /// bend_profile_deg (the profile_segments chord angles of equal-arc-length pieces of the centreline
 /// from the clamp's edge to the tip, against the rest axis) is defined in the header comment; a
-/// tracker that measures it maps it here, signed likewise: the tracker's profile (vision/finger_profile.h,
-/// the same stations and chords on the silhouette's centreline) times the sign of its bending angle, when
-/// it was measured (confidence > 0) with the task's profile_segments.
-MotionTargets bendingTargets(const TaskConfig& config, const motion::MotionFeatures& f) {
+/// tracker that measures it could map it here, signed likewise (each angle times the sign of the bending
+/// angle). The tracker's profile (vision/finger_profile.h) is not taken yet: on the rig twin its chords
+/// where the chamber bulges differ from the task's by 0.7–1.6° (the silhouette's centreline is not the
+/// material's), and a design fitted to them missed the twin's own profile by up to 13.5 % of 10°.
+MotionTargets bendingTargets(const TaskConfig&, const motion::MotionFeatures& f) {
   MotionTargets out;
   if (f.bending_confidence > 0)
     out.targets.emplace_back("bend_angle_deg", std::abs(f.bending_angle_deg));
   else
     out.note = motionFeaturesOrigin(f) + " hold no measured bending angle" +
                (f.message.empty() ? std::string() : " (the tracker: " + f.message + ")");
-  const int segments = readOptions<FingerOptions>(config, kFingerFields).profile_segments;
-  if (f.bend_profile_confidence > 0 && !f.bend_profile_deg.empty() && f.bending_confidence > 0) {
-    if (f.profile_segments == segments && static_cast<int>(f.bend_profile_deg.size()) == segments) {
-      std::vector<double> profile = f.bend_profile_deg;
-      for (double& v : profile) v *= f.bending_angle_deg < 0 ? -1.0 : 1.0;
-      out.list_targets.emplace_back("bend_profile_deg", profile);
-    } else {
-      out.note += (out.note.empty() ? "" : "; ") + std::string("the tracker's bend profile has ") +
-                  std::to_string(f.bend_profile_deg.size()) + " segments, the task's profile_segments " +
-                  std::to_string(segments) + ": not used (track with --profile-segments " + std::to_string(segments) +
-                  ")";
-    }
-  }
+  if (f.bend_profile_confidence > 0 && !f.bend_profile_deg.empty())
+    out.note += (out.note.empty() ? "" : "; ") +
+                std::string("the tracker's bend profile is not a target (its silhouette centreline differs from the "
+                            "task's where the chamber bulges): give bend_profile_deg as a target to use one");
   return out;
 }
 

@@ -136,20 +136,15 @@ TEST(MotionTargets, TumblerSignalGetsTheTasksOwnAnalysis) {
   EXPECT_EQ(finger.targets[0].first, "bend_angle_deg");
   EXPECT_DOUBLE_EQ(finger.targets[0].second, 12.5);
   EXPECT_TRUE(finger.list_targets.empty());  // no profile measured
-  // the tracker's bend profile (on-screen sign, as the bend's) becomes bend_profile_deg, positive
-  // towards the bend, when it has the task's profile_segments
+  // the tracker's bend profile is not taken as a target (its silhouette centreline differs from the
+  // task's where the chamber bulges), and the note says so
   bend.bend_profile_deg = {-0.5, -1, -2, -3, -5, -7, -9, -12};
   bend.profile_segments = 8;
   bend.bend_profile_confidence = 0.8;
   const auto profiled = inference::targetsFromMotion(inference::TaskConfig::defaults("finger"), bend);
-  ASSERT_EQ(profiled.list_targets.size(), 1u) << profiled.note;
-  EXPECT_EQ(profiled.list_targets[0].first, "bend_profile_deg");
-  EXPECT_EQ(profiled.list_targets[0].second, std::vector<double>({0.5, 1, 2, 3, 5, 7, 9, 12}));
-  inference::TaskConfig four = inference::TaskConfig::defaults("finger");
-  four.setNumber("profile_segments", 4);
-  const auto mismatch = inference::targetsFromMotion(four, bend);
-  EXPECT_TRUE(mismatch.list_targets.empty());
-  EXPECT_NE(mismatch.note.find("--profile-segments 4"), std::string::npos) << mismatch.note;
+  EXPECT_TRUE(profiled.list_targets.empty());
+  ASSERT_EQ(profiled.targets.size(), 1u);
+  EXPECT_NE(profiled.note.find("not a target"), std::string::npos) << profiled.note;
   EXPECT_NE(inference::targetsFromMotion(inference::TaskConfig::defaults("qiqi"), bend).note.find("goal's targets"),
             std::string::npos);
 }
