@@ -17,8 +17,7 @@
 //   hanging, balance, stand  target_roll_deg ← equilibrium_deg                   (the camera looks along
 //                            world x, so the image angle is the roll about x; equilibrium measured)
 //   finger                   bend_angle_deg ← bending_angle_deg                  (bending measured)
-//                            bend_profile_deg ← the tracker's profile × sign(bending)  (profile measured
-//                            with the task's profile_segments)
+//                            (the tracker's bend profile is not taken: see finger_task.cpp)
 // Tasks without a rule (qiqi, ball, pear, cantilever) take their targets from files or goal targets.
 // A feature is used only when the tracker measured it (confidence > 0 / oscillation found).
 #pragma once
