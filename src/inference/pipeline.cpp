@@ -86,14 +86,10 @@ std::string uncertaintyStatement(const DesignSpread& spread, const RegionUncerta
   if (!region.available) return spread.computed ? " " + spread.sentence : std::string();
   std::string out = " " + region.sentence;
   if (spread.computed && spread.accepted > 1 && spread.undetermined_fraction > 0 && confidence.size() == V.size()) {
-    double uncertain = 0, total = 0;  // a particle either set of designs disagrees on (solid_confidence < 0.95)
-    for (std::size_t i = 0; i < V.size(); ++i) {
-      total += V[i];
-      if (confidence[i] < 0.95) uncertain += V[i];
-    }
+    // a particle either set of designs disagrees on (solid_confidence below 0.95)
     out += " With the " + std::to_string(spread.accepted) +
            " designs the searches from other solid fractions found fitting as well, " +
-           numberText(100.0 * uncertain / std::max(total, 1e-300), 3) + " % of the volume is uncertain in all.";
+           numberText(100.0 * uncertainVolumeFraction(V, confidence), 3) + " % of the volume is uncertain in all.";
   }
   return out;
 }

@@ -35,6 +35,19 @@ constexpr double kGeodesicAlpha = 0.75;
 
 }  // namespace
 
+double uncertainVolumeFraction(const std::vector<double>& V, const std::vector<double>& confidence, double level) {
+  if (confidence.size() != V.size())
+    throw TopoError("uncertain volume", "has " + std::to_string(confidence.size()) + " confidences for " +
+                                            std::to_string(V.size()) + " particles",
+                    "give one confidence per particle");
+  double uncertain = 0, total = 0;
+  for (std::size_t i = 0; i < V.size(); ++i) {
+    total += V[i];
+    if (confidence[i] < level) uncertain += V[i];
+  }
+  return total > 0 ? uncertain / total : 0.0;
+}
+
 double volumeIou(const std::vector<double>& V, const std::vector<double>& a, const std::vector<double>& b) {
   if (a.size() != V.size() || b.size() != V.size())
     throw TopoError("volume IoU",

@@ -8,6 +8,7 @@
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/geometry/solid_mesh.h"
+#include "topo_gaussian/inference/region_uncertainty.h"
 #include "topo_gaussian/ros/conversions.h"
 
 namespace topo_gaussian::topo_ros {
@@ -79,14 +80,9 @@ std::string experimentsText(int experiments, const VolumeCloud& cloud, const std
   if (experiments <= 0) return "";
   std::ostringstream os;
   os << "from " << experiments << (experiments == 1 ? " experiment" : " experiments");
-  if (confidence && confidence->size() == cloud.size()) {
-    double uncertain = 0, total = 0;
-    for (std::size_t i = 0; i < cloud.size(); ++i) {
-      total += cloud.V[i];
-      if ((*confidence)[i] < 0.95) uncertain += cloud.V[i];
-    }
-    os << std::setprecision(3) << "; " << 100.0 * uncertain / std::max(total, 1e-300) << " % of the volume uncertain";
-  }
+  if (confidence && confidence->size() == cloud.size())
+    os << std::setprecision(3) << "; " << 100.0 * inference::uncertainVolumeFraction(cloud.V, *confidence)
+       << " % of the volume uncertain";
   return os.str();
 }
 

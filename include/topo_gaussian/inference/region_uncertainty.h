@@ -64,6 +64,11 @@ struct RegionUncertainty {
   std::string sentence;                  ///< for a person
 };
 
+/// The share of the volume whose label is uncertain: Σ V_i [confidence_i < level] / Σ V_i (0 for an empty
+/// cloud); confidence as RegionUncertainty::confidence or InferenceResult::solid_confidence.
+double uncertainVolumeFraction(const std::vector<double>& V, const std::vector<double>& confidence,
+                               double level = 0.95);
+
 /// Volume IoU Σ V_i min(a_i, b_i) / Σ V_i max(a_i, b_i) of two indicator fields (labels 0/1 or fractions
 /// in [0, 1]); 1 when both are empty. Throws TopoError for sizes that differ from V's.
 double volumeIou(const std::vector<double>& V, const std::vector<double>& a, const std::vector<double>& b);
