@@ -14,6 +14,7 @@
 #include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/inference/motion_targets.h"
 #include "topo_gaussian/inference/oscillation.h"
+#include "topo_gaussian/inference/task.h"
 #include "topo_gaussian/vision/motion_features.h"
 #include "topo_gaussian/vision/motion_tracker.h"
 
@@ -48,8 +49,11 @@ std::vector<Vector3d> surfaceSamples(const PeerRegion& R) {
     const double z = 1.0 - 2.0 * (k + 0.5) / n, r = std::sqrt(1.0 - z * z);
     Vector3d u(r * std::cos(golden * k), r * std::sin(golden * k), z);
     if (R.kind == PeerRegion::Box) u /= u.cwiseAbs().maxCoeff();  // onto the cube's faces
-    const Vector3d scale = R.kind == PeerRegion::Sphere ? Vector3d::Constant(R.half.x()) : R.half;
-    out.push_back(R.centre + u.cwiseProduct(scale));
+    const bool round = R.kind == PeerRegion::Sphere || R.kind == PeerRegion::SphereBelow;
+    const Vector3d scale = round ? Vector3d::Constant(R.half.x()) : R.half;
+    Vector3d x = R.centre + u.cwiseProduct(scale);
+    if (R.kind == PeerRegion::SphereBelow) x.z() = std::min(x.z(), R.cut_z_m);  // onto the flat face
+    out.push_back(x);
   }
   return out;
 }
@@ -72,6 +76,52 @@ peer::RockingOptions rockingOptions(const inference::TaskConfig& c, double durat
 
 }  // namespace
 
+bool PeerRegion::inside(const Vector3d& x) const {
+  const Vector3d d = x - centre;
+  switch (kind) {
+    case Sphere:
+      return d.norm() < half.x();
+    case SphereBelow:
+      return d.norm() < half.x() && x.z() < cut_z_m;
+    case Ellipsoid:
+      return d.cwiseQuotient(half).squaredNorm() < 1.0;
+    case Box:
+      return (d.cwiseAbs() - half).maxCoeff() < 0.0;
+    case HalfSpace:
+      return normal.dot(d) > 0.0;
+  }
+  return false;
+}
+
+MassProperties sphereBelowMoments(const Vector3d& c, double R, double cut_z, double rho) {
+  if (!(R > 0) || !std::isfinite(R))
+    throw TopoError("sphere below a plane: radius_m", "is " + numberText(R) + ", not a positive length", "give r > 0");
+  const double z0 = c.z() - R, z1 = std::min(cut_z, c.z() + R);
+  if (!(z1 > z0))
+    throw TopoError("sphere below a plane: cut_z_m " + numberText(cut_z), "lies below the sphere",
+                    "cut it above its lowest point");
+  // ∫ f(z) dz over [z0, z1] by 5-point Gauss–Legendre (exact for degree ≤ 9); a²(z) = R² − (z − c_z)².
+  static const double xg[5] = {0.0, -0.5384693101056831, 0.5384693101056831, -0.9061798459386640,
+                                0.9061798459386640};
+  static const double wg[5] = {0.5688888888888889, 0.4786286704993665, 0.4786286704993665, 0.2369268850561891,
+                               0.2369268850561891};
+  auto integral = [&](auto f) {
+    double s = 0;
+    for (int k = 0; k < 5; ++k) s += wg[k] * f(0.5 * (z0 + z1) + 0.5 * (z1 - z0) * xg[k]);
+    return 0.5 * (z1 - z0) * s;
+  };
+  auto a2 = [&](double z) { return R * R - (z - c.z()) * (z - c.z()); };
+  const double V = integral([&](double z) { return M_PI * a2(z); });
+  const double zc = integral([&](double z) { return z * M_PI * a2(z); }) / V;
+  const double Iz = integral([&](double z) { return 0.5 * M_PI * a2(z) * a2(z); });
+  const double Ix = integral([&](double z) { return 0.25 * M_PI * a2(z) * a2(z) + (z - zc) * (z - zc) * M_PI * a2(z); });
+  MassProperties p;
+  p.mass = rho * V;
+  p.com = Vector3d(c.x(), c.y(), zc);
+  p.inertia = (rho * Eigen::Vector3d(Ix, Ix, Iz)).asDiagonal();
+  return p;
+}
+
 PeerObject makePeerObject(const geometry::SurfaceData& mesh, const PeerRegion& R, double density_body,
                           double density_region) {
   PeerObject o;
@@ -89,7 +139,8 @@ PeerObject makePeerObject(const geometry::SurfaceData& mesh, const PeerRegion& R
                             numberText(R.centre.z()) + ") m",
                         "reaches outside the object's mesh " + mesh.source,
                         "choose a region inside the object (its moments are exact only there)");
-    region = R.kind == PeerRegion::Sphere      ? peer::sphereMoments(R.centre, R.half.x(), d)
+    region = R.kind == PeerRegion::SphereBelow ? toMoments(sphereBelowMoments(R.centre, R.half.x(), R.cut_z_m, d))
+             : R.kind == PeerRegion::Sphere    ? peer::sphereMoments(R.centre, R.half.x(), d)
              : R.kind == PeerRegion::Ellipsoid ? peer::ellipsoidMoments(R.centre, R.half, d)
                                                : peer::boxMoments(R.centre, R.half, d);
   }
@@ -186,13 +237,36 @@ PeerRockingVideo observeRockingThroughPeerVideo(inference::TaskConfig& c, const 
   return v;
 }
 
-double peerRockingPeriod(const inference::TaskConfig& c, const PeerObject& object) {
+PeerHang peerHang(const inference::TaskConfig& c, const PeerObject& object) {
+  PeerHang h;
+  const Vector3d p = c.vector3("hanging_point");
+  const inference::RollPitch rest = inference::hangingRestPose(object.truth.com, p);
+  h.roll_deg = rest.roll_deg;
+  h.pitch_deg = rest.pitch_deg;
+  const Eigen::Matrix3d R = inference::targetRotation(rest.roll_deg, rest.pitch_deg);
+  const double g = c.vector3("gravity").norm(), amplitude = c.number("axle_swing_amplitude_deg");
+  for (int k = 0; k < 2; ++k) {
+    const double psi = (c.number("axle_heading_deg") + 90.0 * k) * M_PI / 180.0;
+    const Vector3d axle = R.transpose() * Vector3d(std::cos(psi), std::sin(psi), 0.0);
+    (k == 0 ? h.axle_swing_period_s : h.cross_axle_swing_period_s) = axleSwingPeriod(object.truth, p, axle, amplitude, g);
+  }
+  return h;
+}
+
+PeerRocking peerRocking(const inference::TaskConfig& c, const PeerObject& object) {
   const peer::RockingRun run =
       peer::rockOnGround(object.vertices, toMoments(object.truth), rockingOptions(c, c.number("duration_s")));
   const double dt = run.time_s.size() > 1 ? run.time_s[1] - run.time_s[0] : 0.0;
   const auto f = inference::analyseOscillation(run.tilt_deg, 0.0, dt, c.integer("measured_cycles"), true);
   if (!f.valid) throw TopoError("peer-world rocking (Bullet)", "shows no full period: " + f.message, "rock it longer");
-  return f.period;
+  PeerRocking out;
+  out.period_s = f.period;
+  out.max_tilt_deg = f.max_abs;
+  return out;
+}
+
+double peerRockingPeriod(const inference::TaskConfig& c, const PeerObject& object) {
+  return peerRocking(c, object).period_s;
 }
 
 }  // namespace topo_gaussian::bench

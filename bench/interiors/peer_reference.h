@@ -1,7 +1,8 @@
 // The peer world's reference observations for bench/interiors (`--world peer`): what the experiments
 // show of an object whose interior is known, made without this package's simulators or renderer.
 //   - Mass moments: exact, from the object's true mesh (signed tetrahedra) and the interior region's
-//     closed form (sphere, ellipsoid, box) or the mesh clipped by its plane (half-space):
+//     closed form (sphere, ellipsoid, box, a sphere cut by a horizontal plane) or the mesh clipped by its plane
+//     (half-space):
 //       M = ρ_body M(mesh) + (ρ_region − ρ_body) M(region ∩ mesh).
 //   - Hanging: the rest pose puts c straight below the point (roll, pitch of inference::targetRotation);
 //     a swing on a horizontal axle a through the point (the compound pendulum, exact for a rigid body on
@@ -15,6 +16,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -24,13 +26,23 @@
 
 namespace topo_gaussian::bench {
 
-/// The interior region R in the object's frame [m]: R = {x : n·(x − centre) > 0} for a half-space.
+/// The interior region R in the object's frame [m]: R = {x : n·(x − centre) > 0} for a half-space;
+/// SphereBelow: the sphere (centre, radius half.x()) below the horizontal plane z = cut_z_m (a cavity cut
+/// flat under an object's top, as the rig twin's default cavity under its pinned shell).
 struct PeerRegion {
-  enum Kind { Sphere, Ellipsoid, Box, HalfSpace } kind = Sphere;
+  enum Kind { Sphere, Ellipsoid, Box, HalfSpace, SphereBelow } kind = Sphere;
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   Eigen::Vector3d half = Eigen::Vector3d::Zero();  ///< radius (x), semi-axes or half edges [m]
   Eigen::Vector3d normal = Eigen::Vector3d::UnitX();
+  double cut_z_m = 0.0;  ///< SphereBelow: the cutting plane's height [m]
+  bool inside(const Eigen::Vector3d& x) const;
 };
+
+/// The exact moments of the part of the sphere (centre, radius) below z = cut_z_m at density_kg_m3: a solid
+/// of revolution about the vertical through the centre, its slices' integrals (polynomials of degree ≤ 4 in
+/// z) by 5-point Gauss–Legendre. Throws TopoError for a non-positive radius or a plane below the sphere.
+MassProperties sphereBelowMoments(const Eigen::Vector3d& centre_m, double radius_m, double cut_z_m,
+                                  double density_kg_m3);
 
 /// The object as the peer world knows it: its true mesh and exact moments.
 struct PeerObject {
@@ -68,6 +80,23 @@ struct PeerRockingVideo {
 PeerRockingVideo observeRockingThroughPeerVideo(inference::TaskConfig& config, const PeerObject& object,
                                                 double duration_s, double fps, double noise_scale,
                                                 const std::string& frames_dir = "");
+
+/// The hanging experiment `config` (its hanging_point, axle_heading_deg, axle_swing_amplitude_deg, gravity)
+/// in the peer world: the rest pose (hangingRestPose of the true centre of mass) and the periods of the swings
+/// on a horizontal axle through the point along world x turned by axle_heading_deg (axle_swing_period_s) and
+/// 90° more (cross_axle_swing_period_s), in that rest pose, by axleSwingPeriod.
+struct PeerHang {
+  double roll_deg = NAN, pitch_deg = NAN, axle_swing_period_s = NAN, cross_axle_swing_period_s = NAN;
+};
+PeerHang peerHang(const inference::TaskConfig& config, const PeerObject& object);
+
+/// Bullet's rocking of the object released at the config's tilt about its rocking axis (duration_s), by the
+/// task's rule (measured_cycles from the release): period [s] and largest tilt [deg], as numbers (a rocking
+/// axis the rig's camera along x does not see edge-on needs no video). Throws TopoError without a full period.
+struct PeerRocking {
+  double period_s = NAN, max_tilt_deg = NAN;
+};
+PeerRocking peerRocking(const inference::TaskConfig& config, const PeerObject& object);
 
 /// Bullet's rocking period [s] of the object released at the config's tilt about its rocking axis, by the
 /// task's rule (its measured_cycles, from the release): the held-out reference of a rocking experiment.
