@@ -27,7 +27,9 @@
 // experiments.
 //
 // Usage: bench_experiment_loop [--world ours|peer] [--max-experiments 5] [--quick] [--seed N]
-//                              [--max-evaluations N] [--restarts N] [--max-uncertain F]
+//                              [--max-evaluations N] [--restarts N] [--max-uncertain F] [--candidates all|static]
+//   --candidates static: the suggestions are hangs and axle swings only (IdentifiabilityOptions
+//   max_dynamic_candidates = 0: the loop never rocks it about another axis).
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -70,6 +72,7 @@ struct Options {
   int max_experiments = 5, max_evaluations = 0, restarts = 0;
   double max_uncertain = workflow::ExperimentLoopOptions().max_uncertain_fraction;
   unsigned seed = 1;
+  std::string candidates = "all";  ///< all | static (hangs and swings, never rock it)
 };
 
 void applyOverrides(TaskConfig& c, const Options& o) {
@@ -142,12 +145,18 @@ int main(int argc, char** argv) {
       o.restarts = std::atoi(next().c_str());
     else if (a == "--max-uncertain")
       o.max_uncertain = std::atof(next().c_str());
-    else if (a == "--seed")
+    else if (a == "--candidates") {
+      o.candidates = next();
+      if (o.candidates != "all" && o.candidates != "static") {
+        std::fprintf(stderr, "bench_experiment_loop: --candidates %s: give all or static\n", o.candidates.c_str());
+        return 2;
+      }
+    } else if (a == "--seed")
       o.seed = static_cast<unsigned>(std::atoi(next().c_str()));
     else {
       std::fprintf(stderr,
                    "usage: bench_experiment_loop [--world ours|peer] [--max-experiments 5] [--quick] [--seed N] "
-                   "[--max-evaluations N] [--restarts N] [--max-uncertain F]\n");
+                   "[--max-evaluations N] [--restarts N] [--max-uncertain F] [--candidates all|static]\n");
       return 2;
     }
   }
@@ -261,7 +270,7 @@ int main(int argc, char** argv) {
         TaskConfig c = s.config;  // a rock about another axis: Bullet's numbers (the camera along x sees only x)
         const bench::PeerRocking r = bench::peerRocking(c, *peer);
         c.setNumber("period_s", r.period_s * (1.0 + noise.period_relative * N(rng)));
-        c.setNumber("max_tilt_deg", r.max_tilt_deg + noise.angle_deg * N(rng));
+        c.setNumber("max_tilt_deg", workflow::measuredMaxTilt(c, r.max_tilt_deg + noise.angle_deg * N(rng)));
         return c;
       };
     }
@@ -289,14 +298,20 @@ int main(int argc, char** argv) {
       first.addExperiment(name, 1.0, observed);
     }
 
-    std::printf("bench_experiment_loop --world %s%s: tumbler with the twin's default cavity (%s), inference cloud %zu "
+    std::printf("bench_experiment_loop --world %s%s%s: tumbler with the twin's default cavity (%s), inference cloud %zu "
                 "particles at %.4f m\n",
-                o.peer ? "peer" : "ours", o.quick ? " --quick" : "", world_note.c_str(), cloud.size(), cloud.spacing);
+                o.peer ? "peer" : "ours", o.quick ? " --quick" : "",
+                o.candidates == "static" ? " --candidates static" : "", world_note.c_str(), cloud.size(), cloud.spacing);
     std::printf("%4s %3s %-10s %-3s %-40s %9s %6s %7s %7s %7s %8s %8s\n", "step", "exp", "added", "det",
                 "determined moments", "uncert%", "IoU", "mass%", "CoM/L%", "inert%", "infer_s", "perf_s");
     workflow::ExperimentLoopOptions lo;
     lo.max_experiments = o.max_experiments;
     lo.max_uncertain_fraction = o.max_uncertain;
+    if (o.candidates == "static") {
+      IdentifiabilityOptions io_static;
+      io_static.max_dynamic_candidates = 0;
+      lo.identifiability = io_static;
+    }
     workflow::ExperimentLoopCallbacks cb;
     cb.truth_iou = cavity_iou;
     bool goal = false;
@@ -332,6 +347,16 @@ int main(int argc, char** argv) {
           json::quote(workflow::verdictName(s.decision.verdict)).c_str(), json::quote(s.decision.reason).c_str(),
           json::num(s.inference_s).c_str(), json::num(s.perform_s).c_str(), json::num(secondsSince(t0)).c_str());
       std::fflush(stdout);
+      for (const auto& e : res.final.experiments)
+        for (const auto& f : e.eval.features)
+          if (f.has_target)
+            std::fprintf(stderr, "[step %d]   %s.%s = %.6g (target %.6g, %+.3f %%)\n", s.step, e.name.c_str(),
+                         f.name.c_str(), f.value, f.target, f.target != 0 ? 100.0 * (f.value / f.target - 1) : NAN);
+      const auto& cands = res.identifiability.candidates;
+      for (std::size_t k = 0; k < cands.size() && k < 6; ++k)
+        std::fprintf(stderr, "[step %d]   candidate %zu: gain %.3f, directions after %d, fixes %s: %s\n", s.step, k + 1,
+                     cands[k].score_gain, cands[k].directions_after, names(cands[k].newly_determined).c_str(),
+                     cands[k].sentence.c_str());
       std::fprintf(stderr, "[step %d] %s\n[step %d] %s\n", s.step, res.identifiability.summary.c_str(), s.step,
                    res.region.available ? res.region.sentence.c_str() : res.region.note.c_str());
       if (!goal && s.free.empty() && s.truth_iou >= kGoalIou && n <= kGoalExperiments) {

@@ -11,6 +11,7 @@
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/common/stopwatch.h"
+#include "topo_gaussian/inference/interior_problem.h"
 #include "topo_gaussian/inference/region_uncertainty.h"
 #include "topo_gaussian/inference/task.h"
 #include "topo_gaussian/inference/task_registry.h"
@@ -96,7 +97,31 @@ std::string verdictName(LoopVerdict v) {
   return "unknown";
 }
 
+LoopEvidence loopEvidence(const IdentifiabilityAnalysis& a) {
+  LoopEvidence e;
+  e.analysed = a.available && a.moments.size() == 10;
+  if (e.analysed) {
+    for (const auto& m : a.moments)
+      if (!m.determined) e.free.push_back(m.name);
+  } else {
+    e.free = {"m", "cx", "cy", "cz", "Ixx", "Iyy", "Izz", "Ixy", "Ixz", "Iyz"};
+  }
+  e.has_suggestion = a.has_suggestion;
+  if (a.has_suggestion) {
+    e.suggestion = a.suggestion.sentence;
+    e.score_gain = a.suggestion.score_gain;
+    e.fixes_more = !a.suggestion.newly_determined.empty() || a.suggestion.directions_after > a.determined_directions;
+  }
+  if (!a.notes.empty()) e.note = a.notes.front();
+  return e;
+}
+
 LoopDecision decideNextStep(const IdentifiabilityAnalysis& a, double uncertain_fraction, int experiments_so_far,
+                            const ExperimentLoopOptions& o) {
+  return decideNextStep(loopEvidence(a), uncertain_fraction, experiments_so_far, o);
+}
+
+LoopDecision decideNextStep(const LoopEvidence& e, double uncertain_fraction, int experiments_so_far,
                             const ExperimentLoopOptions& o) {
   if (o.max_experiments < 1)
     throw TopoError("max_experiments " + std::to_string(o.max_experiments), "is below 1",
@@ -105,25 +130,18 @@ LoopDecision decideNextStep(const IdentifiabilityAnalysis& a, double uncertain_f
     throw TopoError("max_uncertain_fraction " + numberText(o.max_uncertain_fraction), "is negative or not a number",
                     "give the largest share of the volume that may stay uncertain, e.g. 0.02");
   LoopDecision d;
-  int determined = 0;
-  std::vector<std::string> free;
-  for (const auto& m : a.moments) {
-    if (m.determined)
-      ++determined;
-    else
-      free.push_back(m.name);
-  }
-  const bool all = a.available && a.moments.size() == 10 && determined == 10;
+  const bool all = e.analysed && e.free.empty();
   const bool small = uncertain_fraction <= o.max_uncertain_fraction;  // false for NaN
   const std::string region =
       std::isfinite(uncertain_fraction)
           ? numberText(100.0 * uncertain_fraction, 3) + " % of the volume uncertain (goal at most " +
                 numberText(100.0 * o.max_uncertain_fraction, 3) + " %)"
           : "the uncertain volume not known (no region analysis)";
-  const std::string moments = a.available ? (all ? std::string("all ten moments determined")
-                                                 : std::to_string(determined) + " of ten moments determined (free: " +
-                                                       joined(free) + ")")
-                                          : std::string("the moments not analysed");
+  const std::string moments =
+      e.analysed ? (all ? std::string("all ten moments determined")
+                        : std::to_string(10 - static_cast<int>(e.free.size())) + " of ten moments determined (free: " +
+                              joined(e.free) + ")")
+                 : std::string("the moments not analysed");
   if (all && small) {
     d.verdict = LoopVerdict::GoalReached;
     d.reason = "goal reached: " + moments + " and " + region;
@@ -135,26 +153,24 @@ LoopDecision decideNextStep(const IdentifiabilityAnalysis& a, double uncertain_f
                std::to_string(o.max_experiments) + "): " + moments + ", " + region;
     return d;
   }
-  if (!a.available) {
+  if (!e.analysed) {
     d.verdict = LoopVerdict::NotAnalysed;
-    d.reason = "stopped: what the experiments determine was not analysed" +
-               (a.notes.empty() ? std::string() : " (" + a.notes.front() + ")");
+    d.reason = "stopped: what the experiments determine was not analysed" + (e.note.empty() ? "" : " (" + e.note + ")");
     return d;
   }
-  if (!a.has_suggestion) {
+  if (!e.has_suggestion) {
     d.verdict = LoopVerdict::NoSuggestion;
     d.reason = "stopped: no candidate experiment improves what is determined; " + moments + ", " + region;
     return d;
   }
-  const auto& s = a.suggestion;
-  if (s.score_gain < o.min_score_gain && s.newly_determined.empty() && s.directions_after <= a.determined_directions) {
+  if (e.score_gain < o.min_score_gain && !e.fixes_more) {
     d.verdict = LoopVerdict::NoGain;
-    d.reason = "stopped: the best suggestion (" + s.sentence + ") gains nothing (score gain " +
-               numberText(s.score_gain, 3) + "); " + moments + ", " + region;
+    d.reason = "stopped: the best suggestion (" + e.suggestion + ") gains nothing (score gain " +
+               numberText(e.score_gain, 3) + "); " + moments + ", " + region;
     return d;
   }
   d.verdict = LoopVerdict::Continue;
-  d.reason = "continue: " + moments + ", " + region + "; next: " + s.sentence;
+  d.reason = "continue: " + moments + ", " + region + "; next: " + e.suggestion;
   return d;
 }
 
@@ -210,6 +226,11 @@ ExperimentLoopResult runExperimentLoop(const VolumeCloud& cloud, const TaskConfi
     const auto t0 = Clock::now();
     inference::InferenceResult res =
         inference::runInference(out.experiments, cloud, callbacks.progress, nullptr, callbacks.should_stop);
+    if (options.identifiability && !res.cancelled && res.identifiability.available) {
+      inference::InteriorProblem problem(out.experiments, cloud);
+      problem.setShouldStop(callbacks.should_stop);
+      res.identifiability = inference::analyseIdentifiability(problem, res.theta, res.final, *options.identifiability);
+    }
     rec.inference_s = secondsSince(t0);
     const IdentifiabilityAnalysis& id = res.identifiability;
     for (const auto& m : id.moments) (m.determined ? rec.determined : rec.free).push_back(m.name);
@@ -261,6 +282,12 @@ ExperimentLoopResult runExperimentLoop(const VolumeCloud& cloud, const TaskConfi
   }
   out.seconds = secondsSince(t_loop);
   return out;
+}
+
+double measuredMaxTilt(const TaskConfig& config, double tilt_deg) {
+  if (!config.has("initial_tilt_deg")) return tilt_deg;
+  const double release = std::abs(config.number("initial_tilt_deg"));
+  return tilt_deg <= 1.01 * release ? release : tilt_deg;
 }
 
 TwinPerformer::TwinPerformer(const RigTwin& twin, const MeasurementNoise& noise)
@@ -315,7 +342,7 @@ TaskConfig TwinPerformer::perform(const TaskConfig& config, bool weigh, bool swi
       throw TopoError("twin performer: " + c.task() + " experiment", "the true interior shows no rocking period",
                       "release it further from rest (initial_tilt_deg) or simulate longer (duration_s)");
     c.setNumber("period_s", period * (1.0 + noise_.period_relative * N(rng_)));
-    c.setNumber("max_tilt_deg", tilt + noise_.angle_deg * N(rng_));
+    c.setNumber("max_tilt_deg", measuredMaxTilt(c, tilt + noise_.angle_deg * N(rng_)));
     return c;
   }
   throw TopoError("twin performer: experiment of task " + c.task(), "is not one the twin can perform",

@@ -79,6 +79,21 @@ TEST(ExperimentLoop, StopsAtTheMostExperimentsOrWithoutAUsefulSuggestion) {
   EXPECT_THROW(decideNextStep(a, 0.01, 1, bad), TopoError);
 }
 
+TEST(ExperimentLoop, TheRuleReadsThePlainEvidenceOfAnActionResultAlike) {
+  const IdentifiabilityAnalysis a = analysisWith(7);
+  const LoopEvidence e = loopEvidence(a);
+  EXPECT_TRUE(e.analysed);
+  EXPECT_EQ(e.free, (std::vector<std::string>{"Ixy", "Ixz", "Iyz"}));
+  EXPECT_EQ(e.suggestion, a.suggestion.sentence);
+  for (double f : {0.01, 0.5})
+    for (int n : {3, 5}) EXPECT_EQ(decideNextStep(e, f, n).verdict, decideNextStep(a, f, n).verdict);
+  LoopEvidence done;  // what a front end fills from a result: nothing free, a small uncertain volume
+  done.analysed = true;
+  EXPECT_EQ(decideNextStep(done, 0.015, 4).verdict, LoopVerdict::GoalReached);
+  EXPECT_EQ(decideNextStep(done, 0.2, 4).verdict, LoopVerdict::NoSuggestion);
+  EXPECT_EQ(decideNextStep(LoopEvidence{}, 0.015, 4).verdict, LoopVerdict::NotAnalysed);
+}
+
 TEST(ExperimentLoop, SuggestionOverridesReproduceTheSuggestedConfig) {
   ExperimentSuggestion hang;
   hang.kind = "swing";

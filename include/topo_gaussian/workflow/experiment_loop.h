@@ -26,6 +26,7 @@
 #pragma once
 
 #include <functional>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -44,6 +45,10 @@ struct ExperimentLoopOptions {
   /// (the tumbler's default) recovered with IoU 0.85 has about 2 % of the volume on the wrong side.
   double max_uncertain_fraction = 0.02;
   double min_score_gain = 1e-6;  ///< a suggestion gaining less (and fixing nothing new) ends the loop
+  /// Set: after each inference the analysis is made again with these options (the candidates a lab
+  /// offers: swing_candidates = false without an axle, max_dynamic_candidates = 0 to never rock it);
+  /// unset: runInference's own analysis (the defaults).
+  std::optional<inference::IdentifiabilityOptions> identifiability;
 };
 
 /// What decideNextStep concludes.
@@ -58,11 +63,26 @@ struct LoopDecision {
 /// "continue", "goal_reached", "max_experiments", "not_analysed", "no_suggestion", "no_gain".
 std::string verdictName(LoopVerdict verdict);
 
+/// What the rule reads of an analysis, in the plain form an action result carries (a front end that has
+/// only the result's moment names and suggestion fills it itself).
+struct LoopEvidence {
+  bool analysed = false;              ///< IdentifiabilityAnalysis::available
+  std::vector<std::string> free;      ///< names of the moments not determined (all ten when not analysed)
+  bool has_suggestion = false;
+  std::string suggestion;             ///< its sentence
+  double score_gain = 0.0;            ///< ExperimentSuggestion::score_gain
+  bool fixes_more = false;            ///< it determines a further moment or combination of the moments
+  std::string note;                   ///< why not analysed (the analysis's first note)
+};
+LoopEvidence loopEvidence(const inference::IdentifiabilityAnalysis& analysis);
+
 /// The stopping rule (header comment) on an inference's analysis, its uncertain volume fraction
 /// (NaN: unknown) and the object's experiment count. Throws TopoError for max_experiments < 1 or a
 /// negative max_uncertain_fraction.
 LoopDecision decideNextStep(const inference::IdentifiabilityAnalysis& analysis, double uncertain_fraction,
                             int experiments_so_far, const ExperimentLoopOptions& options = {});
+LoopDecision decideNextStep(const LoopEvidence& evidence, double uncertain_fraction, int experiments_so_far,
+                            const ExperimentLoopOptions& options = {});
 
 /// The share of the volume an inference leaves uncertain: uncertainVolumeFraction of its solid_confidence
 /// (cloud.V), NaN when it has none (the region analysis did not run).
@@ -142,13 +162,18 @@ struct MeasurementNoise {
   unsigned seed = 1;
 };
 
+/// A rocking experiment's measured largest tilt by the rule of inference/motion_targets.h: a value that does
+/// not exceed the release tilt (initial_tilt_deg) by 1 % is the release tilt (a doll released at rest always
+/// reaches it); others as given.
+double measuredMaxTilt(const inference::TaskConfig& config, double tilt_deg);
+
 /// Performs experiments on a RigTwin (its cloud with surface on the true boundary, its true interior):
 ///   hanging   the rest pose of the true centre of mass below hanging_point (hangingRestPose) as
 ///             target_roll_deg / target_pitch_deg (+ angle noise); a swing (the config asks for
 ///             axle_swing_period_s or cross_axle_swing_period_s, or the suggestion's kind is "swing")
 ///             also both axle periods simulated in that true pose (× period noise); weighed: mass_kg;
 ///   rocking   (a task with a rocking axis, tumbler) the simulated period_s (× period noise) and
-///             max_tilt_deg (+ angle noise) of the true interior released as configured.
+///             max_tilt_deg (+ angle noise, then measuredMaxTilt) of the true interior released as configured.
 /// Other tasks are refused (TopoError naming the task).
 class TwinPerformer {
  public:
