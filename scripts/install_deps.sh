@@ -15,7 +15,7 @@ PACKAGES=(
   libeigen3-dev libnlopt-cxx-dev libyaml-cpp-dev libgtest-dev nlohmann-json3-dev
   libbullet-dev
   libavformat-dev libavcodec-dev libavutil-dev  # a phone video's rotation metadata in a test (vision_container_rotation)
-  calculix-ccx gmsh tetgen  # soft-body peer (test/unit/calculix_peer.h): C3D10 FEM, its mesher
+  calculix-ccx gmsh tetgen  # soft-body peer (bench/peer_world/calculix_peer.h): C3D10 FEM, its mesher
   libsuitesparse-dev libopenblas-dev
   libopenmpi-dev
   clang libclang-rt-14-dev

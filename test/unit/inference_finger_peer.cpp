@@ -36,7 +36,7 @@
 #include <cstdio>
 #include <cstdlib>
 
-#include "calculix_peer.h"
+#include "peer_world/calculix_peer.h"
 #include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/geometry/interior_fill.h"
 #include "topo_gaussian/geometry/shape_generator.h"

@@ -14,7 +14,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "calculix_peer.h"
+#include "peer_world/calculix_peer.h"
 #include "topo_gaussian/geometry/interior_fill.h"
 #include "topo_gaussian/geometry/shape_generator.h"
 #include "topo_gaussian/inference/task.h"

@@ -1,5 +1,6 @@
-// CalculiX peer for the soft-body tests (DESIGN.md "Physics": soft bodies held to a FEM peer; issue
-// 15 §3). Standard library only, so any test (core_*, inference_*) can use it.
+// CalculiX peer for the soft-body tests and the peer world's finger (calculix_finger.h; DESIGN.md
+// "Physics": soft bodies held to a FEM peer). Header-only, standard library only, so any test
+// (core_*, inference_*; include dir bench) can use it.
 //
 // Geometry: a union of axis-aligned boxes ("voxels" of a structured grid, possibly with cells left
 // out for a void such as the finger's chamber), meshed here with quadratic tetrahedra C3D10: every
@@ -11,7 +12,8 @@
 // Analyses (one ccx run each, in a fresh temporary directory, removed afterwards):
 //  - staticSolve: linear elastic (or NLGEOM) static step under gravity and/or a pressure on the
 //    faces of a void, nodes with x ≤ clamp_x fixed; node displacements parsed from the .dat file
-//    (*NODE PRINT, U);
+//    (*NODE PRINT, U; every printed block is kept with its time, Result::blocks, so a deck of several
+//    steps, e.g. a ladder of pressures, reads each step's end);
 //  - firstFrequency: *FREQUENCY, lowest eigenfrequency [Hz] from the .dat's eigenvalue table.
 // C3D10 node order (CalculiX / Abaqus): corners 1–4 (positive volume), then mid-edges 1-2, 2-3, 3-1,
 // 1-4, 2-4, 3-4. Element faces: 1 = 1-2-3, 2 = 1-4-2, 3 = 2-4-3, 4 = 3-4-1; a positive face pressure
@@ -222,7 +224,10 @@ struct Load {
 
 /// ccx's output of one run.
 struct Result {
-  std::vector<Vec3> displacement;  ///< per node (static), [m]
+  std::vector<Vec3> displacement;  ///< per node (static), [m]: the last block printed
+  /// every displacement block of the .dat in order, with the time ccx printed on its header
+  std::vector<std::vector<Vec3>> blocks;
+  std::vector<double> block_times;
   double first_frequency_hz = NAN;
   std::string log;  ///< ccx's output when it failed
 };
@@ -279,8 +284,11 @@ inline Result run(const std::string& deck, const std::string& what) {
   bool disp = false, eig = false;
   while (std::getline(in, line)) {
     if (line.find("displacements (vx,vy,vz)") != std::string::npos) {
+      if (disp || !r.displacement.empty()) r.blocks.push_back(r.displacement);
       disp = true;
       r.displacement.clear();
+      const std::size_t at = line.find(" time");
+      r.block_times.push_back(at == std::string::npos ? NAN : std::atof(line.c_str() + at + 5));
       continue;
     }
     if (line.find("E I G E N V A L U E   O U T P U T") != std::string::npos) {
@@ -306,6 +314,7 @@ inline Result run(const std::string& deck, const std::string& what) {
       }
     }
   }
+  if (!r.block_times.empty()) r.blocks.push_back(r.displacement);
   return r;
 }
 
