@@ -352,6 +352,20 @@ int main(int argc, char** argv) {
           if (f.has_target)
             std::fprintf(stderr, "[step %d]   %s.%s = %.6g (target %.6g, %+.3f %%)\n", s.step, e.name.c_str(),
                          f.name.c_str(), f.value, f.target, f.target != 0 ? 100.0 * (f.value / f.target - 1) : NAN);
+      {  // each moment's relative std and the size of its part in J's null space (√Σ_null V_jk²)
+        const auto& id = res.identifiability;
+        std::string line;
+        for (int j = 0; j < static_cast<int>(id.moments.size()); ++j) {
+          double null2 = 0;
+          for (int k = id.rank; k < 10; ++k) null2 += id.V(j, k) * id.V(j, k);
+          char b[120];
+          std::snprintf(b, sizeof b, " %s %.3g%%/%.2g", id.moments[j].name.c_str(), 100 * id.moments[j].std_relative,
+                        std::sqrt(null2));
+          line += b;
+        }
+        std::fprintf(stderr, "[step %d]   sigma %.3g, rank %d; std%%/null part:%s\n", s.step, id.noise_scale, id.rank,
+                     line.c_str());
+      }
       const auto& cands = res.identifiability.candidates;
       for (std::size_t k = 0; k < cands.size() && k < 6; ++k)
         std::fprintf(stderr, "[step %d]   candidate %zu: gain %.3f, directions after %d, fixes %s: %s\n", s.step, k + 1,

@@ -221,7 +221,12 @@ IdentifiabilityAnalysis analyseMomentJacobian(const MomentJacobian& J_si, const 
       else
         var += v2 / (a.singular_values(k) * a.singular_values(k));
     }
-    mi.std_relative = in_null > 1e-12 ? kInf : noise_scale * std::sqrt(var);
+    // A part in J's null space moves the moment with no observation changing. Along a free direction one
+    // natural unit long (about the object's whole extent for c, its own size for I) a part below the
+    // threshold moves it by less than the threshold: that part counts as a spread, not as free (a hang whose
+    // measured rest pose is pitched by a fraction of a degree couples cx to a free cz by the pitch's sine).
+    const double null_part = std::sqrt(in_null);
+    mi.std_relative = null_part >= threshold ? kInf : std::sqrt(noise_scale * noise_scale * var + in_null);
     mi.std = mi.std_relative * u(j);
     mi.determined = mi.std_relative < threshold;
     (mi.determined ? determined : free).push_back(j);

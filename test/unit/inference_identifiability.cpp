@@ -645,6 +645,30 @@ TEST(Identifiability, AMomentIsDeterminedRelativeToItsOwnSize) {
   EXPECT_THROW(analyseMomentJacobian(J, own, 0.02, 0.0), TopoError);
 }
 
+// A moment with a small part in J's null space is not free: one observation of cx + ε cz with cz unobserved
+// (a hang whose measured rest pose is pitched by asin ε) leaves cx within ε of its own size along the free
+// direction; it is determined while ε is below the threshold, free (std ∞) from it on.
+TEST(Identifiability, ASmallPartInTheNullSpaceIsASpreadNotFree) {
+  auto analysis = [](double eps) {
+    MomentJacobian J = MomentJacobian::Zero(9, 10);
+    int row = 0;
+    for (int j = 0; j < 10; ++j)
+      if (j != 1 && j != 3) J(row++, j) = 1e4;  // every moment but cx and cz measured to 1e-4
+    J(row, 1) = 1e4;                               // cx + eps cz to 1e-4
+    J(row, 3) = 1e4 * eps;
+    return analyseMomentJacobian(J, MomentVector::Ones());
+  };
+  const IdentifiabilityAnalysis pitched = analysis(std::sin(0.2 * M_PI / 180.0));
+  EXPECT_TRUE(pitched.moments[1].determined) << pitched.moments[1].std_relative;
+  EXPECT_NEAR(pitched.moments[1].std_relative, std::sin(0.2 * M_PI / 180.0), 1e-4);
+  EXPECT_FALSE(pitched.moments[3].determined);
+  EXPECT_TRUE(std::isinf(pitched.moments[3].std));
+  const IdentifiabilityAnalysis coupled = analysis(0.05);
+  EXPECT_FALSE(coupled.moments[1].determined);
+  EXPECT_TRUE(std::isinf(coupled.moments[1].std)) << "a 5 % part in the free direction is free";
+  EXPECT_TRUE(analysis(0.0).moments[1].determined);
+}
+
 // The stds follow the fit's σ̂ (χ² over the redundant observations), as the region analysis's noise does:
 // observations the design misses by several tolerances widen them, an exact fit narrows them to the floor.
 TEST(Identifiability, UnfitObservationsWidenTheStds) {

@@ -10,7 +10,10 @@
 //   Cov = σ̂² (JᵀJ)⁺,   std_j = u_j √Cov_jj,   σ̂ = fitNoiseScale(χ², n − rank)
 // (χ² = Σ whitened residuals² of the n measured observations; √(χ² / its lower decile) with n − rank
 // degrees of freedom, the region analysis's σ̂; 1 without redundant observations), with a moment
-// FREE (std = ∞) when it has a component in the null space of J. A moment is DETERMINED when
+// FREE (std = ∞) when its component in the null space of J, √Σ_null V_jk², reaches the threshold; a
+// smaller one (a free direction one natural unit long moves it by less than the threshold: a hang's
+// noisy rest pitch couples cx to a free cz by its sine) adds to the variance,
+//   std_j/u_j = √(σ̂² Σ_pinned V_jk²/s_k² + Σ_null V_jk²).   A moment is DETERMINED when
 // std_j < threshold · u_j (default 2 % of its own size: an inertia known to 2 % of itself, not of
 // m L², which for a box is about a third of its principal moments). The singular values s_k of J say how well each
 // direction V_k of p/u is pinned: its std is 1/s_k natural units. Through the representation,
@@ -42,7 +45,7 @@ struct MomentIdentification {
   std::string words;  ///< "the mass", "the centre of mass along x", "the inertia Ixx"
   std::string unit;   ///< "kg", "m", "kg m^2"
   double natural_unit = 1.0;
-  double std = 0.0;           ///< linearised standard deviation [unit]; +inf when free
+  double std = 0.0;           ///< linearised standard deviation [unit]; +inf when free (header)
   double std_relative = 0.0;  ///< std / natural_unit
   bool determined = false;    ///< std_relative < threshold
 };
