@@ -7,7 +7,9 @@
 # rig's features agree within 2 % of the twin's truth.
 #   tumbler: demo.launch (rig_simulator, cloud_ingest filling the twin's scan, motion_tracker,
 #            interior_inference), three experiments: released at 10 and at 25 deg, and hung from a
-#            point on its top 4 cm off its axis;
+#            point on its top 4 cm off its axis; then the loop: the twin performs the experiment each
+#            result suggests (rig_simulator's ~perform_experiment) and the inference runs again on all of
+#            them, until the result's rule stops or the doll has TOPO_DEMO_EXPERIMENTS (5) experiments;
 #   finger:  soft_finger_rig.launch (the finger twin stepping its chamber pressure 0 -> 5e5 Pa,
 #            motion_tracker kind finger, interior_inference on the default finger), one bend.
 #   scripts/demo.sh [BUILD_DIR] [OUTPUT_DIR]        (RIG in the environment)
@@ -60,7 +62,7 @@ VERDICTS=()
 status=0
 if [ "$RIG" = tumbler ] || [ "$RIG" = all ]; then
   run_rig tumbler demo.launch _experiments:="rock10=tumbler;rock25=tumbler;hang=hanging" \
-      _weigh_topic:=/scale_kg _weigh_experiment:=hang \
+      _weigh_topic:=/scale_kg _weigh_experiment:=hang _auto_experiments:="${TOPO_DEMO_EXPERIMENTS:-5}" \
       _overrides:="contact_damping_ratio=0;measured_cycles=1;density_solid=5000;rock25.initial_tilt_deg=25;hang.hanging_point=0,0.04,0.02" \
       || status=$?
 fi

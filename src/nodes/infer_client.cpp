@@ -14,6 +14,10 @@
 //   before sending; 0 = send at once), ~ground_truth_topic (""), ~tolerance (0.02), ~timeout_s (900),
 //   ~weigh_topic ("": a std_msgs/Float64 scale reading [kg], e.g. /scale_kg of a rig_simulator, added as the
 //   target mass_kg of ~weigh_experiment (a hanging, balance or stand experiment; "" with a single experiment)
+//   ~auto_experiments (0): after the result, let the rig perform the suggested next experiment (~perform_service,
+//   /rig_simulator/perform_experiment; the tracker gets its predicted rest tilt on `tilt_reference`), wait for
+//   its measured window and infer again with the object's experiments so far (~object_id, "demo_object"), until
+//   the result's loop rule stops or the object has this many experiments; a line per step.
 // Exit codes: 0 done (and within tolerance of the truth), 1 aborted / timed out / bad parameters,
 // 3 finished but the truth was not reproduced.
 #include <actionlib/client/simple_action_client.h>
@@ -21,6 +25,7 @@
 
 #include <sensor_msgs/point_cloud2_iterator.h>
 #include <std_msgs/Float64.h>
+#include <std_msgs/String.h>
 
 #include <Eigen/Core>
 #include <algorithm>
@@ -34,6 +39,7 @@
 
 #include "topo_gaussian/InferInteriorAction.h"
 #include "topo_gaussian/MotionFeatures.h"
+#include "topo_gaussian/PerformExperiment.h"
 #include "topo_gaussian/RigGroundTruth.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/ros/ascii_text.h"
@@ -64,6 +70,8 @@ struct Options {
   topo_gaussian::InferInteriorGoal goal;
   double wait_s = 120, tolerance = 0.02, timeout_s = 900;
   std::string truth_topic, weigh_topic, weigh_experiment;
+  int auto_experiments = 0;  ///< perform suggested experiments until the object has this many (0: never)
+  std::string perform_service = "/rig_simulator/perform_experiment";
 };
 
 Options readOptions(const ros::NodeHandle& pnh) {
@@ -95,6 +103,13 @@ Options readOptions(const ros::NodeHandle& pnh) {
   o.truth_topic = r.text("ground_truth_topic", "");
   o.weigh_topic = r.text("weigh_topic", "");
   o.weigh_experiment = r.text("weigh_experiment", "");
+  o.auto_experiments = int(r.integer("auto_experiments", 0, "", Range::atLeast(0)));
+  o.perform_service = r.text("perform_service", o.perform_service);
+  o.goal.object_id = r.text("object_id", o.auto_experiments > 0 ? "demo_object" : "");
+  if (o.auto_experiments > 0 && o.goal.object_id.empty())
+    throw topo_gaussian::TopoError(r.displayName("object_id"), "is empty while ~auto_experiments is set",
+                                   "name the object (its experiments are kept across goals under it), or leave "
+                                   "~object_id unset");
   return o;
 }
 
@@ -116,8 +131,10 @@ bool addWeighing(Options* o) {
   return true;
 }
 
-/// A measured window of every experiment (motion_tracker tags them with the `experiment` topic).
-bool waitForExperiments(const Options& o) {
+/// A measured window of every experiment of the goal (motion_tracker tags them with the `experiment` topic):
+/// an oscillation for a tilt or pendulum window, or, with `equilibrium_suffices` (a hang the rig performs:
+/// its rest tilt is the target, and a swing seen end-on may show no oscillation), a measured equilibrium.
+bool waitForExperiments(const Options& o, bool equilibrium_suffices = false) {
   std::set<std::string> names;
   for (const auto& e : o.goal.experiments) names.insert(e.substr(0, e.find('=')));
   std::printf("[demo] waiting up to %.0f s for measured motion of %zu experiments on motion_features ...\n", o.wait_s,
@@ -130,7 +147,9 @@ bool waitForExperiments(const Options& o) {
       "motion_features", 10, [&](const topo_gaussian::MotionFeatures::ConstPtr& f) {
         // A motion the task analyses as an oscillation needs one; a static pose its equilibrium.
         const bool oscillates = f->kind == "tilt" || f->kind == "pendulum";
-        if (!(oscillates ? f->oscillation_found : measured(*f)) || !names.count(f->experiment)) return;
+        const bool ok = oscillates ? f->oscillation_found || (equilibrium_suffices && f->equilibrium_confidence > 0)
+                                   : measured(*f);
+        if (!ok || !names.count(f->experiment)) return;
         std::lock_guard<std::mutex> lock(mutex);
         if (!seen.count(f->experiment))
           std::printf("[demo] tracker, experiment %s (%s): period %.4f s, max tilt %.3f deg, equilibrium %.3f deg\n",
@@ -257,16 +276,10 @@ void printInterior(const topo_gaussian::InferInteriorResult& res, const topo_gau
 
 /// How sure, and what the experiments determine.
 void printCertainty(const topo_gaussian::InferInteriorResult& res) {
-  // the share of particles whose label the designs that fit (spread, region analysis) disagree on
-  bool has = false;
-  for (const auto& f : res.interior.fields) has = has || f.name == "confidence";
-  if (has && res.interior.width * res.interior.height > 0) {
-    sensor_msgs::PointCloud2ConstIterator<float> c(res.interior, "confidence");
-    std::size_t n = 0, unsure = 0;
-    for (; c != c.end(); ++c, ++n) unsure += *c < 0.999f;
-    std::printf("[demo] %.1f %% of the particles are uncertain (designs that fit the observations disagree on them)\n",
-                100.0 * double(unsure) / double(std::max<std::size_t>(n, 1)));
-  }
+  // the share of the volume whose label the designs that fit (spread, region analysis) disagree on
+  if (std::isfinite(res.uncertain_fraction))
+    std::printf("[demo] %.1f %% of the volume is uncertain (designs that fit the observations disagree on it)\n",
+                100.0 * res.uncertain_fraction);
   if (!res.identifiability.empty()) {
     std::string det, fr;
     for (const auto& m : res.determined_moments) det += (det.empty() ? "" : " ") + m;
@@ -276,6 +289,66 @@ void printCertainty(const topo_gaussian::InferInteriorResult& res) {
     std::printf("[demo] %s\n", res.identifiability.c_str());
     if (!res.next_experiment.empty()) std::printf("[demo] next: %s\n", res.next_experiment.c_str());
   }
+}
+
+/// The rig performs the result's next experiment as `name` (the tracker told the tilt it will rest at);
+/// `next` becomes the goal of that experiment alone (the object's earlier ones join it in the node), with
+/// its set-up overrides and the rig's readings (timed periods, the hung pitch) as its targets, once the
+/// tracker has measured it. False (printed why): the
+/// rig refused or is not there, or no measured window came.
+bool performNext(const topo_gaussian::InferInteriorResult& res, const std::string& name, const Options& first,
+                 ros::Publisher* tilt_reference, Options* next) {
+  if (std::isfinite(res.next_experiment_tilt_deg)) {
+    for (int k = 0; k < 20 && tilt_reference->getNumSubscribers() == 0; ++k) ros::WallDuration(0.1).sleep();
+    std_msgs::String m;
+    char deg[32];
+    std::snprintf(deg, sizeof(deg), "%.3f", res.next_experiment_tilt_deg);
+    m.data = name + "=" + deg;
+    tilt_reference->publish(m);
+  }
+  ros::NodeHandle nh;
+  ros::ServiceClient perform = nh.serviceClient<topo_gaussian::PerformExperiment>(first.perform_service);
+  if (!perform.waitForExistence(ros::Duration(10.0))) {
+    std::printf("[demo] loop: no rig performs experiments on %s (~perform_service): stopping here\n",
+                first.perform_service.c_str());
+    return false;
+  }
+  topo_gaussian::PerformExperiment srv;
+  srv.request.name = name;
+  srv.request.task = res.next_experiment_task;
+  srv.request.overrides = res.next_experiment_overrides;
+  srv.request.instruments = res.next_experiment_instruments;
+  std::printf("[demo] loop: the rig performs %s: %s\n", name.c_str(), res.next_experiment.c_str());
+  std::fflush(stdout);
+  if (!perform.call(srv)) {
+    std::printf("[demo] loop: the call to %s failed: stopping here\n", first.perform_service.c_str());
+    return false;
+  }
+  std::printf("[demo] loop: rig: %s\n", srv.response.message.c_str());
+  if (!srv.response.accepted) return false;
+  *next = first;
+  next->goal.task.clear();
+  next->goal.experiments = {name + "=" + res.next_experiment_task};
+  next->goal.overrides.clear();
+  for (const auto& a : res.next_experiment_overrides) next->goal.overrides.push_back(name + "." + a);
+  next->goal.targets.clear();
+  for (const auto& r : srv.response.readings) next->goal.targets.push_back(name + "." + r);
+  next->goal.features = topo_gaussian::MotionFeatures();
+  return waitForExperiments(*next, res.next_experiment_kind == "hang" || res.next_experiment_kind == "swing");
+}
+
+/// One line per loop step: what the experiments determine, how much is uncertain, the IoU against the twin.
+void printLoopStep(int step, const topo_gaussian::InferInteriorResult& res, const topo_gaussian::RigGroundTruth* truth) {
+  std::string names, det;
+  for (const auto& n : res.experiment_names) names += (names.empty() ? "" : ",") + n;
+  for (const auto& m : res.determined_moments) det += (det.empty() ? "" : " ") + m;
+  std::printf("[demo] loop step %d: %zu experiments (%s): determined %zu/10 (%s), %.1f %% of the volume uncertain",
+              step, res.experiment_names.size(), names.c_str(), res.determined_moments.size(),
+              det.empty() ? "none" : det.c_str(), 100.0 * res.uncertain_fraction);
+  if (truth && res.interior.width * res.interior.height > 0 && truth->interior.width * truth->interior.height > 0)
+    std::printf(", cavity IoU %.3f", topo_gaussian::topo_ros::interiorIou(res.interior, truth->interior).cavity);
+  std::printf("; %s\n", res.loop_reason.c_str());
+  std::fflush(stdout);
 }
 
 }  // namespace
@@ -303,10 +376,42 @@ int main(int argc, char** argv) {
   }
   if (!o.weigh_topic.empty() && !addWeighing(&o)) return 1;
   if (o.wait_s > 0 && !(o.goal.experiments.empty() ? waitForFeatures(&o) : waitForExperiments(o))) return 1;
-  const auto res = runGoal(o);
+  auto res = runGoal(o);
   if (!res) {
     std::printf("[demo] verdict: FAIL (no result)\n");
     return 1;
+  }
+  // The loop: the rig performs the suggested experiment, the object's experiments so far infer again.
+  if (o.auto_experiments > 0) {
+    ros::NodeHandle nh;
+    ros::Publisher tilt_reference = nh.advertise<std_msgs::String>("tilt_reference", 10, true);
+    printLoopStep(1, *res, truth.get());
+    std::string ended = res->loop_reason;
+    for (int step = 2; res->loop_continues; ++step) {
+      if (int(res->experiment_names.size()) >= o.auto_experiments) {
+        ended = "the object has ~auto_experiments = " + std::to_string(o.auto_experiments) + " experiments";
+        break;
+      }
+      Options next;
+      const std::string name = "auto" + std::to_string(res->experiment_names.size() + 1);
+      if (!performNext(*res, name, o, &tilt_reference, &next)) {
+        ended = "the rig did not perform " + name + " (above)";
+        break;
+      }
+      const auto more = runGoal(next);
+      if (!more) {
+        ended = "the inference with " + name + " failed (above): the last result is kept";
+        break;
+      }
+      ended = more->loop_reason;
+      res = more;
+      if (truth) {  // the rig's truth now has the new experiment's features too
+        const auto t = waitFor<topo_gaussian::RigGroundTruth>(o.truth_topic, 10.0, nullptr);
+        if (t) truth = t;
+      }
+      printLoopStep(step, *res, truth.get());
+    }
+    std::printf("[demo] loop: ended with %zu experiments: %s\n", res->experiment_names.size(), ended.c_str());
   }
   // A feature near zero (a rest tilt, a centre-of-mass offset) is judged on its natural scale, not its
   // own size: angles on 10 deg, lengths on the object's size (the twin's true interior's extent).

@@ -22,6 +22,7 @@
 #include "topo_gaussian/ros/motion_features_msg.h"
 #include "topo_gaussian/ros/param_reader.h"
 #include "topo_gaussian/ros/service_guard.h"
+#include "topo_gaussian/workflow/experiment_loop.h"
 #include "topo_gaussian/workflow/inference_run.h"
 #include "topo_gaussian/workflow/interior_export.h"
 
@@ -184,6 +185,42 @@ inference::TaskConfig InteriorInferenceNode::configFor(const std::string& task,
   return config;
 }
 
+void fillNextExperiment(const inference::IdentifiabilityAnalysis& analysis, double uncertain_fraction,
+                        int experiments, topo_gaussian::InferInteriorResult* result) {
+  result->uncertain_fraction = uncertain_fraction;
+  result->next_experiment_tilt_deg = NAN;
+  if (analysis.has_suggestion) {
+    const inference::ExperimentSuggestion& s = analysis.suggestion;
+    const workflow::SuggestedExperiment suggested = workflow::suggestionOverrides(s);
+    result->next_experiment = s.sentence;
+    result->next_experiment_kind = suggested.kind;
+    result->next_experiment_task = suggested.task;
+    // set-up parameters go to the rig; the object's shared ones (materials, representation) it has and
+    // the node keeps with the object; the observed ones are the design's predictions, not observations:
+    // the periods are timed by the rig, the rest tilt only steers the tracker
+    for (const std::string& o : suggested.overrides) {
+      const std::string key = o.substr(0, o.find('='));
+      const inference::ParamSpec* spec = s.config.spec(key);
+      if (inference::TaskConfig::isShared(key)) continue;
+      if (!spec || !spec->is_target)
+        result->next_experiment_overrides.push_back(o);
+      else if (key.size() > 9 && key.compare(key.size() - 9, 9, "_period_s") == 0)
+        result->next_experiment_instruments.push_back(key);
+    }
+    // a hang: the camera along world x sees the roll only while the pitch is small (a pitched body's
+    // silhouette turns by atan2(sin roll, cos pitch cos roll)), so both angles are read on the hung body
+    if (s.config.has("target_pitch_deg"))
+      for (const char* angle : {"target_roll_deg", "target_pitch_deg"})
+        result->next_experiment_instruments.push_back(angle);
+    if (s.config.has("target_roll_deg"))
+      result->next_experiment_tilt_deg = s.config.number("target_roll_deg");
+  }
+  const workflow::LoopDecision d = workflow::decideNextStep(analysis, uncertain_fraction, experiments);
+  result->loop_continues = d.continues();
+  result->loop_decision = workflow::verdictName(d.verdict);
+  result->loop_reason = d.reason;
+}
+
 InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Feedback& feedback) {
   workflow::InferenceRunRequest run;
   run.config = configFor(rq.task, rq.experiments, rq.representation, rq.overrides, "goal");
@@ -198,7 +235,7 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
     const inference::TaskConfig goal_config = run.config;
     std::lock_guard<std::mutex> lock(state_mutex_);
     const bool earlier = !objects_.experimentNames(rq.object_id).empty();  // else the goal runs as it is
-    run.config = objects_.withEarlier(rq.object_id, goal_config);
+    run.config = objects_.withEarlier(rq.object_id, goal_config, rq.overrides);
     if (earlier && goal_config.hasExperiments())
       for (const auto& e : goal_config.experiments()) own.push_back(e.name);
     else if (earlier)
@@ -332,6 +369,8 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
 
   InferenceOutcome out;
   out.result = done.result;
+  if (done.volume) out.uncertain_fraction = workflow::uncertainFraction(done.result, *done.volume);
+  out.experiments = done.config.hasExperiments() ? static_cast<int>(done.config.experiments().size()) : 1;
   out.preempted = done.cancelled || stopped;
   out.output_dir = done.output_dir;
   out.files = done.files;
@@ -568,7 +607,7 @@ void InteriorInferenceNode::execute(const topo_gaussian::InferInteriorGoalConstP
     const inference::IdentifiabilityAnalysis& id = res.identifiability;
     result.identifiability = id.summary;
     for (const auto& m : id.moments) (m.determined ? result.determined_moments : result.free_moments).push_back(m.name);
-    if (id.has_suggestion) result.next_experiment = id.suggestion.sentence;
+    fillNextExperiment(id, out.uncertain_fraction, out.experiments, &result);
     for (const auto& xe : res.final.experiments) {
       result.experiment_names.push_back(xe.name);
       result.experiment_losses.push_back(xe.eval.loss);

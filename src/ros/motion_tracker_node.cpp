@@ -63,6 +63,17 @@ vision::TrackOptions MotionTrackerParams::optionsFor(const std::string& name) co
   return o;
 }
 
+std::pair<std::string, double> parseTiltReference(const std::string& entry, const std::string& what) {
+  const auto eq = entry.find('=');
+  const std::string name = eq == std::string::npos ? "" : entry.substr(0, eq), v = entry.substr(eq + 1);
+  char* end = nullptr;
+  const double deg = std::strtod(v.c_str(), &end);
+  if (v.empty() || *end != '\0' || !(std::abs(deg) <= 180.0) || (eq != std::string::npos && name.empty()))
+    throw TopoError(what, "is not [EXPERIMENT=]DEG with DEG in -180..180 (the tilt the object starts near)",
+                    "e.g. 'hang=50' for an experiment 'hang' whose object rests ~50 deg over, or '0'");
+  return {name, deg};
+}
+
 MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh) {
   const ParamReader r(pnh, "motion_tracker");
   MotionTrackerParams p;
@@ -132,14 +143,7 @@ MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh) {
   p.max_stamp_jump_s = r.number("max_stamp_jump_s", p.max_stamp_jump_s, "s", Range::above(0.0));
   p.stale_after_s = r.number("stale_after_s", 5.0, "s", Range::atLeast(0.0));  // 0: never report a stale camera
   for (const std::string& e : r.texts("tilt_reference_deg", {}, "['hang=50', '0']", "; \t")) {
-    const auto eq = e.find('=');
-    const std::string name = eq == std::string::npos ? "" : e.substr(0, eq), v = e.substr(eq + 1);
-    char* end = nullptr;
-    const double deg = std::strtod(v.c_str(), &end);
-    if (v.empty() || *end != '\0' || !(std::abs(deg) <= 180.0) || (eq != std::string::npos && name.empty()))
-      throw TopoError(r.displayName("tilt_reference_deg") + " entry '" + e + "'",
-                      "is not [EXPERIMENT=]DEG with DEG in -180..180 (the tilt the object starts near)",
-                      "e.g. ['hang=50'] for an experiment 'hang' whose object rests ~50 deg over, or ['0']");
+    const auto [name, deg] = parseTiltReference(e, r.displayName("tilt_reference_deg") + " entry '" + e + "'");
     if (name.empty())
       p.options.tilt_reference_deg = deg;
     else
@@ -176,6 +180,7 @@ MotionTrackerNode::MotionTrackerNode(const ::ros::NodeHandle& nh, const ::ros::N
   info_sub_ = nh_.subscribe("camera_info", 1, &MotionTrackerNode::onCameraInfo, this);
   experiment_ = live_experiment_ = params_.experiment;
   experiment_sub_ = nh_.subscribe("experiment", 1, &MotionTrackerNode::onExperiment, this);
+  tilt_reference_sub_ = nh_.subscribe("tilt_reference", 10, &MotionTrackerNode::onTiltReference, this);
   service_ = pnh_.advertiseService("extract_motion", &MotionTrackerNode::onExtractMotion, this);
   started_wall_ = ::ros::WallTime::now();
   timer_ = nh_.createTimer(::ros::Duration(params_.publish_period_s), &MotionTrackerNode::onTimer, this);
@@ -230,6 +235,21 @@ void MotionTrackerNode::onExperiment(const std_msgs::StringConstPtr& msg) {
   live_.reset();
   window_.reset();
   live_dirty_ = false;
+}
+
+void MotionTrackerNode::onTiltReference(const std_msgs::StringConstPtr& msg) {
+  try {
+    const auto [name, deg] = parseTiltReference(msg->data, tilt_reference_sub_.getTopic() + " '" + msg->data + "'");
+    if (name.empty())
+      params_.options.tilt_reference_deg = deg;
+    else
+      params_.tilt_reference_deg[name] = deg;
+    ROS_INFO("motion_tracker: tilt reference of %s: %s deg", name.empty() ? "every other experiment" : name.c_str(),
+             numberText(deg).c_str());
+    if (name == live_experiment_ || name.empty()) live_.reset();  // the live window starts again with it
+  } catch (const std::exception& e) {
+    ROS_ERROR("motion_tracker: %s: ignored", asciiText(e.what()).c_str());
+  }
 }
 
 void MotionTrackerNode::onCameraInfo(const sensor_msgs::CameraInfoConstPtr& msg) { camera_info_ = *msg; }

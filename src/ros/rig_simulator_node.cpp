@@ -55,6 +55,33 @@ void loadRigidTwinParams(const ParamReader& r, RigSimulatorParams* params);
 void loadCameraParams(const ParamReader& r, RigSimulatorParams* params);
 }  // namespace
 
+workflow::RigTwinOptions experimentTwinOptions(const workflow::RigTwinOptions& base, const std::string& name,
+                                               const std::string& task, const std::vector<std::string>& assignments,
+                                               const std::vector<std::string>& taken, const std::string& what) {
+  if (name.empty() || name.find('.') != std::string::npos || name.find('=') != std::string::npos ||
+      std::find(taken.begin(), taken.end(), name) != taken.end())
+    throw TopoError(what, "needs a new experiment name without '.' or '='" +
+                              (taken.empty() ? std::string() : " (taken: " + listText(taken) + ")"),
+                    "e.g. ['rock10=tumbler', 'rock25=tumbler']");
+  workflow::RigTwinOptions x = base;
+  x.task = task;
+  x.overrides.clear();
+  try {
+    inference::TaskConfig c = inference::TaskConfig::load(task, base.task_dir);
+    for (const auto& a : assignments) {
+      const auto dot = a.find('.'), is = a.find('=');
+      const bool named = dot != std::string::npos && dot < is;
+      const std::string key = named ? a.substr(dot + 1) : a;
+      if (named ? a.substr(0, dot) != name : !c.spec(key.substr(0, key.find('=')))) continue;
+      c.setAssignment(key, "~set");
+      x.overrides.push_back(key);
+    }
+  } catch (const TopoError& error) {
+    throw TopoError(what + " " + name + " (~set): " + error.what());
+  }
+  return x;
+}
+
 RigSimulatorParams loadRigSimulatorParams(const ::ros::NodeHandle& pnh) {
   // Types are checked by the reader (a wrong type stops the node naming the parameter); the ranges
   // below keep the node's own advice.
@@ -170,28 +197,9 @@ void loadRigidTwinParams(const ParamReader& r, RigSimulatorParams* params) {
   for (const auto& e : experiments) {
     const auto eq = e.find('=');
     const std::string name = e.substr(0, eq), task = eq == std::string::npos ? default_task : e.substr(eq + 1);
-    if (name.empty() || name.find('.') != std::string::npos ||
-        std::find(p.experiment_names.begin(), p.experiment_names.end(), name) != p.experiment_names.end())
-      throw TopoError("~experiments entry '" + e + "'", "needs a new name without '.' before '='",
-                      "e.g. ['rock10=tumbler', 'rock25=tumbler']");
-    workflow::RigTwinOptions x = t;
-    x.task = task;
-    x.overrides.clear();
-    try {
-      inference::TaskConfig c = inference::TaskConfig::load(task, t.task_dir);
-      for (const auto& a : t.overrides) {
-        const auto dot = a.find('.'), is = a.find('=');
-        const bool named = dot != std::string::npos && dot < is;
-        const std::string key = named ? a.substr(dot + 1) : a;
-        if (named ? a.substr(0, dot) != name : !c.spec(key.substr(0, key.find('=')))) continue;
-        c.setAssignment(key, "~set");
-        x.overrides.push_back(key);
-      }
-    } catch (const TopoError& error) {
-      throw TopoError("~experiments " + name + " (~set): " + error.what());
-    }
+    p.experiment_twins.push_back(
+        experimentTwinOptions(t, name, task, t.overrides, p.experiment_names, "~experiments entry '" + e + "'"));
     p.experiment_names.push_back(name);
-    p.experiment_twins.push_back(x);
   }
   const std::vector<double> theta = r.numbers("interior_quadric", {}, 10, "", "[1, 1, 1, 0, 0, 0, 0, 0, -0.8, -0.09]");
   if (!theta.empty()) t.interior_quadric = Eigen::Map<const Eigen::VectorXd>(theta.data(), 10);
@@ -226,6 +234,12 @@ void loadCameraParams(const ParamReader& r, RigSimulatorParams* params) {
   requireRange("noise_sigma", p.noise_sigma, 0, 100, "grey levels of Gaussian pixel noise, e.g. 2 (0 = none)");
   p.scale_resolution_kg = r.number("scale_resolution_kg", p.scale_resolution_kg, "kg");
   requireRange("scale_resolution_kg", p.scale_resolution_kg, 1e-9, 10, "the scale's display step in kg, e.g. 0.001");
+  p.timer_resolution_s = r.number("timer_resolution_s", p.timer_resolution_s, "s");
+  requireRange("timer_resolution_s", p.timer_resolution_s, 1e-9, 10,
+               "the step of the rig's timed features in seconds, e.g. 0.001");
+  p.inclinometer_resolution_deg = r.number("inclinometer_resolution_deg", p.inclinometer_resolution_deg, "deg");
+  requireRange("inclinometer_resolution_deg", p.inclinometer_resolution_deg, 1e-9, 10,
+               "the step of the rig's inclinometer in degrees, e.g. 0.1");
   p.seed = int(r.integer("seed", p.seed));
   requireRange("seed", p.seed, 0, 2147483647, "any non-negative integer");
   p.world_frame = r.text("world_frame", p.world_frame);
@@ -447,9 +461,7 @@ RigSimulatorNode::RigSimulatorNode(const ::ros::NodeHandle& nh, const ::ros::Nod
   truth_pub_ = pnh_.advertise<topo_gaussian::RigGroundTruth>("ground_truth", 1, true);
   const ::ros::Time now = ::ros::Time::now();
   surface_pub_.publish(toSurfaceCloud(tw.scanPoints(), tw.scanNormals(), params_.object_frame, now));
-  std::vector<const workflow::RigTwin*> twins;
-  for (const auto& t : twins_) twins.push_back(t.get());
-  truth_pub_.publish(toGroundTruthMsg(twins, names_, params_.object_frame, now));
+  publishGroundTruth(now);
   experiment_pub_ = nh_.advertise<std_msgs::String>("experiment", 1, true);
   // The object on the rig's scale, as a lab weighs it once: its true mass to the scale's resolution.
   scale_pub_ = nh_.advertise<std_msgs::Float64>("scale_kg", 1, true);
@@ -470,7 +482,103 @@ RigSimulatorNode::RigSimulatorNode(const ::ros::NodeHandle& nh, const ::ros::Nod
   static_broadcaster_.sendTransform(view);
   publishTrueInterior(tw.cloud(), tw.indicator(), tw.density(), tw.config(), tw.truth().task.mass);
   start_ = now;
+  perform_srv_ = pnh_.advertiseService("perform_experiment", &RigSimulatorNode::onPerformExperiment, this);
   timer_ = nh_.createTimer(::ros::Duration(1.0 / params_.fps), &RigSimulatorNode::onTimer, this);
+}
+
+void RigSimulatorNode::publishGroundTruth(const ::ros::Time& stamp) {
+  std::vector<const workflow::RigTwin*> twins;
+  for (const auto& t : twins_) twins.push_back(t.get());
+  truth_pub_.publish(toGroundTruthMsg(twins, names_, params_.object_frame, stamp));
+}
+
+std::unique_ptr<workflow::RigTwin> RigSimulatorNode::performedTwin(
+    const topo_gaussian::PerformExperiment::Request& req) const {
+  const std::string what = "~perform_experiment '" + req.name + "'";
+  // the shared ~set entries (density, damping, ...) as for every experiment, then the request's own
+  std::vector<std::string> assignments = params_.twin.overrides;
+  for (const auto& o : req.overrides) {
+    if (o.find('=') == std::string::npos)
+      throw TopoError(what + " override '" + o + "'", "is not KEY=VALUE", "e.g. hanging_point=0.01,0.02,-0.03");
+    assignments.push_back(req.name + "." + o);
+  }
+  std::vector<std::string> taken = names_;
+  if (taken.size() == 1 && taken.front().empty()) taken.clear();
+  workflow::RigTwinOptions x =
+      experimentTwinOptions(twins_.front()->options(), req.name, req.task, assignments, taken, what);
+  x.interior_quadric = twins_.front()->options().interior_quadric;
+  // a hanging point the rig can reach: on the object (within two particle spacings of one of its particles)
+  inference::TaskConfig c = inference::TaskConfig::load(x.task, x.task_dir);
+  for (const auto& a : x.overrides) c.setAssignment(a, what);
+  if (c.spec("hanging_point")) {
+    const Eigen::Vector3d q = c.vector3("hanging_point");
+    const VolumeCloud& cloud = twins_.front()->cloud();
+    double nearest = INFINITY;
+    for (const auto& X : cloud.X) nearest = std::min(nearest, (X - q).norm());
+    if (!(nearest <= 2.0 * cloud.spacing))
+      throw TopoError(what + " hanging_point " + listText({q.x(), q.y(), q.z()}),
+                      "is " + numberText(nearest, 3) + " m from the object (farther than two particle spacings, " +
+                          numberText(2.0 * cloud.spacing, 3) + " m): the rig cannot hang it there",
+                      "give a point on the object's surface (object frame, metres)");
+  }
+  auto twin = std::make_unique<workflow::RigTwin>(x);
+  for (const auto& f : req.instruments) instrumentReading(*twin, f);  // TopoError: what the rig can read
+  return twin;
+}
+
+double RigSimulatorNode::instrumentReading(const workflow::RigTwin& twin, const std::string& name) const {
+  // a pose angle of the experiment as the twin set it up (a hung object's rest pose): the inclinometer
+  if (name == "target_roll_deg" || name == "target_pitch_deg") {
+    if (!twin.config().has(name))
+      throw TopoError("~perform_experiment instrument '" + name + "'", "is not set up by this experiment's task",
+                      "read it only for a hanging experiment");
+    const double step = params_.inclinometer_resolution_deg;
+    return step * std::round(twin.config().number(name) / step);
+  }
+  const double v = twin.feature(name);  // TopoError listing the features the task has
+  const double step = params_.timer_resolution_s;
+  return name.size() > 2 && name.compare(name.size() - 2, 2, "_s") == 0 ? step * std::round(v / step) : v;
+}
+
+bool RigSimulatorNode::onPerformExperiment(topo_gaussian::PerformExperiment::Request& req,
+                                           topo_gaussian::PerformExperiment::Response& res) {
+  const auto t0 = std::chrono::steady_clock::now();
+  res.accepted = false;
+  if (finger_) {
+    res.message = "~perform_experiment: the finger twin performs pressures, not experiments: publish the pressure "
+                  "on " + nh_.resolveName("pressure_command") + " with ~pressure_profile command";
+    ROS_WARN("rig_simulator: %s", res.message.c_str());
+    return true;
+  }
+  ROS_INFO("rig_simulator: setting up experiment %s (task %s, %s) ...", req.name.c_str(), req.task.c_str(),
+           listText(req.overrides).c_str());
+  std::unique_ptr<workflow::RigTwin> twin;
+  try {
+    twin = performedTwin(req);
+  } catch (const std::exception& e) {
+    res.message = asciiText(e.what()) + " The experiments so far (" + listText(names_) + ") are kept.";
+    ROS_ERROR("rig_simulator: experiment refused: %s", res.message.c_str());
+    return true;
+  }
+  std::string read;
+  for (const auto& f : req.instruments) {
+    res.readings.push_back(f + "=" + numberText(instrumentReading(*twin, f), 9));
+    read += (read.empty() ? "" : ", ") + res.readings.back();
+  }
+  if (names_.size() == 1 && names_.front().empty()) names_.front() = twins_.front()->config().task();
+  twins_.push_back(std::move(twin));
+  names_.push_back(req.name);
+  // on camera now, for experiment_s; then the rotation goes on from it
+  playing_ = static_cast<int>(twins_.size()) - 2;  // onTimer announces the change
+  slot_start_s_ = (::ros::Time::now() - start_).toSec() - params_.experiment_s;
+  publishGroundTruth(::ros::Time::now());
+  res.setup_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  res.accepted = true;
+  res.message = "experiment " + req.name + " (" + req.task + ") set up in " + numberText(res.setup_s, 3) +
+                " s and on camera for " + numberText(params_.experiment_s) + " s" +
+                (read.empty() ? std::string() : "; read: " + read);
+  ROS_INFO("rig_simulator: %s", res.message.c_str());
+  return true;
 }
 
 void RigSimulatorNode::publishTrueInterior(const VolumeCloud& cloud, const std::vector<double>& r,
@@ -646,12 +754,14 @@ void RigSimulatorNode::onTimer(const ::ros::TimerEvent&) {
     publishFrame(now, world);
     return;
   }
-  // The experiment on camera: each plays ~experiment_s in turn (a person releasing the doll again).
+  // The experiment on camera: each plays ~experiment_s in turn (a person releasing the doll again); a
+  // performed one comes on at once.
   const double t = (now - start_).toSec();
   const int n = static_cast<int>(twins_.size());
-  const long slot = n > 1 ? static_cast<long>(std::floor(t / params_.experiment_s)) : 0;
-  const int k = static_cast<int>(slot % n);
-  if (k != playing_) {
+  int k = std::max(0, playing_);
+  if (playing_ < 0 || (n > 1 && t - slot_start_s_ >= params_.experiment_s)) {
+    k = playing_ < 0 ? 0 : (playing_ + 1) % n;
+    slot_start_s_ = playing_ < 0 ? 0.0 : std::max(slot_start_s_ + params_.experiment_s, t - params_.experiment_s);
     playing_ = k;
     if (n > 1) {
       std_msgs::String name;
@@ -660,7 +770,7 @@ void RigSimulatorNode::onTimer(const ::ros::TimerEvent&) {
       ROS_INFO("rig_simulator: experiment %s on camera for %.1f s", names_[k].c_str(), params_.experiment_s);
     }
   }
-  const inference::BodyPose pose = twins_[k]->poseAt(t - slot * params_.experiment_s);
+  const inference::BodyPose pose = twins_[k]->poseAt(t - slot_start_s_);
   tf_broadcaster_.sendTransform(toTransformStamped(pose, params_.world_frame, params_.object_frame, now));
 
   for (std::size_t i = 0; i < world.positions.size(); ++i) {

@@ -9,7 +9,8 @@
 //    ~export writes a watertight STL whose volume matches the solid particles' within 4 %;
 //  - a goal cancelled after its first feedback is PREEMPTED with the best design so far and its files,
 //    and so is a running goal when a new one arrives (which then succeeds);
-//  - docs/nodes.md's `rosservice call /interior_inference/infer ...` works from a shell.
+//  - docs/nodes.md's `rosservice call /interior_inference/infer ...` works from a shell;
+//  - the twin performs an experiment it is asked for (~perform_experiment), or says why not.
 #include <actionlib/client/simple_action_client.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
@@ -26,12 +27,14 @@
 
 #include <sensor_msgs/PointCloud2.h>
 #include <std_msgs/Float64.h>
+#include <std_msgs/String.h>
 #include <tf2_msgs/TFMessage.h>
 #include <visualization_msgs/MarkerArray.h>
 
 #include "topo_gaussian/ExportInterior.h"
 #include "topo_gaussian/InferInteriorAction.h"
 #include "topo_gaussian/MotionFeatures.h"
+#include "topo_gaussian/PerformExperiment.h"
 #include "topo_gaussian/RigGroundTruth.h"
 #include "topo_gaussian/SimulateInterior.h"
 
@@ -266,6 +269,63 @@ TEST(DemoTumbler, InferServiceFromAShell) {
   EXPECT_EQ(pclose(p), 0) << out;
   EXPECT_NE(out.find("success: True"), std::string::npos) << out;
   EXPECT_NE(out.find("interior.stl"), std::string::npos) << out;
+}
+
+// The rig performs an experiment it is asked for (what infer_client's loop asks): refused with the reason
+// and the experiments kept for a name taken, an unknown task, a point off the object, a feature the task
+// does not have; performed otherwise: on camera at once (`experiment`), its timed axle swing read to the
+// timer's 1 ms and equal to the ground truth's, which now names it, and its pitch on the inclinometer. Last: it adds an experiment to the
+// twin's rotation.
+TEST(DemoTumbler, PerformExperimentAddsItOrSaysWhyNot) {
+  ros::NodeHandle nh;
+  ros::ServiceClient perform = nh.serviceClient<topo_gaussian::PerformExperiment>("/rig_simulator/perform_experiment");
+  ASSERT_TRUE(perform.waitForExistence(ros::Duration(120.0))) << "no ~perform_experiment on rig_simulator";
+  auto ask = [&](const std::string& name, const std::string& task, const std::vector<std::string>& overrides,
+                 const std::vector<std::string>& instruments) {
+    topo_gaussian::PerformExperiment srv;
+    srv.request.name = name;
+    srv.request.task = task;
+    srv.request.overrides = overrides;
+    srv.request.instruments = instruments;
+    EXPECT_TRUE(perform.call(srv));
+    return srv.response;
+  };
+  const auto taken = ask("hang", "hanging", {"hanging_point=0,-0.03,0.02"}, {});
+  EXPECT_FALSE(taken.accepted);
+  EXPECT_NE(taken.message.find("taken"), std::string::npos) << taken.message;
+  EXPECT_NE(taken.message.find("kept"), std::string::npos) << taken.message;
+  const auto unknown = ask("p1", "wobbly_pear_of_doom", {}, {});
+  EXPECT_FALSE(unknown.accepted);
+  EXPECT_NE(unknown.message.find("wobbly_pear_of_doom"), std::string::npos) << unknown.message;
+  const auto far = ask("p1", "hanging", {"hanging_point=0.5,0,0.02"}, {});
+  EXPECT_FALSE(far.accepted);
+  EXPECT_NE(far.message.find("hanging_point"), std::string::npos) << far.message;
+  EXPECT_NE(far.message.find("from the object"), std::string::npos) << far.message;
+  const auto feature = ask("p1", "hanging", {"hanging_point=0,-0.03,0.02"}, {"period_of_doom_s"});
+  EXPECT_FALSE(feature.accepted);
+  EXPECT_NE(feature.message.find("period_of_doom_s"), std::string::npos) << feature.message;
+
+  const auto done = ask("p1", "hanging", {"hanging_point=0,-0.03,0.02"}, {"axle_swing_period_s", "target_pitch_deg"});
+  ASSERT_TRUE(done.accepted) << done.message;
+  ASSERT_EQ(done.readings.size(), 2u);
+  // hung from a point in the plane x = 0 of the doll's axis: its centre of mass is on the axis, so no pitch
+  EXPECT_EQ(done.readings[1], "target_pitch_deg=0") << "the inclinometer's 0.1 deg";
+  const std::string key = "axle_swing_period_s=";
+  ASSERT_EQ(done.readings[0].rfind(key, 0), 0u) << done.readings[0];
+  const double read_s = std::stod(done.readings[0].substr(key.size()));
+  const auto on_camera = ros::topic::waitForMessage<std_msgs::String>("/experiment", ros::Duration(5.0));
+  ASSERT_TRUE(on_camera);
+  EXPECT_EQ(on_camera->data, "p1");
+  const auto truth = ros::topic::waitForMessage<topo_gaussian::RigGroundTruth>("/rig_simulator/ground_truth",
+                                                                              ros::Duration(5.0));
+  ASSERT_TRUE(truth);
+  EXPECT_NE(std::find(truth->experiments.begin(), truth->experiments.end(), "p1"), truth->experiments.end());
+  const double true_s = valueOf(truth->feature_names, truth->feature_values, "p1.axle_swing_period_s");
+  ASSERT_TRUE(std::isfinite(true_s));
+  EXPECT_NEAR(read_s, true_s, 0.0005 + 1e-12) << "read to the timer's 1 ms";
+  EXPECT_NEAR(read_s, std::round(read_s * 1000.0) / 1000.0, 1e-9);
+  const auto again = ask("p1", "hanging", {"hanging_point=0,-0.03,0.02"}, {});
+  EXPECT_FALSE(again.accepted) << "a name performed once is taken";
 }
 
 int main(int argc, char** argv) {

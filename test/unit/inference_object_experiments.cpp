@@ -79,6 +79,37 @@ TEST(ObjectExperiments, AGoalThatRepeatsAnExperimentReplacesIt) {
   EXPECT_DOUBLE_EQ(out.experiments()[1].weight, 2.0);
 }
 
+// What infer_client's loop sends: a goal with one new experiment whose task file brings its own density
+// (hanging.yaml's 1000): the object's material wins; a goal that names another one itself is refused.
+TEST(ObjectExperiments, ATaskFilesSharedValueYieldsToTheObjects) {
+  workflow::ObjectExperiments objects;
+  TaskConfig joint = TaskConfig::common();
+  joint.set("density_solid", "5000");
+  TaskConfig r = rock(0.8), h = hang(10.0);
+  r.set("density_solid", "5000");
+  h.set("density_solid", "5000");
+  joint.addExperiment("rock10", 1.0, r);
+  joint.addExperiment("hang", 1.0, h);
+  objects.remember("doll", joint);
+  TaskConfig goal = TaskConfig::common();
+  TaskConfig file = hang(-30.0);
+  file.set("density_solid", "1000");  // as hanging.yaml sets it
+  goal.set("density_solid", "1000", "hanging.yaml");
+  goal.addExperiment("auto4", 1.0, file);
+  const TaskConfig out = objects.withEarlier("doll", goal);
+  ASSERT_EQ(names(out), std::vector<std::string>({"rock10", "hang", "auto4"}));
+  EXPECT_DOUBLE_EQ(out.number("density_solid"), 5000.0);
+  for (const auto& e : out.experiments()) EXPECT_DOUBLE_EQ(e.config.number("density_solid"), 5000.0) << e.name;
+  EXPECT_DOUBLE_EQ(out.experiments()[2].config.number("target_roll_deg"), -30.0);
+  // named by the goal itself: refused
+  TaskConfig named = TaskConfig::common();
+  named.set("density_solid", "7800");
+  TaskConfig steel = hang(-30.0);
+  steel.set("density_solid", "7800");
+  named.addExperiment("auto4", 1.0, steel);
+  EXPECT_THROW(objects.withEarlier("doll", named, {"density_solid=7800"}), TopoError);
+}
+
 TEST(ObjectExperiments, AnotherMaterialIsRefusedNamingTheObject) {
   workflow::ObjectExperiments objects;
   objects.remember("doll", hang(12.5));

@@ -29,4 +29,11 @@ inline std::string listText(const std::vector<double>& v, int digits = 6) {
   return s + "]";
 }
 
+/// "[a, b, c]" of names (experiments, keys, assignments).
+inline std::string listText(const std::vector<std::string>& v) {
+  std::string s = "[";
+  for (std::size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + v[i];
+  return s + "]";
+}
+
 }  // namespace topo_gaussian

@@ -100,7 +100,15 @@ struct InferenceOutcome {
   std::string message;                ///< result message + notes (targets used, export)
   sensor_msgs::PointCloud2 interior;  ///< as published on `interior`
   bool preempted = false;
+  double uncertain_fraction = NAN;    ///< workflow::uncertainFraction of the result
+  int experiments = 1;                ///< of the object (its earlier ones and the goal's)
 };
+
+/// The next experiment of an inference as the action result carries it (next_experiment_kind … _tilt_deg:
+/// the task, its set-up overrides without the observed targets, what to read beside the camera, the
+/// predicted rest tilt) and the experiment loop's decision (workflow::decideNextStep) with the object's experiment count.
+void fillNextExperiment(const inference::IdentifiabilityAnalysis& analysis, double uncertain_fraction,
+                        int experiments, topo_gaussian::InferInteriorResult* result);
 
 class InteriorInferenceNode {
  public:

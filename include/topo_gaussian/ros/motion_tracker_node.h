@@ -3,6 +3,8 @@
 //        other encodings are refused with a throttled error and the node keeps running),
 //        topic `camera_info` (kept for the trajectory rays), parameter ~video_file (tracked once at
 //        start), service ~extract_motion (ExtractMotion.srv: a file + options → features)
+//        topic `tilt_reference` (std_msgs/String "[EXPERIMENT=]DEG", as a ~tilt_reference_deg entry: sets
+//        it for that experiment from then on, e.g. what infer_client sends before a rig performs a hang)
 //   out: topic `motion_features` (MotionFeatures, latched), topic ~debug_image (the tracker overlay)
 // A camera that stops for ~stale_after_s, or never sends in that long after the start, is logged
 // (throttled) and reported once as a features message whose `message` starts "stale:" (nothing
@@ -51,6 +53,10 @@ struct MotionTrackerParams {
   /// The options of a window of `experiment`: options with its tilt reference.
   vision::TrackOptions optionsFor(const std::string& experiment) const;
 };
+
+/// "[EXPERIMENT=]DEG" (a ~tilt_reference_deg entry or a `tilt_reference` message) as (name, degrees);
+/// throws TopoError starting with `what` when it is not that or DEG is outside −180..180.
+std::pair<std::string, double> parseTiltReference(const std::string& entry, const std::string& what);
 
 /// The live stream's time line: which frame stamps go into the current analysis window. A camera
 /// whose clock jumps (a driver restart, a bag replayed with --clock, three frames stamped 1e6 s
@@ -119,6 +125,8 @@ class MotionTrackerNode {
   std::string live_experiment_;  ///< the experiment of the live window
   ::ros::Subscriber experiment_sub_;
   void onExperiment(const std_msgs::StringConstPtr& msg);
+  ::ros::Subscriber tilt_reference_sub_;
+  void onTiltReference(const std_msgs::StringConstPtr& msg);
   bool live_dirty_ = false;
   sensor_msgs::CameraInfo camera_info_;
 };

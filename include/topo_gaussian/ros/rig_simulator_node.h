@@ -13,6 +13,14 @@
 //        ~true_interior_markers (MarkerArray latched: the same, drawn like interior_markers, with the
 //        viewer's half cut away so its cavity shows);
 //        `experiment` (std_msgs/String latched: the experiment on camera, with ~experiments).
+//   srv: ~perform_experiment (PerformExperiment: a new experiment NAME of a task with set-up overrides,
+//        e.g. what an infer_interior result suggests; the twin sets it up with the same interior, adds it
+//        to the experiments it plays and puts it on camera now; its `instruments` come back as readings:
+//        features of the task (periods to ~timer_resolution_s, as a lab times a swing with a stopwatch or
+//        an encoder) and the hung pose's target_roll_deg / target_pitch_deg (an inclinometer, to
+//        ~inclinometer_resolution_deg: the camera along x sees only the roll). Refused,
+//        with the reason and the experiments kept: a name taken, an unknown task or key, a hanging point
+//        farther than two particle spacings from the object, the finger twin.)
 //        `scale_kg` (std_msgs/Float64 latched: the object on the rig's scale, its true mass rounded to
 //        ~scale_resolution_kg, 1 g; a lab weighs the object once and so does the twin: the inference
 //        takes it as a mass_kg target, since rigid motion alone never fixes the mass).
@@ -43,6 +51,7 @@
 #include <string>
 #include <vector>
 
+#include "topo_gaussian/PerformExperiment.h"
 #include "topo_gaussian/RigGroundTruth.h"
 #include "topo_gaussian/vision/splat_renderer.h"
 #include "topo_gaussian/workflow/finger_twin.h"
@@ -69,6 +78,8 @@ struct RigSimulatorParams {
   double fx = 0, fy = 0, cx = 0, cy = 0;        ///< ~fx ~fy ~cx ~cy [px]; 0 = from the FOV / image centre
   double noise_sigma = 2.0;                     ///< ~noise_sigma: Gaussian pixel noise [grey levels]
   double scale_resolution_kg = 0.001;           ///< ~scale_resolution_kg: the scale's display step [kg]
+  double timer_resolution_s = 0.001;            ///< ~timer_resolution_s: the timed features' step [s]
+  double inclinometer_resolution_deg = 0.1;     ///< ~inclinometer_resolution_deg: its step [deg]
   int seed = 1;                                 ///< ~seed: noise of frame k uses seed + k
   std::string world_frame = "world";            ///< ~world_frame
   std::string camera_frame = "camera_optical";  ///< ~camera_frame (optical: x right, y down, z forward)
@@ -99,6 +110,13 @@ struct RigSimulatorParams {
   double pressure_rest_s = 2.0;     ///< ~pressure_rest_s [s]: at 0 Pa at the start of each period
   double pressure_timeout_s = 5.0;  ///< ~pressure_timeout_s [s]: warn when no command came for this long
 };
+
+/// One experiment's twin: `base` with `task` and those of `assignments` ("KEY=VALUE" for every task that has
+/// KEY, "NAME.KEY=VALUE" for this one) that apply. Throws TopoError starting with `what` for a name that is
+/// empty, taken or has '.' or '=', an unknown task or a bad assignment.
+workflow::RigTwinOptions experimentTwinOptions(const workflow::RigTwinOptions& base, const std::string& name,
+                                               const std::string& task, const std::vector<std::string>& assignments,
+                                               const std::vector<std::string>& taken, const std::string& what);
 
 /// The chamber pressure of the step/ramp profiles at time t [Pa] (command: NaN).
 double profilePressurePa(const RigSimulatorParams& params, double max_pressure_pa, double t_s);
@@ -149,6 +167,13 @@ class RigSimulatorNode {
   /// Renders the posed surface and publishes image and camera_info.
   void publishFrame(const ::ros::Time& now, const vision::Splats& world);
   void onPressureCommand(const std_msgs::Float64& msg);
+  bool onPerformExperiment(topo_gaussian::PerformExperiment::Request& req,
+                           topo_gaussian::PerformExperiment::Response& res);
+  /// Sets up the requested experiment's twin (throws TopoError: the reason it cannot be performed).
+  std::unique_ptr<workflow::RigTwin> performedTwin(const topo_gaussian::PerformExperiment::Request& req) const;
+  void publishGroundTruth(const ::ros::Time& stamp);
+  /// What the rig's instrument reads of an experiment (see ~perform_experiment); throws TopoError naming it.
+  double instrumentReading(const workflow::RigTwin& twin, const std::string& name) const;
   /// The finger's pressure now (profile or command) and its rendered surface.
   double fingerPressurePa(const ::ros::Time& now);
   /// The camera pose from tf, or the default after the timeout; false while still waiting.
@@ -159,6 +184,8 @@ class RigSimulatorNode {
   std::vector<std::unique_ptr<workflow::RigTwin>> twins_;  ///< one per experiment
   std::vector<std::string> names_;                         ///< the experiments' names ("" for one)
   int playing_ = -1;                                       ///< the experiment on camera
+  double slot_start_s_ = 0.0;  ///< when it came on camera (seconds since start_)
+  ::ros::ServiceServer perform_srv_;
   ::ros::Publisher experiment_pub_, true_interior_pub_, true_markers_pub_;
   tf2_ros::StaticTransformBroadcaster static_broadcaster_;
   vision::SplatCamera camera_;
