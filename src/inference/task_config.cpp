@@ -650,7 +650,43 @@ TaskConfig taskFromYamlMap(const YAML::Node& map, const std::string& where, cons
 
 }  // namespace
 
+namespace {
+
+/// The task files being read on this thread, outermost first (as given, and canonical): an
+/// `experiments:` item whose `file:` leads back to one of them is a cycle, refused before it recurses.
+struct OpenTaskFile {
+  std::string given, canonical;
+};
+thread_local std::vector<OpenTaskFile> t_open_task_files;
+
+/// Holds `path` open for the time of one fromYamlFile; throws TopoError naming the chain of files when
+/// `path` is already open (a file whose experiments name itself, or a → b → a).
+class TaskFileGuard {
+ public:
+  explicit TaskFileGuard(const std::string& path) {
+    std::error_code ec;
+    std::string canonical = std::filesystem::weakly_canonical(path, ec).string();
+    if (ec) canonical = path;
+    const auto it = std::find_if(t_open_task_files.begin(), t_open_task_files.end(),
+                                 [&](const OpenTaskFile& f) { return f.canonical == canonical; });
+    if (it != t_open_task_files.end()) {
+      std::string chain;
+      for (auto f = it; f != t_open_task_files.end(); ++f) chain += f->given + " -> ";
+      throw TopoError(it->given, "refers to itself through its experiments' files (" + chain + path + ")",
+                      "an experiment's `file:` must hold one experiment (`task:` and its parameters), not an "
+                      "`experiments:` list; list every experiment of the object in one `experiments:` list");
+    }
+    t_open_task_files.push_back({path, canonical});
+  }
+  ~TaskFileGuard() { t_open_task_files.pop_back(); }
+  TaskFileGuard(const TaskFileGuard&) = delete;
+  TaskFileGuard& operator=(const TaskFileGuard&) = delete;
+};
+
+}  // namespace
+
 TaskConfig TaskConfig::fromYamlFile(const std::string& path) {
+  const TaskFileGuard open(path);
   const YAML::Node root = loadYaml(path);
   if (root.IsMap() && root["experiments"]) {
     // Several experiments of one object: shared parameters at the top, one map per experiment.

@@ -3,6 +3,7 @@
 // gives a task and `set:` overrides, which must be valid for that task; a rig file without an
 // object is a task file itself.
 #include <gtest/gtest.h>
+#include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "test_util.h"
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/inference/task_config.h"
 
@@ -77,4 +79,50 @@ TEST(TaskFiles, AnUnknownKeyInATaskFileIsRefused) {
   } catch (const topo_gaussian::TopoError& e) {
     EXPECT_NE(std::string(e.what()).find("did you mean 'rocking_axis'"), std::string::npos) << e.what();
   }
+}
+
+// Issue 52 §2: an experiments file whose item names the file itself (or a → b → a) recursed until the
+// stack overflowed (exit 139 in `topo infer`, the interior_inference node killed by a goal). It is a
+// TopoError naming the chain of files and the fix, from the library and from the CLI.
+TEST(TaskFiles, AnExperimentsFileThatRefersToItselfIsACycleNamedNotACrash) {
+  const std::string dir = testing::TempDir() + "/topo_task_cycle_" + std::to_string(::getpid());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string self = dir + "/self.yaml", a = dir + "/a.yaml", b = dir + "/b.yaml";
+  std::ofstream(self) << "experiments:\n  - {name: a, file: self.yaml}\n";
+  std::ofstream(a) << "experiments:\n  - {name: first, file: b.yaml}\n";
+  std::ofstream(b) << "experiments:\n  - {name: second, file: ./a.yaml}\n";
+  const auto errorOf = [](const std::string& path) -> std::string {
+    try {
+      TaskConfig::fromYamlFile(path);
+    } catch (const topo_gaussian::TopoError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  const std::string e_self = errorOf(self);
+  EXPECT_NE(e_self.find("refers to itself"), std::string::npos) << e_self;
+  EXPECT_NE(e_self.find("(" + self + " -> " + self + ")"), std::string::npos) << e_self;
+  EXPECT_NE(e_self.find("Fix: an experiment's `file:` must hold one experiment"), std::string::npos) << e_self;
+  const std::string e_ab = errorOf(a);
+  EXPECT_NE(e_ab.find(a + " -> " + dir + "/b.yaml -> " + dir + "/./a.yaml"), std::string::npos) << e_ab;
+  // Through the loader `topo infer` and the node's goals use, and the CLI: exit 1 with the message.
+  EXPECT_NE(std::string([&] {
+              try {
+                TaskConfig::loadWithExperiments(a, {});
+              } catch (const topo_gaussian::TopoError& e) {
+                return std::string(e.what());
+              }
+              return std::string();
+            }())
+                .find("refers to itself"),
+            std::string::npos);
+  const topo_test::ToolRun r = topo_test::runTopo("infer --task " + self + " --output " + dir + "/run");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("refers to itself"), std::string::npos) << r.out;
+  // A file named twice as separate experiments is no cycle: the usual duplicate-name rules apply.
+  const std::string one = dir + "/one.yaml", two = dir + "/two.yaml";
+  std::ofstream(one) << "task: tumbler\n";
+  std::ofstream(two) << "experiments:\n  - {name: x, file: one.yaml}\n  - {name: y, file: one.yaml}\n";
+  EXPECT_EQ(errorOf(two), "");
 }
