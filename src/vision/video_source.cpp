@@ -5,10 +5,12 @@
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <string>
 
 #include "topo_gaussian/common/error.h"
 
@@ -43,6 +45,40 @@ bool hasImageExtension(const std::string& name) {
   return false;
 }
 
+/// An image-sequence pattern: exactly one '%' in the path, starting a `%d` or `%0Nd` conversion (N one
+/// or two digits). Its text before and after the number, and the zero-padded width (0: none).
+struct SequencePattern {
+  bool valid = false;
+  std::string before, after;
+  int width = 0;
+};
+
+SequencePattern sequencePattern(const std::string& path) {
+  SequencePattern p;
+  const std::size_t at = path.find('%');
+  if (at == std::string::npos || path.find('%', at + 1) != std::string::npos) return p;
+  std::size_t k = at + 1;
+  if (k < path.size() && path[k] == '0') {
+    const std::size_t digits = k + 1;
+    k = digits;
+    while (k < path.size() && std::isdigit(static_cast<unsigned char>(path[k]))) ++k;
+    if (k == digits || k - digits > 2) return p;  // "%0d" or a width of three digits or more
+    p.width = std::stoi(path.substr(digits, k - digits));
+  }
+  if (k >= path.size() || path[k] != 'd') return p;
+  p.before = path.substr(0, at);
+  p.after = path.substr(k + 1);
+  p.valid = true;
+  return p;
+}
+
+/// The pattern's file name for frame number i (what snprintf would make of it, without the format).
+std::string sequenceFile(const SequencePattern& p, int i) {
+  std::string n = std::to_string(i);
+  if (static_cast<int>(n.size()) < p.width) n.insert(0, p.width - n.size(), '0');
+  return p.before + n + p.after;
+}
+
 cv::Mat toBgr(const cv::Mat& m) {
   if (m.channels() == 3) return m;
   cv::Mat out;
@@ -63,7 +99,10 @@ VideoSource::VideoSource(const std::string& path, const VideoOptions& options) :
   if (opt_.end_s >= 0 && opt_.end_s <= opt_.start_s)
     throw TopoError("time range " + std::to_string(opt_.start_s) + ".." + std::to_string(opt_.end_s) + " s", "is empty",
                     "give --end larger than --start (or leave --end out)");
-  if (path.find('%') != std::string::npos || isDirectory(path)) {
+  // Only a single %d / %0Nd makes a pattern (and only when no file has that very name): any other
+  // '%' (run_100%full.avi, frame_%s%n.png) is part of a plain file name, never a printf format.
+  const SequencePattern pattern = sequencePattern(path);
+  if ((pattern.valid && !isReadableFile(path)) || isDirectory(path)) {
     sequence_ = true;
     if (!(opt_.sequence_fps > 0))
       throw TopoError(path, "image sequence with a non-positive fps", "give a positive frame rate");
@@ -78,19 +117,19 @@ VideoSource::VideoSource(const std::string& path, const VideoOptions& options) :
       ::closedir(d);
       std::sort(files_.begin(), files_.end());
     } else {
-      char buf[4096];
       for (int start : {0, 1}) {
         for (int i = start;; ++i) {
-          std::snprintf(buf, sizeof(buf), path.c_str(), i);
-          if (!isReadableFile(buf)) break;
-          files_.push_back(buf);
+          const std::string file = sequenceFile(pattern, i);
+          if (!isReadableFile(file)) break;
+          files_.push_back(file);
         }
         if (!files_.empty()) break;
       }
     }
     if (files_.empty())
       throw TopoError(path, "no images found for this image sequence",
-                      "give a printf pattern such as frames/frame_%04d.png (numbered from 0 or 1) or a directory "
+                      "give a pattern with one %d or %0Nd, such as frames/frame_%04d.png (numbered from 0 or 1), "
+                      "or a directory "
                       "of .png/.jpg images");
     frame_count_ = static_cast<int>(files_.size());
     cv::Mat first = cv::imread(files_[0], cv::IMREAD_COLOR);

@@ -1,15 +1,20 @@
 // Misleading messages for bad video input: an empty frame is called empty (with its size), not "not
 // an 8-bit BGR image"; a video that stops decoding before its announced length is called truncated
-// after frame N, not "record a longer clip".
+// after frame N, not "record a longer clip". A video path is never a printf format (only one %d /
+// %0Nd makes an image-sequence pattern; issue 52 §2).
 #include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
 #include <string>
 
 #include "test_util.h"
 #include "topo_gaussian/vision/motion_tracker.h"
 #include "topo_gaussian/vision/synthetic_video.h"
+#include "topo_gaussian/vision/video_source.h"
 
 using namespace topo_gaussian;
 using topo_test::errorOf;
@@ -54,4 +59,59 @@ TEST(VisionFaults, TruncatedVideoIsCalledTruncatedAfterFrameN) {
     EXPECT_EQ(message.find("record a longer clip"), std::string::npos);
   }
   EXPECT_GT(decoded_partly, 0) << "no cut video opened: the truncation case was not exercised";
+}
+
+namespace {
+
+/// A fresh folder with a 1 s pendulum video pend.avi and its first 5 frames as frame_0000.png ...
+/// frame_0004.png and as f0.png ... f4.png.
+std::string clipFolder(const std::string& name) {
+  const std::string dir = ::testing::TempDir() + "/topo_vision_faults_" + name + "_" + std::to_string(::getpid());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  vision::PendulumScene s;
+  s.duration_s = 1.0;
+  s.width = 160;
+  s.height = 120;
+  const std::vector<cv::Mat> frames = vision::renderPendulum(s);
+  vision::writeVideo(frames, s.fps, dir + "/pend.avi");
+  for (int i = 0; i < 5; ++i) {
+    char name4[32];
+    std::snprintf(name4, sizeof(name4), "/frame_%04d.png", i);
+    cv::imwrite(dir + name4, frames[i]);
+    cv::imwrite(dir + "/f" + std::to_string(i) + ".png", frames[i]);
+  }
+  return dir;
+}
+
+}  // namespace
+
+TEST(VisionFaults, OnlyOneDOrZeroPaddedDIsASequencePatternNeverAPrintfFormat) {
+  const std::string dir = clipFolder("pattern");
+  vision::VideoOptions o;
+  EXPECT_EQ(vision::VideoSource(dir + "/frame_%04d.png", o).frameCount(), 5);
+  EXPECT_EQ(vision::VideoSource(dir + "/f%d.png", o).frameCount(), 5);
+  EXPECT_TRUE(vision::VideoSource(dir + "/f%d.png", o).isSequence());
+  // Other conversions were handed to snprintf as the format (%s read garbage, %n wrote: a crash).
+  for (const std::string bad : {"/frame_%s%s%s.png", "/frame_%n.png", "/frame_%04d%s.png", "/frame_%x.png",
+                                "/frame_%%04d.png", "/frame_%-4d.png", "/frame_%0123d.png"}) {
+    const std::string e = errorOf([&] { vision::VideoSource(dir + bad, o); });
+    EXPECT_NE(e.find(dir + bad + ": video file does not exist or cannot be read"), std::string::npos) << bad << ": " << e;
+  }
+  // A real file with a '%' in its name is that file, not a sequence.
+  std::filesystem::copy_file(dir + "/pend.avi", dir + "/run_100%full.avi");
+  const vision::VideoSource v(dir + "/run_100%full.avi", o);
+  EXPECT_FALSE(v.isSequence());
+  EXPECT_GE(v.frameCount(), 25);
+  // ... also when its name happens to look like a pattern.
+  std::filesystem::copy_file(dir + "/pend.avi", dir + "/take_%d.avi");
+  EXPECT_FALSE(vision::VideoSource(dir + "/take_%d.avi", o).isSequence());
+  // The CLI: exit 1 with the message, no crash.
+  for (const std::string bad : {"/frame_%s%s%s.png", "/frame_%n.png"}) {
+    const topo_test::ToolRun r = topo_test::runTopo("track --video '" + dir + bad + "'");
+    EXPECT_EQ(r.code, 1) << bad << ": " << r.out;
+    EXPECT_NE(r.out.find("does not exist or cannot be read"), std::string::npos) << bad << ": " << r.out;
+  }
+  const topo_test::ToolRun ok = topo_test::runTopo("track --json --video '" + dir + "/run_100%full.avi'");
+  EXPECT_EQ(ok.code, 0) << ok.out;
 }

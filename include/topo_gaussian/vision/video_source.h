@@ -1,5 +1,6 @@
-// Frames from a video file (mp4/avi/gif, OpenCV FFMPEG backend) or an image sequence (a printf
-// pattern such as frames/frame_%04d.png, or a directory of images sorted by name), restricted to a
+// Frames from a video file (mp4/avi/gif, OpenCV FFMPEG backend) or an image sequence (a pattern with
+// one %d or %0Nd such as frames/frame_%04d.png, or a directory of images sorted by name; any other '%'
+// is part of a plain file name, never a printf format), restricted to a
 // time range and a frame stride. Every returned frame carries its timestamp: the container's
 // CAP_PROP_POS_MSEC when it is valid (increasing), else index / fps — so dropped frames appear as
 // gaps in the timestamps.
