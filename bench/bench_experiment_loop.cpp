@@ -380,6 +380,29 @@ int main(int argc, char** argv) {
     };
     const workflow::ExperimentLoopResult loop = workflow::runExperimentLoop(cloud, first, performer, lo, cb);
     std::printf("loop ended: %s\n", loop.decision.reason.c_str());
+    // The true interior on the inference's lattice against all the observations: what no design on this
+    // lattice can fit better (the lattice's own error), beside the design found.
+    {
+      const ProblemEvaluation te = simulateInterior(loop.experiments, cloud, t_solid);
+      std::string worst;
+      double worst_rel = 0;
+      for (const auto& e : te.experiments)
+        for (const auto& f : e.eval.features)
+          if (f.has_target && f.target != 0) {
+            const double rel = f.value / f.target - 1;
+            std::fprintf(stderr, "[truth on the lattice]   %s.%s = %.6g (target %.6g, %+.3f %%)\n", e.name.c_str(),
+                         f.name.c_str(), f.value, f.target, 100 * rel);
+            if (std::abs(rel) > std::abs(worst_rel)) worst_rel = rel, worst = e.name + "." + f.name;
+          }
+      std::printf("the true interior on this lattice: loss %.3e (found %.3e), mass %.3f %% off, worst feature %s "
+                  "%+.3f %%\n",
+                  te.loss, loop.last.final.loss, 100 * (te.task.mass.mass / truth.mass - 1), worst.c_str(),
+                  100 * worst_rel);
+      std::printf("{\"bench\": \"experiment_loop\", \"world\": %s, \"truth_on_lattice_loss\": %s, \"found_loss\": %s, "
+                  "\"worst_feature\": %s, \"worst_relative\": %s}\n",
+                  json::quote(o.peer ? "peer" : "ours").c_str(), json::num(te.loss).c_str(),
+                  json::num(loop.last.final.loss).c_str(), json::quote(worst).c_str(), json::num(worst_rel).c_str());
+    }
     if (goal)
       std::printf("goal (all ten moments determined and cavity IoU >= %.2f in at most %d experiments): MET with %d "
                   "experiments\n",
