@@ -3,6 +3,8 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
+#include <system_error>
 
 namespace topo_gaussian::tools {
 
@@ -63,6 +65,16 @@ long Args::integer(const std::string& name, long fallback) const {
   const long v = std::strtol(s.c_str(), &end, 10);
   if (s.empty() || *end != '\0' || errno != 0) throw UsageError("--" + name + " expects an integer, got '" + s + "'");
   return v;
+}
+
+bool sameFile(const std::string& input, const std::string& output) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::exists(output, ec) && fs::equivalent(input, output, ec)) return true;
+  const fs::path a = fs::weakly_canonical(input, ec);
+  if (ec) return false;
+  const fs::path b = fs::weakly_canonical(output, ec);
+  return !ec && a == b;
 }
 
 }  // namespace topo_gaussian::tools

@@ -33,4 +33,8 @@ class Args {
   std::map<std::string, std::vector<std::string>> repeated_;
 };
 
+/// True when `output` names the same file as `input` (also through a symlink, "./", ".."): an output
+/// that would overwrite an input is refused before any work (topo fill, topo track).
+bool sameFile(const std::string& input, const std::string& output);
+
 }  // namespace topo_gaussian::tools

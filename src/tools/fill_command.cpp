@@ -1,7 +1,6 @@
 #include <filesystem>
 #include <iostream>
 #include <sstream>
-#include <system_error>
 
 #include "args.h"
 #include "commands.h"
@@ -51,17 +50,6 @@ const char* kHelp =
     "stderr as '[topo fill] warning: ...' lines and into --json's \"warnings\". The output must not be the\n"
     "input. Exit codes: 0 done, 1 bad input (the message names the file, the problem and the fix),\n"
     "2 bad command line.\n";
-
-// True when `output` names the same file as `input` (also through a symlink, "./", "..").
-bool sameFile(const std::string& input, const std::string& output) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  if (fs::exists(output, ec) && fs::equivalent(input, output, ec)) return true;
-  const fs::path a = fs::weakly_canonical(input, ec);
-  if (ec) return false;
-  const fs::path b = fs::weakly_canonical(output, ec);
-  return !ec && a == b;
-}
 
 Eigen::Vector3d vec3(const Args& a, const std::string& name, const Eigen::Vector3d& fallback) {
   if (!a.has(name)) return fallback;

@@ -64,6 +64,7 @@ const char* kTrackHelp =
     "  --debug-video OUT      write the overlay video: every frame drawn with the final result (the\n"
     "                         JSON's pivot, signed angle or bend, bounces, or the refusal)\n"
     "  --plot OUT.png         write a plot of the angle signal (crossings and turning points marked)\n"
+    "                         (--debug-video and --plot must not name an input: the video or a frame)\n"
     "  --camera fx,fy,cx,cy[,k1,k2,p1,p2[,k3]]   intrinsics (and OpenCV distortion) of the camera\n"
     "  --camera-pose x,y,z,qx,qy,qz,qw          camera optical frame in the world (default: identity)\n"
     "  --plane nx,ny,nz,d     with --camera: place the trajectories on the world plane n.x = d [m]\n"
@@ -242,6 +243,19 @@ int trackCommand(const std::vector<std::string>& argv) {
   {
     vision::VideoSource probe(video, o.video);  // fails early with the file's name
     fps_out = probe.fps() / std::max(1, o.video.stride);
+    // An output that is an input (the video, a frame of the sequence) would be destroyed: refused
+    // before any work, as topo fill refuses --output == --input.
+    for (const std::string option : {"debug-video", "plot"}) {
+      if (!a.has(option)) continue;
+      for (const auto& input : probe.inputFiles())
+        if (sameFile(input, a.str(option)))
+          throw UsageError("--" + option + " " + a.str(option) + " is " +
+                           (probe.isSequence() ? "a frame of the input image sequence " + video : "the input video") +
+                           " itself: writing it would destroy the input; give another name, e.g. --" + option + " " +
+                           (option == "plot" ? "track_plot.png" : "track_overlay.mp4"));
+    }
+    if (a.has("debug-video") && a.has("plot") && sameFile(a.str("debug-video"), a.str("plot")))
+      throw UsageError("--debug-video and --plot name the same file " + a.str("plot") + "; give two names");
     if (a.has("fps") && !probe.isSequence())
       throw UsageError("--fps is for image sequences; the video file " + video + " carries its own frame rate (" +
                        std::to_string(probe.fps()) + " fps): leave --fps out");

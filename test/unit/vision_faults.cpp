@@ -1,7 +1,8 @@
 // Misleading messages for bad video input: an empty frame is called empty (with its size), not "not
 // an 8-bit BGR image"; a video that stops decoding before its announced length is called truncated
 // after frame N, not "record a longer clip". A video path is never a printf format (only one %d /
-// %0Nd makes an image-sequence pattern; issue 52 §2).
+// %0Nd makes an image-sequence pattern), and an output of `topo track` that is one of its inputs is
+// refused before any work (issue 52 §2).
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -84,6 +85,13 @@ std::string clipFolder(const std::string& name) {
   return dir;
 }
 
+std::string contents(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream os;
+  os << in.rdbuf();
+  return os.str();
+}
+
 }  // namespace
 
 TEST(VisionFaults, OnlyOneDOrZeroPaddedDIsASequencePatternNeverAPrintfFormat) {
@@ -114,4 +122,39 @@ TEST(VisionFaults, OnlyOneDOrZeroPaddedDIsASequencePatternNeverAPrintfFormat) {
   }
   const topo_test::ToolRun ok = topo_test::runTopo("track --json --video '" + dir + "/run_100%full.avi'");
   EXPECT_EQ(ok.code, 0) << ok.out;
+}
+
+TEST(VisionFaults, TrackRefusesAnOutputThatIsAnInputBeforeAnyWork) {
+  const std::string dir = clipFolder("same");
+  const std::string video = contents(dir + "/pend.avi"), frame = contents(dir + "/frame_0002.png");
+  std::filesystem::create_symlink(dir + "/pend.avi", dir + "/link.avi");
+  for (const std::string& out : {dir + "/pend.avi", dir + "/./pend.avi", dir + "/../" +
+                                     std::filesystem::path(dir).filename().string() + "/pend.avi",
+                                 dir + "/link.avi"}) {
+    const topo_test::ToolRun d = topo_test::runTopo("track --video " + dir + "/pend.avi --debug-video " + out);
+    EXPECT_EQ(d.code, 2) << out << ": " << d.out;
+    EXPECT_NE(d.out.find("is the input video itself"), std::string::npos) << out << ": " << d.out;
+    const topo_test::ToolRun p = topo_test::runTopo("track --video " + dir + "/link.avi --plot " + out);
+    EXPECT_EQ(p.code, 2) << out << ": " << p.out;
+    EXPECT_NE(p.out.find("--plot " + out + " is the input video itself"), std::string::npos) << out << ": " << p.out;
+  }
+  EXPECT_EQ(contents(dir + "/pend.avi"), video) << "the input video was changed";
+  // A frame of an image sequence (pattern or directory) is an input too.
+  for (const std::string seq : {"/frame_%04d.png", ""}) {
+    const topo_test::ToolRun r =
+        topo_test::runTopo("track --video '" + dir + seq + "' --plot " + dir + "/frame_0002.png");
+    EXPECT_EQ(r.code, 2) << seq << ": " << r.out;
+    EXPECT_NE(r.out.find("is a frame of the input image sequence"), std::string::npos) << seq << ": " << r.out;
+  }
+  EXPECT_EQ(contents(dir + "/frame_0002.png"), frame) << "an input frame was changed";
+  const topo_test::ToolRun both = topo_test::runTopo("track --video " + dir + "/pend.avi --plot " + dir +
+                                                     "/out.png --debug-video " + dir + "/out.png");
+  EXPECT_EQ(both.code, 2) << both.out;
+  // Other names are written as before.
+  const topo_test::ToolRun ok =
+      topo_test::runTopo("track --video " + dir + "/pend.avi --plot " + dir + "/plot.png --debug-video " + dir +
+                         "/overlay.avi");
+  EXPECT_EQ(ok.code, 0) << ok.out;
+  EXPECT_TRUE(std::filesystem::is_regular_file(dir + "/plot.png")) << ok.out;
+  EXPECT_TRUE(std::filesystem::is_regular_file(dir + "/overlay.avi")) << ok.out;
 }

@@ -33,6 +33,8 @@ class VideoSource {
 
   const std::string& path() const { return path_; }
   bool isSequence() const { return sequence_; }
+  /// The files frames are read from: the video file, or every image of the sequence.
+  std::vector<std::string> inputFiles() const { return sequence_ ? files_ : std::vector<std::string>{path_}; }
   double fps() const { return fps_; }
   /// Frames in the whole file as reported by the container (sequence: number of images); may be
   /// an estimate for some containers.
