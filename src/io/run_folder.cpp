@@ -1,6 +1,7 @@
 #include "topo_gaussian/io/run_folder.h"
 
 #include <algorithm>
+#include <cctype>
 #include <ctime>
 #include <filesystem>
 #include <iomanip>
@@ -21,6 +22,81 @@ void ensureDirectory(const std::string& dir, const std::string& what) {
   if (!fs::is_directory(dir))
     throw TopoError(what + " " + dir, "cannot be created" + (ec ? " (" + ec.message() + ")" : std::string()),
                     "give a writable directory");
+}
+
+const std::vector<std::string>& runFileNames() {
+  static const std::vector<std::string> names = {"volume.ply", "interior.ply", "report.json",
+                                                 "signal.csv", "interior.stl", "slices.png",
+                                                 "signal.png", "loss.png",     "export.json"};
+  return names;
+}
+
+namespace {
+
+/// A name a run writes: one of runFileNames(), or such a name + ".tmp" + digits (an interrupted
+/// atomic write, io/text_file.h).
+bool isRunFileName(const std::string& name) {
+  for (const auto& f : runFileNames()) {
+    if (name == f) return true;
+    if (name.size() > f.size() + 4 && name.compare(0, f.size() + 4, f + ".tmp") == 0 &&
+        std::all_of(name.begin() + f.size() + 4, name.end(), [](char c) { return std::isdigit(c) != 0; }))
+      return true;
+  }
+  return false;
+}
+
+std::string firstNames(const std::vector<std::string>& names, std::size_t most) {
+  std::string s;
+  for (std::size_t i = 0; i < names.size() && i < most; ++i) s += (i ? ", " : "") + names[i];
+  if (names.size() > most) s += " and " + std::to_string(names.size() - most) + " more";
+  return s;
+}
+
+}  // namespace
+
+PreparedRunFolder prepareRunFolder(const std::string& dir, bool replace) {
+  ensureDirectory(dir, "output directory");
+  std::vector<std::string> run_files, others;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    std::error_code tec;
+    (isRunFileName(name) && !e.is_directory(tec) ? run_files : others).push_back(name);
+  }
+  if (ec)
+    throw TopoError("output directory " + dir, "cannot be listed (" + ec.message() + ")", "give a readable directory");
+  std::sort(run_files.begin(), run_files.end());
+  std::sort(others.begin(), others.end());
+  PreparedRunFolder out;
+  if (run_files.empty() && others.empty()) return out;
+  if (!replace) {
+    std::string what;
+    if (!run_files.empty()) {
+      std::string task;
+      try {
+        task = nlohmann::json::parse(readTextFile((fs::path(dir) / "report.json").string())).value("task", "");
+      } catch (const std::exception&) {  // no report, or a torn one: still a run's files
+      }
+      what = "holds an earlier run" + (task.empty() ? std::string() : " of task " + task) + " (" +
+             firstNames(run_files, 9) + (others.empty() ? "" : "; and " + firstNames(others, 3)) + ")";
+    } else {
+      what = "is not empty (" + firstNames(others, 5) + ")";
+    }
+    throw TopoError("output directory " + dir,
+                    what + ": a run there would overwrite some of it and leave the rest beside the new files",
+                    "give another folder (a new or empty one), or clear this one: `topo infer --force` removes an "
+                    "earlier run's files first and keeps any other file");
+  }
+  for (const auto& name : run_files) {
+    std::error_code rec;
+    fs::remove(fs::path(dir) / name, rec);
+    if (rec)
+      throw TopoError(dir + "/" + name, "of an earlier run cannot be removed (" + rec.message() + ")",
+                      "check the folder's permissions, or give another folder");
+    out.removed.push_back(name);
+  }
+  out.kept = others;
+  return out;
 }
 
 std::string createRunFolder(const std::string& parent, const std::string& stem) {

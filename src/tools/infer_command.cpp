@@ -53,7 +53,10 @@ const char* kInferHelp =
     "  --target NAME=VALUE    an observed feature, e.g. period_s=0.25 (repeatable; wins over --features)\n"
     "  --set KEY=VALUE        any task parameter, e.g. density_solid=1200 (repeatable)\n"
     "  --list-params          print every parameter of the task with its default and exit\n"
-    "  --output DIR           the run folder (created)\n"
+    "  --output DIR           the run folder (created; a folder that holds anything, e.g. an earlier run,\n"
+    "                         is refused before any work)\n"
+    "  --force                with --output: remove an earlier run's files there first (only the names\n"
+    "                         a run writes; every other file is kept)\n"
     "  --no-export            no STL and pictures (volume.ply, interior.ply, report.json, signal.csv only)\n"
     "  --json                 print report.json on stdout at the end\n"
     "  --quiet                no progress lines\n"
@@ -119,7 +122,7 @@ VolumeCloud volumeOrDefaultShape(const Args& a, const inference::TaskConfig& con
 }  // namespace
 
 int inferCommand(const std::vector<std::string>& argv) {
-  const Args a(argv, {"help", "json", "quiet", "list-params", "no-export"},
+  const Args a(argv, {"help", "json", "quiet", "list-params", "no-export", "force"},
                {"task", "surface", "volume", "representation", "backend", "output", "count"},
                {"target", "set", "experiment", "features"});
   if (a.has("help")) {
@@ -149,6 +152,7 @@ int inferCommand(const std::vector<std::string>& argv) {
   rq.targets = a.all("target");
   rq.targets_origin = "--target";
   rq.output_dir = a.str("output");
+  rq.replace_output = a.has("force");
   rq.export_files = !a.has("no-export");
   const bool quiet = a.has("quiet");
   rq.progress = [&](const inference::IterationInfo& it) {

@@ -186,7 +186,13 @@ InferenceRunOutcome runUnguarded(const InferenceRunRequest& rq) {
   }
   // The folder before the work, so a bad one fails early.
   if (!rq.output_dir.empty()) {
-    io::ensureDirectory(rq.output_dir, "output directory");
+    // An earlier run there would be overwritten in part, its other files left beside the new ones.
+    const io::PreparedRunFolder prepared = io::prepareRunFolder(rq.output_dir, rq.replace_output);
+    if (!prepared.removed.empty())
+      out.notes.push_back("removed the earlier run's " + std::to_string(prepared.removed.size()) + " files from " +
+                          rq.output_dir + (prepared.kept.empty() ? std::string()
+                                                                 : " (kept " + std::to_string(prepared.kept.size()) +
+                                                                       " other entries)"));
     out.output_dir = rq.output_dir;
   } else if (!rq.output_parent.empty()) {
     out.output_dir = io::createRunFolder(rq.output_parent, config.task());

@@ -25,7 +25,7 @@ class Cli : public testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = testing::TempDir() + "/topo_cli";
-    std::system(("mkdir -p " + dir_).c_str());
+    std::system(("rm -rf " + dir_ + " && mkdir -p " + dir_).c_str());  // a run folder must be new or empty
     ASSERT_EQ(runTopo("generate --shape box --size 0.1 --output " + dir_ + "/box.obj").code, 0);
     const ToolRun f = runTopo("fill --input " + dir_ + "/box.obj --output " + dir_ + "/box.ply --count 8000");
     ASSERT_EQ(f.code, 0) << f.out;

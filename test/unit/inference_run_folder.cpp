@@ -2,7 +2,8 @@
 // `topo infer` loads with io::loadRunFolder (what the interior_inference node restores from), a
 // folder written by the library call the node makes is read back by `topo simulate` and `topo
 // export`; run folders are unique within one second; the newest complete run is found past newer
-// broken ones, each named with the reason; writes are atomic.
+// broken ones, each named with the reason; a folder holding an earlier run is refused (or, asked,
+// cleared of that run's files only); writes are atomic.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -148,6 +149,54 @@ TEST_F(RunFolder, ARequestWithoutTargetsOrFolderFailsBeforeAnyWork) {
   rq = nodeLikeRequest(dir_ + "/refused");
   rq.targets = {"density_solid=3"};
   EXPECT_NE(errorOf([&] { workflow::runInference(rq); }).find("not an observed feature"), std::string::npos);
+}
+
+// Issue 52 §2: `topo infer --output R` (or a goal's output_dir) where R held an earlier run overwrote it
+// silently and left the old run's other files (signal.csv, signal.png) beside the new report. A
+// folder that holds anything is refused before any work, naming what it holds and the fix; --force
+// (replace_output) removes only the names a run writes, never another file.
+TEST_F(RunFolder, AFolderHoldingAnEarlierRunIsRefusedAndForceRemovesOnlyItsFiles) {
+  const std::string folder = dir_ + "/reused";
+  workflow::InferenceRunRequest rq = nodeLikeRequest("");
+  rq.output_dir = folder;  // as the node's goal.output_dir and topo infer --output give it
+  workflow::runInference(rq);
+  std::ofstream(folder + "/signal.png") << "an earlier run's picture";  // left by a run of another task
+  const std::string report = io::readTextFile(folder + "/report.json");
+  const std::string e = errorOf([&] { workflow::runInference(rq); });
+  EXPECT_NE(e.find("output directory " + folder + ": holds an earlier run of task tumbler ("), std::string::npos) << e;
+  EXPECT_NE(e.find("report.json"), std::string::npos) << e;
+  EXPECT_NE(e.find("Fix: give another folder"), std::string::npos) << e;
+  EXPECT_NE(e.find("--force"), std::string::npos) << e;
+  EXPECT_EQ(io::readTextFile(folder + "/report.json"), report) << "the earlier run was touched";
+  // Through the CLI: exit 1 with the same message; with --force the run replaces the earlier one.
+  const std::string cli = "infer --task tumbler --volume " + dir_ +
+                          "/tumbler.ply --target period_s=0.5 --set max_evaluations=1 --no-export --quiet --output " +
+                          folder;
+  const ToolRun refused = runTopo(cli);
+  EXPECT_EQ(refused.code, 1) << refused.out;
+  EXPECT_NE(refused.out.find("holds an earlier run of task tumbler"), std::string::npos) << refused.out;
+  std::ofstream(folder + "/notes.txt") << "the user's own file";
+  fs::create_directories(folder + "/photos");
+  std::ofstream(folder + "/report.json.tmp12345") << "{";  // an interrupted write of the earlier run
+  const ToolRun forced = runTopo(cli + " --force");
+  ASSERT_TRUE(forced.code == 0 || forced.code == 3) << forced.out;
+  EXPECT_NE(forced.out.find("removed the earlier run's"), std::string::npos) << forced.out;
+  EXPECT_FALSE(fs::exists(folder + "/signal.png")) << "the earlier run's picture was left beside the new run";
+  EXPECT_FALSE(fs::exists(folder + "/report.json.tmp12345"));
+  EXPECT_TRUE(fs::exists(folder + "/notes.txt")) << "a file no run writes was removed";
+  EXPECT_TRUE(fs::is_directory(folder + "/photos"));
+  EXPECT_EQ(io::loadRunFolder(folder).task, "tumbler");
+  // A folder with only other files is refused too (without --force), naming them; an empty one is used.
+  const std::string other = dir_ + "/not_empty";
+  fs::create_directories(other);
+  std::ofstream(other + "/notes.txt") << "x";
+  rq.output_dir = other;
+  const std::string e2 = errorOf([&] { workflow::runInference(rq); });
+  EXPECT_NE(e2.find("output directory " + other + ": is not empty (notes.txt)"), std::string::npos) << e2;
+  const std::string empty = dir_ + "/empty";
+  fs::create_directories(empty);
+  rq.output_dir = empty;
+  EXPECT_EQ(errorOf([&] { workflow::runInference(rq); }), "");
 }
 
 TEST(TextFile, WritesAreAtomicAndNameThePath) {

@@ -19,6 +19,22 @@ namespace topo_gaussian::io {
 /// it cannot be created or is not a directory.
 void ensureDirectory(const std::string& dir, const std::string& what);
 
+/// The names of the files a run writes into its folder: volume.ply, interior.ply, report.json,
+/// signal.csv and the export's interior.stl, slices.png, signal.png, loss.png, export.json.
+const std::vector<std::string>& runFileNames();
+
+struct PreparedRunFolder {
+  std::vector<std::string> removed;  ///< an earlier run's files removed (replace), names inside the folder
+  std::vector<std::string> kept;     ///< other entries left in place (replace), names inside the folder
+};
+
+/// Makes `dir` ready for one run: creates it when missing. A folder that holds anything is refused
+/// with a TopoError naming what it holds (an earlier run: its task and files) and the fix, since the
+/// new run would overwrite the earlier one in part and leave its other files (signal.csv, signal.png)
+/// beside the new report. With `replace`, the files a run writes (runFileNames(), and the ".tmpN"
+/// leftovers of an interrupted write) are removed first; any other entry is kept, never removed.
+PreparedRunFolder prepareRunFolder(const std::string& dir, bool replace);
+
 /// Creates and returns a new folder <parent>/<stem>_<YYYYmmdd_HHMMSS> (local time); when that name
 /// exists (two runs in one second) the suffix _2, _3, ... is added, so no run overwrites another.
 std::string createRunFolder(const std::string& parent, const std::string& stem);

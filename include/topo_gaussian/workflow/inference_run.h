@@ -34,9 +34,12 @@ struct InferenceRunRequest {
   std::string targets_origin = "targets";       ///< names them in messages ("--target", "goal targets")
   std::string parameters_origin = "--set";      ///< where parameters go instead ("--set", "goal overrides")
   std::string missing_targets_hint;             ///< appended to the error when a needed target is missing
-  std::string output_dir;                       ///< this folder (created when missing), or else
+  std::string output_dir;                       ///< this folder (created when missing; must be empty), or else
   std::string output_parent;                    ///< a new folder <output_parent>/<task>_<YYYYmmdd_HHMMSS>[_N]
   bool export_files = true;                     ///< also the STL and the pictures
+  /// output_dir may hold an earlier run: its files are removed first, other files kept (topo infer
+  /// --force; io::prepareRunFolder). Otherwise a non-empty output_dir is refused before any work.
+  bool replace_output = false;
   inference::ProgressCallback progress;         ///< per iteration; false cancels (best design so far)
   inference::EvaluationCallback on_evaluation;  ///< every evaluated design
   /// Polled inside every simulation's time loop and between evaluations (a cancelled goal, Ctrl-C):
