@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include "topo_gaussian/common/error.h"
@@ -600,11 +601,24 @@ YAML::Node loadYaml(const std::string& path) {
   }
 }
 
+/// Throws TopoError when a map names one key twice: YAML parsers keep both and the later value would
+/// silently win (`density_solid` written twice), where an unknown key is refused.
+void refuseDuplicateKeys(const YAML::Node& map, const std::string& where) {
+  std::set<std::string> seen;
+  for (const auto& kv : map) {
+    if (!kv.first.IsScalar()) continue;
+    if (!seen.insert(kv.first.Scalar()).second)
+      throw TopoError(where + " " + kv.first.Scalar(), "is given twice (the second value would silently win)",
+                      "keep one " + kv.first.Scalar() + " line");
+  }
+}
+
 /// Sets every `key: value` of a map (and its `targets:` map) on c, skipping the keys in `skip`.
 void applyYamlMap(TaskConfig& c, const YAML::Node& map, const std::string& where, const std::string& origin,
                   const std::vector<std::string>& skip) {
   std::string key;
   try {
+    refuseDuplicateKeys(map, where);
     for (const auto& kv : map) {
       if (!kv.first.IsScalar())
         throw TopoError(where, "has a key that is not a name (a list or map as a key)", "write `name: value` lines");
@@ -613,6 +627,7 @@ void applyYamlMap(TaskConfig& c, const YAML::Node& map, const std::string& where
       if (key == "targets") {
         if (!kv.second.IsMap())
           throw TopoError(where + " targets", "is not a map", "write `targets:` followed by `name: value` lines");
+        refuseDuplicateKeys(kv.second, where + " targets");
         for (const auto& t : kv.second) {
           if (!t.first.IsScalar())
             throw TopoError(where + " targets", "has a key that is not a name", "write `name: value` lines");
@@ -696,6 +711,7 @@ TaskConfig TaskConfig::fromYamlFile(const std::string& path) {
     if (root["targets"]) throw TopoError(path, "has `targets:` at the top", "give each experiment its own `targets:`");
     TaskConfig top = common();
     top.source_ = path;
+    refuseDuplicateKeys(root, path);
     for (const auto& kv : root) {
       const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : std::string();
       if (key == "experiments" || key == "description") continue;
