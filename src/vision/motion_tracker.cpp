@@ -552,6 +552,8 @@ TrackResult MotionTracker::finish() const {
   if (r.kind == "pendulum") r.confidence["pivot"] = 0.0;
   r.signal.period_s = r.signal.amplitude_deg = r.signal.equilibrium_deg = r.signal.max_tilt_deg = kNaN;
   r.signal.log_decrement = r.signal.damping_ratio = kNaN;
+  // the rest pose too: a refusal (or a kind that never measures it) gives null, never 0 deg
+  r.static_pose.angle_deg = r.static_pose.spread_deg = kNaN;
   r.bend_final_deg = r.bend_max_deg = r.bend_t_max_s = r.bend_held_deg = kNaN;
   if (r.kind == "finger") r.profile_segments = s.opt.profile_segments;
   auto refuse = [&](const std::string& why) {

@@ -8,11 +8,14 @@
 
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 #include <string>
 
 #include "test_util.h"
+#include "topo_gaussian/io/motion_features_json.h"
+#include "topo_gaussian/vision/motion_features.h"
 #include "topo_gaussian/vision/motion_tracker.h"
 #include "topo_gaussian/vision/synthetic_video.h"
 #include "topo_gaussian/vision/video_source.h"
@@ -157,4 +160,26 @@ TEST(VisionFaults, TrackRefusesAnOutputThatIsAnInputBeforeAnyWork) {
   EXPECT_EQ(ok.code, 0) << ok.out;
   EXPECT_TRUE(std::filesystem::is_regular_file(dir + "/plot.png")) << ok.out;
   EXPECT_TRUE(std::filesystem::is_regular_file(dir + "/overlay.avi")) << ok.out;
+}
+
+// Issue 52 §1: a refusal's motion-features JSON printed `equilibrium_deg: 0.0` (the rest pose's
+// default), where a refusal has every feature null (README, docs/cli.md). The same through the
+// library document and `topo track --json`.
+TEST(VisionFaults, ARefusalsEquilibriumIsNullNotZero) {
+  const std::string dir = clipFolder("refusal");
+  vision::TrackOptions o;
+  o.tracker.hsv = {vision::HsvRange{cv::Scalar(100, 150, 50), cv::Scalar(130, 255, 255)}};  // blue: not in the clip
+  const vision::TrackResult r = vision::trackVideo(dir + "/pend.avi", o);
+  ASSERT_TRUE(r.refused) << r.message;
+  const nlohmann::json doc = nlohmann::json::parse(io::motionFeaturesJson(vision::toMotionFeatures(r), false));
+  EXPECT_TRUE(doc["features"]["equilibrium_deg"].is_null()) << doc.dump();
+  const topo_test::ToolRun cli = topo_test::runTopo("track --json --video " + dir +
+                                                        "/pend.avi --hsv-lower 100,150,50 --hsv-upper 130,255,255",
+                                                    topo_test::Stderr::Discard);
+  ASSERT_EQ(cli.code, 0) << cli.out;
+  const nlohmann::json j = nlohmann::json::parse(cli.out);
+  EXPECT_TRUE(j["tracker"]["refused"].get<bool>()) << cli.out;
+  for (const auto& [name, value] : j["features"].items())
+    if (name != "oscillation_found" && name != "profile_segments")
+      EXPECT_TRUE(value.is_null()) << name << " of a refusal is " << value.dump();
 }
