@@ -69,6 +69,7 @@ struct HangingOptions {
   std::optional<Eigen::Vector3d> hanging_point;
   double swing_duration_s = 0, swing_tilt_deg = 3, axle_heading_deg = 0, axle_swing_amplitude_deg = 3;
   std::optional<double> axle_swing_period_s, cross_axle_swing_period_s;
+  double axle_period_tolerance = 0.01;
 };
 
 constexpr auto kHangingFields = [](auto& f) {
@@ -92,6 +93,10 @@ constexpr auto kHangingFields = [](auto& f) {
   f.target("cross_axle_swing_period_s", &O::cross_axle_swing_period_s, "s",
            "the same with the axle turned 90 deg about the vertical (heading axle_heading_deg + 90) [s]", 0, 1e300,
            true);
+  f.number("axle_period_tolerance", &O::axle_period_tolerance, 0.01, "unitless",
+           "how well the timed axle periods are known, relative (reached within it; their observations' noise): "
+           "e.g. a 1 ms timer on a 0.5 s swing, 0.002",
+           1e-6, 1, true);
 };
 
 struct BalanceOptions {
@@ -151,6 +156,7 @@ class StaticTask : public Task {
       swing_tilt_ = o.swing_tilt_deg;
       const double heading = o.axle_heading_deg * M_PI / 180.0;
       axle_amplitude_ = o.axle_swing_amplitude_deg * M_PI / 180.0;
+      axle_tolerance_ = o.axle_period_tolerance;
       Eigen::Vector3d h1, h2;
       horizontalAxes(&h1, &h2);
       const char* names[2] = {"axle_swing_period_s", "cross_axle_swing_period_s"};
@@ -339,19 +345,19 @@ class StaticTask : public Task {
     dlnT.segment<3>(1) = p.mass * s_perp / I_a - s_perp / (2 * d2);
     const int row[6] = {0, 1, 2, 0, 0, 1}, col[6] = {0, 1, 2, 1, 2, 2};
     for (int k = 0; k < 6; ++k) dlnT[4 + k] = a[row[k]] * a[col[k]] * (row[k] == col[k] ? 1.0 : 2.0) / (2 * I_a);
-    ev.features.push_back(Feature{axle.name, T, "s", target > 0, target, 1e-9, 0.01});
+    ev.features.push_back(Feature{axle.name, T, "s", target > 0, target, 1e-9, axle_tolerance_});
     if (!(target > 0)) return;
     const double e = (T - target) / target;
     ev.loss += e * e;
     *dL_dp += (2 * e * T / target) * dlnT;
-    Observation o{axle.name, T, "s", true, target, 0.01 * target};
+    Observation o{axle.name, T, "s", true, target, axle_tolerance_ * target};
     o.d_dp = T * dlnT;
     ev.observations.push_back(o);
   }
 
   double swing_duration_ = 0, swing_tilt_ = 3;
   Axle axles_[2];
-  double axle_amplitude_ = 0;
+  double axle_amplitude_ = 0, axle_tolerance_ = 0.01;
   double roll_ = 0, pitch_ = 0, mass_target_ = -1;
   Eigen::Matrix3d R_;
   Eigen::Vector3d g_hat_, point_, e1_, e2_;

@@ -31,6 +31,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <map>
 #include <mutex>
 #include <set>
@@ -332,8 +333,32 @@ bool performNext(const topo_gaussian::InferInteriorResult& res, const std::strin
   next->goal.overrides.clear();
   for (const auto& a : res.next_experiment_overrides) next->goal.overrides.push_back(name + "." + a);
   next->goal.targets.clear();
-  for (const auto& r : srv.response.readings) next->goal.targets.push_back(name + "." + r);
+  // the timed periods are known to the timer's step: the goal states it (the task's default is 1 %)
+  double period_tolerance = 0.0;
+  for (std::size_t k = 0; k < srv.response.readings.size(); ++k) {
+    const std::string& r = srv.response.readings[k];
+    next->goal.targets.push_back(name + "." + r);
+    const std::string key = r.substr(0, r.find('='));
+    const double value = std::atof(r.substr(r.find('=') + 1).c_str());
+    if (key.size() > 9 && key.compare(key.size() - 9, 9, "_period_s") == 0 && value > 0 &&
+        k < srv.response.resolutions.size() && srv.response.resolutions[k] > 0)
+      period_tolerance = std::max(period_tolerance, srv.response.resolutions[k] / value);
+  }
+  if (period_tolerance > 0) {
+    char text[64];
+    std::snprintf(text, sizeof(text), "%s.axle_period_tolerance=%.3g", name.c_str(), period_tolerance);
+    next->goal.overrides.push_back(text);
+  }
   next->goal.features = topo_gaussian::MotionFeatures();
+  // A hang whose pose the rig read (roll and pitch): the camera adds nothing, and hung end-on (a large pitch)
+  // it may see no orientation at all; otherwise the tracker's window of it gives its targets.
+  bool pose_read = false;
+  for (const auto& r : srv.response.readings) pose_read = pose_read || r.rfind("target_pitch_deg=", 0) == 0;
+  if (pose_read) {
+    next->goal.ignore_motion_features = true;
+    std::printf("[demo] loop: %s's rest pose is read on the rig: its targets are the readings\n", name.c_str());
+    return true;
+  }
   return waitForExperiments(*next, res.next_experiment_kind == "hang" || res.next_experiment_kind == "swing");
 }
 
@@ -401,6 +426,13 @@ int main(int argc, char** argv) {
       const auto more = runGoal(next);
       if (!more) {
         ended = "the inference with " + name + " failed (above): the last result is kept";
+        break;
+      }
+      if (res->converged && !more->converged) {  // it reached every target before, not with this one
+        printLoopStep(step, *more, truth.get());
+        ended = "with " + name + " no interior reaches every target (it contradicts the earlier experiments, or its "
+                "readings are off): the last result that did, from " + std::to_string(res->experiment_names.size()) +
+                " experiments, is kept";
         break;
       }
       ended = more->loop_reason;

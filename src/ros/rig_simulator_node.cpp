@@ -522,22 +522,26 @@ std::unique_ptr<workflow::RigTwin> RigSimulatorNode::performedTwin(
                       "give a point on the object's surface (object frame, metres)");
   }
   auto twin = std::make_unique<workflow::RigTwin>(x);
-  for (const auto& f : req.instruments) instrumentReading(*twin, f);  // TopoError: what the rig can read
+  for (const auto& f : req.instruments) instrumentReading(*twin, f, nullptr);  // TopoError: what it can read
   return twin;
 }
 
-double RigSimulatorNode::instrumentReading(const workflow::RigTwin& twin, const std::string& name) const {
+double RigSimulatorNode::instrumentReading(const workflow::RigTwin& twin, const std::string& name,
+                                           double* resolution) const {
+  double step = 0.0, v = NAN;
   // a pose angle of the experiment as the twin set it up (a hung object's rest pose): the inclinometer
   if (name == "target_roll_deg" || name == "target_pitch_deg") {
     if (!twin.config().has(name))
       throw TopoError("~perform_experiment instrument '" + name + "'", "is not set up by this experiment's task",
                       "read it only for a hanging experiment");
-    const double step = params_.inclinometer_resolution_deg;
-    return step * std::round(twin.config().number(name) / step);
+    step = params_.inclinometer_resolution_deg;
+    v = twin.config().number(name);
+  } else {
+    v = twin.feature(name);  // TopoError listing the features the task has
+    if (name.size() > 2 && name.compare(name.size() - 2, 2, "_s") == 0) step = params_.timer_resolution_s;
   }
-  const double v = twin.feature(name);  // TopoError listing the features the task has
-  const double step = params_.timer_resolution_s;
-  return name.size() > 2 && name.compare(name.size() - 2, 2, "_s") == 0 ? step * std::round(v / step) : v;
+  if (resolution) *resolution = step;
+  return step > 0 ? step * std::round(v / step) : v;
 }
 
 bool RigSimulatorNode::onPerformExperiment(topo_gaussian::PerformExperiment::Request& req,
@@ -562,7 +566,9 @@ bool RigSimulatorNode::onPerformExperiment(topo_gaussian::PerformExperiment::Req
   }
   std::string read;
   for (const auto& f : req.instruments) {
-    res.readings.push_back(f + "=" + numberText(instrumentReading(*twin, f), 9));
+    double step = 0.0;
+    res.readings.push_back(f + "=" + numberText(instrumentReading(*twin, f, &step), 9));
+    res.resolutions.push_back(step);
     read += (read.empty() ? "" : ", ") + res.readings.back();
   }
   if (names_.size() == 1 && names_.front().empty()) names_.front() = twins_.front()->config().task();

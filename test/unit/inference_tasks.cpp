@@ -286,6 +286,50 @@ TEST(TaskGradient, HangingSwungOnAnAxle) {
   }
 }
 
+// axle_period_tolerance states how well the timed periods are known (a 1 ms timer on a 0.5 s swing: 0.002):
+// it is the period features' tolerance (reached within it) and their observations' noise, nothing else.
+TEST(Tasks, AxlePeriodToleranceIsTheTimedPeriodsNoise) {
+  const VolumeCloud cloud = topo_test::boxCloud(0.2, 0.1, 0.06, 0.01);
+  TaskConfig c = TaskConfig::defaults("hanging");
+  c.set("hanging_point", "0.03,0.01,0.03");
+  const InteriorProblem free_swing(c, cloud);
+  ProblemEvaluation at;
+  free_swing.evaluate(quadricDesign(), nullptr, &at);
+  double T = 0;
+  for (const auto& f : at.task.features)
+    if (f.name == "axle_swing_period_s") T = f.value;
+  ASSERT_GT(T, 0.0);
+  for (const double tol : {0.01, 0.002}) {
+    for (const double off : {0.0015, 0.003}) {
+      TaskConfig t = c;
+      t.setNumber("axle_swing_period_s", T * (1 + off));
+      if (tol != 0.01) t.setNumber("axle_period_tolerance", tol);
+      const InteriorProblem p(t, cloud);
+      ProblemEvaluation ev;
+      p.evaluate(quadricDesign(), nullptr, &ev);
+      bool found = false;
+      for (const auto& f : ev.task.features)
+        if (f.name == "axle_swing_period_s") {
+          found = true;
+          EXPECT_DOUBLE_EQ(f.tolerance, tol);
+          EXPECT_EQ(f.reached(), off < tol) << "tolerance " << tol << ", " << off << " off";
+        }
+      EXPECT_TRUE(found);
+      found = false;
+      for (const auto& o : ev.task.observations)
+        if (o.name == "axle_swing_period_s") {
+          found = true;
+          EXPECT_NEAR(o.noise, tol * T * (1 + off), 1e-15);
+        }
+      EXPECT_TRUE(found);
+      const double e = off / (1 + off);  // (T − T*)/T*: the loss term does not depend on the tolerance
+      EXPECT_NEAR(ev.loss - at.loss, e * e, 1e-12);
+    }
+  }
+  TaskConfig bad = c;
+  EXPECT_THROW(bad.setNumber("axle_period_tolerance", 0.0), TopoError);
+}
+
 TEST(TaskGradient, QiqiThroughTheEquilibrium) {
   // A hollow-capable box hanging on a hinge above its centre; water at three levels.
   const VolumeCloud cloud = topo_test::boxCloud(0.1, 0.12, 0.15, 0.01);

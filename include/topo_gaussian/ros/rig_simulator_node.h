@@ -172,8 +172,9 @@ class RigSimulatorNode {
   /// Sets up the requested experiment's twin (throws TopoError: the reason it cannot be performed).
   std::unique_ptr<workflow::RigTwin> performedTwin(const topo_gaussian::PerformExperiment::Request& req) const;
   void publishGroundTruth(const ::ros::Time& stamp);
-  /// What the rig's instrument reads of an experiment (see ~perform_experiment); throws TopoError naming it.
-  double instrumentReading(const workflow::RigTwin& twin, const std::string& name) const;
+  /// What the rig's instrument reads of an experiment (see ~perform_experiment) and its step (*resolution, in
+  /// its unit; 0 = exact); throws TopoError naming it.
+  double instrumentReading(const workflow::RigTwin& twin, const std::string& name, double* resolution) const;
   /// The finger's pressure now (profile or command) and its rendered surface.
   double fingerPressurePa(const ::ros::Time& now);
   /// The camera pose from tf, or the default after the timeout; false while still waiting.
