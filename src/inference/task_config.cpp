@@ -188,7 +188,8 @@ void declareCommonParameters(TaskParameters& p) {
          "solves (their forces on the host; auto keeps the factor on the host when the GPU lacks the memory); the "
          "rigid tasks' physics runs on the CPU",
          {"auto", "cpu", "cuda"});
-  p.vector3("gravity", &g, "m/s^2", "gravity in the world frame [m/s^2]");
+  p.vector3("gravity", &g, "m/s^2",
+            "gravity in the world frame [m/s^2], each component within [-1000, 1000] (about 100 g)", -1000, 1000);
   // how sure is the interior (inference/design_spread.h)
   p.integer("restarts", 2, "unitless",
             "further optimisations after the best design, pulled to other solid fractions, that look for designs "
@@ -263,6 +264,12 @@ void TaskConfig::check(const ParamSpec& s, const ParamValue& v, const std::strin
       break;
     case ParamType::Vector3:
       if (!v.vec.allFinite()) throw TopoError(who, "vector is not finite", "give three finite numbers x,y,z");
+      for (int i = 0; i < 3; ++i)
+        if (v.vec[i] < s.min || v.vec[i] > s.max) {
+          std::ostringstream os;
+          os << "component " << "xyz"[i] << " = " << v.vec[i] << " is outside [" << s.min << ", " << s.max << "]";
+          throw TopoError(who, os.str(), s.doc);
+        }
       break;
     case ParamType::Text:
       if (!s.choices.empty() && std::find(s.choices.begin(), s.choices.end(), v.text) == s.choices.end())

@@ -60,8 +60,9 @@ TaskParameters::Declared TaskParameters::text(const std::string& name, const std
 }
 
 TaskParameters::Declared TaskParameters::vector3(const std::string& name, const Eigen::Vector3d* def,
-                                                 const std::string& unit, const std::string& doc) {
-  ParamSpec s{name, ParamType::Vector3, doc, -1e300, 1e300, false, {}, false, unit, ""};
+                                                 const std::string& unit, const std::string& doc, double lo,
+                                                 double hi) {
+  ParamSpec s{name, ParamType::Vector3, doc, lo, hi, false, {}, false, unit, ""};
   ParamValue v;
   if (def) {
     v.vec = *def;

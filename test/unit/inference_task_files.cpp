@@ -142,3 +142,19 @@ TEST(TaskFiles, AKeyGivenTwiceInOneMapIsRefusedNamingIt) {
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_NE(r.out.find("is given twice"), std::string::npos) << r.out;
 }
+
+// Issue 52 §2: `--set gravity=0,0,-1e160` was accepted (a 90 deg tilt, periods of 0 s, exit 3). Each
+// component of gravity is within [-1000, 1000] m/s^2 (about 100 g); beyond, refused with the range.
+TEST(TaskFiles, AGravityBeyondAHundredGIsRefusedWithTheRange) {
+  TaskConfig c = TaskConfig::defaults("tumbler");
+  const std::string e = topo_test::errorOf([&] { c.set("gravity", "0,0,-1e160"); });
+  EXPECT_NE(e.find("--set gravity: component z = -1e+160 is outside [-1000, 1000]"), std::string::npos) << e;
+  EXPECT_NE(e.find("Fix: gravity in the world frame [m/s^2]"), std::string::npos) << e;
+  EXPECT_NE(topo_test::errorOf([&] { c.set("gravity", "2000,0,-9.81"); }).find("component x = 2000"),
+            std::string::npos);
+  EXPECT_EQ(topo_test::errorOf([&] { c.set("gravity", "0,0,-1000"); }), "");
+  EXPECT_EQ(topo_test::errorOf([&] { c.set("gravity", "0,-1.62,0"); }), "");
+  const topo_test::ToolRun r = topo_test::runTopo("simulate --task tumbler --set gravity=0,0,-1e160");
+  EXPECT_EQ(r.code, 1) << r.out;  // bad input, as every refused --set
+  EXPECT_NE(r.out.find("is outside [-1000, 1000]"), std::string::npos) << r.out;
+}

@@ -51,9 +51,9 @@ class TaskParameters {
   /// def "" = no value.
   Declared text(const std::string& name, const std::string& def, const std::string& doc,
                 std::vector<std::string> choices = {});
-  /// def nullptr = no value (an optional point).
+  /// def nullptr = no value (an optional point); each component within [lo, hi].
   Declared vector3(const std::string& name, const Eigen::Vector3d* def, const std::string& unit,
-                   const std::string& doc);
+                   const std::string& doc, double lo = -1e300, double hi = 1e300);
   /// Empty def = no value.
   Declared list(const std::string& name, std::vector<double> def, const std::string& unit, const std::string& doc,
                 double lo = -1e300, double hi = 1e300);
