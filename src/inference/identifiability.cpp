@@ -453,9 +453,24 @@ void suggestNextExperiment(const InteriorProblem& problem, const std::vector<dou
   const ExperimentSuggestion* most = nullptr;
   for (const auto& cand : analysis->candidates)
     if (cand.directions_after > (most ? most->directions_after : analysis->determined_directions)) most = &cand;
-  if (!analysis->candidates.empty() && analysis->candidates.front().score_gain > 1e-6) {
+  // A rock's prediction leans on the contact surface the design rocks on (the lattice's sampled bottom),
+  // a hang's or a swing's on the moments alone (closed forms, exact for a rigid body): a rock is suggested
+  // over the best hang or swing only when it fixes a moment or a combination that one does not.
+  const ExperimentSuggestion* best = analysis->candidates.empty() ? nullptr : &analysis->candidates.front();
+  if (best && best->kind == "rock") {
+    for (const auto& cand : analysis->candidates) {
+      if (cand.kind == "rock" || !(cand.score_gain > 1e-6)) continue;
+      bool more = best->directions_after > cand.directions_after;
+      for (const auto& n : best->newly_determined)
+        more = more || std::find(cand.newly_determined.begin(), cand.newly_determined.end(), n) ==
+                           cand.newly_determined.end();
+      if (!more) best = &cand;
+      break;
+    }
+  }
+  if (best && best->score_gain > 1e-6) {
     analysis->has_suggestion = true;
-    analysis->suggestion = analysis->candidates.front();
+    analysis->suggestion = *best;
   } else if (most) {
     analysis->has_suggestion = true;
     analysis->suggestion = *most;

@@ -7,6 +7,7 @@
 // the products; the suggestion after one hang from the top is a hang off that vertical.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -401,6 +402,28 @@ TEST(Identifiability, RockingCandidatesComeFromTheTaskThatDeclaresItsRockingAxis
   EXPECT_EQ(rock.config.task(), rocking->name);
   EXPECT_LT((rock.axis - Eigen::Vector3d::UnitY()).norm(), 1e-12) << "x is rocked already: y is next";
   EXPECT_LT((rock.config.vector3(rocking->rocking_axis_parameter) - Eigen::Vector3d::UnitY()).norm(), 1e-12);
+  // With hangs and swings beside it, a rock is suggested only when it fixes a moment or a combination the
+  // best of them does not (its prediction leans on the lattice's contact surface).
+  options.hanging_candidates = 8;
+  const IdentifiabilityAnalysis both = analyse(c, cloud);
+  ASSERT_TRUE(both.has_suggestion) << both.summary;
+  const ExperimentSuggestion* best_static = nullptr;
+  for (const auto& cand : both.candidates)
+    if (cand.kind != "rock" && cand.score_gain > 1e-6) {
+      best_static = &cand;
+      break;
+    }
+  ASSERT_TRUE(best_static);
+  if (both.suggestion.kind == "rock") {
+    bool more = both.suggestion.directions_after > best_static->directions_after;
+    for (const auto& n : both.suggestion.newly_determined)
+      more = more || std::find(best_static->newly_determined.begin(), best_static->newly_determined.end(), n) ==
+                         best_static->newly_determined.end();
+    EXPECT_TRUE(more) << both.suggestion.sentence << " over " << best_static->sentence;
+  }
+  std::printf("[rock or static] %s (best hang or swing: %s)\n", both.suggestion.sentence.c_str(),
+              best_static->sentence.c_str());
+  options.hanging_candidates = 0;
 
   const HangSetup s;
   TaskConfig hanging = TaskConfig::defaults("hanging");

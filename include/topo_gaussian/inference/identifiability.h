@@ -23,7 +23,9 @@
 // horizontal axes when a tumbler experiment is present; swing on a horizontal axle along world x and then
 // y through each of those hanging points: hanging's axle_swing_period_s and cross_axle_swing_period_s),
 // each built as a TaskConfig (task defaults + the experiment's and the object's shared
-// parameters) and evaluated at r; the best one most lowers Σ_j log min(std_j/u_j, 1).
+// parameters) and evaluated at r; the best one most lowers Σ_j log min(std_j/u_j, 1). A rock (its
+// prediction leans on the contact surface the design rocks on, a hang's or swing's on the moments alone)
+// is suggested over the best hang or swing only when it fixes a moment or a combination that one does not.
 #pragma once
 
 #include <Eigen/Core>
