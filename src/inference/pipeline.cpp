@@ -328,6 +328,12 @@ InferenceResult runInference(const TaskConfig& config, const VolumeCloud& cloud,
     }
   }
   res.message += uncertaintyStatement(res.spread, res.region, cloud.V, res.solid_confidence);
+  // No mass moments observed (the soft tasks): what is known of the region is the count of observed numbers
+  // against the design's parameters, and the message says it; "All targets reached" alone reads as the
+  // interior found.
+  if (!res.cancelled && !res.identifiability.available && !res.region.available &&
+      !res.identifiability.summary.empty())
+    res.message += " " + res.identifiability.summary;
   return res;
 }
 

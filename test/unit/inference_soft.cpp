@@ -291,6 +291,20 @@ TEST(SoftTasks, FingerRecoveryReachesTheBendingAngle) {
   EXPECT_LT(std::abs(a1 - target), 1.0);
 }
 
+// A finger fitted to one bend: its result says, in the message the report and the action carry, that one
+// observed number cannot determine the chamber (not only "All targets reached").
+TEST(SoftTasks, AFingerResultSaysOneBendCannotDetermineTheChamber) {
+  const VolumeCloud cloud = defaultShapeCloud("finger", 0.005);
+  TaskConfig c = fingerConfig();
+  c.setNumber("bend_angle_deg", 0.2);
+  c.set("max_evaluations", "2");
+  const InferenceResult res = runInference(c, cloud);
+  EXPECT_FALSE(res.identifiability.available);
+  EXPECT_NE(res.message.find("1 observed number (bend_angle_deg) cannot determine the"), std::string::npos)
+      << res.message;
+  EXPECT_NE(res.message.find("not the interior"), std::string::npos) << res.message;
+}
+
 // Recovery (pear): ground truth = a stiff spherical insert in the bulb; its pivot trajectories are
 // the target; inference starts from a fully stiff pear (quadric representation). The inferred
 // design must reproduce the trajectories within 2 % (RMS over all samples and pivots, relative to
