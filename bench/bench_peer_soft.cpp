@@ -211,10 +211,11 @@ int main(int argc, char** argv) {
           rq.observed_experiments.push_back(windows[k]);
         }
       }
-      rq.output_dir = (std::filesystem::temp_directory_path() / ("bench_peer_soft_" + sc.name)).string();
+      rq.output_parent = (std::filesystem::temp_directory_path() / "bench_peer_soft").string();  // a new folder
       rq.export_files = false;
       const auto ti0 = std::chrono::steady_clock::now();
       const workflow::InferenceRunOutcome out = workflow::runInference(rq);
+      std::filesystem::remove_all(out.output_dir);  // the run's files are not kept
       const double infer_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - ti0).count();
       const inference::InferenceResult& res = out.result;
       // 4. Against the truth.

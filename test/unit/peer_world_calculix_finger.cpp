@@ -4,13 +4,20 @@
 //    as the near face's closed-form projection: area fx² L H / d², centroid at the principal point;
 //  - the motion tracker (kind finger, silhouette) on the rendered CalculiX surface reads CalculiX's own
 //    centroid bend (the finger task's definition, exact over the quadratic tetrahedra).
-// The second needs ccx (Debian calculix-ccx) and skips with the reason without it.
+//  - bench_peer_soft without ccx on PATH says so and exits 2; on one case (slow: test/slow_tests.txt) it
+//    runs the user path and calls the chamber determined exactly when the goal holds.
+// The CalculiX cases need ccx (Debian calculix-ccx) and skip with the reason without it.
 #include <gtest/gtest.h>
 
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <map>
+#include <string>
+#include <vector>
+
+#include <sys/wait.h>
 
 #include "peer_world/calculix_finger.h"
 #include "topo_gaussian/vision/motion_tracker.h"
@@ -95,3 +102,79 @@ TEST(PeerCalculixFinger, TrackerReadsCalculixsOwnBendOnTheRenderedSurface) {
     EXPECT_NEAR(-r.bend_held_deg, s.bend_deg, std::max(0.2, 0.04 * s.bend_deg)) << r.message;
   }
 }
+
+#ifdef TOPO_BENCH_PEER_SOFT_PATH
+namespace {
+
+/// Runs the bench, with `env` (e.g. "PATH=/nonexistent") when not empty; its output and exit status.
+std::string runBench(const std::string& env, const std::string& args, int* status) {
+  std::string out;
+  const std::string cmd = (env.empty() ? "" : "env " + env + " ") + TOPO_BENCH_PEER_SOFT_PATH + " " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return out;
+  char buf[4096];
+  while (std::fgets(buf, sizeof buf, p)) out += buf;
+  const int rc = pclose(p);
+  *status = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+  return out;
+}
+
+/// The numbers after "key": in the JSON line (one number, true/false as 1/0, or a list).
+std::vector<double> jsonNumbers(const std::string& line, const std::string& key) {
+  std::vector<double> v;
+  std::size_t at = line.find("\"" + key + "\": ");
+  if (at == std::string::npos) return v;
+  at += key.size() + 4;
+  if (line.compare(at, 4, "true") == 0) return {1.0};
+  if (line.compare(at, 5, "false") == 0) return {0.0};
+  const bool list = line[at] == '[';
+  const char* c = line.c_str() + at + (list ? 1 : 0);
+  for (;;) {
+    char* end = nullptr;
+    const double x = std::strtod(c, &end);
+    if (end == c) break;
+    v.push_back(x);
+    if (!list || *end != ',') break;
+    c = end + 1;
+  }
+  return v;
+}
+
+}  // namespace
+
+TEST(PeerCalculixFinger, BenchWithoutCalculixSaysSoAndExits2) {
+  int status = 0;
+  const std::string out = runBench("PATH=/nonexistent", "default_chamber", &status);
+  EXPECT_EQ(status, 2) << out;
+  EXPECT_NE(out.find("CalculiX (ccx) is not installed"), std::string::npos) << out;
+  EXPECT_NE(out.find("calculix-ccx"), std::string::npos) << out;
+}
+
+// The bench end to end on one case at 30 evaluations (minutes: test/slow_tests.txt): the user path runs,
+// the tracker reads CalculiX's bend at the top pressure within 0.1 deg, the result reproduces the tracked
+// bend, and the chamber is called determined exactly when the goal holds (IoU >= 0.8, volume
+// within 5 %).
+TEST(PeerCalculixFinger, BenchRunsTheUserPathOnTheDefaultChamber) {
+  std::string why;
+  if (!peer::calculixAvailable(&why)) GTEST_SKIP() << why;
+  int status = 0;
+  const std::string out = runBench("", "--max-evaluations 30 default_chamber", &status);
+  ASSERT_EQ(status, 0) << out;
+  const std::size_t at = out.find("{\"bench\": \"peer_soft\", \"case\": \"default_chamber\"");
+  ASSERT_NE(at, std::string::npos) << out;
+  const std::string line = out.substr(at, out.find('\n', at) - at);
+  ASSERT_EQ(line.find("\"error\""), std::string::npos) << line;
+  const auto ccx = jsonNumbers(line, "ccx_bend_deg"), tracked = jsonNumbers(line, "tracked_bend_deg"),
+             result = jsonNumbers(line, "result_bend_deg");
+  ASSERT_EQ(ccx.size(), 3u) << line;
+  ASSERT_EQ(tracked.size(), 3u) << line;
+  ASSERT_EQ(result.size(), 3u) << line;
+  EXPECT_NEAR(tracked.back(), ccx.back(), 0.1) << line;
+  EXPECT_NEAR(result.back(), tracked.back(), 0.02 * tracked.back()) << line;
+  const double iou = jsonNumbers(line, "chamber_iou").at(0), volume = jsonNumbers(line, "chamber_volume_error").at(0);
+  const bool called = jsonNumbers(line, "called_determined").at(0) > 0.5;
+  std::printf("[calculix finger] bench: chamber IoU %.3f, volume %+.1f %%, called %s\n", iou, 100 * volume,
+              called ? "determined" : "not determined");
+  EXPECT_EQ(called, iou >= 0.8 && std::abs(volume) <= 0.05) << line;
+}
+#endif
