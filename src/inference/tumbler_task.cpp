@@ -149,15 +149,22 @@ class TumblerTask : public Task {
       const Eigen::Vector3d u = qd.normalized() * up_;
       max_tilt = std::max(max_tilt, std::acos(std::max(-1.0, std::min(1.0, u.z()))) * kDeg);
     }
-    // Past 90 deg it lies on its side, or turns over: not a doll that rights itself. Refused at once (the
-    // optimiser's line search steps back from such a trial design), not re-simulated on all of the
-    // surface's samples in forward mode, which took minutes for a steel-ball tumbler's first trial step.
+    // Past 90 deg it lies on its side, turns over or rolls away: not a doll that rights itself. Refused at
+    // once (the optimiser's line search steps back from such a trial design), not re-simulated on all of
+    // the surface's samples, which took minutes for a steel-ball tumbler's first trial step (and over seven
+    // for a 3000-particle cube lying on its side, in double precision, when tried). The candidates cover tilts
+    // up to reach_deg_ only, so what it does past 90 deg — fall onto a side, or roll on — is not known here:
+    // the message says both, and how to tell them apart.
     if (max_tilt >= 90.0)
       throw TopoError("tumbler simulation",
-                      "the design tips past 90 deg (to " + numberText(max_tilt, 3) + " deg) from the release at " +
-                          numberText(tilt0_ * kDeg, 3) + " deg: it falls over instead of rocking",
-                      "a design with its centre of mass lower, or a smaller initial_tilt_deg or "
-                      "initial_angular_velocity_rad_s");
+                      "the design turns past 90 deg (to " + numberText(max_tilt, 3) + " deg) from the release at " +
+                          numberText(tilt0_ * kDeg, 3) + " deg" +
+                          (omega0_ != 0.0 ? " with " + numberText(omega0_, 3) + " rad/s" : std::string()) +
+                          ": it falls over or rolls away instead of rocking back (one that lands on a flat face or "
+                          "an edge falls over; a round one whose centre of mass is at or above the centre of its "
+                          "rounded bottom rolls away)",
+                      "a design with its centre of mass lower (below the centre of its rounded bottom), or a "
+                      "smaller initial_tilt_deg or initial_angular_velocity_rad_s");
     if (max_tilt > reach_deg_ - 5.0 && contact_.size() < all_contact_.size())
       traj = simulate(all_contact_, options_all_);
     // Signed tilt about the rocking axis: rotating ez by φ about a gives cos φ ez + sin φ (a × ez).
