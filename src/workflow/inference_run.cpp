@@ -4,6 +4,7 @@
 #include <iomanip>
 #include <new>
 #include <sstream>
+#include <utility>
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
@@ -108,9 +109,28 @@ namespace {
 
 namespace {
 
-/// The targets one observed window gives its experiment (the first one when it is untagged).
+/// The confidence under which the tracker calls a measured feature unreliable ("do not use these
+/// numbers", vision/motion_tracker.cpp; docs/tracking.md: a value outside its tolerance always came
+/// with less).
+constexpr double kReliableConfidence = 0.3;
+
+/// "period 0.01, equilibrium 0.2": the window's measured features (confidence > 0) that the tracker
+/// rates below kReliableConfidence; "" when none.
+std::string unreliableFeatures(const motion::MotionFeatures& w) {
+  std::string out;
+  for (const auto& [name, c] : {std::make_pair("period", w.period_confidence),
+                                std::make_pair("amplitude", w.amplitude_confidence),
+                                std::make_pair("equilibrium", w.equilibrium_confidence),
+                                std::make_pair("bend", w.bending_confidence),
+                                std::make_pair("bend profile", w.bend_profile_confidence)})
+    if (c > 0 && c < kReliableConfidence) out += (out.empty() ? "" : ", ") + std::string(name) + " " + numberText(c, 2);
+  return out;
+}
+
+/// The targets one observed window gives its experiment (the first one when it is untagged). Targets
+/// taken from features the tracker itself calls unreliable are used, with a warning in `warnings`.
 void applyObservedTargets(const motion::MotionFeatures& window, inference::TaskConfig* config,
-                          std::vector<std::string>* notes) {
+                          std::vector<std::string>* notes, std::vector<std::string>* warnings) {
   const std::vector<inference::Experiment> experiments = config->experimentList();
   const inference::Experiment* experiment = &experiments.front();
   if (!window.experiment.empty()) {
@@ -140,6 +160,17 @@ void applyObservedTargets(const motion::MotionFeatures& window, inference::TaskC
     notes->push_back(prefix + name + " = [" + text + "] from the motion features");
   }
   if (!mt.note.empty()) notes->push_back(prefix + mt.note);
+  const std::string weak = unreliableFeatures(window);
+  if (!weak.empty() && (!mt.targets.empty() || !mt.list_targets.empty())) {
+    std::string taken;
+    for (const auto& t : mt.targets) taken += (taken.empty() ? "" : ", ") + prefix + t.first;
+    for (const auto& t : mt.list_targets) taken += (taken.empty() ? "" : ", ") + prefix + t.first;
+    warnings->push_back(inference::motionFeaturesOrigin(window) + ": the tracker rates " + weak +
+                        " (confidence < " + numberText(kReliableConfidence, 2) +
+                        ": unreliable, its \"do not use these numbers\"), yet " + taken +
+                        " were taken from them and may be wrong; track a clearer or longer clip, or give the "
+                        "targets yourself (--target, a goal's targets)");
+  }
 }
 
 InferenceRunOutcome runUnguarded(const InferenceRunRequest& rq) {
@@ -149,7 +180,8 @@ InferenceRunOutcome runUnguarded(const InferenceRunRequest& rq) {
   // The task's own rule (inference/motion_targets.h) per observed window, then the explicit targets over it.
   std::vector<std::shared_ptr<const motion::MotionFeatures>> observed = rq.observed_experiments;
   if (rq.observed) observed.insert(observed.begin(), rq.observed);
-  for (const auto& window : observed) applyObservedTargets(*window, &config, &out.notes);
+  std::vector<std::string> early_warnings;  // unreliable observations, experiments left out: ahead of the run's own
+  for (const auto& window : observed) applyObservedTargets(*window, &config, &out.notes, &early_warnings);
   for (const auto& t : rq.targets) {
     const auto eq = t.find('=');
     const auto* spec = config.spec(t.substr(0, eq));
@@ -159,7 +191,6 @@ InferenceRunOutcome runUnguarded(const InferenceRunRequest& rq) {
     config.setAssignment(t, rq.targets_origin);
     out.notes.push_back(t + " from the " + rq.targets_origin);
   }
-  std::vector<std::string> left_out;
   try {
     // An experiment without its observations is left out (with a warning) while another one remains:
     // the best design of the rest is still worth returning, and its uncertainty says what is missing.
@@ -174,7 +205,7 @@ InferenceRunOutcome runUnguarded(const InferenceRunRequest& rq) {
         if (skipped.size() + 1 >= config.experiments().size())
           throw TopoError(why + "; no experiment has all its targets");
         skipped.push_back(e.name);
-        left_out.push_back(why + ": left out, the interior fits the other experiments only");
+        early_warnings.push_back(why + ": left out, the interior fits the other experiments only");
       }
     }
     for (const auto& name : skipped) config.removeExperiment(name);
@@ -202,7 +233,7 @@ InferenceRunOutcome runUnguarded(const InferenceRunRequest& rq) {
 
   out.result = inference::runInference(config, *out.volume, rq.progress, rq.on_evaluation, rq.should_stop);
   out.cancelled = out.result.cancelled || out.result.optimizer.cancelled;
-  out.result.warnings.insert(out.result.warnings.begin(), left_out.begin(), left_out.end());
+  out.result.warnings.insert(out.result.warnings.begin(), early_warnings.begin(), early_warnings.end());
   if (!out.result.start.empty()) out.notes.push_back(out.result.start);
   for (const auto& w : out.result.warnings) out.notes.push_back("warning: " + w);
   const auto& res = out.result;

@@ -8,6 +8,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "test_util.h"
@@ -197,6 +198,37 @@ TEST_F(RunFolder, AFolderHoldingAnEarlierRunIsRefusedAndForceRemovesOnlyItsFiles
   fs::create_directories(empty);
   rq.output_dir = empty;
   EXPECT_EQ(errorOf([&] { workflow::runInference(rq); }), "");
+}
+
+// Issue 52 §2: motion features the tracker itself calls unreliable (confidence 0.01, "do not use these
+// numbers") became targets with `warnings: []`. They are still taken, with a warning in the message
+// and in report.json naming the features, their confidence and the targets taken from them.
+TEST_F(RunFolder, TargetsFromFeaturesTheTrackerCallsUnreliableAreAWarning) {
+  auto seen = std::make_shared<motion::MotionFeatures>();
+  seen->kind = "tilt";
+  seen->source = "doubtful.mp4";
+  seen->oscillation_found = true;
+  seen->period_s = 0.5;
+  seen->period_confidence = 0.01;
+  seen->message = "unreliable: an oscillation was fitted, but with confidence 0.01; do not use these numbers";
+  workflow::InferenceRunRequest rq = nodeLikeRequest(dir_ + "/unreliable");
+  rq.targets.clear();
+  rq.observed = seen;
+  const workflow::InferenceRunOutcome o = workflow::runInference(rq);
+  ASSERT_FALSE(o.result.warnings.empty()) << o.message;
+  const std::string& w = o.result.warnings.front();
+  EXPECT_NE(w.find("doubtful.mp4"), std::string::npos) << w;
+  EXPECT_NE(w.find("the tracker rates period 0.01 (confidence < 0.3: unreliable"), std::string::npos) << w;
+  EXPECT_NE(w.find("yet period_s"), std::string::npos) << w;
+  EXPECT_NE(o.message.find("warning: motion features (doubtful.mp4"), std::string::npos) << o.message;
+  const nlohmann::json report = nlohmann::json::parse(io::readTextFile(o.output_dir + "/report.json"));
+  ASSERT_TRUE(report.contains("warnings")) << report.dump();
+  EXPECT_NE(report["warnings"].dump().find("the tracker rates period 0.01"), std::string::npos) << report.dump();
+  // A window measured with confidence gives its targets without that warning.
+  seen->period_confidence = 0.9;
+  seen->message.clear();
+  const workflow::InferenceRunOutcome sure = workflow::runInference(rq);
+  for (const auto& x : sure.result.warnings) EXPECT_EQ(x.find("the tracker rates"), std::string::npos) << x;
 }
 
 TEST(TextFile, WritesAreAtomicAndNameThePath) {
