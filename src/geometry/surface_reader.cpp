@@ -15,6 +15,19 @@ std::string readFileBytes(const std::string& path) {
   namespace fs = std::filesystem;
   std::error_code ec;
   const fs::file_status st = fs::status(path, ec);
+  std::error_code lec;
+  if (!path.empty() && !fs::exists(st) && fs::is_symlink(fs::symlink_status(path, lec))) {
+    // A link is there: say what is wrong with it, not that the file does not exist.
+    std::error_code rec;
+    const fs::path target = fs::read_symlink(path, rec);
+    if (ec == std::errc::too_many_symbolic_link_levels)
+      throw TopoError(path,
+                      "is a symbolic link that leads back to itself through links (a link loop: " + ec.message() +
+                          ")",
+                      "point the link at the surface file (ln -sf FILE " + path + "), or give the file's own path");
+    throw TopoError(path, "is a symbolic link to " + target.string() + ", which does not exist (a dangling link)",
+                    "point the link at the surface file, or give the file's own path");
+  }
   if (path.empty() || !fs::exists(st)) {
     throw TopoError(path.empty() ? std::string("(empty path)") : path, "the file does not exist",
                     "check the path (a relative path is taken from the current working directory)");

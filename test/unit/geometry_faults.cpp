@@ -328,6 +328,28 @@ TEST(BoundedMemory, FifoAndDeviceAreRefusedNotReadForever) {
   EXPECT_EQ(r.code, 1) << r.out;
 }
 
+// Issue 52 §2: a symlink loop was called "the file does not exist". A loop and a dangling link are
+// named as what they are, with the fix; a missing file is still "does not exist".
+TEST(Messages, ASymlinkLoopOrDanglingLinkIsNamedNotCalledMissing) {
+  const std::string d = scratch("links");
+  fs::create_symlink(d + "/b.ply", d + "/a.ply");
+  fs::create_symlink(d + "/a.ply", d + "/b.ply");
+  fs::create_symlink(d + "/gone.ply", d + "/dangling.ply");
+  const std::string loop = errorOf([&] { readSurface(d + "/a.ply"); });
+  EXPECT_NE(loop.find(d + "/a.ply: is a symbolic link that leads back to itself through links (a link loop"),
+            std::string::npos)
+      << loop;
+  EXPECT_EQ(loop.find("does not exist"), std::string::npos) << loop;
+  const std::string dangling = errorOf([&] { readSurface(d + "/dangling.ply"); });
+  EXPECT_NE(dangling.find("is a symbolic link to " + d + "/gone.ply, which does not exist (a dangling link)"),
+            std::string::npos)
+      << dangling;
+  EXPECT_NE(errorOf([&] { readSurface(d + "/missing.ply"); }).find("the file does not exist"), std::string::npos);
+  const auto r = runTopo("fill --input " + d + "/a.ply --output " + d + "/out.ply");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("link loop"), std::string::npos) << r.out;
+}
+
 TEST(BoundedMemory, FillEstimatesItsMemoryBeforeAllocating) {
   FillOptions o;
   o.spacing_m = 0.0005;  // 0.1 m sphere: 8e6 lattice cells, ~0.3 GB
