@@ -156,7 +156,11 @@ VideoSource::VideoSource(const std::string& path, const VideoOptions& options) :
   double t = 0;
   int idx = 0;
   cv::Mat first;
-  if (!decodeNext(first, t, idx) || first.empty())
+  const bool decoded = decodeNext(first, t, idx) && !first.empty();
+  if (!decoded && frame_count_ == 0)  // a valid container with nothing in it: not a codec problem
+    throw TopoError(path, "holds no frames (the container announces 0 frames: an empty recording)",
+                    "record the clip again (the recording stopped before its first frame was written)");
+  if (!decoded)
     throw TopoError(path, "the first frame cannot be decoded (unsupported codec or damaged file)",
                     "convert it, e.g. `ffmpeg -i IN -c:v libx264 -pix_fmt yuv420p OUT.mp4`");
   size_ = first.size();

@@ -183,3 +183,29 @@ TEST(VisionFaults, ARefusalsEquilibriumIsNullNotZero) {
     if (name != "oscillation_found" && name != "profile_segments")
       EXPECT_TRUE(value.is_null()) << name << " of a refusal is " << value.dump();
 }
+
+// Issue 52 §2: a valid video with no frames was called "the first frame cannot be decoded (unsupported
+// codec or damaged file)". It is called empty: the container holds no frames.
+TEST(VisionFaults, AVideoWithoutFramesIsCalledEmptyNotDamaged) {
+  const std::string dir = ::testing::TempDir() + "/topo_vision_faults_empty_" + std::to_string(::getpid());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  int tried = 0;
+  for (const std::string ext : {".avi", ".mp4"}) {
+    const std::string path = dir + "/empty" + ext;
+    {
+      const int fourcc = ext == ".avi" ? cv::VideoWriter::fourcc('M', 'J', 'P', 'G')
+                                       : cv::VideoWriter::fourcc('m', 'p', '4', 'v');
+      cv::VideoWriter w(path, cv::CAP_FFMPEG, fourcc, 30.0, cv::Size(64, 48));  // released with no frame
+      ASSERT_TRUE(w.isOpened()) << path;
+    }
+    const std::string e = errorOf([&] { vision::VideoSource(path, vision::VideoOptions()); });
+    SCOPED_TRACE(ext + ": " + e);
+    std::printf("[empty video] %s: %s\n", ext.c_str(), e.c_str());
+    if (e.find("cannot be opened as a video") != std::string::npos) continue;  // no container written
+    ++tried;
+    EXPECT_NE(e.find("holds no frames"), std::string::npos);
+    EXPECT_EQ(e.find("damaged"), std::string::npos);
+  }
+  EXPECT_GT(tried, 0) << "no empty video opened: the case was not exercised";
+}
