@@ -129,6 +129,7 @@ void runCase(const std::string& name, TaskConfig c, const VolumeCloud& cloud, bo
     rq.config = c;
     rq.volume = std::make_shared<VolumeCloud>(cloud);
     rq.output_dir = "/tmp/topo_bench_infer/" + name;
+    rq.replace_output = true;  // the bench's own folder, the previous run's files replaced (topo infer --force)
     rq.export_files = false;
     rq.progress = progress;
     const workflow::InferenceRunOutcome run = workflow::runInference(rq);

@@ -85,14 +85,16 @@ std::string pct(double v) {
 int usage() {
   std::fprintf(stderr,
                "usage: bench_peer_soft [--pressures P1,P2,...] [--fit top|ends|all] [--max-evaluations N] [--cell M]\n"
-               "                       [--frames DIR] [CASE...]\n"
+               "                       [--frames DIR] [--set KEY=VALUE ...] [CASE...]\n"
                "  cases: default_chamber large_chamber tip_chamber thin_wall (all when none given)\n"
                "  --pressures: the ladder [Pa], increasing (default 5e4,1e5,1.5e5)\n"
                "  --fit: the windows fitted: top (the rig's full pressure, one experiment: the default), ends (the\n"
                "         lowest and the top, two experiments of one object), all; the others are held out\n"
                "  --max-evaluations: the inference's budget (default: the task's)\n"
                "  --cell: CalculiX's largest grid cell [m] (default 0.0025)\n"
-               "  --frames DIR: write each window's rest and held frame as PNG\n");
+               "  --frames DIR: write each window's rest and held frame as PNG\n"
+               "  --set KEY=VALUE: a finger task parameter for the inference, as topo infer --set (repeatable),\n"
+               "         e.g. youngs_modulus_hollow=2000 for a chamber modelled as a void\n");
   return 2;
 }
 
@@ -102,7 +104,7 @@ int main(int argc, char** argv) {
   std::vector<double> pressures{5e4, 1e5, 1.5e5};
   std::string frames_dir, max_evaluations, fit = "top";
   double cell_m = peer::CalculixFingerOptions{}.cell_m;
-  std::vector<std::string> wanted;
+  std::vector<std::string> wanted, sets;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--pressures" && i + 1 < argc) {
@@ -122,6 +124,8 @@ int main(int argc, char** argv) {
       if (fit != "top" && fit != "ends" && fit != "all") return usage();
     } else if (a == "--frames" && i + 1 < argc) {
       frames_dir = argv[++i];
+    } else if (a == "--set" && i + 1 < argc) {
+      sets.push_back(argv[++i]);
     } else if (a == "-h" || a == "--help" || a.rfind("--", 0) == 0) {
       return usage();
     } else {
@@ -186,6 +190,7 @@ int main(int argc, char** argv) {
       config.setAssignment("youngs_modulus_solid=" + std::to_string(po.youngs_modulus_pa), "--set");
       config.setNumber("pressure_pa", pressures.back());
       if (!max_evaluations.empty()) config.setAssignment("max_evaluations=" + max_evaluations, "--set");
+      for (const auto& a : sets) config.setAssignment(a, "--set");  // e.g. the chamber as a void
       geometry::SurfaceData box = geometry::makeBox(po.size_m);
       for (auto& p : box.points) p.x() += 0.5 * po.size_m.x();
       geometry::FillOptions fo;

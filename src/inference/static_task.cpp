@@ -94,8 +94,8 @@ constexpr auto kHangingFields = [](auto& f) {
            "the same with the axle turned 90 deg about the vertical (heading axle_heading_deg + 90) [s]", 0, 1e300,
            true);
   f.number("axle_period_tolerance", &O::axle_period_tolerance, 0.01, "unitless",
-           "how well the timed axle periods are known, relative (reached within it; their observations' noise): "
-           "e.g. a 1 ms timer on a 0.5 s swing, 0.002",
+           "how well the timed axle periods are known, relative, unitless (reached within it; their "
+           "observations' noise): e.g. a 1 ms timer on a 0.5 s swing, 0.002",
            1e-6, 1, true);
 };
 
