@@ -138,7 +138,14 @@ RunFiles loadRunFolder(const std::string& dir) {
   return run;
 }
 
-LatestRun findLatestRun(const std::string& parent) {
+bool reportSaysCancelled(const std::string& report_json) {
+  const nlohmann::json report = nlohmann::json::parse(report_json, nullptr, /*allow_exceptions=*/false);
+  if (!report.is_object()) return false;
+  const auto c = report.find("cancelled");
+  return c != report.end() && c->is_boolean() && c->get<bool>();
+}
+
+LatestRun findLatestRun(const std::string& parent, const RunCheck& check) {
   std::vector<std::pair<fs::file_time_type, fs::path>> runs;
   std::error_code ec;
   for (const auto& e : fs::directory_iterator(parent, ec)) {
@@ -152,7 +159,16 @@ LatestRun findLatestRun(const std::string& parent) {
   LatestRun out;
   for (const auto& [time, dir] : runs) {
     try {
-      out.run = loadRunFolder(dir.string());
+      RunFiles run = loadRunFolder(dir.string());
+      if (reportSaysCancelled(run.report_json))
+        throw TopoError(dir.string() + "/report.json",
+                        "says \"cancelled\": true: the run was interrupted (its goal cancelled, or the node or "
+                        "topo infer stopped while it ran), so it holds the best design found until then, not a "
+                        "finished run",
+                        "run the inference again to finish it (topo simulate and topo export still read this "
+                        "folder when named)");
+      if (check) check(run);
+      out.run = std::move(run);
       out.found = true;
       return out;
     } catch (const std::exception& e) {

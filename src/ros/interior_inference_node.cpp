@@ -14,6 +14,8 @@
 #include "topo_gaussian/cuda/backend.h"
 #include "topo_gaussian/inference/interior_problem.h"
 #include "topo_gaussian/io/run_folder.h"
+#include "topo_gaussian/physics/mass_properties.h"
+#include "topo_gaussian/physics/run_limits.h"
 #include "topo_gaussian/io/task_dir.h"
 #include "topo_gaussian/ros/ascii_text.h"
 #include "topo_gaussian/ros/body_pose_msg.h"
@@ -385,8 +387,10 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
     result_report_ = done.report_json;
     result_signals_ = done.signals;
     result_continuous_ = done.config.boolean("continuous_material");
+    ++result_generation_;  // a restore still simulating an older result stops and does not show it
   }
   const auto& res = done.result;
+  std::lock_guard<std::mutex> publishing(publish_mutex_);
   out.interior = show(*done.volume, done.config, res.r, res.density, res.final, res.geometry, res.solid_confidence);
   return out;
 }
@@ -399,6 +403,7 @@ inference::ProblemEvaluation InteriorInferenceNode::simulateAndShow(const Volume
   if (show_it) {
     std::vector<double> density;
     problem.task().density().apply(r, &density, nullptr);
+    std::lock_guard<std::mutex> publishing(publish_mutex_);
     show(cloud, config, r, density, ev, problem.task().geometry());
   }
   return ev;
@@ -525,9 +530,10 @@ std::vector<std::string> unfinishedRunFolders(const std::string& parent, const s
 }
 
 void InteriorInferenceNode::restoreLatest() {
-  // The newest complete run under ~output_dir (volume.ply, interior.ply and a report.json naming
-  // its task); newer ones that do not load are skipped, each with the reason.
-  const io::LatestRun latest = io::findLatestRun(params_.output_dir);
+  // The newest complete run under ~output_dir (volume.ply, interior.ply and a report.json naming a
+  // task known here, not interrupted); newer ones that do not load are skipped, each with the reason.
+  const workflow::RestorableRun found = workflow::findRestorableRun(params_.output_dir, params_.task_dir);
+  const io::LatestRun& latest = found.latest;
   for (const auto& why : unfinishedRunFolders(params_.output_dir, latest.found ? latest.run.dir : ""))
     ROS_WARN("interior_inference: restore skipped %s", asciiText(why).c_str());
   for (const auto& why : latest.skipped) ROS_WARN("interior_inference: restore skipped %s", asciiText(why).c_str());
@@ -537,30 +543,74 @@ void InteriorInferenceNode::restoreLatest() {
     return;
   }
   const io::RunFiles& run = latest.run;
-  try {
-    auto cloud = std::make_shared<const VolumeCloud>(run.volume);
-    const inference::TaskConfig config = inference::TaskConfig::load(run.task, params_.task_dir);
-    {
-      std::lock_guard<std::mutex> lock(state_mutex_);
-      has_result_ = true;
-      result_cloud_ = cloud;
-      result_ = inference::InferenceResult{};
-      result_.task = config.task();
-      result_.r = run.interior.r;
-      result_.density = run.interior.density;
-      result_task_ = config.task();
-      result_dir_ = run.dir;
-      result_report_ = run.report_json;
-      result_continuous_ = run.interior.continuous;
-    }
-    // Its features with the task's default parameters (the goal's overrides are not in the files).
-    simulateAndShow(*cloud, config, run.interior.r, true);
-    ROS_INFO("interior_inference: restored the latest result from %s (task %s, %zu particles): published on %s",
-             run.dir.c_str(), config.task().c_str(), cloud->size(), interior_pub_.getTopic().c_str());
-  } catch (const std::exception& e) {
-    ROS_WARN("interior_inference: could not restore the latest result from %s: %s", run.dir.c_str(),
-             asciiText(e.what()).c_str());
+  auto cloud = std::make_shared<const VolumeCloud>(run.volume);
+  const inference::TaskConfig& config = found.config;
+  std::uint64_t generation = 0;
+  {
+    std::lock_guard<std::mutex> lock(state_mutex_);
+    has_result_ = true;
+    result_cloud_ = cloud;
+    result_ = inference::InferenceResult{};
+    result_.task = config.task();
+    result_.r = run.interior.r;
+    result_.density = run.interior.density;
+    result_task_ = config.task();
+    result_dir_ = run.dir;
+    result_report_ = run.report_json;
+    result_continuous_ = run.interior.continuous;
+    generation = ++result_generation_;
   }
+  // Shown and simulated off the main thread: the action server and the services serve at once, however
+  // long the simulation of the restored design takes (a fine volume's takes minutes).
+  restore_thread_ = std::thread([this, cloud, config, r = run.interior.r, dir = run.dir, generation] {
+    showRestored(cloud, config, r, dir, generation);
+  });
+}
+
+void InteriorInferenceNode::showRestored(const std::shared_ptr<const VolumeCloud>& cloud,
+                                         const inference::TaskConfig& config, const std::vector<double>& r,
+                                         const std::string& dir, std::uint64_t generation) {
+  const auto current = [this, generation] {
+    std::lock_guard<std::mutex> lock(state_mutex_);
+    return result_generation_ == generation;
+  };
+  try {
+    inference::InteriorProblem problem(config, *cloud);
+    // A newer result (a goal that finished meanwhile) or shutdown stops the simulation of this one.
+    problem.setShouldStop([this, current] { return restore_stop_ || !::ros::ok() || !current(); });
+    std::vector<double> density, masses;
+    problem.task().density().apply(r, &density, nullptr);
+    problem.task().masses(r, &masses, nullptr);
+    inference::ProblemEvaluation at_rest;  // the interior and its mass properties first, the motion follows
+    at_rest.task.mass = computeMassProperties(cloud->X, masses, cubeCellVariance(cloud->spacing));
+    {
+      std::lock_guard<std::mutex> publishing(publish_mutex_);
+      if (!current()) return;
+      show(*cloud, config, r, density, at_rest, problem.task().geometry());
+    }
+    ROS_INFO("interior_inference: restored the latest result from %s (task %s, %zu particles): published on %s; "
+             "simulating its motion in the background",
+             dir.c_str(), config.task().c_str(), cloud->size(), interior_pub_.getTopic().c_str());
+    // Its features with the task's default parameters (the goal's overrides are not in the files).
+    const inference::ProblemEvaluation ev = problem.evaluateIndicator(r, nullptr);
+    std::lock_guard<std::mutex> publishing(publish_mutex_);
+    if (!current()) return;
+    show(*cloud, config, r, density, ev, problem.task().geometry());
+    ROS_INFO("interior_inference: simulated the restored result from %s: its features are on interior_markers",
+             dir.c_str());
+  } catch (const SimulationCancelled&) {
+    ROS_INFO("interior_inference: stopped simulating the restored result from %s (%s)", dir.c_str(),
+             current() ? "the node stops" : "a newer result replaced it");
+  } catch (const std::exception& e) {
+    ROS_WARN("interior_inference: could not simulate the restored result from %s (its interior stays published, "
+             "without its motion): %s",
+             dir.c_str(), asciiText(e.what()).c_str());
+  }
+}
+
+InteriorInferenceNode::~InteriorInferenceNode() {
+  restore_stop_ = true;
+  if (restore_thread_.joinable()) restore_thread_.join();
 }
 
 void InteriorInferenceNode::execute(const topo_gaussian::InferInteriorGoalConstPtr& goal) {

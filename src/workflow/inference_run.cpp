@@ -241,6 +241,14 @@ InferenceRunOutcome runUnguarded(const InferenceRunRequest& rq) {
   const bool continuous = config.boolean("continuous_material");
   out.signals = comparisonSignals(rq.observed.get(), res.final.task);
   out.report_json = inference::reportJson(res, config);
+  // report.json is written last (the export writes it after interior.ply): a folder with a report holds
+  // the whole run, so a run killed while it writes is never taken for a complete one (io::findLatestRun).
+  if (!res.final.task.signal.empty()) {
+    io::writeTextFile(dir + "signal.csv", signalCsv(res.final.task));
+    out.files.push_back(dir + "signal.csv");
+  }
+  io::writeVolumePly(*out.volume, dir + "volume.ply");
+  out.files.push_back(dir + "volume.ply");
   bool exported = false;
   if (rq.export_files) {
     try {
@@ -270,12 +278,6 @@ InferenceRunOutcome runUnguarded(const InferenceRunRequest& rq) {
     out.files.push_back(dir + "interior.ply");
     out.files.push_back(dir + "report.json");
   }
-  if (!res.final.task.signal.empty()) {
-    io::writeTextFile(dir + "signal.csv", signalCsv(res.final.task));
-    out.files.push_back(dir + "signal.csv");
-  }
-  io::writeVolumePly(*out.volume, dir + "volume.ply");
-  out.files.push_back(dir + "volume.ply");
   std::ostringstream msg;
   msg << res.message;
   for (const auto& n : out.notes) msg << " [" << n << "]";
@@ -292,6 +294,20 @@ InferenceRunOutcome runInference(InferenceRunRequest rq) {
   } catch (const std::bad_alloc&) {
     outOfMemory(rq.config, rq.volume.get(), "simulating and optimising");
   }
+}
+
+RestorableRun findRestorableRun(const std::string& parent, const std::string& task_dir) {
+  RestorableRun out;
+  out.latest = io::findLatestRun(parent, [&](const io::RunFiles& run) {
+    try {
+      out.config = inference::TaskConfig::load(run.task, task_dir);
+    } catch (const std::exception& e) {
+      throw TopoError(run.dir + "/report.json", "names the task '" + run.task + "', which does not load here (" +
+                                                    e.what() + ")",
+                      "restore it where its task is known, or delete the folder");
+    }
+  });
+  return out;
 }
 
 }  // namespace topo_gaussian::workflow

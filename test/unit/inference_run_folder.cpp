@@ -6,6 +6,7 @@
 // cleared of that run's files only); writes are atomic.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -135,6 +136,55 @@ TEST_F(RunFolder, RestoreWalksBackPastBrokenRunsAndSaysWhy) {
   EXPECT_NE(latest.skipped[1].find("tumbler_empty_report"), std::string::npos) << latest.skipped[1];
   EXPECT_NE(latest.skipped[1].find("is empty"), std::string::npos) << latest.skipped[1];
   EXPECT_FALSE(io::findLatestRun(dir_ + "/no_such_folder").found);
+}
+
+TEST_F(RunFolder, RestorePassesOverAnInterruptedRun) {
+  // A run stopped while it optimises (a cancelled goal, Ctrl-C: should_stop) still writes its files, the
+  // best design so far; it is not a finished run, so the restore goes back to the older complete one.
+  const std::string parent = dir_ + "/interrupted";
+  const workflow::InferenceRunOutcome good = workflow::runInference(nodeLikeRequest(parent));
+  ASSERT_FALSE(good.cancelled);
+  workflow::InferenceRunRequest rq = nodeLikeRequest(parent);
+  rq.config.setNumber("max_evaluations", 50);
+  bool evaluated = false;
+  rq.on_evaluation = [&](const inference::ProblemEvaluation&) { evaluated = true; };
+  rq.should_stop = [&] { return evaluated; };  // stopped once the first design is evaluated
+  const workflow::InferenceRunOutcome cut = workflow::runInference(rq);
+  ASSERT_TRUE(cut.cancelled);
+  ASSERT_NE(cut.output_dir, good.output_dir);
+  fs::last_write_time(cut.output_dir + "/report.json",
+                      fs::last_write_time(good.output_dir + "/report.json") + std::chrono::seconds(5));
+  EXPECT_EQ(io::loadRunFolder(cut.output_dir).task, "tumbler");  // named, it still loads
+
+  const io::LatestRun latest = io::findLatestRun(parent);
+  ASSERT_TRUE(latest.found);
+  EXPECT_EQ(latest.run.dir, good.output_dir);
+  ASSERT_EQ(latest.skipped.size(), 1u);
+  EXPECT_NE(latest.skipped[0].find(cut.output_dir), std::string::npos) << latest.skipped[0];
+  EXPECT_NE(latest.skipped[0].find("interrupted"), std::string::npos) << latest.skipped[0];
+}
+
+TEST_F(RunFolder, RestorePassesOverARunOfAnUnknownTask) {
+  // A newer run whose report names a task this installation does not know (a task file gone, another
+  // version's task) is skipped with the folder and the task named; the older complete run is restored.
+  const std::string parent = dir_ + "/unknown_task";
+  const workflow::InferenceRunOutcome good = workflow::runInference(nodeLikeRequest(parent));
+  const std::string other = parent + "/tumbler_29990101_000000";
+  fs::create_directories(other);
+  for (const char* f : {"volume.ply", "interior.ply"}) fs::copy_file(good.output_dir + "/" + f, other + "/" + f);
+  nlohmann::json report = nlohmann::json::parse(io::readTextFile(good.output_dir + "/report.json"));
+  report["task"] = "no_such_task";
+  io::writeTextFile(other + "/report.json", report.dump(2));
+  fs::last_write_time(other + "/report.json",
+                      fs::last_write_time(good.output_dir + "/report.json") + std::chrono::seconds(5));
+
+  const workflow::RestorableRun found = workflow::findRestorableRun(parent, "");
+  ASSERT_TRUE(found.latest.found);
+  EXPECT_EQ(found.latest.run.dir, good.output_dir);
+  EXPECT_EQ(found.config.task(), "tumbler");
+  ASSERT_EQ(found.latest.skipped.size(), 1u);
+  EXPECT_NE(found.latest.skipped[0].find(other), std::string::npos) << found.latest.skipped[0];
+  EXPECT_NE(found.latest.skipped[0].find("no_such_task"), std::string::npos) << found.latest.skipped[0];
 }
 
 TEST_F(RunFolder, ARequestWithoutTargetsOrFolderFailsBeforeAnyWork) {

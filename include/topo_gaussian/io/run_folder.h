@@ -2,11 +2,13 @@
 // the interior_inference node, a benchmark), so any of them can load any run:
 //   volume.ply     the particles the run used (io/volume_ply.h)
 //   interior.ply   r, solid and density per particle (io/interior_ply.h)
-//   report.json    task, parameters, targets, features, loss history (inference/report.h)
+//   report.json    task, parameters, targets, features, loss history (inference/report.h); written
+//                  last, after the files a restore loads, so a folder with a report holds the whole run
 //   signal.csv     the simulated signal, when the task has one (io/run_files.h)
 //   and the export: interior.stl, slices.png, signal.png, loss.png, export.json (workflow/interior_export.h).
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -58,9 +60,17 @@ struct LatestRun {
   std::vector<std::string> skipped;  ///< newer folders passed over, each "DIR: why"
 };
 
-/// The newest run folder under `parent` (by the time of its report.json) that loads; folders
-/// without report.json are not runs and are ignored; newer runs that fail to load are listed in
-/// `skipped` with the reason.
-LatestRun findLatestRun(const std::string& parent);
+/// Whether a run's report.json says the run was interrupted: "cancelled": true (a cancelled goal, Ctrl-C,
+/// a node stopped while it ran). Such a folder holds the best design found until then, not a finished run.
+bool reportSaysCancelled(const std::string& report_json);
+
+/// Throws (a TopoError saying why) for a loaded run the caller cannot use, e.g. one whose task is unknown.
+using RunCheck = std::function<void(const RunFiles&)>;
+
+/// The newest *complete* run folder under `parent` (by the time of its report.json, which a run writes
+/// last): one that loads, was not interrupted (reportSaysCancelled) and passes `check` (when given).
+/// Folders without report.json are not runs and are ignored; newer runs passed over are listed in
+/// `skipped`, each with the reason, and the search goes on to older ones.
+LatestRun findLatestRun(const std::string& parent, const RunCheck& check = {});
 
 }  // namespace topo_gaussian::io

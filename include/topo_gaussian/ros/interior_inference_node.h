@@ -23,11 +23,14 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_ros/transform_broadcaster.h>
 
+#include <atomic>
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "topo_gaussian/ExportInterior.h"
@@ -115,6 +118,8 @@ class InteriorInferenceNode {
   /// Loads parameters (throws TopoError on invalid ones), advertises, subscribes and starts the
   /// action server.
   InteriorInferenceNode(const ::ros::NodeHandle& nh, const ::ros::NodeHandle& pnh);
+  /// Stops the restore's simulation (when still running) and waits for it.
+  ~InteriorInferenceNode();
 
   const InteriorInferenceParams& params() const { return params_; }
 
@@ -133,7 +138,14 @@ class InteriorInferenceNode {
   bool onSimulate(topo_gaussian::SimulateInterior::Request& req, topo_gaussian::SimulateInterior::Response& res);
   bool onExport(topo_gaussian::ExportInterior::Request& req, topo_gaussian::ExportInterior::Response& res);
   void onReplay(const ::ros::WallTimerEvent&);
+  /// Finds the run to restore (workflow::findRestorableRun), makes it the latest result and starts
+  /// showRestored on its own thread: the node serves goals and services meanwhile.
   void restoreLatest();
+  /// Publishes a restored run's interior with its mass properties at once, then simulates it (the task's
+  /// default parameters) and publishes it again with its motion; stops when a newer result arrives
+  /// (result_generation_ moves on) or the node stops.
+  void showRestored(const std::shared_ptr<const VolumeCloud>& cloud, const inference::TaskConfig& config,
+                    const std::vector<double>& r, const std::string& dir, std::uint64_t generation);
   /// Publishes `interior` and `interior_markers` for a design (r and density per particle) and
   /// starts replaying its motion; returns the interior cloud it published.
   sensor_msgs::PointCloud2 show(const VolumeCloud& cloud, const inference::TaskConfig& config,
@@ -160,6 +172,11 @@ class InteriorInferenceNode {
   std::unique_ptr<actionlib::SimpleActionServer<topo_gaussian::InferInteriorAction>> server_;
 
   std::mutex run_mutex_;    ///< held while an inference runs
+  /// Held while a result is shown: the restore's show and a goal's show do not interleave, and the
+  /// restore checks result_generation_ under it.
+  std::mutex publish_mutex_;
+  std::thread restore_thread_;            ///< showRestored, when ~restore_latest found a run
+  std::atomic<bool> restore_stop_{false};  ///< set by the destructor: the restore's simulation stops
   std::mutex state_mutex_;  ///< guards everything below
   std::shared_ptr<VolumeCloud> volume_;
   std::string volume_frame_;
@@ -176,6 +193,7 @@ class InteriorInferenceNode {
   std::string result_task_, result_dir_, result_report_;
   std::vector<io::SignalSeries> result_signals_;
   bool result_continuous_ = false;
+  std::uint64_t result_generation_ = 0;  ///< counts the results set (a goal's, the restore's)
   // the replayed motion
   std::vector<inference::BodyPose> replay_;
   ::ros::WallTime replay_start_;

@@ -19,6 +19,7 @@
 #include "topo_gaussian/common/motion_features.h"
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/io/run_files.h"
+#include "topo_gaussian/io/run_folder.h"
 #include "topo_gaussian/physics/volume_cloud.h"
 
 namespace topo_gaussian::workflow {
@@ -72,5 +73,16 @@ InferenceRunOutcome runInference(InferenceRunRequest request);
 /// simulated signal of `simulated`.
 std::vector<io::SignalSeries> comparisonSignals(const motion::MotionFeatures* observed,
                                                 const inference::TaskEvaluation& simulated);
+
+struct RestorableRun {
+  io::LatestRun latest;         ///< found: the run to show again; skipped: the newer folders passed over, why
+  inference::TaskConfig config;  ///< latest.run's task as `task_dir` resolves it (its default parameters)
+};
+
+/// The run a restarted front end shows again: the newest complete run under `parent`
+/// (io::findLatestRun: it loads and was not interrupted) whose task resolves in `task_dir`. A newer
+/// folder whose report names a task that does not resolve (an unknown name, a task file gone) is
+/// passed over like a torn one, with the folder and the task in `latest.skipped`.
+RestorableRun findRestorableRun(const std::string& parent, const std::string& task_dir);
 
 }  // namespace topo_gaussian::workflow
