@@ -21,6 +21,7 @@
 
 #include "task_factories.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/inference/oscillation.h"
 #include "topo_gaussian/inference/task_options.h"
 #include "topo_gaussian/physics/rigid_body.h"
@@ -284,8 +285,8 @@ class StaticTask : public Task {
   }
 
   // The design hung from the point (ball joint) and released swing_tilt_deg off the target pose about
-  // world x: it swings as a physical pendulum. Reports the simulated period and the small-amplitude
-  // closed form 2π √(I_p / (m g d)) about the same axis, for comparison.
+  // world x: it swings as a physical pendulum. Reports the simulated period and the closed form of that
+  // swing (swingClosedForm), for comparison.
   void swing(TaskEvaluation& ev) const {
     RigidSimOptions o;
     o.duration_s = swing_duration_;
@@ -312,13 +313,51 @@ class StaticTask : public Task {
     ev.signal_time_s = traj.time_s;
     ev.signal = angle;
     if (f.valid) ev.features.push_back(Feature{"swing_period_s", f.period, "s"});
-    const Eigen::Vector3d r = R_ * (ev.mass.com - point_);
-    const double d = r.norm();
-    const Eigen::Matrix3d Iw = R_ * ev.mass.inertia * R_.transpose();
-    const double Ip = Iw(0, 0) + ev.mass.mass * (r.y() * r.y() + r.z() * r.z());
-    if (d > 0)
-      ev.features.push_back(Feature{"swing_period_closed_form_s",
-                                    2 * M_PI * std::sqrt(Ip / (ev.mass.mass * geometry_.gravity.norm() * d)), "s"});
+    swingClosedForm(ev, q0.toRotationMatrix());
+  }
+
+  // The closed form of the swing released at rest in pose R0: the centre of mass, a distance d from the
+  // pivot, starts θ0 from straight below it, and gravity's torque turns the body about n, the normal of
+  // the vertical plane through the pivot and c. When n is a principal axis of the inertia about the pivot
+  // the swing stays in that plane, a compound pendulum about the rest pose (c below the pivot):
+  //   I_n = nᵀ (R0 I_c R0ᵀ) n + m d²,   T = 2π √(I_n / (m g d)) · (2/π) K(sin(θ0/2))
+  // (the complete elliptic integral K is the exact amplitude correction), whatever the target pose: a
+  // design released off its rest pose swings about the rest pose with the whole offset as amplitude.
+  // When the inertia couples the plane to the other axes by more than kPlanarCoupling (|I_p n − I_n n| /
+  // I_n) the swing leaves the plane and no closed form describes it: the feature is left out, with a
+  // note saying why.
+  void swingClosedForm(TaskEvaluation& ev, const Eigen::Matrix3d& R0) const {
+    constexpr double kPlanarCoupling = 0.01;
+    const MassProperties& p = ev.mass;
+    const Eigen::Vector3d r = R0 * (p.com - point_);  // pivot → c at the release, world
+    const double d = r.norm(), g = geometry_.gravity.norm();
+    if (!(d > 1e-9 * size_) || !(p.mass > 0) || !(g > 0)) return;
+    const Eigen::Vector3d side = r.cross(g_hat_);
+    const double theta0 = std::atan2(side.norm(), r.dot(g_hat_));
+    Eigen::Vector3d n = side.normalized();
+    if (!(side.norm() > 1e-9 * d)) {  // released in the rest pose: small swings about world x (made horizontal)
+      Eigen::Vector3d h1, h2;
+      horizontalAxes(&h1, &h2);
+      n = h1;
+    }
+    const Eigen::Matrix3d Ip =
+        R0 * p.inertia * R0.transpose() + p.mass * (r.squaredNorm() * Eigen::Matrix3d::Identity() - r * r.transpose());
+    const double I_n = n.dot(Ip * n);
+    const double coupling = (Ip * n - I_n * n).norm() / I_n;
+    if (coupling > kPlanarCoupling) {
+      const std::string note =
+          "hanging: swing_period_closed_form_s is left out: released " + numberText(theta0 * 180.0 / M_PI, 3) +
+          " deg from its rest pose the design's inertia about the hanging point couples the "
+          "swing's plane to the other axes (by " +
+          numberText(100 * coupling, 2) + " %), so it swings out of that plane and no pendulum closed form applies";
+      for (const std::string& said : notes_)  // once: the text before the numbers
+        if (said.compare(0, 40, note, 0, 40) == 0) return;
+      notes_.push_back(note);
+      return;
+    }
+    const double T =
+        2 * M_PI * std::sqrt(I_n / (p.mass * g * d)) * (2 / M_PI) * std::comp_ellint_1(std::sin(theta0 / 2));
+    ev.features.push_back(Feature{"swing_period_closed_form_s", T, "s"});
   }
 
   struct Axle {
