@@ -513,20 +513,20 @@ TrackResult MotionTracker::finish() const {
   }
   r.t_start_s = s.t_all.front();
   r.t_end_s = s.t_all.back();
-  // frame rate and dropped frames (timestamp gaps > 1.5 nominal frame intervals)
-  std::vector<double> dts;
-  for (int i = 1; i < n; ++i) dts.push_back(s.t_all[i] - s.t_all[i - 1]);
-  const double dt_nominal =
-      s.opt.fps > 0 ? std::max(1, s.opt.video.stride) / s.opt.fps : (dts.empty() ? 1.0 / 30 : median(dts));
-  r.fps = s.opt.fps > 0 ? s.opt.fps : 1.0 / dt_nominal;
-  int gaps = 0;
-  for (double dt : dts)
-    if (dt > 1.5 * dt_nominal) {
-      ++gaps;
-      r.dropped_frames += std::max(1, static_cast<int>(std::lround(dt / dt_nominal)) - 1);
-    }
+  // frame rate and dropped frames (timestamp gaps > 1.5 nominal frame intervals), or a variable rate
+  const int stride = std::max(1, s.opt.video.stride);
+  const FrameSteps steps = analyseFrameSteps(s.t_all, s.opt.fps > 0 ? s.opt.fps / stride : 0.0);
+  r.fps = s.opt.fps > 0 && !steps.variable ? s.opt.fps : 1.0 / steps.step_s;
+  r.variable_frame_rate = steps.variable;
+  r.dropped_frames = steps.dropped_frames;
+  if (steps.variable)
+    notes.push_back("variable frame rate: the frames are " + fixedText(1000.0 * steps.min_step_s, 1) + "–" +
+                    fixedText(1000.0 * steps.max_step_s, 1) + " ms apart (median " +
+                    fixedText(1000.0 * steps.median_step_s, 1) +
+                    " ms), not whole multiples of one frame interval, so no frame counts as dropped; the features "
+                    "use each frame's own timestamp");
   if (r.dropped_frames > 0)
-    notes.push_back(std::to_string(r.dropped_frames) + " dropped frame(s) in " + std::to_string(gaps) +
+    notes.push_back(std::to_string(r.dropped_frames) + " dropped frame(s) in " + std::to_string(steps.gaps) +
                     " timestamp gap(s) longer than 1.5/fps (features use the true timestamps)");
   // lost frames and where
   std::vector<double> t, axis;
@@ -918,7 +918,13 @@ TrackResult trackVideo(const std::string& path, const TrackOptions& options,
   r.source = path;
   r.fps = src.fps();
   const double stamped = src.timestampFps();
-  if (!src.isSequence() && std::abs(stamped - src.fps()) > 0.02 * src.fps()) {
+  if (r.variable_frame_rate) {
+    r.fps = stamped;
+    r.message += "; the container announces " + fixedText(src.fps(), 2) + " fps and " +
+                 std::to_string(src.frameCount()) + " frames, " + std::to_string(src.framesDecoded()) +
+                 " frames with timestamps to " + fixedText(src.timestamps().back(), 2) +
+                 " s were read: a variable frame rate, read by its timestamps";
+  } else if (!src.isSequence() && std::abs(stamped - src.fps()) > 0.02 * src.fps()) {
     r.fps = stamped;
     r.message += "; the container announces " + fixedText(src.fps(), 2) + " fps but the frames are stamped " +
                  fixedText(1000.0 / stamped, 1) + " ms apart (" + fixedText(stamped, 2) +

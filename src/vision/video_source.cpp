@@ -93,6 +93,35 @@ cv::Mat toBgr(const cv::Mat& m) {
 
 }  // namespace
 
+FrameSteps analyseFrameSteps(const std::vector<double>& t, double announced_fps) {
+  FrameSteps f;
+  f.step_s = announced_fps > 0 ? 1.0 / announced_fps : 1.0 / 30;
+  std::vector<double> d;
+  for (std::size_t i = 1; i < t.size(); ++i) d.push_back(t[i] - t[i - 1]);
+  if (d.empty()) return f;
+  std::vector<double> sorted = d;
+  std::sort(sorted.begin(), sorted.end());
+  f.min_step_s = sorted.front();
+  f.max_step_s = sorted.back();
+  f.median_step_s = sorted[sorted.size() / 2];
+  if (!(f.median_step_s > 0)) return f;
+  if (!(announced_fps > 0) || f.median_step_s > 1.5 * f.step_s || f.median_step_s < f.step_s / 1.5)
+    f.step_s = f.median_step_s;
+  int irregular = 0;
+  for (double v : d) {
+    const double r = v / f.median_step_s;
+    if (r < 0.85 || std::abs(r - std::round(r)) > 0.15) ++irregular;
+  }
+  f.variable = irregular >= 2 && irregular > 0.1 * d.size();
+  if (f.variable) return f;
+  for (double v : d)
+    if (v > 1.5 * f.step_s) {
+      ++f.gaps;
+      f.dropped_frames += std::max(1, static_cast<int>(std::lround(v / f.step_s)) - 1);
+    }
+  return f;
+}
+
 VideoSource::VideoSource(const std::string& path, const VideoOptions& options) : path_(path), opt_(options) {
   if (opt_.stride < 1)
     throw TopoError("stride " + std::to_string(opt_.stride), "must be at least 1", "give --stride 1 or more");
@@ -238,6 +267,7 @@ bool VideoSource::decodeNext(cv::Mat& bgr, double& t_s, int& index) {
     msec_ok_ = false;
     t_s = last_msec_index_ >= 0 ? last_msec_ / 1000.0 + (index - last_msec_index_) / fps_ : index / fps_;
   }
+  last_decoded_t_ = std::max(last_decoded_t_, t_s);
   return true;
 }
 

@@ -15,8 +15,8 @@
 #include "topo_gaussian/vision/video_source.h"
 
 #ifdef TOPO_HAVE_AVFORMAT
+#include "av_remux.h"
 extern "C" {
-#include <libavformat/avformat.h>
 #include <libavutil/display.h>
 }
 #endif
@@ -29,43 +29,13 @@ namespace {
 /// Copies the video stream of `in` into the MP4 `out` (no re-encoding) with a display matrix that
 /// rotates by `ccw_deg` counter-clockwise. Returns an empty string or what failed.
 std::string remuxWithRotation(const std::string& in_path, const std::string& out_path, double ccw_deg) {
-  AVFormatContext* in = nullptr;
-  if (avformat_open_input(&in, in_path.c_str(), nullptr, nullptr) < 0) return "cannot open " + in_path;
-  avformat_find_stream_info(in, nullptr);
-  AVFormatContext* out = nullptr;
-  avformat_alloc_output_context2(&out, nullptr, "mp4", out_path.c_str());
-  int vi = -1;
-  for (unsigned i = 0; i < in->nb_streams && vi < 0; ++i) {
-    if (in->streams[i]->codecpar->codec_type != AVMEDIA_TYPE_VIDEO) continue;
-    vi = static_cast<int>(i);
-    AVStream* s = avformat_new_stream(out, nullptr);
-    avcodec_parameters_copy(s->codecpar, in->streams[i]->codecpar);
-    s->codecpar->codec_tag = 0;
-    s->time_base = in->streams[i]->time_base;
-    uint8_t* sd = av_stream_new_side_data(s, AV_PKT_DATA_DISPLAYMATRIX, sizeof(int32_t) * 9);
-    av_display_rotation_set(reinterpret_cast<int32_t*>(sd), ccw_deg);
-  }
-  std::string err;
-  if (vi < 0) err = "no video stream";
-  if (err.empty() && avio_open(&out->pb, out_path.c_str(), AVIO_FLAG_WRITE) < 0) err = "cannot write " + out_path;
-  if (err.empty() && avformat_write_header(out, nullptr) < 0) err = "cannot write the MP4 header";
-  if (err.empty()) {
-    AVPacket* p = av_packet_alloc();
-    while (av_read_frame(in, p) >= 0) {
-      if (p->stream_index == vi) {
-        p->stream_index = 0;
-        av_packet_rescale_ts(p, in->streams[vi]->time_base, out->streams[0]->time_base);
-        av_interleaved_write_frame(out, p);
-      }
-      av_packet_unref(p);
-    }
-    av_packet_free(&p);
-    av_write_trailer(out);
-  }
-  if (out->pb) avio_closep(&out->pb);
-  avformat_free_context(out);
-  avformat_close_input(&in);
-  return err;
+  return topo_test::remuxVideo(
+      in_path, out_path, "mp4",
+      [&](AVStream* s, const AVStream*) {
+        uint8_t* sd = av_stream_new_side_data(s, AV_PKT_DATA_DISPLAYMATRIX, sizeof(int32_t) * 9);
+        av_display_rotation_set(reinterpret_cast<int32_t*>(sd), ccw_deg);
+      },
+      nullptr);
 }
 #endif
 

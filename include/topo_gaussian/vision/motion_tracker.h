@@ -101,6 +101,7 @@ struct TrackResult {
   cv::Vec2d gravity{0.0, 1.0};
   int lost_frames = 0;
   int dropped_frames = 0;            ///< frames missing according to timestamp gaps > 1.5 / fps
+  bool variable_frame_rate = false;  ///< the frame steps vary (analyseFrameSteps): none counts as dropped
   std::vector<double> t, angle_deg;  ///< the angle (pendulum/tilt) or bend (finger) signal; trajectory: image y
   std::vector<std::vector<TrajectorySample>> trajectories;  ///< per tracked point (marker: 1)
   // pendulum

@@ -15,6 +15,23 @@
 
 namespace topo_gaussian::vision {
 
+/// The spacing of a clip's frame times (FrameSteps analyseFrameSteps).
+struct FrameSteps {
+  /// the frames' step [s]: 1 / the announced rate, unless the median step contradicts it by more than
+  /// a factor 1.5 (a container announcing its time base, e.g. 1000 fps), then the median step
+  double step_s = 0.0;
+  double min_step_s = 0.0, median_step_s = 0.0, max_step_s = 0.0;
+  /// a variable frame rate: more than 10 % of the steps are not within 15 % of a whole multiple of
+  /// the median step (a phone slowing down in dim light, a screen recorder); no frame counts as dropped
+  bool variable = false;
+  int dropped_frames = 0;  ///< constant rate: frames missing in steps > 1.5 step_s (round(step / step_s) − 1 each)
+  int gaps = 0;            ///< the steps holding dropped frames
+};
+
+/// The spacing of the frame times `t` [s] (increasing); `announced_fps` the rate the container or the
+/// user announces per returned frame (0: none, the median step is used).
+FrameSteps analyseFrameSteps(const std::vector<double>& t, double announced_fps);
+
 struct VideoOptions {
   double start_s = 0.0;        ///< first time used
   double end_s = -1.0;         ///< last time used (< 0: to the end)
@@ -50,10 +67,14 @@ class VideoSource {
   /// Frames decoded so far (including skipped ones) and the index of the last returned frame.
   int framesDecoded() const { return decoded_; }
   /// True once decoding stopped (end of data, or a frame that does not decode) clearly before the
-  /// frame count the container announces: the file is truncated or damaged after framesDecoded()
-  /// frames. False for a file read to its announced end, or one whose end was never reached.
+  /// frame count the container announces AND before 90 % of the duration it announces (frame count /
+  /// fps): the file is truncated or damaged after framesDecoded() frames. False for a file read to its
+  /// announced end, for one whose end was never reached, and for a complete file with fewer frames
+  /// than announced whose timestamps reach its end (a variable frame rate: Matroska announces duration
+  /// x nominal rate; or a wrong announced rate).
   bool endedEarly() const {
-    return stopped_ && !sequence_ && frame_count_ > 0 && decoded_ + std::max(2, frame_count_ / 50) < frame_count_;
+    return stopped_ && !sequence_ && frame_count_ > 0 && decoded_ + std::max(2, frame_count_ / 50) < frame_count_ &&
+           !(last_decoded_t_ >= 0.9 * frame_count_ / fps_);
   }
   int lastIndex() const { return last_index_; }
   /// Timestamps of every frame returned so far.
@@ -84,6 +105,7 @@ class VideoSource {
   int last_msec_index_ = -1;
   bool msec_ok_ = true;
   bool stopped_ = false;  ///< the decoder gave no more frames
+  double last_decoded_t_ = -1.0;  ///< timestamp of the last frame decoded [s]
   std::vector<double> times_;
   std::vector<int> indices_;
 };
