@@ -247,34 +247,78 @@ BounceFeatures analyseBounces(const std::vector<double>& t_in, const std::vector
     f.bounce_times_s.push_back(best_t);
     f.bounce_h_px.push_back(best_d < 1e300 ? fit[k].at(best_t) : h[contact[k]]);
   }
+  // The arc before the first bounce is a release only if the object starts it at its top (let go from
+  // rest). One that first rises in free flight followed a bounce or a throw: after a low point at the
+  // floor line that bounce is placed where the rising parabola meets the floor line (its fall was not
+  // free flight in the track: blurred, hidden or in the hand); otherwise it is named as missing.
+  const FlightArc& rel = f.arcs[first];
+  bool rising = false;
+  int inferred = 0;  ///< 1: a bounce before the chain's first, placed from its rising arc alone
+  std::string start_note;
+  if (first == 0) {
+    // the first arc starts at its highest sample: the samples before it rose to it in the same flight?
+    const int top = span[0].first;
+    if (top >= 2 && h[top] - h[0] >= prom) {
+      FlightArc whole;
+      Parabola p;
+      fitArc(0, span[0].second, whole, p);
+      rising = whole.flight && std::abs(-whole.accel_px_s2 - f.gravity_px_s2) <= 0.25 * f.gravity_px_s2;
+      if (rising)
+        start_note = "the object is already rising at t = " + fixedText(t[0], 2) + " s (" +
+                     fixedText(std::abs(p.at(t[0] + 1e-3) - p.at(t[0])) * 1e3, 0) +
+                     " px/s): it was not let go in view (a bounce or a throw before the first bounce found), so "
+                     "there is no release height";
+    }
+  } else if (rel.apex_inside && rel.apex_h - fit[first].at(rel.t0) >= prom) {
+    rising = true;
+    const Parabola& p = fit[first];
+    const double hb = f.bounce_h_px.front(), tc = t[contact[first - 1]];
+    const double disc = p.c1 * p.c1 - 4 * p.c2 * (p.c0 - hb);
+    const double tb = disc >= 0 ? p.t_ref + (-p.c1 + std::sqrt(disc)) / (2 * p.c2) : kNaN;  // the earlier root
+    if (std::isfinite(tb) && std::abs(tb - tc) <= 2 * dt && tb < rel.t0) {
+      inferred = 1;
+      f.bounce_times_s.insert(f.bounce_times_s.begin(), tb);
+      f.bounce_h_px.insert(f.bounce_h_px.begin(), hb);
+      start_note = "the bounce at " + fixedText(tb, 3) +
+                   " s is placed where its rising arc meets the next bounce's floor line (the fall into it is not "
+                   "free flight in the track: blurred, hidden or still in the hand), so there is no release height";
+    } else {
+      start_note = "a bounce before the first bounce found was missed: the object rises from t = " +
+                   fixedText(rel.t0, 2) + " s after a low point at " + fixedText(tc, 2) +
+                   " s that has no free-flight arc before it, so there is no release height";
+    }
+  }
   double floor = 0;
   for (double v : f.bounce_h_px) floor += v;
   f.floor_h_px = floor / f.bounce_h_px.size();
-  // apexes of the arcs in the chain (the one before the first bounce: the release)
+  // apexes of the arcs in the chain (the one before the first bounce: the release, unless it rose first)
   for (int k = first; k <= last + 1; ++k) {
     const FlightArc& a = f.arcs[k];
     if (!a.apex_inside) continue;
-    if (k == first) continue;  // the release arc's top is the release height, below
+    if (k == first && !inferred) continue;  // the release arc's top is the release height, below
     f.apex_times_s.push_back(a.apex_t);
     f.apex_h_px.push_back(a.apex_h);
-    f.apex_heights_px.push_back(a.apex_h - f.bounce_h_px[k - 1 - first]);  // above the bounce it rose from
+    f.apex_heights_px.push_back(a.apex_h - f.bounce_h_px[k - 1 - first + inferred]);  // above the bounce it rose from
   }
-  const FlightArc& rel = f.arcs[first];
   // the release: the arc's vertex when it lies inside it, else its highest sample (a ball let go from
   // rest in a hand; the arc starts at its highest sample)
   double highest = -1e300;
   for (int i = 0; i < n; ++i)
     if (t[i] >= rel.t0 && t[i] <= rel.t1) highest = std::max(highest, h[i]);
   const double release_h = rel.apex_inside ? rel.apex_h : highest;
-  f.release_height_px = release_h - f.bounce_h_px.front();
+  f.release_height_px = rising ? kNaN : release_h - f.bounce_h_px.front();
   // restitution per bounce
   std::vector<double> eh, et;
+  if (inferred) {  // nothing is known of the fall into the placed bounce
+    f.restitution_from_heights.push_back(kNaN);
+    f.restitution_from_times.push_back(kNaN);
+  }
   for (int k = first; k <= last; ++k) {
     const FlightArc &before = f.arcs[k], &after = f.arcs[k + 1];
-    const double tb = f.bounce_times_s[k - first];
+    const double tb = f.bounce_times_s[k - first + inferred];
     // both heights above this bounce's contact point (the floor line can drift: a ball coming nearer)
-    const double hb = f.bounce_h_px[k - first];
-    const double Hb = (k == first ? release_h : (before.apex_inside ? before.apex_h : kNaN)) - hb;
+    const double hb = f.bounce_h_px[k - first + inferred];
+    const double Hb = (k == first && !rising ? release_h : (before.apex_inside ? before.apex_h : kNaN)) - hb;
     const double Ha = (after.apex_inside ? after.apex_h : kNaN) - hb;
     const double e_h = Hb > 0 && Ha > 0 ? std::sqrt(Ha / Hb) : kNaN;
     const double fall = before.apex_inside ? tb - before.apex_t : kNaN;
@@ -311,12 +355,14 @@ BounceFeatures analyseBounces(const std::vector<double>& t_in, const std::vector
     for (double v : f.apex_heights_px) b += " " + fixedText(v, 1);
     b += " px above the bounce each rose from";
   }
-  b += ", released " + fixedText(f.release_height_px, 1) + " px above the first bounce";
+  if (std::isfinite(f.release_height_px))
+    b += ", released " + fixedText(f.release_height_px, 1) + " px above the first bounce";
   if (std::isfinite(f.restitution_heights_mean))
     b += "; restitution " + fixedText(f.restitution_heights_mean, 3) + " from heights";
   if (std::isfinite(f.restitution_times_mean))
     b += ", " + fixedText(f.restitution_times_mean, 3) + " from flight times";
   notes.insert(notes.begin(), b);
+  if (!start_note.empty()) notes.insert(notes.begin() + 1, start_note);
   if (!f.end_reason.empty())
     notes.push_back("the trajectory ends at " + fixedText(f.end_time_s, 2) + " s: " + f.end_reason);
   for (std::size_t i = 0; i < notes.size(); ++i) f.message += (i ? "; " : "") + notes[i];

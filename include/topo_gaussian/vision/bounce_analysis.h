@@ -17,6 +17,11 @@
 //    1 cm … 1 m across (a slow-motion clip played k times slower divides it by k²); arcs whose median acceleration in
 //    diameters/s² falls outside [min_g_diameters, max_g_diameters] are not flight (a swinging bob's "arcs" fall far too
 //    slowly);
+//  - the arc before the first bounce is the release (its top above that bounce: the release height)
+//    only when it starts at its top; one that rises first in free flight followed a bounce or a throw:
+//    after a low point whose fall is not a flight arc (blurred, in the hand), that bounce is placed
+//    where the rising parabola meets the next bounce's floor line (no restitution: the fall is
+//    unknown); otherwise the message says the object was already rising; no release height either way;
 //  - the trajectory ends at the first arc after a bounce that is not free flight (the object was picked
 //    up, rolls or stopped) or at a gap of lost frames longer than max_gap_s (the first run of at least
 //    max(8, 10 %) of the samples is analysed); the message says which.
@@ -49,7 +54,9 @@ struct BounceFeatures {
   std::vector<double> bounce_times_s, bounce_h_px;
   std::vector<double> apex_times_s, apex_h_px, apex_heights_px;  ///< apex_heights_px above the preceding bounce
   double floor_h_px = 0.0;
-  double release_height_px = 0.0;  ///< highest point of the first arc above the first bounce (0 if none)
+  /// highest point of the first arc above the first bounce; NaN when that arc rises first (the object
+  /// was not let go in view: a bounce or a throw came before the first bounce found)
+  double release_height_px = 0.0;
   std::vector<double> restitution_from_heights, restitution_from_times;        ///< per bounce (NaN if not measurable)
   double restitution_heights_mean = std::numeric_limits<double>::quiet_NaN();  ///< NaN if none
   double restitution_times_mean = std::numeric_limits<double>::quiet_NaN();
