@@ -107,6 +107,12 @@ class CloudReader {
       throw TopoError(source, "the PointCloud2 is big-endian, which this node does not read",
                       "publish a little-endian cloud (is_bigendian = false)");
     count_ = std::size_t(msg.width) * std::size_t(msg.height);
+    if (count_ == 0 && !msg.data.empty())
+      throw TopoError(source,
+                      "the PointCloud2 declares no points (width × height = " + std::to_string(msg.width) + " × " +
+                          std::to_string(msg.height) + ") but its data holds " + std::to_string(msg.data.size()) +
+                          " bytes",
+                      "set width and height to the points in the data (width = data bytes / point_step, height = 1)");
     if (count_ == 0) return;
     if (msg.point_step == 0)
       throw TopoError(source, "the PointCloud2 has point_step 0 for " + std::to_string(count_) + " points",
@@ -124,6 +130,18 @@ class CloudReader {
                           std::to_string(msg.width) + " × " + std::to_string(msg.height) + " points need " +
                           std::to_string(needed),
                       "make width, height, row_step and point_step agree with the data");
+    // More data than the layout declares: the points beyond width × height would be dropped unread.
+    const std::size_t declared = row * msg.height;
+    if (msg.data.size() > declared)
+      throw TopoError(
+          source,
+          "the PointCloud2 data holds " + std::to_string(msg.data.size()) + " bytes, more than row_step × height = " +
+              std::to_string(row) + " × " + std::to_string(msg.height) + " = " + std::to_string(declared) +
+              " bytes for its width × height = " + std::to_string(msg.width) + " × " + std::to_string(msg.height) +
+              " points (at point_step " + std::to_string(msg.point_step) + " the data is " +
+              std::to_string(msg.data.size() / msg.point_step) + " points): the rest would be dropped unread",
+          "set width × height (and row_step = width × point_step) to the points in the data, or publish "
+          "only the points the header declares");
   }
 
   std::size_t size() const { return count_; }

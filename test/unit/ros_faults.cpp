@@ -142,6 +142,29 @@ TEST(RosConversions, SpacingFieldIsOneLength) {
             std::string::npos);
 }
 
+TEST(RosConversions, DataBeyondWidthTimesHeightIsRefusedWithTheNumbers) {
+  // A cloud whose data holds five times the points its width × height declare: was cut to the first
+  // fifth without a word, then refused as an open surface.
+  std::vector<Eigen::Vector3f> pts;
+  for (int i = 0; i < 200; ++i) pts.emplace_back(float(i % 7), float(i % 11), float(i % 13));
+  PointCloud2 msg = floatCloud(pts);
+  const std::size_t declared = msg.data.size();
+  for (int copy = 0; copy < 4; ++copy) msg.data.insert(msg.data.end(), msg.data.begin(), msg.data.begin() + declared);
+  const std::string e = errorOf([&] { topo_ros::toSurfaceData(msg, "/camera/points"); });
+  EXPECT_NE(e.find("/camera/points"), std::string::npos) << e;
+  EXPECT_NE(e.find(std::to_string(msg.data.size()) + " bytes"), std::string::npos) << e;
+  EXPECT_NE(e.find(std::to_string(declared)), std::string::npos) << e;
+  EXPECT_NE(e.find("row_step"), std::string::npos) << e;
+  EXPECT_NE(e.find("1000 points"), std::string::npos) << e;  // what the data would hold
+  // The same for a volume cloud; a cloud of the declared size still converts.
+  PointCloud2 volume = topo_ros::toPointCloud2(VolumeCloud{}, "object", ros::Time(1.0));
+  volume.width = 0;
+  volume.data.resize(volume.point_step * 3);
+  EXPECT_NE(errorOf([&] { topo_ros::fromPointCloud2(volume, "/volume"); }).find("bytes"), std::string::npos);
+  msg.data.resize(declared);
+  EXPECT_EQ(topo_ros::toSurfaceData(msg, "/camera/points").size(), pts.size());
+}
+
 TEST(RosAsciiText, SymbolsAreSpelledInAscii) {
   EXPECT_EQ(topo_ros::asciiText("0.2 × 0.3 m, N·m"), "0.2 x 0.3 m, N*m");
   EXPECT_EQ(topo_ros::asciiText("depth ≥ 2, r ≤ 1, 45°, −3 → 4"), "depth >= 2, r <= 1, 45 deg, -3 -> 4");
