@@ -14,6 +14,7 @@ PACKAGES=(
   libpcl-dev libpcl-ros-dev libpcl-conversions-dev libcv-bridge-dev libopencv-dev
   libeigen3-dev libnlopt-cxx-dev libyaml-cpp-dev libgtest-dev nlohmann-json3-dev
   libbullet-dev
+  liburdfdom-dev  # inertial.urdf read back by the URDF parser in a test (inference_inertial_files)
   libavformat-dev libavcodec-dev libavutil-dev  # a phone video's rotation metadata in a test (vision_container_rotation)
   calculix-ccx gmsh tetgen  # soft-body peer (bench/peer_world/calculix_peer.h): C3D10 FEM, its mesher
   libsuitesparse-dev libopenblas-dev

@@ -16,6 +16,7 @@
 #include "topo_gaussian/geometry/solid_mesh.h"
 #include "topo_gaussian/geometry/stl_writer.h"
 #include "topo_gaussian/inference/pipeline.h"
+#include "topo_gaussian/io/inertial_files.h"
 #include "topo_gaussian/io/interior_ply.h"
 #include "topo_gaussian/io/text_file.h"
 #include "topo_gaussian/vision/figure.h"
@@ -217,6 +218,18 @@ ExportSummary exportInterior(const VolumeCloud& cloud, const std::vector<double>
   s.pictures_s = secondsSince(tp);
 
   if (!o.report_json.empty()) {
+    // the robot's mass properties (io/inertial_files.h), before report.json: a folder with a report is whole
+    try {
+      const io::IdentifiedMass id = io::identifiedMassFromReport(o.report_json, o.report_source);
+      const std::string urdf = io::urdfInertial(id, o.object_name, o.report_source);
+      const std::string sdf = io::sdfInertial(id, o.object_name, o.report_source);
+      io::writeTextFile(dir + "inertial.urdf", urdf);
+      s.files.push_back("inertial.urdf");
+      io::writeTextFile(dir + "inertial.sdf", sdf);
+      s.files.push_back("inertial.sdf");
+    } catch (const TopoError& e) {
+      s.notes.push_back(std::string("inertial.urdf and inertial.sdf not written: ") + e.what());
+    }
     io::writeTextFile(dir + "report.json", withInterfaceSection(o.report_json, s.interface, o.report_source));
     s.files.push_back("report.json");
   }

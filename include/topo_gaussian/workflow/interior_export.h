@@ -6,6 +6,8 @@
 //   slices.png     cross-sections: solid red, hollow blue, outside white (vision/slice_picture.h)
 //   loss.png       the loss history on a log axis        (when a report with a history is given)
 //   signal.png     observed vs simulated signal          (when signals are given)
+//   inertial.urdf  the report's mass, centre of mass and inertia as a one-link URDF, and
+//   inertial.sdf   as an SDF model (io/inertial_files.h; when a report is given and they are physical)
 //   report.json    the given report with an "interface" section added (when a report is given)
 //   export.json    mesh counts, the manifold check, the STL volume against Σ V_i of the solid
 //                  particles, and the interface smoothness (geometry/mesh_smoothness.h)
@@ -62,6 +64,7 @@ struct ExportOptions {
   std::string stl_unit = "mm";                ///< written in the STL header and export.json
   bool continuous = false;                    ///< interior.ply comment: r is a density fraction
   std::string title = "interior";             ///< heading of the pictures
+  std::string object_name = "object";         ///< robot / model and link name in inertial.urdf, inertial.sdf
   std::vector<double> confidence;  ///< per particle (inference/design_spread.h) or empty: interior.ply, slices.png
 };
 
