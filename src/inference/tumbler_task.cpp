@@ -7,7 +7,9 @@
 // (TaskEvaluation::observations) are period_s and max_tilt_deg with those derivatives.
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <map>
 #include <memory>
 #include <optional>
 #include <sstream>
@@ -149,23 +151,18 @@ class TumblerTask : public Task {
       const Eigen::Vector3d u = qd.normalized() * up_;
       max_tilt = std::max(max_tilt, std::acos(std::max(-1.0, std::min(1.0, u.z()))) * kDeg);
     }
-    // Past 90 deg it lies on its side, turns over or rolls away: not a doll that rights itself. Refused at
-    // once (the optimiser's line search steps back from such a trial design), not re-simulated on all of
-    // the surface's samples, which took minutes for a steel-ball tumbler's first trial step (and over seven
-    // for a 3000-particle cube lying on its side, in double precision, when tried). The candidates cover tilts
-    // up to reach_deg_ only, so what it does past 90 deg — fall onto a side, or roll on — is not known here:
-    // the message says both, and how to tell them apart.
-    if (max_tilt >= 90.0)
-      throw TopoError("tumbler simulation",
-                      "the design turns past 90 deg (to " + numberText(max_tilt, 3) + " deg) from the release at " +
-                          numberText(tilt0_ * kDeg, 3) + " deg" +
-                          (omega0_ != 0.0 ? " with " + numberText(omega0_, 3) + " rad/s" : std::string()) +
-                          ": it falls over or rolls away instead of rocking back (one that lands on a flat face or "
-                          "an edge falls over; a round one whose centre of mass is at or above the centre of its "
-                          "rounded bottom rolls away)",
-                      "a design with its centre of mass lower (below the centre of its rounded bottom), or a "
-                      "smaller initial_tilt_deg or initial_angular_velocity_rad_s");
-    if (max_tilt > reach_deg_ - 5.0 && contact_.size() < all_contact_.size())
+    // Past 90 deg it falls over, rolls away or turns over: not a doll that rights itself. The candidates
+    // cover tilts up to reach_deg_ only, so what it does past them is followed by pastUpright (double
+    // precision, the candidates of every tilt about the rocking axis, until it is decided): refused
+    // saying what happened, with the numbers. When that simulation stays below 90 deg (the candidates'
+    // motion went past them), the design rocks: simulated on all of the surface's samples below.
+    bool resimulate = false;
+    if (max_tilt >= 90.0) {
+      const PastUpright past = pastUpright(ev.mass);
+      if (past.max_tilt_deg >= 90.0 || !past.simulated) refusePastUpright(past, max_tilt);
+      resimulate = true;
+    }
+    if ((resimulate || max_tilt > reach_deg_ - 5.0) && contact_.size() < all_contact_.size())
       traj = simulate(all_contact_, options_all_);
     // Signed tilt about the rocking axis: rotating ez by φ about a gives cos φ ez + sin φ (a × ez).
     std::vector<Dual10> phi(traj.states.size());
@@ -248,29 +245,192 @@ class TumblerTask : public Task {
   // cheaper (every step scans every candidate).
   void selectContactCandidates(double spacing) {
     reach_deg_ = std::abs(tilt0_ * kDeg) + 30.0;
-    const double band = 4.0 * spacing;
+    band_m_ = 4.0 * spacing;
+    options_all_ = options_;
+    options_all_.ground.point_weights = all_weights_;
+    contactBand(reach_deg_, &contact_, &options_);
+  }
+
+  // The contact points (and their weights in *o) within band_m_ of the lowest point in a pose tilted up to
+  // reach_deg about the rocking axis, sampled every 2 deg, and ±10° about the other horizontal axis.
+  void contactBand(double reach_deg, std::vector<Eigen::Vector3d>* points, RigidSimOptions* o) const {
     std::vector<char> keep(all_contact_.size(), 0);
     const Eigen::Vector3d other = up_.cross(axis_).normalized();
-    for (double a = -reach_deg_; a <= reach_deg_ + 1e-9; a += 2.0) {
+    std::vector<double> z(all_contact_.size());
+    for (double a = -reach_deg; a <= reach_deg + 1e-9; a += 2.0) {
       for (double b : {-10.0, 0.0, 10.0}) {
         const Eigen::Matrix3d R =
             (Eigen::AngleAxisd(a / kDeg, axis_) * Eigen::AngleAxisd(b / kDeg, other)).toRotationMatrix();
         double zmin = 1e300;
-        std::vector<double> z(all_contact_.size());
         for (std::size_t i = 0; i < z.size(); ++i) zmin = std::min(zmin, z[i] = (R * all_contact_[i]).z());
         for (std::size_t i = 0; i < z.size(); ++i)
-          if (z[i] <= zmin + band) keep[i] = 1;
+          if (z[i] <= zmin + band_m_) keep[i] = 1;
       }
     }
-    contact_.clear();
-    options_all_ = options_;
-    options_all_.ground.point_weights = all_weights_;
-    options_.ground.point_weights.clear();
+    points->clear();
+    o->ground.point_weights.clear();
     for (std::size_t i = 0; i < keep.size(); ++i)
       if (keep[i]) {
-        contact_.push_back(all_contact_[i]);
-        if (!all_weights_.empty()) options_.ground.point_weights.push_back(all_weights_[i]);
+        points->push_back(all_contact_[i]);
+        if (!all_weights_.empty()) o->ground.point_weights.push_back(all_weights_[i]);
       }
+  }
+
+  // Contact points merged on a grid of the given cell size: per cell the point nearest the cell's mean,
+  // weighted with the sum of the cell's weights (all 1 when none are given).
+  static void mergeOnGrid(double cell, std::vector<Eigen::Vector3d>* points, RigidSimOptions* o) {
+    std::vector<double>& w = o->ground.point_weights;
+    std::map<std::array<long long, 3>, std::vector<std::size_t>> cells;
+    for (std::size_t i = 0; i < points->size(); ++i) {
+      const Eigen::Vector3d k = ((*points)[i] / cell).array().floor();
+      cells[{static_cast<long long>(k.x()), static_cast<long long>(k.y()), static_cast<long long>(k.z())}].push_back(i);
+    }
+    std::vector<Eigen::Vector3d> merged;
+    std::vector<double> weights;
+    for (const auto& [key, members] : cells) {
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      double sum = 0;
+      for (std::size_t i : members) {
+        mean += (*points)[i];
+        sum += w.empty() ? 1.0 : w[i];
+      }
+      mean /= static_cast<double>(members.size());
+      std::size_t best = members.front();
+      for (std::size_t i : members)
+        if (((*points)[i] - mean).squaredNorm() < ((*points)[best] - mean).squaredNorm()) best = i;
+      merged.push_back((*points)[best]);
+      weights.push_back(sum);
+    }
+    *points = std::move(merged);
+    w = std::move(weights);
+  }
+
+  /// What a design that turned past 90 deg does next (pastUpright).
+  struct PastUpright {
+    bool simulated = false;  ///< false: it could not be followed (reason says why)
+    std::string reason;
+    double max_tilt_deg = 0;  ///< largest tilt from upright
+    enum Kind { kRollsAway, kFallsOver, kComesBack, kStillMoving } kind = kStillMoving;
+    double turned_deg = 0;     ///< net turn about the rocking axis from the release
+    double travel_m = 0;       ///< how far its centre of mass moved along the ground
+    double seconds = 0;        ///< how long it was followed
+    double rest_tilt_deg = 0;  ///< the tilt it came to rest at (kFallsOver, kComesBack)
+  };
+
+  // Follows the design from the release, in double precision on the contact candidates of every tilt
+  // about the rocking axis, for duration_s (at least kFollowS) or until decided:
+  //  - rolls away: it turns a full turn about the rocking axis (over and over along the ground);
+  //  - falls over: it comes to rest (its tilt within kRestDeg over kRestS) at 45 deg or more;
+  //  - comes back: it comes to rest below 45 deg;
+  //  - still moving: none of these by the end (a body still rolling or tumbling; the travel tells).
+  PastUpright pastUpright(const MassProperties& mass) const {
+    constexpr double kFollowS = 3.0, kRestS = 0.3, kRestDeg = 0.1;
+    constexpr std::size_t kFollowPoints = 3000;
+    PastUpright out;
+    std::vector<Eigen::Vector3d> points;
+    RigidSimOptions o = withStop(options_all_, should_stop_);
+    contactBand(180.0, &points, &o);
+    // A fill's contact samples are dense (0.4 mm on a 10 cm doll: a flat face landing then needs hours); what
+    // it does next needs far fewer: merged on a grid to at most kFollowPoints, each cell's weight the sum of its
+    // points' (the same total contact stiffness and area).
+    for (double cell = size_ / 100; points.size() > kFollowPoints; cell *= 1.5) mergeOnGrid(cell, &points, &o);
+    o.duration_s = std::max(options_.duration_s, kFollowS);
+    const Eigen::Vector3d ez(0, 0, 1), side = axis_.cross(ez);
+    const auto tilt = [&](const Eigen::Quaterniond& q) {
+      const Eigen::Vector3d u = q * up_;
+      return std::atan2(u.dot(side), u.dot(ez)) * kDeg;
+    };
+    struct Watch {  // the unwrapped tilt about the rocking axis and the recent tilts
+      double first = 0, last = 0, unwrapped = 0;
+      std::vector<double> recent;
+      bool rolled = false, rests = false;
+    };
+    auto watch = std::make_shared<Watch>();
+    watch->first = watch->last = watch->unwrapped = tilt0_ * kDeg;
+    const std::size_t rest_samples = static_cast<std::size_t>(std::ceil(kRestS / o.output_dt_s)) + 1;
+    o.stop_after_sample = [watch, tilt, rest_samples, kRestDeg](double, const Eigen::Quaterniond& q) {
+      const double phi = tilt(q);
+      watch->unwrapped += std::remainder(phi - watch->last, 360.0);
+      watch->last = phi;
+      watch->rolled = std::abs(watch->unwrapped - watch->first) >= 360.0;
+      watch->recent.push_back(watch->unwrapped);
+      if (watch->recent.size() > rest_samples) watch->recent.erase(watch->recent.begin());
+      const auto [lo, hi] = std::minmax_element(watch->recent.begin(), watch->recent.end());
+      watch->rests = watch->recent.size() == rest_samples && *hi - *lo < kRestDeg;
+      return watch->rolled || watch->rests;
+    };
+    const RigidInertia<double> inertia = toInertia(mass);
+    RigidTrajectory<double> traj;
+    try {
+      RigidState<double> s0 = restingState(inertia, Eigen::Quaterniond(Eigen::AngleAxisd(tilt0_, axis_)), points, o);
+      s0.angular_velocity = omega0_ * axis_;
+      traj = simulateRigid(inertia, s0, points, o);
+    } catch (const TopoError& e) {
+      out.reason = e.what();
+      out.reason = out.reason.substr(0, out.reason.find(". Fix: "));  // its fix is not the user's
+      return out;
+    }
+    out.simulated = true;
+    for (const auto& st : traj.states)
+      out.max_tilt_deg =
+          std::max(out.max_tilt_deg, std::acos(std::clamp((st.orientation.normalized() * up_).z(), -1.0, 1.0)) * kDeg);
+    const Eigen::Vector3d moved = traj.states.back().position - traj.states.front().position;
+    out.travel_m = std::hypot(moved.x(), moved.y());
+    out.seconds = traj.time_s.back();
+    out.turned_deg = watch->unwrapped - watch->first;
+    out.rest_tilt_deg =
+        std::acos(std::clamp((traj.states.back().orientation.normalized() * up_).z(), -1.0, 1.0)) * kDeg;
+    if (watch->rolled)
+      out.kind = PastUpright::kRollsAway;
+    else if (watch->rests)
+      out.kind = out.rest_tilt_deg >= 45.0 ? PastUpright::kFallsOver : PastUpright::kComesBack;
+    return out;
+  }
+
+  // Refuses a design that turned past 90 deg (from the candidates' simulation, to max_tilt), saying what
+  // it did next (pastUpright) with the numbers, and the fix for that.
+  [[noreturn]] void refusePastUpright(const PastUpright& past, double max_tilt) const {
+    std::string what = "the design turns past 90 deg (to " +
+                       numberText(past.simulated ? past.max_tilt_deg : max_tilt, 3) + " deg) from the release at " +
+                       numberText(tilt0_ * kDeg, 3) + " deg" +
+                       (omega0_ != 0.0 ? " with " + numberText(omega0_, 3) + " rad/s" : std::string());
+    const std::string smaller = "a smaller initial_tilt_deg or initial_angular_velocity_rad_s";
+    const std::string follow = "followed for " + numberText(past.seconds, 3) + " s";
+    switch (past.simulated ? past.kind : PastUpright::kStillMoving) {
+      case PastUpright::kRollsAway:
+        throw TopoError("tumbler simulation",
+                        what + " and rolls away instead of rocking back: it rolled " + numberText(past.travel_m, 3) +
+                            " m along the ground in " + numberText(past.seconds, 3) + " s (" +
+                            numberText(std::abs(past.turned_deg) / 360.0, 2) + " full turn about its rocking axis, " +
+                            numberText(past.travel_m / past.seconds, 3) + " m/s)",
+                        "a design whose centre of mass lies below the centre of its rounded bottom (then it rolls "
+                        "back), or " +
+                            smaller);
+      case PastUpright::kFallsOver:
+        throw TopoError("tumbler simulation",
+                        what + " and falls over instead of rocking back: it comes to rest at " +
+                            numberText(past.rest_tilt_deg, 3) + " deg, " + numberText(past.travel_m, 2) +
+                            " m from where it was released (" + follow + ")",
+                        "a design with its centre of mass lower, so that it is over the part it rests on at the "
+                        "largest tilt, or " +
+                            smaller);
+      case PastUpright::kComesBack:
+        throw TopoError("tumbler simulation",
+                        what + " before it comes to rest at " + numberText(past.rest_tilt_deg, 3) + " deg, " +
+                            numberText(past.travel_m, 2) + " m from where it was released (" + follow +
+                            "): a doll's rocking stays within 90 deg",
+                        "a design with its centre of mass lower, or " + smaller);
+      case PastUpright::kStillMoving:
+        break;
+    }
+    throw TopoError(
+        "tumbler simulation",
+        what + ": it falls over or rolls away instead of rocking back (" +
+            (past.simulated ? "still moving when " + follow + ": it turned " + numberText(past.turned_deg, 3) +
+                                  " deg and moved " + numberText(past.travel_m, 2) + " m"
+                            : "not followed further: " + past.reason) +
+            ")",
+        "a design with its centre of mass lower (below the centre of its rounded bottom), or " + smaller);
   }
 
   RigidSimOptions options_;      ///< with the candidates' weights
@@ -278,6 +438,7 @@ class TumblerTask : public Task {
   std::vector<Eigen::Vector3d> all_contact_;
   std::vector<double> all_weights_;
   double reach_deg_ = 90;
+  double band_m_ = 0;  ///< contact candidates: within this of the lowest point
   Eigen::Vector3d axis_, up_;
   double tilt0_ = 0, omega0_ = 0, w_period_ = 1, w_tilt_ = 1, w_amplitude_ = 1;
   double period_target_ = -1, tilt_target_ = -1, amplitude_target_ = -1;

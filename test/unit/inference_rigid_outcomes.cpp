@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -137,4 +138,61 @@ TEST(HangingSwing, NoClosedFormForASwingOutOfOnePlane) {
   EXPECT_TRUE(std::isnan(featureOf(ev, "swing_period_closed_form_s")));
   EXPECT_NE(notes.find("swing_period_closed_form_s is left out"), std::string::npos) << notes;
   EXPECT_NE(notes.find("swings out of that plane"), std::string::npos) << notes;
+}
+
+namespace {
+
+// The number after `word` in `text` (NaN when the word is not there).
+double numberAfter(const std::string& text, const std::string& word) {
+  const std::size_t at = text.find(word);
+  if (at == std::string::npos) return std::nan("");
+  return std::strtod(text.c_str() + at + word.size(), nullptr);
+}
+
+}  // namespace
+
+// A uniform ball (centre of mass at its centre) released with a spin about the rocking axis does not rock:
+// it rolls away. Spun at w0 with no speed, it slips until it rolls: its angular momentum about the contact
+// point is kept, (I + m R^2) w = I w0, so it rolls at v = (2/7) R w0 (a solid ball), reached after
+// v / (mu g) s, then slows a little as the lattice's facets bump it. The refusal says it rolls away, with
+// how far it rolled in how long: a full turn rolls it 2 pi R (the lattice's surface particles lie between
+// R - one spacing and R from the centre), at a mean speed up to v.
+TEST(TumblerPast90, ABallThatRollsAwayIsSaidToRollAway) {
+  const double R = 0.05, h = 0.005, w0 = 20;
+  TaskConfig c = TaskConfig::defaults("tumbler");
+  c.setNumber("initial_angular_velocity_rad_s", w0);
+  const std::string e = errorOf([&] { simulateInterior(c, topo_test::tumblerCloud(R, 1.0, h), {}); });
+  const double rolled = numberAfter(e, "it rolled "), seconds = numberAfter(e, " m along the ground in ");
+  const double turns = numberAfter(e, " s ("), v = 2.0 / 7.0 * R * w0;
+  std::printf(
+      "[tumbler] spun ball: %s\n[tumbler] rolled %.4f m in %.3f s (%.3g turns): %.4f m/s, rolling without "
+      "slipping %.4f m/s\n",
+      e.c_str(), rolled, seconds, turns, rolled / seconds, v);
+  EXPECT_NE(e.find("rolls away"), std::string::npos) << e;
+  EXPECT_EQ(e.find("falls over"), std::string::npos) << e;
+  ASSERT_TRUE(std::isfinite(rolled) && seconds > 0 && turns > 0) << e;
+  EXPECT_GT(rolled, 2 * R) << e;
+  EXPECT_GT(rolled / turns, 2 * M_PI * (R - h)) << e;
+  EXPECT_LT(rolled / turns, 2 * M_PI * R) << e;
+  EXPECT_LT(rolled / seconds, v) << e;
+  EXPECT_GT(rolled / seconds, 0.8 * v) << e;
+  EXPECT_NE(e.find("initial_angular_velocity_rad_s"), std::string::npos) << e;
+}
+
+// A tall box (0.04 x 0.04 x 0.12 m, its centre of mass 6 cm up) released 30 deg about its bottom edge, past
+// the 18.4 deg at which its centre of mass is over that edge, falls over onto its side: it comes to rest at
+// 90 deg, having moved little along the ground (its centre of mass ends 2 cm up and at most one
+// height beside where the edge was). The refusal says it falls over, with the angle it rests at.
+TEST(TumblerPast90, ATallBoxTippedPastItsEdgeFallsOver) {
+  const VolumeCloud box = topo_test::boxCloud(0.04, 0.04, 0.12, 0.005);
+  TaskConfig c = TaskConfig::defaults("tumbler");
+  c.set("initial_tilt_deg", "30");
+  const std::string e = errorOf([&] { simulateInterior(c, box, {}); });
+  const double rest = numberAfter(e, "comes to rest at "), moved = numberAfter(e, " deg, ");
+  std::printf("[tumbler] tall box tipped 30 deg: %s\n", e.c_str());
+  EXPECT_NE(e.find("falls over"), std::string::npos) << e;
+  EXPECT_EQ(e.find("rolls away"), std::string::npos) << e;
+  EXPECT_NEAR(rest, 90.0, 2.0) << e;
+  EXPECT_LT(moved, 0.12) << e;
+  EXPECT_NE(e.find("initial_tilt_deg"), std::string::npos) << e;
 }
