@@ -193,6 +193,15 @@ EndFit fitEnds(const cv::Mat& mask, const cv::Point& offset, double tip_fraction
   return f;
 }
 
+/// A pixel "changes" between two frames when its grey level moves by more than this (well above the
+/// sensor noise of a still picture) [grey levels].
+constexpr double kChangeGrey = 40.0;
+/// A tracked centre that stays within this of its median position in 95 % of the frames does not
+/// move: a still blob's centroid wanders this much when its mask's edge follows a noisy, blurred or
+/// moving background (a static red patch in noise 8, blur 1.5 and a drifting texture: 0.66 px; a
+/// static bob there: 0.97 px), while a swing of 1 deg at 300 px moves it by 5 px [px].
+constexpr double kStillPx = 1.0;
+
 /// A tilt whose rest lies further than this from TrackOptions::tilt_reference_deg is ambiguous: the
 /// other principal axis is then within 90° − this of the reference, about as plausible [deg].
 constexpr double kTiltAmbiguityDeg = 30.0;
@@ -234,6 +243,11 @@ struct MotionTracker::Impl {
   bool have_tilt_axis = false;  ///< tilt: the axis followed so far (followTiltAxis)
   double tilt_axis_deg = 0.0;
   cv::Mat last_frame;
+  /// pendulum/tilt: the previous frame in grey at most 320 px wide, and per frame the pixels of it that
+  /// changed by more than kChangeGrey outside the tracked object's box (does anything else move?)
+  cv::Mat prev_small;
+  double small_scale = 1.0;
+  std::vector<int> changed_elsewhere;
   Measurement last;
   double last_t = 0;
   /// marker with the default colour: a few frames kept to suggest another colour when it refuses
@@ -351,6 +365,27 @@ void MotionTracker::addFrame(const cv::Mat& frame_in, double t_s) {
   if (me.found && s.opt.tracker.method == "klt") {
     for (std::size_t i = 0; i < me.points.size(); ++i)
       s.klt_tracks[me.point_ids[i]].push_back({t_s, me.points[i].x, me.points[i].y});
+  }
+  if (s.opt.kind == "pendulum" || s.opt.kind == "tilt") {
+    s.small_scale = std::min(1.0, 320.0 / bgr.cols);
+    cv::Mat grey, small;
+    cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+    cv::resize(grey, small, cv::Size(), s.small_scale, s.small_scale, cv::INTER_AREA);
+    if (!s.prev_small.empty()) {
+      cv::Mat changed;
+      cv::absdiff(small, s.prev_small, changed);
+      cv::threshold(changed, changed, kChangeGrey, 255, cv::THRESH_BINARY);
+      if (me.found && !me.contour.empty()) {  // the object's own box (a pixel wider) is not "elsewhere"
+        const cv::Rect box = cv::boundingRect(me.contour);
+        const cv::Rect small_box(cv::Point(static_cast<int>(box.x * s.small_scale) - 2,
+                                           static_cast<int>(box.y * s.small_scale) - 2),
+                                 cv::Point(static_cast<int>(box.br().x * s.small_scale) + 3,
+                                           static_cast<int>(box.br().y * s.small_scale) + 3));
+        changed(small_box & cv::Rect(0, 0, changed.cols, changed.rows)).setTo(0);
+      }
+      s.changed_elsewhere.push_back(cv::countNonZero(changed));
+    }
+    s.prev_small = small;
   }
   s.last_frame = bgr;
   s.meas.push_back(me);
@@ -603,6 +638,45 @@ TrackResult MotionTracker::finish() const {
   if (!r.object.valid) return refuse(r.object.problem);
   const double base = tracking * r.object.score;
 
+  // A tracked region whose centre does not move (within max(kStillPx, 3 × its frame-to-frame noise)
+  // of one point) is not a small swing: it is something static (and when other parts of the frame
+  // change, the object is elsewhere: the ROI or the colour picked the background or a fixed part).
+  auto stillRegion = [&]() -> std::string {
+    if (pts.size() < 8) return "";
+    std::vector<double> xs, ys, dist;
+    for (const auto& p : pts) xs.push_back(p.x), ys.push_back(p.y);
+    const cv::Point2d mid(median(xs), median(ys));
+    for (const auto& p : pts) dist.push_back(cv::norm(p - mid));
+    std::sort(dist.begin(), dist.end());
+    const double spread = dist[static_cast<std::size_t>(0.95 * (dist.size() - 1))];
+    // the centre's white noise from its second differences (a smooth motion hardly has any): per axis
+    // σ = 1.4826 MAD / √6
+    auto noise = [](const std::vector<double>& v) {
+      std::vector<double> d2;
+      for (std::size_t i = 1; i + 1 < v.size(); ++i) d2.push_back(std::abs(v[i - 1] - 2 * v[i] + v[i + 1]));
+      return 1.4826 * median(d2) / std::sqrt(6.0);
+    };
+    const double jitter = std::hypot(noise(xs), noise(ys));
+    if (spread > std::max(kStillPx, 3.0 * jitter)) return "";
+    int moving = 0;
+    const double object_small_px = std::max(4.0, 0.2 * r.object.median_area_px * s.small_scale * s.small_scale);
+    for (int c : s.changed_elsewhere)
+      if (c >= object_small_px) ++moving;
+    const std::string where = "the tracked region does not move (its centre stays within " + fixedText(spread, 2) +
+                              " px of one point in 95 % of " + std::to_string(pts.size()) +
+                              " frames: a blob tracker's noise level, its frame-to-frame noise is " +
+                              fixedText(jitter, 2) + " px)";
+    if (moving >= std::max<std::size_t>(2, s.changed_elsewhere.size() / 5))
+      return "no oscillation found: " + where + " while other parts of the frame change (in " +
+             std::to_string(moving) + " of " + std::to_string(s.changed_elsewhere.size()) +
+             " frame steps): it follows something static; if the object moved, this is the background or a fixed "
+             "part, not the object: put the region of interest on the object's path (--roi x,y,w,h, the node's "
+             "~roi) or give the object's colour (--hsv-lower/--hsv-upper)";
+    return "no oscillation found: " + where +
+           " and nothing else in view moves: the object did not swing in this clip (if it did, it is not in view or "
+           "not in the region of interest, --roi)";
+  };
+
   auto oscillation = [&](const std::vector<double>& tt, const std::vector<double>& a, bool angles_known) {
     r.t = tt;
     r.angle_deg = a;
@@ -616,6 +690,8 @@ TrackResult MotionTracker::finish() const {
     if (!r.signal.oscillation_found) {
       r.signal.period_s = r.signal.amplitude_deg = r.signal.log_decrement = r.signal.damping_ratio = kNaN;
       r.signal.max_tilt_deg = kNaN;
+      const std::string still = stillRegion();
+      if (!still.empty()) r.signal.message = still;
     }
     if (!angles_known) {  // a displacement in px: the period only
       r.signal.amplitude_deg = r.signal.equilibrium_deg = r.signal.max_tilt_deg = kNaN;

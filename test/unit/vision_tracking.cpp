@@ -124,6 +124,55 @@ TEST(VisionTracking, StaticPendulumHasNoOscillation) {
   EXPECT_NE(r2.message.find("pivot"), std::string::npos) << r2.message;
 }
 
+// A region of interest on a fixed red part while the red bob swings elsewhere: the tracked region does
+// not move at all, and the message says so (the ROI or the colour is wrong), instead of blaming the
+// motion ("swings only ..."); the same bob tracked while it swings a little is still "swings only".
+TEST(VisionTracking, AStaticRegionIsNamedNotASmallSwing) {
+  PendulumScene s = noisyScene();  // noise, blur and a drifting background texture
+  s.duration_s = 3.0;
+  s.amplitude_deg = 20.0;
+  PendulumScene clean = s;
+  clean.noise_sigma = clean.blur_px = 0.0;  // added after the fixed part is drawn
+  std::vector<cv::Mat> frames = renderPendulum(clean);
+  const cv::Rect fixed_part(40, 390, 40, 40);
+  cv::RNG rng(7);
+  for (auto& f : frames) {
+    cv::rectangle(f, fixed_part, s.bob_bgr, cv::FILLED);
+    cv::GaussianBlur(f, f, cv::Size(0, 0), s.blur_px);
+    cv::Mat noise(f.size(), CV_16SC3);
+    rng.fill(noise, cv::RNG::NORMAL, 0, s.noise_sigma);
+    cv::Mat f16;
+    f.convertTo(f16, CV_16SC3);
+    f16 += noise;
+    f16.convertTo(f, CV_8UC3);
+  }
+  const std::string path = writeScene(frames, s.fps, "pendulum_static_region.avi");
+  TrackOptions o;
+  o.pivot_given = true;
+  o.pivot = s.pivot;
+  o.tracker.roi = cv::Rect(20, 370, 80, 80);
+  o.tracker.roi_given = true;
+  const TrackResult r = trackVideo(path, o);
+  std::printf("static region: %s\n", r.message.c_str());
+  ASSERT_TRUE(r.object_found) << r.message;
+  EXPECT_FALSE(r.signal.oscillation_found);
+  EXPECT_NE(r.message.find("does not move"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("--roi"), std::string::npos) << r.message;
+  EXPECT_EQ(r.message.find("swings only"), std::string::npos) << r.message;
+
+  PendulumScene small = s;
+  small.amplitude_deg = 0.4;  // the bob moves about ±2 px: a small swing, not a static region
+  const std::string small_path = writeScene(renderPendulum(small), small.fps, "pendulum_small_swing.avi");
+  TrackOptions os;
+  os.pivot_given = true;
+  os.pivot = small.pivot;
+  const TrackResult rs = trackVideo(small_path, os);
+  std::printf("small swing: %s\n", rs.message.c_str());
+  EXPECT_FALSE(rs.signal.oscillation_found);
+  EXPECT_NE(rs.message.find("swings only"), std::string::npos) << rs.message;
+  EXPECT_EQ(rs.message.find("does not move"), std::string::npos) << rs.message;
+}
+
 TEST(VisionTracking, MarkerLeavingTheFrameIsReported) {
   PendulumScene s;
   s.pivot = cv::Point2d(560, 40);
