@@ -122,7 +122,8 @@ class CantileverTask : public SoftTask {
                 << numberText(thinnest / spacing_, 3) << " particles through the beam's thinnest dimension ("
                 << numberText(thinnest, 4) << " m); tip deflection and frequency are held within 5 % of CalculiX "
                 << "only from " << kLayersHeld << " (fill with --spacing " << numberText(thinnest / kLayersHeld, 4)
-                << " or finer)\n";
+                << " or finer), and only on beams whose free length is at least " << numberText(kSlenderHeld, 3)
+                << " × their thickness\n";
     warnOfShortBeamBias();
     usePreconditionerOnGpu();
   }
