@@ -310,11 +310,12 @@ class TumblerTask : public Task {
     bool simulated = false;  ///< false: it could not be followed (reason says why)
     std::string reason;
     double max_tilt_deg = 0;  ///< largest tilt from upright
-    enum Kind { kRollsAway, kFallsOver, kComesBack, kStillMoving } kind = kStillMoving;
+    enum Kind { kRollsAway, kFallsOver, kComesBack, kRocksBack, kStillMoving } kind = kStillMoving;
     double turned_deg = 0;     ///< net turn about the rocking axis from the release
     double travel_m = 0;       ///< how far its centre of mass moved along the ground
     double seconds = 0;        ///< how long it was followed
     double rest_tilt_deg = 0;  ///< the tilt it came to rest at (kFallsOver, kComesBack)
+    double last_tilt_deg = 0;  ///< its largest tilt over the last kLastS of the follow-up (kRocksBack)
   };
 
   // Follows the design from the release, in double precision on the contact candidates of every tilt
@@ -322,9 +323,10 @@ class TumblerTask : public Task {
   //  - rolls away: it turns a full turn about the rocking axis (over and over along the ground);
   //  - falls over: it comes to rest (its tilt within kRestDeg over kRestS) at 45 deg or more;
   //  - comes back: it comes to rest below 45 deg;
+  //  - rocks back: still moving at the end, but within 90 deg over the last kLastS;
   //  - still moving: none of these by the end (a body still rolling or tumbling; the travel tells).
   PastUpright pastUpright(const MassProperties& mass) const {
-    constexpr double kFollowS = 3.0, kRestS = 0.3, kRestDeg = 0.1;
+    constexpr double kFollowS = 3.0, kRestS = 0.3, kRestDeg = 0.1, kLastS = 1.0;
     constexpr std::size_t kFollowPoints = 3000;
     PastUpright out;
     std::vector<Eigen::Vector3d> points;
@@ -380,10 +382,17 @@ class TumblerTask : public Task {
     out.turned_deg = watch->unwrapped - watch->first;
     out.rest_tilt_deg =
         std::acos(std::clamp((traj.states.back().orientation.normalized() * up_).z(), -1.0, 1.0)) * kDeg;
+    for (std::size_t k = 0; k < traj.states.size(); ++k)
+      if (traj.time_s[k] >= out.seconds - kLastS)
+        out.last_tilt_deg =
+            std::max(out.last_tilt_deg,
+                     std::acos(std::clamp((traj.states[k].orientation.normalized() * up_).z(), -1.0, 1.0)) * kDeg);
     if (watch->rolled)
       out.kind = PastUpright::kRollsAway;
     else if (watch->rests)
       out.kind = out.rest_tilt_deg >= 45.0 ? PastUpright::kFallsOver : PastUpright::kComesBack;
+    else if (out.seconds > kLastS && out.last_tilt_deg < 90.0)
+      out.kind = PastUpright::kRocksBack;
     return out;
   }
 
@@ -420,16 +429,27 @@ class TumblerTask : public Task {
                             numberText(past.travel_m, 2) + " m from where it was released (" + follow +
                             "): a doll's rocking stays within 90 deg",
                         "a design with its centre of mass lower, or " + smaller);
+      case PastUpright::kRocksBack:
+        throw TopoError("tumbler simulation",
+                        what + " and rocks back: still rocking when " + follow + ", up to " +
+                            numberText(past.last_tilt_deg, 3) +
+                            " deg over its last second; a rocking past 90 deg is beyond what the task measures "
+                            "(max_tilt_deg up to 90)",
+                        smaller);
       case PastUpright::kStillMoving:
         break;
     }
+    if (past.simulated)
+      throw TopoError("tumbler simulation",
+                      what + " and is still moving when " + follow +
+                          ", neither rolled away (a full turn) nor at rest: up to " +
+                          numberText(past.last_tilt_deg, 3) + " deg over its last second, turned " +
+                          numberText(past.turned_deg, 3) + " deg, " + numberText(past.travel_m, 2) +
+                          " m from where it was released",
+                      "a design with its centre of mass lower, or " + smaller);
     throw TopoError(
         "tumbler simulation",
-        what + ": it falls over or rolls away instead of rocking back (" +
-            (past.simulated ? "still moving when " + follow + ": it turned " + numberText(past.turned_deg, 3) +
-                                  " deg and moved " + numberText(past.travel_m, 2) + " m"
-                            : "not followed further: " + past.reason) +
-            ")",
+        what + ": it falls over or rolls away instead of rocking back (not followed further: " + past.reason + ")",
         "a design with its centre of mass lower (below the centre of its rounded bottom), or " + smaller);
   }
 

@@ -196,3 +196,19 @@ TEST(TumblerPast90, ATallBoxTippedPastItsEdgeFallsOver) {
   EXPECT_LT(moved, 0.12) << e;
   EXPECT_NE(e.find("initial_tilt_deg"), std::string::npos) << e;
 }
+
+// A doll (a ball cut flat at half its radius, centre of mass below the ball's centre) spun at 20 rad/s tips
+// just past 90 deg and rocks back: refused (its rocking leaves what the task measures), saying it rocks back
+// and how far it still swings, not that it falls over or rolls away.
+TEST(TumblerPast90, ADollSpunJustPast90RocksBack) {
+  TaskConfig c = TaskConfig::defaults("tumbler");
+  c.set("initial_angular_velocity_rad_s", "20");
+  const std::string e = errorOf([&] { simulateInterior(c, topo_test::tumblerCloud(0.05, 0.5, 0.005), {}); });
+  const double last = numberAfter(e, ", up to ");
+  std::printf("[tumbler] doll spun at 20 rad/s: %s\n", e.c_str());
+  EXPECT_NE(e.find("rocks back"), std::string::npos) << e;
+  EXPECT_EQ(e.find("falls over"), std::string::npos) << e;
+  EXPECT_EQ(e.find("rolls away"), std::string::npos) << e;
+  EXPECT_GT(last, 10.0) << e;
+  EXPECT_LT(last, 90.0) << e;
+}
