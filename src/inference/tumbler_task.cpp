@@ -373,20 +373,18 @@ class TumblerTask : public Task {
       return out;
     }
     out.simulated = true;
-    for (const auto& st : traj.states)
-      out.max_tilt_deg =
-          std::max(out.max_tilt_deg, std::acos(std::clamp((st.orientation.normalized() * up_).z(), -1.0, 1.0)) * kDeg);
+    const auto from_upright = [&](const Eigen::Quaterniond& q) {
+      return std::acos(std::clamp((q.normalized() * up_).z(), -1.0, 1.0)) * kDeg;
+    };
+    for (const auto& st : traj.states) out.max_tilt_deg = std::max(out.max_tilt_deg, from_upright(st.orientation));
     const Eigen::Vector3d moved = traj.states.back().position - traj.states.front().position;
     out.travel_m = std::hypot(moved.x(), moved.y());
     out.seconds = traj.time_s.back();
     out.turned_deg = watch->unwrapped - watch->first;
-    out.rest_tilt_deg =
-        std::acos(std::clamp((traj.states.back().orientation.normalized() * up_).z(), -1.0, 1.0)) * kDeg;
+    out.rest_tilt_deg = from_upright(traj.states.back().orientation);
     for (std::size_t k = 0; k < traj.states.size(); ++k)
       if (traj.time_s[k] >= out.seconds - kLastS)
-        out.last_tilt_deg =
-            std::max(out.last_tilt_deg,
-                     std::acos(std::clamp((traj.states[k].orientation.normalized() * up_).z(), -1.0, 1.0)) * kDeg);
+        out.last_tilt_deg = std::max(out.last_tilt_deg, from_upright(traj.states[k].orientation));
     if (watch->rolled)
       out.kind = PastUpright::kRollsAway;
     else if (watch->rests)
