@@ -74,6 +74,7 @@ IdentifiedMass identifiedMassFromReport(const std::string& text, const std::stri
       out.mass.inertia(r, k) = number((*I)[r][k], "inertia[" + std::to_string(r) + "][" + std::to_string(k) + "]");
   }
   const auto ident = j.find("identifiability");
+  if (ident != j.end() && ident->is_object()) out.summary = ident->value("summary", std::string());
   if (ident != j.end() && ident->is_object() && ident->value("available", false)) {
     const auto moments = ident->find("moments");
     if (moments != ident->end() && moments->is_object()) {

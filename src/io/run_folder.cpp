@@ -27,7 +27,8 @@ void ensureDirectory(const std::string& dir, const std::string& what) {
 const std::vector<std::string>& runFileNames() {
   static const std::vector<std::string> names = {"volume.ply", "interior.ply", "report.json",
                                                  "signal.csv", "interior.stl", "slices.png",
-                                                 "signal.png", "loss.png",     "export.json"};
+                                                 "signal.png", "loss.png",     "export.json",
+                                                 "inertial.urdf", "inertial.sdf"};
   return names;
 }
 

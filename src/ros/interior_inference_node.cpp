@@ -19,6 +19,7 @@
 #include "topo_gaussian/io/task_dir.h"
 #include "topo_gaussian/ros/ascii_text.h"
 #include "topo_gaussian/ros/body_pose_msg.h"
+#include "topo_gaussian/ros/inertia_msg.h"
 #include "topo_gaussian/ros/conversions.h"
 #include "topo_gaussian/ros/interior_markers.h"
 #include "topo_gaussian/ros/motion_features_msg.h"
@@ -92,6 +93,8 @@ InteriorInferenceNode::InteriorInferenceNode(const ::ros::NodeHandle& nh, const 
   interior_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("interior", 1, true);
   markers_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("interior_markers", 1, true);
   deformed_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("interior_deformed", 1);
+  inertia_pub_ = nh_.advertise<geometry_msgs::InertiaStamped>("inertia", 1, true);
+  identified_inertia_pub_ = nh_.advertise<topo_gaussian::IdentifiedInertia>("inertia_identified", 1, true);
   volume_sub_ = nh_.subscribe("volume", 1, &InteriorInferenceNode::onVolume, this);
   contact_sub_ = nh_.subscribe("contact_samples", 1, &InteriorInferenceNode::onContactSamples, this);
   features_sub_ = nh_.subscribe("motion_features", 1, &InteriorInferenceNode::onFeatures, this);
@@ -392,6 +395,11 @@ InferenceOutcome InteriorInferenceNode::run(const InferenceRequest& rq, const Fe
   const auto& res = done.result;
   std::lock_guard<std::mutex> publishing(publish_mutex_);
   out.interior = show(*done.volume, done.config, res.r, res.density, res.final, res.geometry, res.solid_confidence);
+  if (!out.preempted) {  // the identified mass properties for a robot (a cancelled search's best is not identified)
+    inertia_pub_.publish(toInertiaStamped(res.final.task.mass, params_.object_frame, ::ros::Time(0)));
+    identified_inertia_pub_.publish(
+        toIdentifiedInertia(res.final.task.mass, res.identifiability, params_.object_frame, ::ros::Time(0)));
+  }
   return out;
 }
 
@@ -560,6 +568,14 @@ void InteriorInferenceNode::restoreLatest() {
     result_continuous_ = run.interior.continuous;
     generation = ++result_generation_;
   }
+  try {  // the restored run's identified mass properties, as its report holds them
+    const io::IdentifiedMass id = io::identifiedMassFromReport(run.report_json, run.dir + "/report.json");
+    std::lock_guard<std::mutex> publishing(publish_mutex_);
+    inertia_pub_.publish(toInertiaStamped(id.mass, params_.object_frame, ::ros::Time(0)));
+    identified_inertia_pub_.publish(toIdentifiedInertia(id, params_.object_frame, ::ros::Time(0)));
+  } catch (const TopoError& e) {
+    ROS_WARN("interior_inference: the restored run's mass properties are not published: %s", asciiText(e.what()).c_str());
+  }
   // Shown and simulated off the main thread: the action server and the services serve at once, however
   // long the simulation of the restored design takes (a fine volume's takes minutes).
   restore_thread_ = std::thread([this, cloud, config, r = run.interior.r, dir = run.dir, generation] {
@@ -657,6 +673,8 @@ void InteriorInferenceNode::execute(const topo_gaussian::InferInteriorGoalConstP
     const inference::IdentifiabilityAnalysis& id = res.identifiability;
     result.identifiability = id.summary;
     for (const auto& m : id.moments) (m.determined ? result.determined_moments : result.free_moments).push_back(m.name);
+    if (id.available)
+      for (const auto& m : id.moments) result.moment_std.push_back(m.std);
     fillNextExperiment(id, out.uncertain_fraction, out.experiments, &result);
     for (const auto& xe : res.final.experiments) {
       result.experiment_names.push_back(xe.name);

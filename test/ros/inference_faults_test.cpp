@@ -5,16 +5,21 @@
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 
+#include <geometry_msgs/InertiaStamped.h>
 #include <ros/topic.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <signal.h>
 #include <sys/wait.h>
 
 #include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <regex>
 #include <string>
 #include <vector>
 
 #include "topo_gaussian/ExportInterior.h"
+#include "topo_gaussian/IdentifiedInertia.h"
 #include "topo_gaussian/InferInteriorAction.h"
 #include "topo_gaussian/SimulateInterior.h"
 #include "topo_gaussian/physics/default_shapes.h"
@@ -129,6 +134,7 @@ TEST(InferenceFaults, ASlowGoalCancelledIsPreemptedWithinTwoSecondsAndTheNextGoa
 
 std::uint32_t g_valid_result_points = 0;  // set by the valid goal, checked after the restart
 std::string g_valid_result_dir;           // its run folder, read back by the CLI
+double g_valid_result_mass_kg = 0.0;      // its mass, published again by the restarted node
 
 TEST(InferenceFaults, TheNodeStillServesAValidGoal) {
   Client c("infer_interior", false);
@@ -144,6 +150,24 @@ TEST(InferenceFaults, TheNodeStillServesAValidGoal) {
   EXPECT_FALSE(c.getResult()->files.empty());
   g_valid_result_points = c.getResult()->interior.width;
   g_valid_result_dir = c.getResult()->output_dir;
+  g_valid_result_mass_kg = c.getResult()->mass_kg;
+}
+
+// The result's mass properties for a robot: latched as geometry_msgs/InertiaStamped in the object's frame,
+// and with the analysis's standard deviations as IdentifiedInertia, the same numbers as the result's.
+TEST(InferenceFaults, TheResultsMassPropertiesAreLatchedForARobot) {
+  ASSERT_GT(g_valid_result_mass_kg, 0.0) << "needs the valid goal's result";
+  const auto in = ros::topic::waitForMessage<geometry_msgs::InertiaStamped>("inertia", ros::Duration(10.0));
+  ASSERT_TRUE(in) << "no latched message on inertia";
+  EXPECT_EQ(in->header.frame_id, "object_simulated") << "the frame of the interior (inference.launch object_frame)";
+  EXPECT_EQ(in->inertia.m, g_valid_result_mass_kg);
+  const auto id = ros::topic::waitForMessage<topo_gaussian::IdentifiedInertia>("inertia_identified", ros::Duration(10.0));
+  ASSERT_TRUE(id) << "no latched message on inertia_identified";
+  EXPECT_EQ(id->inertia.m, in->inertia.m);
+  EXPECT_EQ(id->inertia.ixy, in->inertia.ixy);
+  EXPECT_EQ(id->moment_names.size(), 10u);
+  EXPECT_EQ(id->moment_std.size(), 10u);
+  EXPECT_TRUE(id->analysed) << "the tumbler's period observes the mass moments: " << id->summary;
 }
 
 // Goals that name an object add their experiment to its earlier ones, with the targets those were run
@@ -190,7 +214,20 @@ TEST(InferenceFaults, ARestartedNodeRestoresTheLatestResult) {
   ASSERT_EQ(fscanf(p, "%d", &pid), 1);
   pclose(p);
   const auto cloud = ros::topic::waitForMessage<sensor_msgs::PointCloud2>("/restarted/interior", ros::Duration(60.0));
+  const auto inertia =
+      ros::topic::waitForMessage<geometry_msgs::InertiaStamped>("/restarted/inertia", ros::Duration(10.0));
   kill(pid, SIGINT);
+  ASSERT_TRUE(inertia) << "the restarted node published no inertia (see /tmp/topo_rostest_restarted.log)";
+  // the mass of the run it restored, as that run's report.json holds it (its log, complete once it exited)
+  for (int i = 0; i < 100 && kill(pid, 0) == 0; ++i) ros::WallDuration(0.1).sleep();
+  std::ifstream log("/tmp/topo_rostest_restarted.log");
+  const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+  std::smatch dir, mass;
+  ASSERT_TRUE(std::regex_search(text, dir, std::regex("restored the latest result from (\\S+) \\(task"))) << text;
+  std::ifstream rep(dir[1].str() + "/report.json");
+  const std::string report((std::istreambuf_iterator<char>(rep)), std::istreambuf_iterator<char>());
+  ASSERT_TRUE(std::regex_search(report, mass, std::regex("\"mass_kg\": ([-+0-9.eE]+)"))) << dir[1].str();
+  EXPECT_EQ(inertia->inertia.m, std::stod(mass[1].str())) << dir[1].str();
   ASSERT_TRUE(cloud) << "the restarted node published no interior (see /tmp/topo_rostest_restarted.log)";
   EXPECT_EQ(cloud->width, g_valid_result_points);
   EXPECT_TRUE(topo_gaussian::topo_ros::hasField(*cloud, "solid"));

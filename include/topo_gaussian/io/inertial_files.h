@@ -28,6 +28,7 @@ struct IdentifiedMass {
   std::array<double, 10> std{};
   std::array<bool, 10> determined{};  ///< the analysis's verdict per moment (when has_std)
   bool has_std = false;
+  std::string summary;  ///< the analysis's sentence (what the experiments determine), "" without one
 };
 
 /// The mass properties of a report.json text (topo infer, the inference node): "mass_kg",

@@ -162,6 +162,7 @@ class InteriorInferenceNode {
   ::ros::NodeHandle nh_, pnh_;
   InteriorInferenceParams params_;
   ::ros::Publisher interior_pub_, markers_pub_, deformed_pub_;
+  ::ros::Publisher inertia_pub_, identified_inertia_pub_;  ///< the result's mass properties, latched
   ::ros::Subscriber volume_sub_, features_sub_, contact_sub_;
   /// The latest contact samples and their stamp; attached to the volume of the same stamp.
   std::shared_ptr<const ContactSamples> contact_;
