@@ -181,9 +181,11 @@ CellClipResult clipCells(const SurfaceData& mesh, const Lattice& L) {
         s.v += h * r[0];
         s.m += Eigen::Vector3d(h * r[1], h * r[2], 0.5 * h * h * r[0]);
         r += above[k - kmin];
-        const double f = s.v / h3;
         volume += s.v;
-        if (f < -1e-6 || f > 1.0 + 1e-6) ++anomalies;
+        if (s.v < -1e-6 * h3 || s.v > (1.0 + 1e-6) * h3) ++anomalies;
+        // Non-zero winding: where shells overlap (2, 3, ...) the cell is wholly inside, and a part with
+        // winding −1 is inside as one with +1.
+        const double f = std::abs(s.v) / h3;
         if (f >= 1.0 - kPartialTolerance) {
           ++full;
           result.inside[L.index(i, j, k)] = 1;  // distinct cells: no race
@@ -191,7 +193,7 @@ CellClipResult clipCells(const SurfaceData& mesh, const Lattice& L) {
         if (f <= kPartialTolerance || f >= 1.0 - kPartialTolerance) continue;
         CellPart part;
         part.cell = L.index(i, j, k);
-        part.volume_m3 = s.v;
+        part.volume_m3 = std::abs(s.v);
         part.centroid = Eigen::Vector3d(cx, cy, L.origin.z() + k * h) + s.m / s.v;
         parts.push_back(part);
       }

@@ -50,6 +50,15 @@ CleanReport cleanSurface(SurfaceData& s, const CleanOptions& o) {
     throw TopoError(name, "every one of its " + std::to_string(r.points_in) + " points is NaN or infinite",
                     "re-export the surface; check the exporter's coordinate output");
 
+  // 1b. a point cloud with points written more than once (a scan saved twice, merged exports): the
+  // copies would halve the measured sampling spacing and the fill would see a sparse, open surface.
+  if (s.kind == SurfaceKind::Points) {
+    const std::vector<std::size_t> first = firstAtSamePosition(s.points);
+    keep.assign(s.size(), true);
+    for (std::size_t i = 0; i < s.size(); ++i) keep[i] = first[i] == i;
+    r.duplicates = keepAndCount(s, keep);
+  }
+
   // 2. scale and crop
   if (o.scale != 1.0) {
     for (auto& p : s.points) p *= o.scale;

@@ -69,6 +69,10 @@ IngestResult ingestSurface(SurfaceData surface, const IngestOptions& options) {
         (surface.kind == SurfaceKind::Mesh
              ? " and the " + std::to_string(triangles_before - surface.triangles.size()) + " face(s) using them"
              : std::string()));
+  if (r.clean.duplicates)
+    r.warnings.push_back("merged " + std::to_string(r.clean.duplicates) + " exact duplicate point(s) of the " +
+                         std::to_string(r.clean.points_in) +
+                         " (the same coordinates written more than once): each position is used once");
   r.cloud = fillInterior(surface, options.fill, &r.fill);
   r.fill.points_in = r.clean.points_in;
   r.fill.triangles_in = triangles_before;
@@ -99,7 +103,8 @@ std::string toJson(const IngestResult& r) {
       r.kind == SurfaceKind::Mesh ? std::max(f.topology.openFraction(), f.open_fraction) : f.open_fraction;
   j << "{\"input\":" << jsonString(r.input) << ",\"input_kind\":\"" << toString(r.kind) << "\",\"method\":\""
     << f.method << "\",\"points_in\":" << r.clean.points_in << ",\"points_after_cleaning\":"
-    << (r.clean.points_in - r.clean.non_finite - r.clean.transparent - r.clean.outliers - r.clean.cropped)
+    << (r.clean.points_in - r.clean.non_finite - r.clean.duplicates - r.clean.transparent - r.clean.outliers -
+        r.clean.cropped)
     << ",\"triangles_in\":" << f.triangles_in << ",\"particles_out\":" << f.particles_out
     << ",\"surface_particles\":" << f.surface_particles << ",\"contact_samples\":" << f.contact_samples
     << ",\"contact_spacing_m\":" << f.contact_spacing_m << ",\"contact_area_m2\":" << f.contact_area_m2

@@ -182,7 +182,9 @@ class Filler {
     const Lattice out = Lattice::covering(lo_, hi_, h, 1);
     if (s_.kind == SurfaceKind::Mesh && r_.repair.closed) {
       r_.method = "mesh-parity";
-      return Occupancy{out, meshInsideParity(s_, out)};
+      // Consistently oriented faces: the non-zero winding rule (overlapping shells are their union).
+      const InsideRule rule = r_.topology.misoriented_edges ? InsideRule::Parity : InsideRule::NonZeroWinding;
+      return Occupancy{out, meshInside(s_, out, rule)};
     }
     const double longest = (hi_ - lo_).maxCoeff();
     const double g = o_.grid_resolution > 0 ? longest / o_.grid_resolution : h;
@@ -503,6 +505,10 @@ std::string boxText(const Eigen::Vector3d& e) {
 // One warning line per repair of a mesh (see repairMesh), and the fallback when it stays open.
 void meshWarnings(FillReport& r, int max_hole_edges) {
   const MeshRepairReport& m = r.repair;
+  if (m.welded_vertices)
+    r.warnings.push_back("welded " + std::to_string(m.welded_vertices) +
+                         " vertex(es) at the exact position of an earlier vertex (a triangle soup, or seams "
+                         "written twice), so the faces share their edges");
   if (m.faces_dropped())
     r.warnings.push_back("dropped " + std::to_string(m.faces_dropped()) + " of the " + std::to_string(m.faces_in) +
                          " faces: " + std::to_string(m.degenerate_faces) + " with a repeated vertex, " +
@@ -513,6 +519,10 @@ void meshWarnings(FillReport& r, int max_hole_edges) {
                          std::to_string(m.hole_edges) + " boundary edges in all; loops of at most " +
                          std::to_string(max_hole_edges) +
                          " edges, e.g. where a vertex with NaN coordinates was removed) with fans");
+  if (m.reoriented_faces)
+    r.warnings.push_back("re-oriented " + std::to_string(m.reoriented_faces) + " of the " + std::to_string(m.faces_in) +
+                         " faces to agree with their neighbours (they ran a shared edge the same way, i.e. their "
+                         "normals were flipped; in each connected piece the fewer faces were turned)");
   if (m.ignored_faces)
     r.warnings.push_back("left out " + std::to_string(m.ignored_faces) + " face(s) (" +
                          numberText(m.ignored_area_m2, 3) + " m², " +
@@ -633,34 +643,40 @@ VolumeCloud fillInterior(const SurfaceData& input, const FillOptions& o, FillRep
   if (r.method == "mesh-parity" && r.topology.misoriented_edges == 0) {
     // Exact boundary: the inside part of every cut cell (cell_clip.h).
     const CellClipResult clip = clipCells(s, occ.lattice);
-    if (clip.winding_anomalies == 0) {
-      // A cell holds a particle when at least half of it is inside (the exact fraction decides, not
-      // the parity of its centre, whose ray can graze a vertex): no particle has less than half a
-      // cell before the merges add to it.
-      Occupancy exact{occ.lattice, clip.inside};
-      const double h3 = std::pow(occ.lattice.h, 3);
-      for (const CellPart& part : clip.partial)
-        if (part.volume_m3 >= 0.5 * h3) exact.solid[part.cell] = 1;
-      BoundaryCounts counts;
-      cloud = toCloud(exact, o, &clip.partial, &counts);
-      r.clipped_cells = counts.clipped;
-      r.merged_cells = counts.merged;
-      r.own_particle_cells = counts.own;
-      r.exact_boundary = true;
-      if (counts.own)
-        r.warnings.push_back(std::to_string(counts.own) +
-                             " cell(s) less than half inside have no neighbour holding a particle (parts thinner than "
-                             "half the spacing " +
-                             numberText(h, 3) + " m): each became a particle of its own, smaller than a cell");
-    } else {
-      r.warnings.push_back("the mesh's inside is ambiguous in " + std::to_string(clip.winding_anomalies) +
-                           " cells (its winding number leaves 0..1 there: overlapping shells or self-intersections): "
-                           "boundary cells are whole cells by the ray-parity test (the staircase: volume, centre of "
-                           "mass and inertia off by about one spacing); fix the mesh (e.g. MeshLab: Remove "
-                           "Self-Intersecting Faces, or a boolean union of its shells) for an exact boundary");
+    if (clip.winding_anomalies) {
+      // Shells that overlap (or one turned inside out): the divergence theorem counts the overlap twice.
+      r.warnings.push_back(
+          "the mesh overlaps itself: in " + std::to_string(clip.winding_anomalies) +
+          " cells its winding number leaves 0..1 (closed shells that overlap, a self-intersection, or a shell "
+          "turned inside out); filled as the union of its shells (inside where the winding number is not 0), so "
+          "the exact mesh volume is not known (the signed volume " +
+          numberText(r.mesh_volume_m3, 4) +
+          " m^3 counts the overlap twice) and the inside part of the cells where two shells' surfaces cross "
+          "is approximate; for an exact boundary make it one closed surface (e.g. MeshLab: a boolean union of its "
+          "shells, or Remove Self-Intersecting Faces)");
+      r.mesh_volume_m3 = 0.0;
     }
+    // A cell holds a particle when at least half of it is inside (the exact fraction decides, not
+    // the parity of its centre, whose ray can graze a vertex): no particle has less than half a
+    // cell before the merges add to it.
+    Occupancy exact{occ.lattice, clip.inside};
+    const double h3 = std::pow(occ.lattice.h, 3);
+    for (const CellPart& part : clip.partial)
+      if (part.volume_m3 >= 0.5 * h3) exact.solid[part.cell] = 1;
+    BoundaryCounts counts;
+    cloud = toCloud(exact, o, &clip.partial, &counts);
+    r.clipped_cells = counts.clipped;
+    r.merged_cells = counts.merged;
+    r.own_particle_cells = counts.own;
+    r.exact_boundary = clip.winding_anomalies == 0;  // else approximate where two shells' surfaces cross
+    if (counts.own)
+      r.warnings.push_back(std::to_string(counts.own) +
+                           " cell(s) less than half inside have no neighbour holding a particle (parts thinner than "
+                           "half the spacing " +
+                           numberText(h, 3) + " m): each became a particle of its own, smaller than a cell");
+  } else {
+    cloud = toCloud(occ, o);
   }
-  if (!r.exact_boundary) cloud = toCloud(occ, o);
   if (cloud.empty())
     throw TopoError(s.source, "encloses no volume at spacing " + numberText(h, 3) + " m (" + r.method + ")",
                     "check that the surface is closed (a partial scan has no inside), or use a finer spacing");

@@ -62,9 +62,10 @@ int edgeSide(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Ve
 
 }  // namespace
 
-std::vector<std::uint8_t> meshInsideParity(const SurfaceData& mesh, const Lattice& L) {
+std::vector<std::uint8_t> meshInside(const SurfaceData& mesh, const Lattice& L, InsideRule rule) {
   const int nx = L.n[0], ny = L.n[1], nz = L.n[2];
-  std::vector<std::vector<double>> columns(std::size_t(nx) * ny);
+  // Per column the crossings of the upward ray: height, and +1 where the face looks up, −1 down.
+  std::vector<std::vector<std::pair<double, int>>> columns(std::size_t(nx) * ny);
   const double h = L.h;
   for (const auto& t : mesh.triangles) {
     const Eigen::Vector3d& A = mesh.points[t[0]];
@@ -88,24 +89,32 @@ std::vector<std::uint8_t> meshInsideParity(const SurfaceData& mesh, const Lattic
         const double wa = ((b.x() - p.x()) * (c.y() - p.y()) - (b.y() - p.y()) * (c.x() - p.x())) / area2;
         const double wb = ((c.x() - p.x()) * (a.y() - p.y()) - (c.y() - p.y()) * (a.x() - p.x())) / area2;
         const double wc = 1.0 - wa - wb;
-        columns[std::size_t(j) * nx + i].push_back(wa * A.z() + wb * B.z() + wc * C.z());
+        columns[std::size_t(j) * nx + i].emplace_back(wa * A.z() + wb * B.z() + wc * C.z(), want);
       }
   }
   std::vector<std::uint8_t> inside(L.cells(), 0);
+  const bool parity = rule == InsideRule::Parity;
 #pragma omp parallel for schedule(dynamic, 64)
   for (long col = 0; col < long(columns.size()); ++col) {
     auto& zs = columns[col];
     if (zs.size() < 2) continue;
     std::sort(zs.begin(), zs.end());
     const int i = int(col % nx), j = int(col / nx);
+    int winding = 0;  // of the crossings above the cell centre
+    for (const auto& z : zs) winding += z.second;
     std::size_t below = 0;  // crossings with z <= cell centre
     for (int k = 0; k < nz; ++k) {
       const double z = L.origin.z() + (k + 0.5) * h;
-      while (below < zs.size() && zs[below] <= z) ++below;
-      if ((zs.size() - below) % 2 == 1) inside[L.index(i, j, k)] = 1;
+      while (below < zs.size() && zs[below].first <= z) winding -= zs[below++].second;
+      const bool in = parity ? (zs.size() - below) % 2 == 1 : winding != 0;
+      if (in) inside[L.index(i, j, k)] = 1;
     }
   }
   return inside;
+}
+
+std::vector<std::uint8_t> meshInsideParity(const SurfaceData& mesh, const Lattice& L) {
+  return meshInside(mesh, L, InsideRule::Parity);
 }
 
 }  // namespace topo_gaussian::geometry

@@ -31,11 +31,21 @@ SurfaceData repairMesh(const SurfaceData& mesh, MeshRepairReport* report, const 
   std::vector<Eigen::Vector3d> pts = mesh.points;
   const long nv = long(pts.size());
 
+  // 0. Weld: a vertex at exactly the position of an earlier one is that vertex (a triangle soup, as OBJ,
+  // PLY and OFF exporters may write it, shares no edge until welded; STL is welded by its reader).
+  const std::vector<std::size_t> first = firstAtSamePosition(pts);
+  for (std::size_t v = 0; v < first.size(); ++v) r.welded_vertices += first[v] != v;
+
   // 1. Faces that cannot be part of a surface, and second copies of a face.
   std::vector<Eigen::Vector3i> faces;
   std::vector<std::pair<std::array<int, 3>, std::size_t>> sorted;
-  for (const auto& t : mesh.triangles) {
-    if (t.minCoeff() < 0 || t.maxCoeff() >= nv || t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) {
+  for (Eigen::Vector3i t : mesh.triangles) {
+    if (t.minCoeff() < 0 || t.maxCoeff() >= nv) {
+      ++r.degenerate_faces;
+      continue;
+    }
+    for (int a = 0; a < 3; ++a) t[a] = int(first[std::size_t(t[a])]);
+    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) {
       ++r.degenerate_faces;
       continue;
     }
@@ -161,6 +171,68 @@ SurfaceData repairMesh(const SurfaceData& mesh, MeshRepairReport* report, const 
         if (alive[it->second] && uses[k] == 1) stack.push_back(it->second);
     }
   }
+  // 4. Orientation: walk each connected piece across its manifold edges (two faces left on the edge)
+  // and turn every face that runs an edge the same way as its neighbour; per piece the fewer faces are
+  // turned (a tie: the piece encloses positive volume). A face with half its neighbours turned made
+  // the piece's volume vanish (a box with every second triangle flipped), so this comes first.
+  {
+    auto otherFace = [&](int f, std::uint64_t k) {
+      auto range = std::equal_range(edge_faces.begin(), edge_faces.end(), std::make_pair(k, -1),
+                                    [](const auto& x, const auto& y) { return x.first < y.first; });
+      int other = -1, count = 0;
+      for (auto it = range.first; it != range.second; ++it)
+        if (alive[it->second]) {
+          ++count;
+          if (it->second != f) other = it->second;
+        }
+      return count == 2 ? other : -1;
+    };
+    auto runs = [&](int f, int u, int v) {  // face f (as stored) runs the edge u → v
+      for (int a = 0; a < 3; ++a)
+        if (faces[f][a] == u && faces[f][(a + 1) % 3] == v) return true;
+      return false;
+    };
+    std::vector<signed char> turn(faces.size(), -1);  // -1 not reached, 0 keep, 1 turn over
+    std::vector<int> piece, queue;
+    for (std::size_t seed = 0; seed < faces.size(); ++seed) {
+      if (!alive[seed] || turn[seed] >= 0) continue;
+      piece.clear();
+      queue.assign(1, int(seed));
+      turn[seed] = 0;
+      while (!queue.empty()) {
+        const int f = queue.back();
+        queue.pop_back();
+        piece.push_back(f);
+        for (int a = 0; a < 3; ++a) {
+          const int u = faces[f][a], v = faces[f][(a + 1) % 3];
+          const int g = otherFace(f, edgeKey(u, v));
+          if (g < 0 || turn[g] >= 0) continue;
+          // f as it will be runs u → v unless turned; g must then run it v → u.
+          turn[g] = static_cast<signed char>(runs(g, u, v) != bool(turn[f]));
+          queue.push_back(g);
+        }
+      }
+      std::size_t turned = 0;
+      for (int f : piece) turned += std::size_t(turn[f]);
+      bool invert = 2 * turned > piece.size();
+      if (2 * turned == piece.size()) {
+        double v6 = 0.0;
+        for (int f : piece) {
+          const auto& t = faces[f];
+          const double o = pts[t[0]].dot(pts[t[1]].cross(pts[t[2]]));
+          v6 += turn[f] ? -o : o;
+        }
+        invert = v6 < 0.0;
+      }
+      for (int f : piece) {
+        if (invert) turn[f] = static_cast<signed char>(!turn[f]);
+        if (!turn[f]) continue;
+        std::swap(faces[f][1], faces[f][2]);
+        ++r.reoriented_faces;
+      }
+    }
+  }
+
   // Closed pieces that enclose no volume (a flat "pillow": a loose triangle whose rim was closed as
   // a hole) are left out too.
   std::vector<int> parent(pts.size());
@@ -209,7 +281,7 @@ SurfaceData repairMesh(const SurfaceData& mesh, MeshRepairReport* report, const 
     }
   }
 
-  // 4. Keep the chosen faces and only the vertices they use.
+  // 5. Keep the chosen faces and only the vertices they use.
   SurfaceData out;
   out.kind = SurfaceKind::Mesh;
   out.source = mesh.source;

@@ -3,7 +3,9 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <cstring>
 #include <string>
+#include <unordered_map>
 
 #include "topo_gaussian/common/error.h"
 #include "topo_gaussian/common/number_text.h"
@@ -29,6 +31,35 @@ void checkCoordinateRange(const SurfaceData& s) {
                   "check the file's header against its data (re-export it); if the unit is wrong, scale it "
                   "(--scale, e.g. 0.001 for millimetres); if a few points are stray, crop them "
                   "(--crop-min/--crop-max X,Y,Z)");
+}
+
+std::vector<std::size_t> firstAtSamePosition(const std::vector<Eigen::Vector3d>& points) {
+  struct Key {
+    std::uint64_t b[3];
+    bool operator==(const Key& o) const { return b[0] == o.b[0] && b[1] == o.b[1] && b[2] == o.b[2]; }
+  };
+  struct Hash {
+    std::size_t operator()(const Key& k) const {
+      std::uint64_t h = k.b[0] * 0x9E3779B97F4A7C15ull;
+      h = (h ^ (h >> 29) ^ k.b[1]) * 0xBF58476D1CE4E5B9ull;
+      h = (h ^ (h >> 31) ^ k.b[2]) * 0x94D049BB133111EBull;
+      return std::size_t(h ^ (h >> 32));
+    }
+  };
+  std::unordered_map<Key, std::size_t, Hash> seen;
+  seen.reserve(points.size());
+  std::vector<std::size_t> first(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    first[i] = i;
+    if (!points[i].allFinite()) continue;
+    Key k;
+    for (int a = 0; a < 3; ++a) {
+      const double c = points[i][a] + 0.0;  // -0 → +0
+      std::memcpy(&k.b[a], &c, 8);
+    }
+    first[i] = seen.emplace(k, i).first->second;
+  }
+  return first;
 }
 
 const char* toString(SurfaceKind kind) {

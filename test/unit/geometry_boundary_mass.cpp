@@ -308,17 +308,20 @@ TEST(BoundaryMass, InvertedNormalsAreFlippedWithAWarning) {
   EXPECT_NEAR(c.totalVolume() / ref.volume, 1.0, 1e-9);
 }
 
-TEST(BoundaryMass, MixedOrientationKeepsTheParityFillAndSaysWhy) {
+TEST(BoundaryMass, MixedOrientationIsReorientedAndFilledExactly) {
   SurfaceData mixed = makeSphere(0.1);
-  for (std::size_t t = 0; t < mixed.triangles.size() / 2; ++t) std::swap(mixed.triangles[t][1], mixed.triangles[t][2]);
+  const std::size_t half = mixed.triangles.size() / 2;
+  for (std::size_t t = 0; t < half; ++t) std::swap(mixed.triangles[t][1], mixed.triangles[t][2]);
+  const Reference ref = polyhedralReference(makeSphere(0.1));
   FillReport rep;
   const VolumeCloud c = fillInterior(mixed, FillOptions{}, &rep);
-  EXPECT_FALSE(rep.exact_boundary);
-  EXPECT_GT(rep.topology.misoriented_edges, 0u);
+  // The faces are turned to agree with their neighbours (half of them: either half), so the boundary
+  // cells are exact again instead of the parity fill's whole cells.
+  EXPECT_EQ(rep.repair.reoriented_faces, half);
+  EXPECT_EQ(rep.topology.misoriented_edges, 0u);
   ASSERT_FALSE(rep.warnings.empty());
-  EXPECT_NE(rep.warnings[0].find("not consistently oriented"), std::string::npos) << rep.warnings[0];
-  EXPECT_NE(rep.warnings[0].find("staircase"), std::string::npos) << rep.warnings[0];
-  // the parity fill is still a sphere: whole cells, within the staircase's few per cent
-  EXPECT_NEAR(c.totalVolume() / polyhedralReference(makeSphere(0.1)).volume, 1.0, 0.03);
-  for (double v : c.V) EXPECT_EQ(v, c.spacing * c.spacing * c.spacing);
+  EXPECT_NE(rep.warnings[0].find("re-oriented"), std::string::npos) << rep.warnings[0];
+  EXPECT_TRUE(rep.exact_boundary);
+  EXPECT_NEAR(rep.mesh_volume_m3 / ref.volume, 1.0, 1e-12);
+  EXPECT_NEAR(c.totalVolume() / ref.volume, 1.0, 1e-9);
 }

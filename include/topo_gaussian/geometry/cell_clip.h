@@ -33,12 +33,15 @@ struct CellPart {
 };
 
 struct CellClipResult {
-  /// Cells whose inside fraction lies strictly between kPartialTolerance and 1 − kPartialTolerance,
-  /// in increasing cell index. Every other cell is wholly inside or wholly outside.
+  /// Cells whose inside fraction (|winding integral| / h³) lies strictly between kPartialTolerance
+  /// and 1 − kPartialTolerance, in increasing cell index. Every other cell is wholly inside or wholly outside.
   std::vector<CellPart> partial;
   double volume_m3 = 0.0;  ///< Σ over all cells of the inside volume (the mesh volume within the lattice)
   /// Cells whose winding number integral leaves [0, h³] by more than the tolerance: the mesh is not
   /// consistently outward oriented, or it overlaps itself (two shells over one region). 0 when sound.
+  /// Such a cell is taken by the non-zero rule: wholly inside beyond h³, |integral| below 0, which is
+  /// exact unless the cell also holds winding 0 beside winding 2 or more (where two shells' surfaces
+  /// cross: the part counted twice is then not removed).
   std::size_t winding_anomalies = 0;
   std::size_t wholly_inside = 0;  ///< cells whose inside fraction is 1 (within the tolerance)
   /// Per lattice cell: 1 when wholly inside (fraction ≥ 1 − kPartialTolerance), else 0.

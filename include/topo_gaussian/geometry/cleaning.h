@@ -22,14 +22,16 @@ struct CleanOptions {
 struct CleanReport {
   std::size_t points_in = 0;
   std::size_t non_finite = 0;
+  std::size_t duplicates = 0;  ///< point clouds: points at exactly the position of an earlier one, merged
   std::size_t transparent = 0;
   std::size_t outliers = 0;
   std::size_t cropped = 0;
   Eigen::Vector3d shift = Eigen::Vector3d::Zero();  ///< added to every point by recentring
 };
 
-/// Cleans in place. Throws TopoError (naming surface.source) when nothing is left, when every
-/// point was non-finite, or when the options are invalid.
+/// Cleans in place. Exact duplicate points of a point cloud are merged (the first kept) and counted.
+/// Throws TopoError (naming surface.source) when nothing is left, when every point was non-finite,
+/// or when the options are invalid.
 CleanReport cleanSurface(SurfaceData& surface, const CleanOptions& options);
 
 }  // namespace topo_gaussian::geometry

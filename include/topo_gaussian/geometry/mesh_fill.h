@@ -1,5 +1,5 @@
-// Exact inside test of a closed triangle mesh on a lattice (ray parity along z columns with
-// simulation-of-simplicity tie breaking), and the mesh's topology check (is it closed?).
+// Exact inside test of a closed triangle mesh on a lattice (winding number or parity of the crossings
+// along z columns, with simulation-of-simplicity tie breaking), and the mesh's topology check (is it closed?).
 #pragma once
 
 #include <cstdint>
@@ -24,9 +24,21 @@ struct MeshTopology {
 
 MeshTopology analyseMesh(const SurfaceData& mesh);
 
-/// 1 for every lattice cell whose centre is inside the mesh (odd number of crossings of the
-/// upward ray). Exact for closed meshes: a centre on an edge or vertex in projection is assigned to
-/// exactly one triangle. Parallel over columns.
+/// How a lattice cell's centre is decided inside a closed mesh from its upward ray.
+enum class InsideRule {
+  /// Non-zero winding: inside where the signed crossings (+1 through a face looking up, −1 down) do
+  /// not sum to 0. Overlapping closed shells give their union; an inward shell inside an outward one
+  /// a void. Needs consistently oriented faces.
+  NonZeroWinding,
+  /// Odd number of crossings: indifferent to orientation, but the overlap of two shells is outside.
+  Parity,
+};
+
+/// 1 for every lattice cell whose centre is inside the mesh by `rule`. Exact for closed meshes: a
+/// centre on an edge or vertex in projection is assigned to exactly one triangle. Parallel over columns.
+std::vector<std::uint8_t> meshInside(const SurfaceData& mesh, const Lattice& lattice, InsideRule rule);
+
+/// meshInside by ray parity.
 std::vector<std::uint8_t> meshInsideParity(const SurfaceData& mesh, const Lattice& lattice);
 
 }  // namespace topo_gaussian::geometry

@@ -48,6 +48,11 @@ constexpr double kMaxCoordinateM = 1e6;
 /// how many points do, the largest value, and the fix). NaN/infinite values are left to cleaning.
 void checkCoordinateRange(const SurfaceData& surface);
 
+/// Per point, the index of the first point with exactly the same coordinates (itself when it is the
+/// first; −0 equals +0; a point with a NaN/infinite coordinate is always its own). Hash-based, O(n):
+/// the one weld of the fill (mesh vertices, repeated cloud points).
+std::vector<std::size_t> firstAtSamePosition(const std::vector<Eigen::Vector3d>& points);
+
 /// Covariance R S Sᵀ Rᵀ of a Gaussian from its scale (std devs) and quaternion (w,x,y,z).
 Eigen::Matrix3d gaussianCovariance(const Eigen::Vector3d& scale, const Eigen::Vector4d& quat_wxyz);
 
