@@ -103,4 +103,25 @@ std::vector<cv::Point2d> CameraModel::project(const std::vector<cv::Vec3d>& worl
 
 cv::Point2d CameraModel::project(const cv::Vec3d& world) const { return project(std::vector<cv::Vec3d>{world})[0]; }
 
+double tiltInPlaneDeg(const PlaneView& view, const cv::Point2d& pixel, double image_axis_deg) {
+  const cv::Vec3d n0(view.plane[0], view.plane[1], view.plane[2]);
+  const double nn = cv::norm(n0);
+  if (!(nn > 0)) throw TopoError("the motion plane", "has a zero normal", "give [nx, ny, nz, d] with a normal");
+  const cv::Vec3d n = n0 / nn;
+  const double d = view.plane[3] / nn;
+  cv::Vec3d u = view.up - view.up.dot(n) * n;
+  if (!(cv::norm(u) > 1e-6 * cv::norm(view.up)))
+    throw TopoError("the motion plane", "is horizontal (its normal is along up): a tilt in it has no up",
+                    "give the vertical plane the object's axis moves in");
+  u /= cv::norm(u);
+  const double a = image_axis_deg * CV_PI / 180.0, h = 10.0;
+  const cv::Point2d along(std::sin(a), -std::cos(a));  // image-up at a = 0
+  const auto on = [&](const cv::Point2d& p) { return view.camera.intersectPlane(p, n, d); };
+  const cv::Vec3d v = on(pixel + h * along) - on(pixel - h * along);
+  const cv::Vec3d right = on(pixel + cv::Point2d(h, 0)) - on(pixel - cv::Point2d(h, 0));
+  cv::Vec3d s = n.cross(u);
+  if (s.dot(right) < 0) s = -s;
+  return std::atan2(v.dot(s), v.dot(u)) * 180.0 / CV_PI;
+}
+
 }  // namespace topo_gaussian::vision

@@ -233,6 +233,7 @@ struct MotionTracker::Impl {
   std::vector<char> found;
   std::vector<cv::Point2d> centroid;
   std::vector<double> axis_deg;
+  std::vector<std::shared_ptr<const PlaneView>> views;  ///< per frame; null: none given
   std::vector<EndFit> ends;
   /// finger: each frame's centreline, from the end it starts at (oriented base first in finish(),
   /// once the base end is known)
@@ -308,7 +309,9 @@ MotionTracker::~MotionTracker() = default;
 
 int MotionTracker::framesAdded() const { return static_cast<int>(impl_->t_all.size()); }
 
-void MotionTracker::addFrame(const cv::Mat& frame_in, double t_s) {
+void MotionTracker::addFrame(const cv::Mat& frame_in, double t_s) { addFrame(frame_in, t_s, nullptr); }
+
+void MotionTracker::addFrame(const cv::Mat& frame_in, double t_s, const PlaneView* view) {
   Impl& s = *impl_;
   if (frame_in.empty())
     throw TopoError("frame at t = " + fixedText(t_s, 3) + " s",
@@ -349,6 +352,7 @@ void MotionTracker::addFrame(const cv::Mat& frame_in, double t_s) {
   s.found.push_back(me.found ? 1 : 0);
   s.centroid.push_back(me.centroid);
   s.axis_deg.push_back(me.axis_angle_deg);
+  s.views.push_back(view ? std::make_shared<const PlaneView>(*view) : nullptr);
   if (s.opt.kind == "finger") {
     s.ends.push_back(me.found ? fitEnds(me.mask, s.roi.tl(), s.opt.tip_fraction, s.u_prev) : EndFit());
     ProfileFrame pf;
@@ -566,6 +570,7 @@ TrackResult MotionTracker::finish() const {
   // lost frames and where
   std::vector<double> t, axis;
   std::vector<cv::Point2d> pts;
+  std::vector<const PlaneView*> views;
   for (int i = 0; i < n; ++i) {
     if (!s.found[i]) {
       ++r.lost_frames;
@@ -574,6 +579,7 @@ TrackResult MotionTracker::finish() const {
     t.push_back(s.t_all[i]);
     pts.push_back(s.centroid[i]);
     axis.push_back(s.axis_deg[i]);
+    views.push_back(s.views[i].get());
   }
   r.object_found = !t.empty();
   const double tracking = n ? 1.0 - double(r.lost_frames) / n : 0.0;
@@ -739,9 +745,35 @@ TrackResult MotionTracker::finish() const {
     if (!path.note.empty()) notes.push_back(path.note);
     oscillation(t, path.signal, path.angles_known);
   } else if (s.opt.kind == "tilt") {
-    // from −gravity instead of image-up
-    const double up_deg = std::atan2(-g[0], g[1]) * kDeg;
-    for (double& a : axis) a -= up_deg;
+    // in the motion plane through the camera where every frame has its view, else from −gravity
+    // instead of image-up
+    const std::size_t without_view = std::count(views.begin(), views.end(), nullptr);
+    std::string view_problem;
+    if (!views.empty() && without_view == 0) {
+      if (s.opt.rotate_deg != 0) view_problem = "the frames are rotated (rotate_deg), the camera model is not";
+      std::vector<double> in_plane;
+      for (std::size_t i = 0; i < axis.size() && view_problem.empty(); ++i) {
+        try {
+          in_plane.push_back(tiltInPlaneDeg(*views[i], pts[i], axis[i]));
+        } catch (const TopoError& e) {
+          view_problem = "at t = " + fixedText(t[i], 3) + " s: " + e.what();
+        }
+      }
+      if (view_problem.empty()) {
+        axis = in_plane;
+        r.perspective = true;
+        notes.push_back("tilt in the motion plane through the camera model (perspective)");
+      }
+    } else if (!views.empty() && without_view < views.size()) {
+      view_problem = std::to_string(without_view) + " of " + std::to_string(views.size()) +
+                     " frames have no camera pose or camera_info";
+    }
+    if (!r.perspective) {
+      const double up_deg = std::atan2(-g[0], g[1]) * kDeg;
+      for (double& a : axis) a -= up_deg;
+      if (!view_problem.empty())
+        notes.push_back("image angles, not the motion plane's (" + view_problem + ")");
+    }
     oscillation(t, axis, true);
     // The axes are a line pair known modulo 90° (followTiltAxis): the one nearest the reference was
     // followed. An object resting far from the reference rests about as near the other axis, so its

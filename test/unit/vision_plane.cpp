@@ -42,3 +42,34 @@ TEST(PlaneTrajectories, MarkerLandsWhereTheBobWas) {
             std::string::npos);
   EXPECT_THROW(placeOnPlane(cam, cv::Vec3d(0, 0, 0), 1.0, r), topo_gaussian::TopoError);
 }
+
+// A tilt measured in the image is the plane's tilt only for a level camera far away; through the
+// camera model (tiltInPlaneDeg) a line in the plane reads its own angle from a camera that is near,
+// pitched down, off to the side and has a distorting lens.
+TEST(PlaneTilt, ALineInThePlaneReadsItsAngleThroughAPitchedCamera) {
+  const double pitch = -25.0 * M_PI / 180.0;  // looking down at the plane x = 0
+  const cv::Matx33d level(0, 0, 1, -1, 0, 0, 0, -1, 0);  // optical x, y, z = world -y, -z, +x
+  const cv::Matx33d rx(1, 0, 0, 0, std::cos(pitch), -std::sin(pitch), 0, std::sin(pitch), std::cos(pitch));
+  PlaneView view;
+  view.camera = CameraModel(cv::Matx33d(900, 0, 330, 0, 900, 250, 0, 0, 1), {-0.12, 0.05, 0.001, -0.002},
+                            level * rx, cv::Vec3d(-0.5, 0.08, 0.35));
+  view.plane = cv::Vec4d(1, 0, 0, 0);
+  const cv::Vec3d centre(0, 0.02, 0.12);
+  double worst = 0, worst_image = 0;
+  for (double deg : {-30.0, -12.0, -2.0, 0.0, 5.0, 17.0, 40.0}) {
+    const double th = deg * M_PI / 180.0;
+    const cv::Vec3d dir(0, -std::sin(th), std::cos(th));  // + towards world -y, which images to the right
+    const cv::Point2d a = view.camera.project(centre - 0.002 * dir), b = view.camera.project(centre + 0.002 * dir);
+    const double image_deg = std::atan2(b.x - a.x, -(b.y - a.y)) * 180.0 / M_PI;
+    const double in_plane = tiltInPlaneDeg(view, view.camera.project(centre), image_deg);
+    worst = std::max(worst, std::abs(in_plane - deg));
+    worst_image = std::max(worst_image, std::abs(image_deg - deg));
+  }
+  std::printf("[plane tilt] worst error in the plane %.5f deg; the image angle is off by up to %.2f deg\n", worst,
+              worst_image);
+  EXPECT_GT(worst_image, 1.0);  // the camera's perspective matters here
+  EXPECT_LT(worst, 0.01);
+  PlaneView horizontal = view;
+  horizontal.plane = cv::Vec4d(0, 0, 1, 0);
+  EXPECT_THROW(tiltInPlaneDeg(horizontal, view.camera.project(centre), 0.0), topo_gaussian::TopoError);
+}

@@ -44,4 +44,21 @@ class CameraModel {
   cv::Vec3d t_wc_{0, 0, 0};
 };
 
+/// A camera looking at an object whose axis moves in a known plane (a tumbler rocking about one
+/// horizontal axis, a pendulum's swing plane): the camera (pose in the plane's frame), the plane
+/// n·x = d and the frame's up (−gravity), all in the same frame.
+struct PlaneView {
+  CameraModel camera;
+  cv::Vec4d plane{1, 0, 0, 0};  ///< [nx, ny, nz, d]
+  cv::Vec3d up{0, 0, 1};
+};
+
+/// The tilt in the plane of a line seen in the image: the line through `pixel` at `image_axis_deg`
+/// (from image-up, + towards image-right) is cast through the camera onto view.plane (two pixels
+/// 10 px either side of `pixel`), and its angle there measured from `up` projected into the plane,
+/// + towards the side that images to the right [deg]. Perspective, not orthographic: a camera
+/// tilted towards the plane or off its centre reads the plane's angle, not the image's. Throws
+/// TopoError when the rays miss the plane or `up` is along its normal.
+double tiltInPlaneDeg(const PlaneView& view, const cv::Point2d& pixel, double image_axis_deg);
+
 }  // namespace topo_gaussian::vision

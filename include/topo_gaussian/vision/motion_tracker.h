@@ -42,6 +42,7 @@
 #include <vector>
 
 #include "topo_gaussian/vision/bounce_analysis.h"
+#include "topo_gaussian/vision/camera_model.h"
 #include "topo_gaussian/vision/colour_survey.h"
 #include "topo_gaussian/vision/object_checks.h"
 #include "topo_gaussian/vision/pendulum_path.h"
@@ -114,6 +115,9 @@ struct TrackResult {
   /// tilt: the object rests more than 30° from TrackOptions::tilt_reference_deg, so it may rest on the
   /// other principal axis (90° away): the absolute angles have confidence 0, `message` says both readings
   bool tilt_axis_ambiguous = false;
+  /// tilt: the angles are in the motion plane through the camera (MotionTracker::addFrame with a
+  /// PlaneView), not image angles
+  bool perspective = false;
   SignalFeatures signal;
   StaticPose static_pose;
   // finger
@@ -155,6 +159,11 @@ class MotionTracker {
   ~MotionTracker();
   /// Tracks one BGR frame taken at t_s (increasing). The first frame validates the ROI (TopoError).
   void addFrame(const cv::Mat& bgr, double t_s);
+  /// The same with the camera's view of the plane the object's axis moves in (kind tilt, rotate_deg
+  /// 0): when every frame of the window has one, the tilt is measured in that plane through the
+  /// camera (tiltInPlaneDeg, perspective; up from the view, not `gravity`) and TrackResult::perspective
+  /// says so; otherwise image angles, with a note. nullptr: no view for this frame.
+  void addFrame(const cv::Mat& bgr, double t_s, const PlaneView* view);
   /// The last frame with the tracked points, contour, axis/pivot and angle text (empty before a frame):
   /// the live view, with the pivot as fitted so far.
   cv::Mat overlay() const;
