@@ -956,11 +956,14 @@ RigidTrajectory<S> simulateRigid(const RigidInertia<S>& inertia, const RigidStat
     if (c_point > 0.0) h = std::min(h, 0.5 / (c_point * n * mob));
     return h;
   };
-  auto substepsFor = [&](const RigidState<S>& s) -> long {
+  // n_contact: the points that are or may come into contact during the interval (0 with a fixed step).
+  auto substepsFor = [&](const RigidState<S>& s, int* n_contact) -> long {
     double h = dt_base;
+    *n_contact = 0;
     if (auto_dt && cs.active) {
       double lever_now = 0.0;
       const int n_now = sim.nearCount(s, out_dt, 2.0 * cs.pen_rest, &lever_now);
+      *n_contact = n_now;
       double n_eff = cs.n_near;
       double lever = cs.lever;
       if (n_now > 2 * cs.n_near) {  // up to 2 n_near the base step still has ω dt ≤ 0.28
@@ -1035,8 +1038,13 @@ RigidTrajectory<S> simulateRigid(const RigidInertia<S>& inertia, const RigidStat
 
   long step = 0;
   for (long k = 1; k <= n_out; ++k) {
-    const long n_sub = substepsFor(state);
+    int n_contact = 0;
+    const long n_sub = substepsFor(state, &n_contact);
     dt = out_dt / static_cast<double>(n_sub);
+    // The substep follows the contact: a flat face landing brings many points at once and a much smaller
+    // step; the rest of the run at that step and size is checked now, not found out hours later.
+    checkContactWork("rigid simulation", (k - 1) * out_dt, options.duration_s, dt, n_contact,
+                     [&] { return cs.spacing > 0.0 ? cs.spacing : estimateSpacing(contact_points_body); });
     traj.substep_s = std::min(traj.substep_s, dt);
     for (long j = 0; j < n_sub; ++j) {
       if ((step & 63) == 0) pollStop(options.should_stop);

@@ -2,6 +2,7 @@
 #include "topo_gaussian/physics/run_limits.h"
 
 #include <cmath>
+#include <functional>
 #include <sstream>
 
 #include "topo_gaussian/common/error.h"
@@ -37,6 +38,30 @@ void checkStepBudget(const std::string& what, double step_s, double duration_s, 
     fix << "use " << step_parameter << " >= " << numberText(min_step, 3) << " s, or a shorter duration";
   else
     fix << "use " << step_parameter << " (the steps must stay >= " << numberText(min_step, 3) << " s)";
+  throw TopoError(what, problem.str(), fix.str());
+}
+
+void checkContactWork(const std::string& what, double t_s, double duration_s, double step_s, double points,
+                      const std::function<double()>& spacing_m) {
+  if (!(step_s > 0.0) || !(points > 0.0) || !(duration_s > t_s)) return;
+  const double steps = std::ceil((duration_s - t_s) / step_s - 1e-9);
+  const double work = steps * points;
+  if (!(work > kMaxContactPointSteps)) return;
+  std::ostringstream problem, fix;
+  problem << "at t = " << numberText(t_s, 4) << " s " << numberText(points, 6)
+          << " contact points touch or are about to touch the ground at once (a flat face landing): the contact "
+             "needs substeps of "
+          << numberText(step_s, 3) << " s, so the remaining " << numberText(duration_s - t_s, 4) << " s take "
+          << numberText(steps, 3) << " substeps x " << numberText(points, 6) << " points = " << numberText(work, 3)
+          << " point-steps; the limit is " << numberText(kMaxContactPointSteps, 3);
+  // The work goes as n^1.5 (n points per face ∝ spacing^-2, the substep ∝ n^-1/2): as spacing^-3; the
+  // spacing asked for leaves half the limit.
+  const double factor = std::cbrt(2.0 * work / kMaxContactPointSteps);
+  const double s = spacing_m ? spacing_m() : 0.0;
+  fix << "use fewer contact points: contact samples " << numberText(factor, 2) << " x farther apart (topo fill "
+      << "--contact-spacing";
+  if (s > 0.0) fix << " >= " << numberText(s * factor, 2) << " m; they are about " << numberText(s, 2) << " m apart now";
+  fix << "), or a shorter duration_s";
   throw TopoError(what, problem.str(), fix.str());
 }
 

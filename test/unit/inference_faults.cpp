@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -13,6 +14,7 @@
 
 #include "test_clouds.h"
 #include "test_util.h"
+#include "topo_gaussian/inference/interior_problem.h"
 #include "topo_gaussian/inference/optimizer.h"
 #include "topo_gaussian/inference/pipeline.h"
 #include "topo_gaussian/io/interior_ply.h"
@@ -44,7 +46,59 @@ TaskConfig tumblerConfig() {
   return c;
 }
 
+/// An a-wide cube on a 1 cm lattice, bottom face at z = 0, with contact samples every `s` on its faces
+/// (area s^2 each), as topo fill samples a box mesh.
+VolumeCloud cubeWithContactSamples(double a, double s) {
+  VolumeCloud c = topo_test::boxCloud(a, a, a, 0.01);
+  for (auto& x : c.X) x.z() += a / 2;
+  const int n = static_cast<int>(std::lround(a / s));
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side = 0; side < 2; ++side)
+      for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+          Eigen::Vector3d x, normal = Eigen::Vector3d::Zero();
+          x[axis] = side ? a / 2 : -a / 2;
+          x[(axis + 1) % 3] = -a / 2 + (i + 0.5) * a / n;
+          x[(axis + 2) % 3] = -a / 2 + (j + 0.5) * a / n;
+          normal[axis] = side ? 1.0 : -1.0;
+          c.contact.X.push_back(x + Eigen::Vector3d(0, 0, a / 2));
+          c.contact.normal.push_back(normal);
+          c.contact.area.push_back((a / n) * (a / n));
+        }
+  c.contact.spacing = a / n;
+  c.contact.origin = "mesh triangles";
+  return c;
+}
+
 }  // namespace
+
+TEST(StepBudget, ManyContactSamplesOnAFlatFaceAreRefusedAtOnce) {
+  // A tumbler on a 10 cm cube: released at 10 deg it lands on its face, where every sample under the face
+  // touches at once. The contact step shrinks with their number, so the work grows as its 1.5th power:
+  // 0.4 mm samples (topo fill's default on this box) would take hours; 5 mm ones take a second.
+  const TaskConfig c = tumblerConfig();
+  const VolumeCloud coarse = cubeWithContactSamples(0.1, 0.005);
+  const ProblemEvaluation ev = simulateInterior(c, coarse, {});
+  const auto period = std::find_if(ev.task.features.begin(), ev.task.features.end(),
+                                   [](const Feature& f) { return f.name == "period_s"; });
+  ASSERT_NE(period, ev.task.features.end());
+  EXPECT_GT(period->value, 0.0);
+
+  const VolumeCloud fine = cubeWithContactSamples(0.1, 0.0005);
+  InteriorProblem problem(c, fine);
+  const auto t0 = Clock::now();
+  problem.setShouldStop([&] { return secondsSince(t0) > 30.0; });  // a test that fails, not one that hangs
+  std::string e;
+  try {
+    e = errorOf([&] { problem.evaluateIndicator(std::vector<double>(fine.size(), 1.0), nullptr); });
+  } catch (const SimulationCancelled&) {
+    e = "still simulating after 30 s";
+  }
+  EXPECT_LT(secondsSince(t0), 10.0);
+  EXPECT_NE(e.find("contact points"), std::string::npos) << e;
+  EXPECT_NE(e.find("the limit is 1e+09"), std::string::npos) << e;
+  EXPECT_NE(e.find("--contact-spacing"), std::string::npos) << e;
+}
 
 TEST(StepBudget, TinySubstepIsRefusedWithTheNumbersBeforeAnyWork) {
   const VolumeCloud cloud = topo_test::tumblerCloud(0.05, 0.5, 0.01);

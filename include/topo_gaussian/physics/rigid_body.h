@@ -109,8 +109,10 @@ struct RigidTrajectory {
 /// dt ≤ 0, NaN) and when the simulation diverges (NaN or energy growth): the message names the step,
 /// the time, the likely cause and suggests a smaller step. Before the first step it refuses (TopoError
 /// with the numbers) more than kMaxSimulationSteps substeps, kMaxParticleSteps substeps × contact
-/// points, or a trajectory over kMaxSimulationBytes (physics/run_limits.h); throws SimulationCancelled
-/// when options.should_stop returns true.
+/// points, or a trajectory over kMaxSimulationBytes (physics/run_limits.h); whenever the automatic
+/// substep is chosen (each output sample) it refuses the rest of the run when substeps × points in
+/// contact would exceed kMaxContactPointSteps (checkContactWork: a finely sampled flat face landing);
+/// throws SimulationCancelled when options.should_stop returns true.
 template <typename S>
 RigidTrajectory<S> simulateRigid(const RigidInertia<S>& inertia, const RigidState<S>& initial,
                                  const std::vector<Eigen::Vector3d>& contact_points_body,
