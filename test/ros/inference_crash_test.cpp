@@ -2,7 +2,8 @@
 // node starts interior_inference itself on a fresh ~output_dir, lets one goal finish, kills the node
 // with SIGKILL during a second goal's export and during a third goal's optimisation, adds two
 // folders as a torn write leaves them, restarts the node on the same ~output_dir and checks that it
-// restores the newest *complete* run and names every folder it passed over, with the reason.
+// restores the newest *complete* run and names every folder it passed over, with the reason; and that a
+// node restoring a run whose simulation takes minutes answers goals at once and stops on SIGINT.
 #include <actionlib/client/simple_action_client.h>
 #include <fcntl.h>
 #include <gtest/gtest.h>
@@ -14,6 +15,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -23,7 +25,9 @@
 #include <vector>
 
 #include "topo_gaussian/InferInteriorAction.h"
+#include "topo_gaussian/io/interior_ply.h"
 #include "topo_gaussian/io/run_folder.h"
+#include "topo_gaussian/io/volume_ply.h"
 #include "topo_gaussian/physics/default_shapes.h"
 #include "topo_gaussian/ros/conversions.h"
 
@@ -37,10 +41,10 @@ const std::string kOutputDir = "/tmp/topo_rostest_crash";
 /// interior_inference as a child process (its output in `log`), killed with SIGKILL or SIGINT.
 class NodeProcess {
  public:
-  NodeProcess(const std::string& log, bool restore) : log_(log) {
+  NodeProcess(const std::string& log, bool restore, const std::string& output_dir = kOutputDir) : log_(log) {
     // Everything the child needs is prepared before fork (only async-signal-safe calls after it).
     const std::string bin = std::string(TOPO_NODE_DIR) + "/interior_inference";
-    const std::string out = "_output_dir:=" + kOutputDir;
+    const std::string out = "_output_dir:=" + output_dir;
     const std::string rest = std::string("_restore_latest:=") + (restore ? "true" : "false");
     const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     pid_ = fork();
@@ -53,17 +57,21 @@ class NodeProcess {
     if (fd >= 0) ::close(fd);
   }
   ~NodeProcess() { stop(SIGINT); }
-  void stop(int sig) {
-    if (pid_ <= 0) return;
+  /// Sends `sig` and waits up to 10 s; returns false when the node had to be killed (it did not stop).
+  bool stop(int sig) {
+    if (pid_ <= 0) return true;
     kill(pid_, sig);
     int status = 0;
-    for (int i = 0; i < 200 && waitpid(pid_, &status, WNOHANG) == 0; ++i)
+    pid_t done = 0;
+    for (int i = 0; i < 200 && (done = waitpid(pid_, &status, WNOHANG)) == 0; ++i)
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    if (waitpid(pid_, &status, WNOHANG) == 0) {
+    const bool stopped = done == pid_;
+    if (!stopped) {
       kill(pid_, SIGKILL);
       waitpid(pid_, &status, 0);
     }
     pid_ = -1;
+    return stopped;
   }
   std::string log() const {
     std::ifstream f(log_);
@@ -194,6 +202,47 @@ TEST(InferenceCrash, RestartAfterSigkillRestoresTheNewestCompleteRun) {
   if (!has(killed_exporting, "volume.ply") && has(killed_exporting, "report.json")) {
     EXPECT_NE(log.find("restore skipped " + killed_exporting + ":"), std::string::npos) << log;
   }
+}
+
+TEST(InferenceCrash, ARestartOnARunThatTakesMinutesToSimulateServesAtOnce) {
+  // The restore publishes the run's interior at once and simulates its motion off the main thread: the
+  // node answers goals while it does, and stops the simulation when asked to stop.
+  const std::string dir = "/tmp/topo_rostest_heavy_restore", run = dir + "/tumbler_29990101_000000";
+  fs::remove_all(dir);
+  fs::create_directories(run);
+  {  // a 10 cm box, contact samples every 1.6 mm: landing on its face it takes minutes to simulate
+    std::ofstream obj(dir + "/box.obj");
+    obj << "v -0.05 -0.05 0\nv 0.05 -0.05 0\nv 0.05 0.05 0\nv -0.05 0.05 0\n"
+           "v -0.05 -0.05 0.1\nv 0.05 -0.05 0.1\nv 0.05 0.05 0.1\nv -0.05 0.05 0.1\n"
+           "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\n"
+           "f 4 1 5\nf 4 5 8\n";
+  }
+  const std::string fill = std::string(TOPO_NODE_DIR) + "/topo fill --input " + dir + "/box.obj --output " + run +
+                           "/volume.ply --count 5000 --contact-spacing 0.0016 > " + dir + "/fill.log 2>&1";
+  ASSERT_EQ(std::system(fill.c_str()), 0) << "see " << dir << "/fill.log";
+  const topo_gaussian::VolumeCloud volume = topo_gaussian::io::readVolumePly(run + "/volume.ply");
+  topo_gaussian::io::writeInteriorPly(run + "/interior.ply", volume, std::vector<double>(volume.size(), 1.0),
+                                      std::vector<double>(volume.size(), 1000.0), false);
+  std::ofstream(run + "/report.json") << "{\"task\": \"tumbler\", \"cancelled\": false}\n";
+  ASSERT_TRUE(topo_gaussian::io::findLatestRun(dir).found);
+
+  NodeProcess node("/tmp/topo_rostest_heavy_restore.log", true, dir);
+  const auto t0 = std::chrono::steady_clock::now();
+  Client c("infer_interior", false);
+  ASSERT_TRUE(c.waitForServer(ros::Duration(20.0))) << "no action server 20 s after the start:\n" << node.log();
+  topo_gaussian::InferInteriorGoal g;
+  g.task = "no_such_task";
+  c.sendGoal(g);
+  ASSERT_TRUE(c.waitForResult(ros::Duration(10.0))) << node.log();
+  EXPECT_EQ(c.getState(), actionlib::SimpleClientGoalState::ABORTED);
+  EXPECT_NE(c.getResult()->message.find("no_such_task"), std::string::npos) << c.getResult()->message;
+  const auto cloud = ros::topic::waitForMessage<sensor_msgs::PointCloud2>("/interior", ros::Duration(10.0));
+  ASSERT_TRUE(cloud) << "the restored interior was not published:\n" << node.log();
+  EXPECT_EQ(cloud->width * cloud->height, volume.size());
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 30.0);
+  EXPECT_TRUE(node.stop(SIGINT)) << "the node did not stop within 10 s of SIGINT:\n" << node.log();
+  const std::string log = node.log();
+  EXPECT_NE(log.find("restored the latest result from " + run), std::string::npos) << log;
 }
 
 int main(int argc, char** argv) {
