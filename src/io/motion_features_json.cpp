@@ -143,6 +143,11 @@ std::string motionFeaturesJson(const motion::MotionFeatures& f, bool with_series
   doc["source"] = f.source;
   doc["message"] = f.message;
   if (!f.experiment.empty()) doc["experiment"] = f.experiment;
+  if (!f.side_data.empty()) {
+    json side = json::object();
+    for (const auto& [name, value] : f.side_data) side[name] = number(value);
+    doc["side_data"] = side;
+  }
   doc["features"] = {{"oscillation_found", f.oscillation_found},
                      {"period_s", number(f.period_s)},
                      {"amplitude_deg", number(f.amplitude_deg)},
@@ -214,6 +219,11 @@ motion::MotionFeatures parseMotionFeaturesJson(const std::string& text, const st
   f.source = root.text("source");
   f.message = root.text("message");
   f.experiment = root.text("experiment");
+  if (const json* side = root.find("side_data")) {
+    if (!side->is_object()) root.wrongType("side_data", *side, "an object of numbers", "{\"pressure_pa\": 3.3e5}");
+    const Reader values(origin, *side, "side_data.");
+    for (const auto& item : side->items()) f.side_data[item.key()] = values.number(item.key());
+  }
 
   const Reader feat = root.object("features");
   const Reader conf = root.object("confidence");

@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <functional>
 #include <iostream>
+#include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -14,9 +16,11 @@
 #include "args.h"
 #include "commands.h"
 #include "topo_gaussian/common/error.h"
+#include "topo_gaussian/common/number_text.h"
 #include "topo_gaussian/io/motion_features_json.h"
 #include "topo_gaussian/vision/camera_model.h"
 #include "topo_gaussian/vision/figure.h"
+#include "topo_gaussian/vision/frame_source.h"
 #include "topo_gaussian/vision/motion_features.h"
 #include "topo_gaussian/vision/motion_tracker.h"
 
@@ -25,6 +29,7 @@ namespace {
 
 const char* kTrackHelp =
     "usage: topo track --video FILE [options]\n"
+    "       topo track --bag FILE.bag --topic TOPIC [--tag-topic TOPIC ...] [options]\n"
     "\n"
     "Tracks an object through a video (or an image sequence: a pattern with one %d or %0Nd such as\n"
     "frame_%04d.png, or a directory of images) and prints its motion features: the swing period,\n"
@@ -32,6 +37,16 @@ const char* kTrackHelp =
     "or the bending angle of a finger.\n"
     "\n"
     "  --video FILE           video file (mp4/avi/gif) or image sequence\n"
+    "  --bag FILE.bag         a ROS 1 bag instead: the images of --topic (sensor_msgs/Image, or\n"
+    "                         CompressedImage: jpeg/png), timed by their header stamps (the bag's receive\n"
+    "                         times when the stamps are zero; said in the message); --start/--end count from\n"
+    "                         the topic's first frame. A compressed frame that does not decode is skipped,\n"
+    "                         named in the message, and counts as dropped\n"
+    "  --topic TOPIC          with --bag: the image topic (a wrong one lists the bag's image topics)\n"
+    "  --tag-topic TOPIC      with --bag, repeatable: a std_msgs/Float64 topic of side data (e.g.\n"
+    "                         /pressure_pa); the window gets the value in force, the median of its samples\n"
+    "                         between the first and last frame used (else the last one before), as\n"
+    "                         \"side_data\": {\"pressure_pa\": ...} in the JSON\n"
     "  --method M             marker (colour blob, default) | silhouette | klt (feature points)\n"
     "  --kind K               pendulum (default) | tilt | trajectory | finger\n"
     "  --roi x,y,w,h          region of interest in pixels (default: whole frame)\n"
@@ -182,6 +197,28 @@ void writePlot(const vision::TrackResult& r, const std::string& path) {
   vision::writePng(img, path);
 }
 
+/// Refuses (before any work) an output that is an input (`what` names it: the video, a frame of the
+/// sequence, the bag), as topo fill refuses --output == --input, and a --roi outside the frame.
+void checkInputsAndRoi(const Args& a, const vision::TrackOptions& o, const std::vector<std::string>& inputs,
+                       const std::string& what, cv::Size size) {
+  for (const std::string option : {"debug-video", "plot"}) {
+    if (!a.has(option)) continue;
+    for (const auto& input : inputs)
+      if (sameFile(input, a.str(option)))
+        throw UsageError("--" + option + " " + a.str(option) + " is " + what +
+                         " itself: writing it would destroy the input; give another name, e.g. --" + option + " " +
+                         (option == "plot" ? "track_plot.png" : "track_overlay.mp4"));
+  }
+  if (a.has("debug-video") && a.has("plot") && sameFile(a.str("debug-video"), a.str("plot")))
+    throw UsageError("--debug-video and --plot name the same file " + a.str("plot") + "; give two names");
+  if (o.rotate_deg == 90 || o.rotate_deg == 270) size = cv::Size(size.height, size.width);
+  try {
+    vision::validRoi(o.tracker.roi, size, o.tracker.roi_given);
+  } catch (const TopoError& e) {
+    throw UsageError(e.what());
+  }
+}
+
 }  // namespace
 
 int trackCommand(const std::vector<std::string>& argv) {
@@ -189,12 +226,23 @@ int trackCommand(const std::vector<std::string>& argv) {
                {"video",    "method",      "kind",    "roi",          "start",          "end",
                 "stride",   "fps",         "pivot",   "hsv-lower",    "hsv-upper",      "foreground",
                 "polarity", "rotate",      "gravity", "min-area",     "debug-video",    "plot",
-                "camera",   "camera-pose", "plane",   "tip-fraction", "tilt-reference", "profile-segments"});
+                "camera",   "camera-pose", "plane",   "tip-fraction", "tilt-reference", "profile-segments",
+                "bag",      "topic"},
+               {"tag-topic"});
   if (a.has("help")) {
     std::cout << kTrackHelp;
     return 0;
   }
-  if (!a.has("video")) throw UsageError("--video FILE is required");
+  const bool bag = a.has("bag");
+  if (bag && a.has("video")) throw UsageError("give --video FILE or --bag FILE.bag --topic TOPIC, not both");
+  if (!bag && !a.has("video")) throw UsageError("--video FILE (or --bag FILE.bag --topic TOPIC) is required");
+  if (bag != a.has("topic"))
+    throw UsageError(bag ? "--bag needs --topic TOPIC: the image topic to track (a wrong one lists the bag's)"
+                         : "--topic is for --bag (a rosbag's image topic); a video file has no topics");
+  if (a.has("tag-topic") && !bag)
+    throw UsageError("--tag-topic reads side data from a rosbag: give --bag FILE.bag --topic TOPIC with it");
+  if (bag && a.has("fps"))
+    throw UsageError("--fps is for image sequences; a bag's frames carry their own stamps: leave --fps out");
   vision::TrackOptions o;
   o.kind = a.str("kind", "pendulum");
   o.tracker.method = a.str("method", "marker");
@@ -230,7 +278,7 @@ int trackCommand(const std::vector<std::string>& argv) {
     o.pivot_given = true;
     o.pivot = cv::Point2d(v[0], v[1]);
   }
-  const std::string video = a.str("video");
+  const std::string video = bag ? a.str("bag") : a.str("video");
   try {
     vision::validateTrackOptions(o);
   } catch (const TopoError& e) {
@@ -240,32 +288,25 @@ int trackCommand(const std::vector<std::string>& argv) {
   std::string debug = a.str("debug-video");
   std::function<void(const cv::Mat&)> sink;
   double fps_out = 30.0;
-  {
+  std::unique_ptr<vision::FrameSource> recording;  // --bag: the frames through the rosbag reader
+  if (bag) {
+    vision::RecordingRequest rq;
+    rq.path = video;
+    rq.topic = a.str("topic");
+    rq.tag_topics = a.all("tag-topic");
+    rq.video = o.video;
+    recording = vision::openRecording("rosbag", rq);  // fails early naming the bag, the topic and the fix
+    fps_out = recording->fps() / std::max(1, o.video.stride);
+    checkInputsAndRoi(a, o, recording->inputFiles(), "the input bag " + video, recording->frameSize());
+  } else {
     vision::VideoSource probe(video, o.video);  // fails early with the file's name
     fps_out = probe.fps() / std::max(1, o.video.stride);
-    // An output that is an input (the video, a frame of the sequence) would be destroyed: refused
-    // before any work, as topo fill refuses --output == --input.
-    for (const std::string option : {"debug-video", "plot"}) {
-      if (!a.has(option)) continue;
-      for (const auto& input : probe.inputFiles())
-        if (sameFile(input, a.str(option)))
-          throw UsageError("--" + option + " " + a.str(option) + " is " +
-                           (probe.isSequence() ? "a frame of the input image sequence " + video : "the input video") +
-                           " itself: writing it would destroy the input; give another name, e.g. --" + option + " " +
-                           (option == "plot" ? "track_plot.png" : "track_overlay.mp4"));
-    }
-    if (a.has("debug-video") && a.has("plot") && sameFile(a.str("debug-video"), a.str("plot")))
-      throw UsageError("--debug-video and --plot name the same file " + a.str("plot") + "; give two names");
     if (a.has("fps") && !probe.isSequence())
       throw UsageError("--fps is for image sequences; the video file " + video + " carries its own frame rate (" +
                        std::to_string(probe.fps()) + " fps): leave --fps out");
-    cv::Size size = probe.frameSize();
-    if (o.rotate_deg == 90 || o.rotate_deg == 270) size = cv::Size(size.height, size.width);
-    try {
-      vision::validRoi(o.tracker.roi, size, o.tracker.roi_given);
-    } catch (const TopoError& e) {
-      throw UsageError(e.what());
-    }
+    checkInputsAndRoi(a, o, probe.inputFiles(),
+                      probe.isSequence() ? "a frame of the input image sequence " + video : "the input video",
+                      probe.frameSize());
   }
   if (!debug.empty()) {
     sink = [&](const cv::Mat& frame) {
@@ -281,7 +322,21 @@ int trackCommand(const std::vector<std::string>& argv) {
     };
   }
   if (a.has("plane") != a.has("camera")) throw UsageError("--plane and --camera go together");
-  vision::TrackResult r = vision::trackVideo(video, o, sink);
+  vision::TrackResult r = recording ? vision::trackFrames(*recording, o, sink) : vision::trackVideo(video, o, sink);
+  // --tag-topic: the side data in force over the window (the frames used), by the topic's name
+  std::map<std::string, double> side_data;
+  if (recording)
+    for (const auto& [topic, samples] : recording->tags()) {
+      const vision::TagValue v = vision::tagInWindow(samples, r.t_start_s, r.t_end_s);
+      const std::string name = topic.substr(topic.find_first_not_of('/'));
+      side_data[name] = v.value;
+      if (!v.found)
+        r.message += "; the tag topic " + topic + " has no sample up to the window's end (" + fixedText(r.t_end_s, 3) +
+                     " s): side_data." + name + " is null";
+      else if (v.samples == 0)
+        r.message += "; the tag topic " + topic + " has no sample in the window: side_data." + name +
+                     " is its last value before it";
+    }
   writer.release();
   if (a.has("plane")) {
     std::vector<double> c;
@@ -314,7 +369,9 @@ int trackCommand(const std::vector<std::string>& argv) {
   if (a.has("json")) {
     // The motion-features document (io/motion_features_json.h, what `topo infer --features` reads),
     // with the tracker-only details under "tracker".
-    nlohmann::json doc = nlohmann::json::parse(io::motionFeaturesJson(vision::toMotionFeatures(r), a.has("series")));
+    motion::MotionFeatures features = vision::toMotionFeatures(r);
+    features.side_data = side_data;
+    nlohmann::json doc = nlohmann::json::parse(io::motionFeaturesJson(features, a.has("series")));
     doc["tracker"] = nlohmann::json::parse(vision::trackerJson(r, a.has("series")));
     std::cout << doc.dump() << "\n";
   } else {
@@ -362,6 +419,7 @@ int trackCommand(const std::vector<std::string>& argv) {
       for (double v : r.bend_profile_deg) std::printf(" %.3f", v);
       std::printf(" (%d equal arc-length segments, base to tip, at the full pressure)\n", r.profile_segments);
     }
+    for (const auto& kv : side_data) std::printf("side_data       %s %.6g\n", kv.first.c_str(), kv.second);
     for (const auto& kv : r.confidence) std::printf("confidence      %s %.3f\n", kv.first.c_str(), kv.second);
     std::printf("message         %s\n", r.message.c_str());
   }

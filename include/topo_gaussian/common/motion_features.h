@@ -9,6 +9,7 @@
 #pragma once
 
 #include <array>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,9 @@ struct MotionFeatures {
   /// The experiment of a multi-experiment inference this window belongs to ("rock_y"); empty: the
   /// only (or the first) experiment.
   std::string experiment;
+  /// Side data in force over the window (`topo track --tag-topic`): the topic's name without its
+  /// leading '/' → the median of its samples in the window, e.g. "pressure_pa" → 3.3e5; empty: none.
+  std::map<std::string, double> side_data;
 
   bool oscillation_found = false;
   double period_s = 0.0;

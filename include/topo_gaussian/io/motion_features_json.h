@@ -2,6 +2,7 @@
 // reads (motion::MotionFeatures, common/motion_features.h). One object:
 //   "format": "topo_gaussian.motion_features", "version": 1,
 //   "kind" (pendulum | tilt | trajectory | finger), "method", "source", "message",
+//   "side_data":  {NAME: value} (only when the window was tagged: `topo track --tag-topic`),
 //   "features":   {oscillation_found, period_s, amplitude_deg, max_tilt_deg, equilibrium_deg,
 //                  log_decrement, damping_ratio, bending_angle_deg, bend_profile_deg: [θ_1 .. θ_K] or null,
 //                  profile_segments: K},
