@@ -647,13 +647,14 @@ VolumeCloud fillInterior(const SurfaceData& input, const FillOptions& o, FillRep
       // Shells that overlap (or one turned inside out): the divergence theorem counts the overlap twice.
       r.warnings.push_back(
           "the mesh overlaps itself: in " + std::to_string(clip.winding_anomalies) +
-          " cells its winding number leaves 0..1 (closed shells that overlap, a self-intersection, or a shell "
-          "turned inside out); filled as the union of its shells (inside where the winding number is not 0), so "
+          " cells its winding number leaves 0..1 (closed shells that overlap, a self-intersection, a shell "
+          "turned inside out, or an inner shell meant as a void whose faces point out instead of into the void); "
+          "filled as the union of its shells (inside where the winding number is not 0), so "
           "the exact mesh volume is not known (the signed volume " +
           numberText(r.mesh_volume_m3, 4) +
           " m^3 counts the overlap twice) and the inside part of the cells where two shells' surfaces cross "
           "is approximate; for an exact boundary make it one closed surface (e.g. MeshLab: a boolean union of its "
-          "shells, or Remove Self-Intersecting Faces)");
+          "shells, or Remove Self-Intersecting Faces), and turn a void's faces to point into the void");
       r.mesh_volume_m3 = 0.0;
     }
     // A cell holds a particle when at least half of it is inside (the exact fraction decides, not

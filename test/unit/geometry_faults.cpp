@@ -628,6 +628,33 @@ TEST(OverlappingShells, TwoOverlappingBoxesFillAsTheirUnion) {
   }
 }
 
+TEST(OverlappingShells, AnInwardShellInsideIsAVoidAnOutwardOneIsFilled) {
+  // Non-zero winding: a shell facing into its void subtracts it; one facing out adds to the outer solid.
+  const Eigen::Vector3d outer_size(0.1, 0.09, 0.08), inner_lo(0.0213, 0.0187, 0.0241), inner_size(0.05, 0.04, 0.03);
+  for (const bool inward : {true, false}) {
+    SurfaceData m = boxAt(Eigen::Vector3d::Zero(), outer_size);
+    SurfaceData inner = boxAt(inner_lo, inner_size);
+    if (inward)
+      for (auto& t : inner.triangles) std::swap(t[1], t[2]);
+    const int off = int(m.points.size());
+    m.points.insert(m.points.end(), inner.points.begin(), inner.points.end());
+    for (const auto& t : inner.triangles) m.triangles.push_back(t + Eigen::Vector3i::Constant(off));
+    FillOptions o;
+    o.target_count = 5000;
+    o.contact.enabled = false;  // the volume is what is measured here
+    FillReport rep;
+    const double v = fillVolume(m, &rep, o);
+    if (inward) {
+      EXPECT_NEAR(v / (outer_size.prod() - inner_size.prod()), 1.0, 1e-9);
+      EXPECT_TRUE(rep.exact_boundary);
+      EXPECT_FALSE(hasWarning(rep, "overlaps itself"));
+    } else {
+      EXPECT_NEAR(v / outer_size.prod(), 1.0, 1e-9);
+      EXPECT_TRUE(hasWarning(rep, "inner shell meant as a void"));
+    }
+  }
+}
+
 TEST(DuplicatePoints, AScanWithEveryPointWrittenFiveTimesFillsAsTheOriginal) {
   // Was refused: "the surface is open: 98.8 % ..." (the copies halve the measured sampling spacing).
   SurfaceData scan;
