@@ -54,11 +54,12 @@ void checkContactWork(const std::string& what, double t_s, double duration_s, do
           << numberText(step_s, 3) << " s, so the remaining " << numberText(duration_s - t_s, 4) << " s take "
           << numberText(steps, 3) << " substeps x " << numberText(points, 6) << " points = " << numberText(work, 3)
           << " point-steps; the limit is " << numberText(kMaxContactPointSteps, 3);
-  // The work goes as n^1.5 (n points per face ∝ spacing^-2, the substep ∝ n^-1/2): as spacing^-3; the
-  // spacing asked for leaves half the limit.
-  const double factor = std::cbrt(2.0 * work / kMaxContactPointSteps);
+  // The work goes as n^1.5 (n points per face ∝ spacing^-2, the substep ∝ n^-1/2): as spacing^-3. The
+  // spacing asked for aims at a quarter of the limit: the substep moves in steps of √2 (the contact count
+  // is rounded to powers of two), so a spacing that just fits the model may not fit the run.
+  const double factor = std::cbrt(4.0 * work / kMaxContactPointSteps);
   const double s = spacing_m ? spacing_m() : 0.0;
-  fix << "use fewer contact points: contact samples " << numberText(factor, 2) << " x farther apart (topo fill "
+  fix << "use fewer contact points: contact samples about " << numberText(factor, 2) << " x farther apart (topo fill "
       << "--contact-spacing";
   if (s > 0.0) fix << " >= " << numberText(s * factor, 2) << " m; they are about " << numberText(s, 2) << " m apart now";
   fix << "), or a shorter duration_s";
