@@ -135,6 +135,10 @@ std::string describe(const geometry::IngestResult& r) {
     << r.cloud.totalVolume() << " m^3, spacing " << r.cloud.spacing << " m, " << r.cloud.contact.size()
     << " contact samples on the true surface (spacing " << r.cloud.contact.spacing << " m), " << r.seconds
     << " s, method " << r.fill.method;
+  // Every repair and suspicion of the run (merged duplicate points, welded or re-oriented faces,
+  // overlapping shells, an open mesh filled by the density method), as topo fill prints them.
+  for (std::size_t i = 0; i < r.warnings.size(); ++i)
+    s << (i ? "; " : "; warning" + std::string(r.warnings.size() > 1 ? "s" : "") + ": ") << r.warnings[i];
   return s.str();
 }
 

@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <random>
 #include <string>
 
 #include "test_util.h"
@@ -163,6 +164,25 @@ TEST(RosConversions, DataBeyondWidthTimesHeightIsRefusedWithTheNumbers) {
   EXPECT_NE(errorOf([&] { topo_ros::fromPointCloud2(volume, "/volume"); }).find("bytes"), std::string::npos);
   msg.data.resize(declared);
   EXPECT_EQ(topo_ros::toSurfaceData(msg, "/camera/points").size(), pts.size());
+}
+
+TEST(RosCloudIngest, TheFillSummarySaysWhatWasRepaired) {
+  // A scan with every point written twice: the node's log line and service message said nothing of
+  // the merge (nor of any other warning of the fill).
+  std::mt19937 rng(7);
+  std::normal_distribution<double> g;
+  geometry::SurfaceData scan;
+  scan.source = "/camera/points";
+  for (int i = 0; i < 3000; ++i) scan.points.push_back(0.05 * Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized());
+  scan.points.insert(scan.points.end(), scan.points.begin(), scan.points.end());
+  geometry::IngestOptions o;
+  o.fill.target_count = 2000;
+  o.fill.contact.enabled = false;
+  const geometry::IngestResult r = geometry::ingestSurface(scan, o);
+  ASSERT_FALSE(r.warnings.empty());
+  const std::string line = topo_ros::describe(r);
+  EXPECT_NE(line.find("merged 3000 exact duplicate"), std::string::npos) << line;
+  for (const auto& w : r.warnings) EXPECT_NE(line.find(w), std::string::npos) << w;
 }
 
 TEST(RosAsciiText, SymbolsAreSpelledInAscii) {

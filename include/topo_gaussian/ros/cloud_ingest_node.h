@@ -57,7 +57,8 @@ void checkSurfaceFile(const std::string& path, const std::string& what);
 geometry::IngestOptions requestOptions(const topo_gaussian::FillInterior::Request& request,
                                        const geometry::IngestOptions& defaults, const std::string& service);
 
-/// One-line summary of a successful fill, as logged and returned in the service message.
+/// One-line summary of a successful fill, as logged and returned in the service message, ending with
+/// the fill's warnings ("; warnings: ...") when it has any.
 std::string describe(const geometry::IngestResult& result);
 
 class CloudIngestNode {
