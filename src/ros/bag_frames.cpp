@@ -69,8 +69,8 @@ class BagFrames : public vision::FrameSource {
       bag_.open(path, rosbag::bagmode::Read);
     } catch (const rosbag::BagException& e) {
       throw TopoError(path, std::string("is not a readable ROS 1 bag (") + e.what() + ")",
-                      "give a .bag file written by `rosbag record`; a ROS 2 bag (.db3, .mcap) must be converted "
-                      "first, e.g. with `rosbags-convert`");
+                      "give a .bag file written by `rosbag record`; an interrupted recording (.bag.active) needs "
+                      "`rosbag reindex` first, and a ROS 2 bag (.db3, .mcap) a conversion, e.g. `rosbags-convert`");
     }
     const BagTopics topics(bag_);
     if (topics.type.empty())
