@@ -11,8 +11,9 @@
 //        services ~infer (Infer.srv, the blocking form of the action), ~simulate (SimulateInterior.srv),
 //        ~export (ExportInterior.srv)
 // Every run writes its run folder (io/run_folder.h) to ~output_dir/<task>_<time>[_N]/; a restarted
-// node reloads the newest complete run and publishes it again (~restore_latest); a `topo infer`
-// folder under ~output_dir loads the same way.
+// node reloads the newest complete run (not interrupted, of a task known here) and publishes it again
+// at once, simulating its motion off the main thread (~restore_latest); a `topo infer` folder under
+// ~output_dir loads the same way.
 // The node owns handles, parameters and the latest result; workflow::runInference (the run and its
 // folder, the same call as `topo infer`), simulateInterior and exportInterior do the work. Callbacks may run
 // concurrently (AsyncSpinner): one inference runs at a time, state is guarded by a mutex.
