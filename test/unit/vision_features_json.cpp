@@ -195,3 +195,24 @@ TEST(MotionFeaturesJson, TrackResultMapping) {
   EXPECT_EQ(b.bending_angle_deg, 40.25);
   EXPECT_EQ(b.bending_confidence, 0.7);
 }
+
+TEST(MotionFeaturesJson, SideDataRoundTripsAndABadValueIsNamed) {
+  motion::MotionFeatures f;
+  f.kind = "finger";
+  f.side_data["pressure_pa"] = 333300.0;
+  f.side_data["gripper/state"] = std::nan("");  // a tag without a sample in force: null
+  const std::string text = io::motionFeaturesJson(f, false);
+  EXPECT_NE(text.find("\"side_data\":{\"gripper/state\":null,\"pressure_pa\":333300"), std::string::npos) << text;
+  const motion::MotionFeatures back = io::parseMotionFeaturesJson(text, "tagged window");
+  ASSERT_EQ(back.side_data.size(), 2u);
+  EXPECT_EQ(back.side_data.at("pressure_pa"), 333300.0);
+  EXPECT_TRUE(std::isnan(back.side_data.at("gripper/state")));
+  // an untagged window writes no side_data at all
+  f.side_data.clear();
+  EXPECT_EQ(io::motionFeaturesJson(f, false).find("side_data"), std::string::npos);
+
+  std::string e = errorOf(writeFile("features_side.json", R"({"kind": "finger", "side_data": {"pressure_pa": "5 bar"}})"));
+  EXPECT_NE(e.find("'side_data.pressure_pa' is a string, expected a number"), std::string::npos) << e;
+  e = errorOf(writeFile("features_side_list.json", R"({"kind": "finger", "side_data": [3e5]})"));
+  EXPECT_NE(e.find("'side_data' is an array, expected an object of numbers"), std::string::npos) << e;
+}
