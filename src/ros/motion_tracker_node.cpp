@@ -1,6 +1,7 @@
 #include "topo_gaussian/ros/motion_tracker_node.h"
 
 #include <cv_bridge/cv_bridge.h>
+#include <image_transport/exception.h>
 #include <sensor_msgs/image_encodings.h>
 
 #include <algorithm>
@@ -18,6 +19,17 @@
 #include "topo_gaussian/vision/motion_features.h"
 
 namespace topo_gaussian::topo_ros {
+namespace {
+/// Rotation matrix of a quaternion that is not zero (normalised here).
+cv::Matx33d rotationOf(double qx, double qy, double qz, double qw) {
+  const double n = std::sqrt(qx * qx + qy * qy + qz * qz + qw * qw);
+  const double x = qx / n, y = qy / n, z = qz / n, w = qw / n;
+  return cv::Matx33d(1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w), 2 * (x * y + z * w),
+                     1 - 2 * (x * x + z * z), 2 * (y * z - x * w), 2 * (x * z - y * w), 2 * (y * z + x * w),
+                     1 - 2 * (x * x + y * y));
+}
+}  // namespace
+
 StampWindow::Decision StampWindow::next(double stamp_s) {
   Decision d;
   if (!started_) {
@@ -132,12 +144,15 @@ MotionTrackerParams loadMotionTrackerParams(const ::ros::NodeHandle& pnh) {
   if (!pose.empty()) {
     const double n = std::sqrt(pose[3] * pose[3] + pose[4] * pose[4] + pose[5] * pose[5] + pose[6] * pose[6]);
     if (!(n > 0)) throw TopoError(r.displayName("camera_pose"), "quaternion is zero", "e.g. [0, 0, 0, 0, 0, 0, 1]");
-    const double x = pose[3] / n, y = pose[4] / n, z = pose[5] / n, w = pose[6] / n;
-    p.camera_R = cv::Matx33d(1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w), 2 * (x * y + z * w),
-                             1 - 2 * (x * x + z * z), 2 * (y * z - x * w), 2 * (x * z - y * w), 2 * (y * z + x * w),
-                             1 - 2 * (x * x + y * y));
+    p.camera_R = rotationOf(pose[3], pose[4], pose[5], pose[6]);
     p.camera_t = cv::Vec3d(pose[0], pose[1], pose[2]);
+    p.camera_pose_given = true;
   }
+  p.world_frame = r.text("world_frame", p.world_frame);
+  if (p.world_frame.empty())
+    throw TopoError(r.displayName("world_frame"), "is empty", "name the frame of ~plane, e.g. world");
+  p.tf_timeout_s = r.number("tf_timeout_s", p.tf_timeout_s, "s", Range::between(0.0, 60.0));
+  p.image_transport = r.text("image_transport", p.image_transport);
   p.window_s = r.number("window_s", 20.0, "s", Range::above(0.0));
   p.publish_period_s = r.number("publish_period_s", 1.0, "s", Range::above(0.0));
   p.max_stamp_jump_s = r.number("max_stamp_jump_s", p.max_stamp_jump_s, "s", Range::above(0.0));
@@ -173,10 +188,28 @@ MotionTrackerNode::MotionTrackerNode(const ::ros::NodeHandle& nh, const ::ros::N
     : nh_(nh),
       pnh_(pnh),
       params_(loadMotionTrackerParams(pnh)),
-      window_(params_.window_s, std::min(params_.max_stamp_jump_s, params_.window_s)) {
+      window_(params_.window_s, std::min(params_.max_stamp_jump_s, params_.window_s)),
+      it_(nh_),
+      tf_listener_(tf_buffer_) {
   features_pub_ = nh_.advertise<topo_gaussian::MotionFeatures>("motion_features", 1, true);
   debug_pub_ = pnh_.advertise<sensor_msgs::Image>("debug_image", 2);
-  image_sub_ = nh_.subscribe("image", 5, &MotionTrackerNode::onImage, this);
+  last_R_ = params_.camera_R;
+  last_t_ = params_.camera_t;
+  try {
+    image_sub_ = it_.subscribe("image", 5, &MotionTrackerNode::onImage, this,
+                               image_transport::TransportHints(params_.image_transport, ::ros::TransportHints(), pnh_));
+  } catch (const image_transport::TransportLoadException& e) {
+    std::string installed;
+    for (const std::string& t : it_.getLoadableTransports()) installed += (installed.empty() ? "" : ", ") + t;
+    ROS_ERROR("motion_tracker: %s; listening raw instead",
+              TopoError(pnh_.resolveName("image_transport") + " '" + params_.image_transport + "'",
+                        std::string("is not an installed image_transport plugin (") + e.what() + ")",
+                        "use one of the installed (" + installed +
+                            "), install its plugin, or republish: rosrun image_transport republish " +
+                            params_.image_transport + " in:=IMAGE raw out:=image")
+                  .what());
+    image_sub_ = it_.subscribe("image", 5, &MotionTrackerNode::onImage, this, image_transport::TransportHints("raw"));
+  }
   info_sub_ = nh_.subscribe("camera_info", 1, &MotionTrackerNode::onCameraInfo, this);
   experiment_ = live_experiment_ = params_.experiment;
   experiment_sub_ = nh_.subscribe("experiment", 1, &MotionTrackerNode::onExperiment, this);
@@ -184,8 +217,9 @@ MotionTrackerNode::MotionTrackerNode(const ::ros::NodeHandle& nh, const ::ros::N
   service_ = pnh_.advertiseService("extract_motion", &MotionTrackerNode::onExtractMotion, this);
   started_wall_ = ::ros::WallTime::now();
   timer_ = nh_.createTimer(::ros::Duration(params_.publish_period_s), &MotionTrackerNode::onTimer, this);
-  ROS_INFO("motion_tracker: method %s, kind %s; listening on %s, service %s", params_.options.tracker.method.c_str(),
-           params_.options.kind.c_str(), image_sub_.getTopic().c_str(), service_.getService().c_str());
+  ROS_INFO("motion_tracker: method %s, kind %s; listening on %s (%s), service %s",
+           params_.options.tracker.method.c_str(), params_.options.kind.c_str(), image_sub_.getTopic().c_str(),
+           image_sub_.getTransport().c_str(), service_.getService().c_str());
   if (!params_.video_file.empty()) trackStartupFile();
 }
 
@@ -195,8 +229,8 @@ void MotionTrackerNode::publish(const vision::TrackResult& result_in, const std:
     if (camera_info_.K[0] > 0) {
       const auto& K = camera_info_.K;
       const vision::CameraModel cam(cv::Matx33d(K[0], K[1], K[2], K[3], K[4], K[5], K[6], K[7], K[8]),
-                                    std::vector<double>(camera_info_.D.begin(), camera_info_.D.end()), params_.camera_R,
-                                    params_.camera_t);
+                                    std::vector<double>(camera_info_.D.begin(), camera_info_.D.end()), last_R_,
+                                    last_t_);
       vision::placeOnPlane(cam, cv::Vec3d(params_.plane[0], params_.plane[1], params_.plane[2]), params_.plane[3],
                            result);
     } else {
@@ -252,7 +286,97 @@ void MotionTrackerNode::onTiltReference(const std_msgs::StringConstPtr& msg) {
   }
 }
 
-void MotionTrackerNode::onCameraInfo(const sensor_msgs::CameraInfoConstPtr& msg) { camera_info_ = *msg; }
+void MotionTrackerNode::reportProblem(const std::string& key, const std::string& what,
+                                      ::ros::console::levels::Level level, const std::string& text) {
+  const ::ros::WallTime now = ::ros::WallTime::now();
+  auto& [when, last] = reported_[key];
+  if (last == what && !when.isZero() && (now - when).toSec() < 10.0) return;
+  when = now;
+  last = what;
+  if (level == ::ros::console::levels::Error)
+    ROS_ERROR("motion_tracker: %s", asciiText(text).c_str());
+  else
+    ROS_WARN("motion_tracker: %s", asciiText(text).c_str());
+}
+
+void MotionTrackerNode::onCameraInfo(const sensor_msgs::CameraInfoConstPtr& msg) {
+  const auto& K = msg->K;
+  const bool usable = K[0] > 0 && K[4] > 0 && K[8] > 0 && std::isfinite(K[2]) && std::isfinite(K[5]) &&
+                      (msg->D.empty() || msg->D.size() == 4 || msg->D.size() == 5 || msg->D.size() == 8);
+  if (!usable) {
+    reportProblem("camera_info", "unusable", ::ros::console::levels::Error,
+                  TopoError(info_sub_.getTopic(),
+                            "has no usable intrinsics (fx " + numberText(K[0]) + ", fy " + numberText(K[4]) + ", " +
+                                std::to_string(msg->D.size()) + " distortion coefficients)",
+                            "calibrate the camera (camera_calibration) and let the driver publish its camera_info; "
+                            "until then the tilt stays in image angles (the last good camera_info is kept)")
+                      .what());
+    return;
+  }
+  camera_info_ = *msg;
+}
+
+std::unique_ptr<vision::PlaneView> MotionTrackerNode::viewFor(const sensor_msgs::Image& msg) {
+  if (!params_.plane_given) return nullptr;
+  if (!(camera_info_.K[0] > 0)) {
+    reportProblem("camera_info", "none", ::ros::console::levels::Warn,
+                  TopoError(info_sub_.getTopic(),
+                            "has sent no usable camera_info (" + std::to_string(info_sub_.getNumPublishers()) +
+                                " publishers)",
+                            "remap camera_info to the driver's CameraInfo topic; until then the tilt stays in image "
+                            "angles")
+                      .what());
+    return nullptr;
+  }
+  std::string source;
+  cv::Matx33d R;
+  cv::Vec3d t;
+  try {
+    if (msg.header.frame_id.empty())
+      throw tf2::TransformException("the image has no header.frame_id (the camera's optical frame)");
+    // while it fails, wait for tf at most once a second, so the images queued meanwhile are not dropped
+    const ::ros::WallTime now = ::ros::WallTime::now();
+    const bool wait = !tf_failing_ || (now - tf_waited_).toSec() > 1.0;
+    if (wait) tf_waited_ = now;
+    const geometry_msgs::TransformStamped T = tf_buffer_.lookupTransform(
+        params_.world_frame, msg.header.frame_id, msg.header.stamp, ::ros::Duration(wait ? params_.tf_timeout_s : 0.0));
+    const auto& q = T.transform.rotation;
+    R = rotationOf(q.x, q.y, q.z, q.w);
+    t = cv::Vec3d(T.transform.translation.x, T.transform.translation.y, T.transform.translation.z);
+    source = "tf " + params_.world_frame + " <- " + msg.header.frame_id;
+    tf_failing_ = false;
+  } catch (const tf2::TransformException& e) {
+    tf_failing_ = true;
+    const std::string what = "tf " + params_.world_frame + " <- '" + msg.header.frame_id + "' at the image's stamp " +
+                             fixedText(msg.header.stamp.toSec(), 3) + " s";
+    if (!params_.camera_pose_given) {
+      reportProblem("tf", msg.header.frame_id, ::ros::console::levels::Error,
+                    TopoError(what, std::string("failed or is stale (") + e.what() + ")",
+                              "publish the camera pose on tf (the driver's, or a static_transform_publisher) or set "
+                              "~camera_pose; until then the tilt stays in image angles and the points on ~plane use the last pose "
+                              "found (at first ~camera_pose, or the world origin)")
+                        .what());
+      return nullptr;
+    }
+    reportProblem("tf", msg.header.frame_id, ::ros::console::levels::Warn,
+                  what + " failed or is stale (" + e.what() + "): the camera pose is ~camera_pose");
+    R = params_.camera_R;
+    t = params_.camera_t;
+    source = "~camera_pose";
+  }
+  if (source != pose_source_) {
+    ROS_INFO("motion_tracker: the camera pose comes from %s", source.c_str());
+    pose_source_ = source;
+  }
+  last_R_ = R;
+  last_t_ = t;
+  const auto& K = camera_info_.K;
+  auto view = std::make_unique<vision::PlaneView>();
+  view->camera = vision::CameraModel(cv::Matx33d(K[0], K[1], K[2], K[3], K[4], K[5], K[6], K[7], K[8]),
+                                     std::vector<double>(camera_info_.D.begin(), camera_info_.D.end()), R, t);
+  view->plane = params_.plane;
+  return view;
+}
 
 void MotionTrackerNode::onImage(const sensor_msgs::ImageConstPtr& msg) {
   cv::Mat bgr;
@@ -278,7 +402,8 @@ void MotionTrackerNode::onImage(const sensor_msgs::ImageConstPtr& msg) {
   try {
     if (!live_ || d.action != StampWindow::Action::Add)
       live_ = std::make_unique<vision::MotionTracker>(params_.optionsFor(live_experiment_));
-    live_->addFrame(bgr, d.t_s);
+    const std::unique_ptr<vision::PlaneView> view = viewFor(*msg);
+    live_->addFrame(bgr, d.t_s, view.get());
     live_frame_id_ = msg->header.frame_id;
     live_dirty_ = true;
     if (debug_pub_.getNumSubscribers() > 0) {

@@ -5,6 +5,9 @@
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <ros/topic.h>
+#include <rosgraph_msgs/Log.h>
+#include <tf2_ros/static_transform_broadcaster.h>
+#include <tf2_ros/transform_broadcaster.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/image_encodings.h>
@@ -237,6 +240,104 @@ TEST(MotionTrackerNode, FutureStampsDoNotStallTheStream) {
       << "the 30 Hz stream after three future frames gave no features (frames dropped?); last: " << last.message;
   EXPECT_TRUE(f.oscillation_found) << f.message;
   EXPECT_NEAR(f.period_s, s.period_s, 0.01 * s.period_s) << f.message;
+}
+
+// The tilt tracker in /persp measures in a plane through its camera: camera_info missing, then zero,
+// then an image frame without tf, then a tf that is older than the images are each named in the log
+// (topic or frames, and the fix), and the node keeps tracking (in image angles) and publishing.
+TEST(MotionTrackerNode, MissingCameraInfoAndTfAreNamed) {
+  ros::NodeHandle nh;
+  std::mutex mu;
+  std::vector<std::string> log;
+  int features = 0;
+  ros::Subscriber rosout = nh.subscribe<rosgraph_msgs::Log>("/rosout", 100, [&](const rosgraph_msgs::LogConstPtr& m) {
+    std::lock_guard<std::mutex> l(mu);
+    if (m->name == "/persp/motion_tracker") log.push_back(m->msg);
+  });
+  ros::Subscriber sub = nh.subscribe<topo_gaussian::MotionFeatures>(
+      "/persp/motion_features", 10, [&](const topo_gaussian::MotionFeaturesConstPtr& m) {
+        std::lock_guard<std::mutex> l(mu);
+        if (m->frames_used > 0) ++features;
+      });
+  tf2_ros::TransformBroadcaster tf;  // created first: its /tf connection is up when it sends
+  ros::Publisher pub = nh.advertise<sensor_msgs::Image>("/persp/image", 50);
+  ros::Publisher info_pub = nh.advertise<sensor_msgs::CameraInfo>("/persp/camera_info", 1, true);
+  for (int i = 0; i < 100 && pub.getNumSubscribers() == 0; ++i) ros::Duration(0.05).sleep();
+  ASSERT_GT(pub.getNumSubscribers(), 0u);
+  const std::vector<cv::Mat> frames = vis::renderPendulum(scene());
+  double stamp = 300.0;
+  auto send = [&](const std::string& frame, int n) {
+    for (int k = 0; k < n; ++k) {
+      cv_bridge::CvImage img(std_msgs::Header(), "bgr8", frames[std::size_t(k) % frames.size()]);
+      img.header.stamp = ros::Time(stamp += 1.0 / 30);
+      img.header.frame_id = frame;
+      pub.publish(img.toImageMsg());
+      ros::Duration(0.02).sleep();
+    }
+  };
+  auto logged = [&](const std::vector<std::string>& parts) {
+    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10.0);
+    while (ros::WallTime::now() < deadline) {
+      {
+        std::lock_guard<std::mutex> l(mu);
+        for (const std::string& m : log) {
+          bool all = true;
+          for (const std::string& p : parts) all = all && m.find(p) != std::string::npos;
+          if (all) return m;
+        }
+      }
+      ros::WallDuration(0.1).sleep();
+    }
+    return std::string();
+  };
+  send("cam_a", 10);  // no camera_info yet
+  EXPECT_FALSE(logged({"/persp/camera_info", "has sent no usable camera_info", "remap camera_info"}).empty());
+  sensor_msgs::CameraInfo info;
+  info.width = 640;
+  info.height = 480;
+  info_pub.publish(info);  // K all zero
+  ros::Duration(0.3).sleep();
+  send("cam_a", 5);
+  EXPECT_FALSE(logged({"/persp/camera_info", "has no usable intrinsics", "calibrate"}).empty());
+  info.K = {500, 0, 320, 0, 500, 240, 0, 0, 1};
+  info_pub.publish(info);
+  ros::Duration(0.3).sleep();
+  send("cam_a", 10);  // no tf world <- cam_a at all
+  EXPECT_FALSE(logged({"tf world <- 'cam_a'", "failed or is stale", "~camera_pose"}).empty());
+  // a moving camera whose tf stopped 5 s before the images: stale
+  geometry_msgs::TransformStamped T;
+  T.header.frame_id = "world";
+  T.child_frame_id = "cam_b";
+  T.transform.rotation.w = 1.0;
+  for (int k = 0; k < 5; ++k) {
+    T.header.stamp = ros::Time(stamp - 5.0 + 0.1 * k);
+    tf.sendTransform(T);
+  }
+  ros::Duration(0.3).sleep();
+  send("cam_b", 10);
+  const std::string stale = logged({"tf world <- 'cam_b'", "failed or is stale", "extrapolation"});
+  EXPECT_FALSE(stale.empty());
+  // a static camera pose: from then on the pose comes from tf, and the node said so
+  tf2_ros::StaticTransformBroadcaster static_tf;
+  T.child_frame_id = "cam_c";
+  T.transform.translation.x = -1.0;
+  T.transform.rotation.x = -0.5, T.transform.rotation.y = 0.5, T.transform.rotation.z = -0.5;
+  T.transform.rotation.w = 0.5;
+  static_tf.sendTransform(T);
+  ros::Duration(0.5).sleep();
+  send("cam_c", 10);
+  EXPECT_FALSE(logged({"the camera pose comes from tf world <- cam_c"}).empty());
+  // still serving: features of the frames tracked meanwhile
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10.0);
+  int got = 0;
+  while (ros::WallTime::now() < deadline && got == 0) {
+    {
+      std::lock_guard<std::mutex> l(mu);
+      got = features;
+    }
+    ros::WallDuration(0.1).sleep();
+  }
+  EXPECT_GT(got, 0) << "no motion_features from /persp after the bad camera input";
 }
 
 // ParamReader through a real parameter server: absent → defaults, a good value, a wrong type and

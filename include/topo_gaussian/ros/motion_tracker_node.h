@@ -1,7 +1,10 @@
 // MotionTrackerNode: the ROS face of the vision stage (video or camera → MotionFeatures).
 //   in : topic `image` (sensor_msgs/Image: mono8, bgr8, rgb8, bgra8, rgba8, bayer_* are converted;
 //        other encodings are refused with a throttled error and the node keeps running),
-//        topic `camera_info` (kept for the trajectory rays), parameter ~video_file (tracked once at
+//        through image_transport (~image_transport: raw, or a plugin that is installed),
+//        topic `camera_info` (intrinsics + distortion: the tilt in ~plane, the trajectory rays),
+//        tf ~world_frame <- the image's frame_id at each image's stamp (the camera pose; ~camera_pose
+//        only when that lookup fails, said in the log), parameter ~video_file (tracked once at
 //        start), service ~extract_motion (ExtractMotion.srv: a file + options → features)
 //        topic `tilt_reference` (std_msgs/String "[EXPERIMENT=]DEG", as a ~tilt_reference_deg entry: sets
 //        it for that experiment from then on, e.g. what infer_client sends before a rig performs a hang)
@@ -12,7 +15,10 @@
 // The node owns handles and parameters; vision::MotionTracker / vision::trackVideo do the work.
 #pragma once
 
+#include <image_transport/image_transport.h>
 #include <ros/ros.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <std_msgs/String.h>
@@ -42,10 +48,17 @@ struct MotionTrackerParams {
   /// ~stale_after_s: no image for this long → the camera is reported stale (log + a features
   /// message saying so); 0 = never
   double stale_after_s = 5.0;
-  bool plane_given = false;                   ///< ~plane [nx, ny, nz, d]: trajectories placed on n·x = d (world) using
-  cv::Vec4d plane;                            ///  the latest camera_info and ~camera_pose
-  cv::Matx33d camera_R = cv::Matx33d::eye();  ///< ~camera_pose [x, y, z, qx, qy, qz, qw]: optical frame in the world
+  /// ~plane [nx, ny, nz, d] in ~world_frame: the plane the object's axis moves in (kind tilt: the
+  /// tilt is measured in it through the camera, vision::tiltInPlaneDeg) and trajectories are placed on
+  bool plane_given = false;
+  cv::Vec4d plane;
+  /// ~camera_pose [x, y, z, qx, qy, qz, qw]: optical frame in ~world_frame; the fallback when tf has none
+  bool camera_pose_given = false;
+  cv::Matx33d camera_R = cv::Matx33d::eye();
   cv::Vec3d camera_t = cv::Vec3d(0, 0, 0);
+  std::string world_frame = "world";  ///< ~world_frame: the frame of ~plane, its +z up (against gravity)
+  double tf_timeout_s = 0.1;          ///< ~tf_timeout_s: how long a camera pose lookup waits for tf [s]
+  std::string image_transport = "raw";  ///< ~image_transport: raw, or an installed plugin (compressed, theora)
   /// ~tilt_reference_deg: a list of "[NAME=]DEG" (or one string of them separated by ';'): the tilt
   /// each experiment's object starts near (TrackOptions::tilt_reference_deg); an entry without NAME
   /// is every other experiment's (in options).
@@ -110,7 +123,24 @@ class MotionTrackerNode {
   ::ros::NodeHandle nh_, pnh_;
   MotionTrackerParams params_;
   ::ros::Publisher features_pub_, debug_pub_;
-  ::ros::Subscriber image_sub_, info_sub_;
+  image_transport::ImageTransport it_;
+  image_transport::Subscriber image_sub_;
+  ::ros::Subscriber info_sub_;
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  /// The camera's view of ~plane for the image `msg`: tf (or ~camera_pose) and camera_info; null with a
+  /// throttled message naming what is missing when either is (the tilt then stays in image angles).
+  std::unique_ptr<vision::PlaneView> viewFor(const sensor_msgs::Image& msg);
+  /// Logs `text` at `level` when `what` differs from the last problem logged under `key`, else at most
+  /// every 10 s (a tf failure for another frame is not hidden by the throttle of the first).
+  void reportProblem(const std::string& key, const std::string& what, ::ros::console::levels::Level level,
+                     const std::string& text);
+  std::map<std::string, std::pair<::ros::WallTime, std::string>> reported_;
+  std::string pose_source_;     ///< where the last camera pose came from (logged when it changes)
+  bool tf_failing_ = false;     ///< the last lookup failed: the next ones wait only once a second
+  ::ros::WallTime tf_waited_;   ///< when a lookup last waited
+  cv::Matx33d last_R_ = cv::Matx33d::eye();  ///< the last camera pose found (trajectory rays)
+  cv::Vec3d last_t_ = cv::Vec3d(0, 0, 0);
   ::ros::ServiceServer service_;
   ::ros::Timer timer_;
   std::unique_ptr<vision::MotionTracker> live_;
