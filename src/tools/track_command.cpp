@@ -333,6 +333,11 @@ int trackCommand(const std::vector<std::string>& argv) {
       if (!v.found)
         r.message += "; the tag topic " + topic + " has no sample up to the window's end (" + fixedText(r.t_end_s, 3) +
                      " s): side_data." + name + " is null";
+      else if (v.changes)
+        r.message += "; the tag topic " + topic + " changes within the window (" + numberText(v.before, 6) + " to " +
+                     numberText(v.after, 6) + " at " + fixedText(v.change_t_s, 3) + " s): side_data." + name +
+                     " is the median of its " + std::to_string(v.samples) +
+                     " samples; cut the window there with --start/--end to give each value its own";
       else if (v.samples == 0)
         r.message += "; the tag topic " + topic + " has no sample in the window: side_data." + name +
                      " is its last value before it";

@@ -80,7 +80,14 @@ TagValue tagInWindow(const std::vector<TagSample>& samples, double t0, double t1
   const TagSample* before = nullptr;
   for (const TagSample& s : samples) {
     if (s.t_s < t0) before = &s;
-    if (s.t_s >= t0 && s.t_s <= t1) inside.push_back(s.value);
+    if (s.t_s < t0 || s.t_s > t1) continue;
+    if (!inside.empty() && s.value != inside.back() && !v.changes) {
+      v.changes = true;
+      v.change_t_s = s.t_s;
+      v.before = inside.back();
+      v.after = s.value;
+    }
+    inside.push_back(s.value);
   }
   if (!inside.empty()) {
     v.found = true;

@@ -170,11 +170,16 @@ TEST(BagTrack, TheTagTopicsValueInForceReachesTheFeatures) {
   ASSERT_EQ(f.side_data.count("pressure_pa"), 1u);
   EXPECT_EQ(f.side_data.at("pressure_pa"), 3e5);
   EXPECT_NEAR(f.period_s, period(sequenceResult()), 1e-6 * period(sequenceResult()));
+  EXPECT_NE(f.message.find("the tag topic /pressure_pa changes within the window (100000 to 300000 at 1.050 s)"),
+            std::string::npos)
+      << f.message;
   // a window in the first second sees the first pressure only
   const nlohmann::json early = trackJson("--bag " + bag + " --topic " + topicOf(spec) +
                                          " --tag-topic pressure_pa --end 0.9 --kind pendulum");
   ASSERT_TRUE(early.contains("side_data")) << early.dump();
   EXPECT_EQ(early["side_data"]["pressure_pa"].get<double>(), 1e5);
+  EXPECT_EQ(early["message"].get<std::string>().find("changes within the window"), std::string::npos)
+      << early["message"];
   // a tag topic that is not in the bag: the bag's number topics are listed
   const topo_test::ToolRun missing =
       topo_test::runTopo("track --bag " + bag + " --topic " + topicOf(spec) + " --tag-topic /pressure");

@@ -73,6 +73,10 @@ struct TagValue {
   bool found = false;
   double value = 0.0;
   int samples = 0;  ///< samples inside the window
+  /// the samples inside the window do not all hold one value (a pressure step inside it): the first
+  /// change, at change_t_s from `before` to `after`
+  bool changes = false;
+  double change_t_s = 0.0, before = 0.0, after = 0.0;
 };
 TagValue tagInWindow(const std::vector<TagSample>& samples, double t0, double t1);
 
