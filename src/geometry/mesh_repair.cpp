@@ -176,17 +176,22 @@ SurfaceData repairMesh(const SurfaceData& mesh, MeshRepairReport* report, const 
   // turned (a tie: the piece encloses positive volume). A face with half its neighbours turned made
   // the piece's volume vanish (a box with every second triangle flipped), so this comes first.
   {
-    auto otherFace = [&](int f, std::uint64_t k) {
-      auto range = std::equal_range(edge_faces.begin(), edge_faces.end(), std::make_pair(k, -1),
-                                    [](const auto& x, const auto& y) { return x.first < y.first; });
-      int other = -1, count = 0;
-      for (auto it = range.first; it != range.second; ++it)
-        if (alive[it->second]) {
-          ++count;
-          if (it->second != f) other = it->second;
+    // The face across each edge (3 per face) where exactly two faces are left on it, else -1: one pass
+    // over the runs of the sorted edge list.
+    std::vector<int> across(3 * faces.size(), -1);
+    for (std::size_t i = 0; i < edge_faces.size();) {
+      std::size_t j = i;
+      int pair[2] = {-1, -1}, count = 0;
+      for (; j < edge_faces.size() && edge_faces[j].first == edge_faces[i].first; ++j)
+        if (alive[edge_faces[j].second] && count++ < 2) pair[count - 1] = edge_faces[j].second;
+      if (count == 2)
+        for (int side = 0; side < 2; ++side) {
+          const auto& t = faces[pair[side]];
+          for (int a = 0; a < 3; ++a)
+            if (edgeKey(t[a], t[(a + 1) % 3]) == edge_faces[i].first) across[3 * pair[side] + a] = pair[1 - side];
         }
-      return count == 2 ? other : -1;
-    };
+      i = j;
+    }
     auto runs = [&](int f, int u, int v) {  // face f (as stored) runs the edge u → v
       for (int a = 0; a < 3; ++a)
         if (faces[f][a] == u && faces[f][(a + 1) % 3] == v) return true;
@@ -205,7 +210,7 @@ SurfaceData repairMesh(const SurfaceData& mesh, MeshRepairReport* report, const 
         piece.push_back(f);
         for (int a = 0; a < 3; ++a) {
           const int u = faces[f][a], v = faces[f][(a + 1) % 3];
-          const int g = otherFace(f, edgeKey(u, v));
+          const int g = across[3 * f + a];
           if (g < 0 || turn[g] >= 0) continue;
           // f as it will be runs u → v unless turned; g must then run it v → u.
           turn[g] = static_cast<signed char>(runs(g, u, v) != bool(turn[f]));
