@@ -392,6 +392,14 @@ void MotionTrackerNode::onImage(const sensor_msgs::ImageConstPtr& msg) {
     ROS_INFO("motion_tracker: %s publishes again", image_sub_.getTopic().c_str());
     stale_reported_ = false;
   }
+  // the camera model (tf + camera_info) of this frame; the first one after frames without restarts the
+  // window, so a window is measured in the plane from the moment it can be (a driver's first
+  // camera_info comes just after its first image)
+  const std::unique_ptr<vision::PlaneView> view = viewFor(*msg);
+  if (view && live_missing_view_) {
+    live_.reset();
+    window_.reset();
+  }
   const StampWindow::Decision d = window_.next(t);
   if (d.action == StampWindow::Action::Skip) {
     ROS_WARN_THROTTLE(5.0, "motion_tracker: %s: %s", image_sub_.getTopic().c_str(), d.warning.c_str());
@@ -400,10 +408,12 @@ void MotionTrackerNode::onImage(const sensor_msgs::ImageConstPtr& msg) {
   if (!d.warning.empty())  // a jump: its own throttle, so skipped frames do not hide it
     ROS_WARN_THROTTLE(5.0, "motion_tracker: %s: %s", image_sub_.getTopic().c_str(), d.warning.c_str());
   try {
-    if (!live_ || d.action != StampWindow::Action::Add)
+    if (!live_ || d.action != StampWindow::Action::Add) {
       live_ = std::make_unique<vision::MotionTracker>(params_.optionsFor(live_experiment_));
-    const std::unique_ptr<vision::PlaneView> view = viewFor(*msg);
+      live_missing_view_ = false;
+    }
     live_->addFrame(bgr, d.t_s, view.get());
+    live_missing_view_ = live_missing_view_ || (params_.plane_given && !view);
     live_frame_id_ = msg->header.frame_id;
     live_dirty_ = true;
     if (debug_pub_.getNumSubscribers() > 0) {

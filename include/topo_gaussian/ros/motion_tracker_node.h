@@ -137,6 +137,7 @@ class MotionTrackerNode {
                      const std::string& text);
   std::map<std::string, std::pair<::ros::WallTime, std::string>> reported_;
   std::string pose_source_;     ///< where the last camera pose came from (logged when it changes)
+  bool live_missing_view_ = false;  ///< ~plane is set and a frame of the live window had no camera model
   bool tf_failing_ = false;     ///< the last lookup failed: the next ones wait only once a second
   ::ros::WallTime tf_waited_;   ///< when a lookup last waited
   cv::Matx33d last_R_ = cv::Matx33d::eye();  ///< the last camera pose found (trajectory rays)
