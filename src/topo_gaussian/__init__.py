@@ -9,7 +9,7 @@ The generated messages live beside this module (topo_gaussian.msg, topo_gaussian
 imported on first use, so `import topo_gaussian.msg` does not load actionlib.
 """
 
-_CLIENT_NAMES = ("infer", "track", "perform", "InteriorResult", "PerformResult", "TopoClientError", "cloud_arrays")
+_CLIENT_NAMES = ("infer", "track", "perform", "action_client", "InteriorResult", "PerformResult", "TopoClientError", "cloud_arrays")
 
 
 def __getattr__(name):

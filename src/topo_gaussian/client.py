@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-__all__ = ["infer", "track", "perform", "InteriorResult", "PerformResult", "TopoClientError", "cloud_arrays"]
+__all__ = ["infer", "track", "perform", "action_client", "InteriorResult", "PerformResult", "TopoClientError", "cloud_arrays"]
 
 MOMENT_NAMES = ("m", "cx", "cy", "cz", "Ixx", "Iyy", "Izz", "Ixy", "Ixz", "Iyz")
 
@@ -156,6 +156,22 @@ def _as_list(value, what):
                               "{'duration_s': 1.5}" % (what, value))
 
 
+_action_clients = {}
+
+
+def action_client(action="infer_interior"):
+    """The process's SimpleActionClient of `action` (made on first use, then reused: a node that makes
+    it at start shows the action client in its interface before its first goal)."""
+    import actionlib
+    import rospy
+    from topo_gaussian.msg import InferInteriorAction
+
+    name = rospy.resolve_name(action)
+    if name not in _action_clients:
+        _action_clients[name] = actionlib.SimpleActionClient(name, InferInteriorAction)
+    return _action_clients[name]
+
+
 def infer(task="", targets=None, overrides=None, object_id="", experiments=None, representation="",
           max_iterations=0, output_dir="", features=None, ignore_motion_features=False, volume=None,
           timeout=900.0, action="infer_interior", feedback_cb=None, server_wait=10.0):
@@ -167,10 +183,9 @@ def infer(task="", targets=None, overrides=None, object_id="", experiments=None,
     timeout (s): the goal is cancelled and TopoClientError raised after it (the node keeps serving).
     A goal the node aborts (bad task, no volume ...) raises TopoClientError with the node's message.
     """
-    import actionlib
     import rospy
     from actionlib_msgs.msg import GoalStatus
-    from topo_gaussian.msg import InferInteriorAction, InferInteriorGoal
+    from topo_gaussian.msg import InferInteriorGoal
 
     goal = InferInteriorGoal()
     goal.task = task or ""
@@ -189,7 +204,7 @@ def infer(task="", targets=None, overrides=None, object_id="", experiments=None,
     if not goal.task and not goal.experiments:
         raise TopoClientError("infer: no task and no experiments: give task='tumbler' (a config/tasks name or a "
                               "YAML path) or experiments=['rock=tumbler']")
-    client = actionlib.SimpleActionClient(action, InferInteriorAction)
+    client = action_client(action)
     name = rospy.resolve_name(action)
     if not client.wait_for_server(rospy.Duration(server_wait)):
         raise TopoClientError("infer: no action server on %s within %.0f s: start interior_inference (roslaunch "

@@ -12,7 +12,8 @@ without ROS. parse_plan(text or dict) -> Plan, or PlanError naming the step, wha
         task: hanging
         overrides: [hanging_point=0,0.04,0.02]
         instruments: [target_pitch_deg]
-      - pause: "hang the doll at B" # a person acts; waits for ~continue or timeout_s, then observes
+      - pause: "hang the doll at B" # a person acts; waits for ~continue or timeout_s, then the
+        camera: true             #   camera's window (camera: false: it only waits)
         experiment: hangB
         task: hanging
       - pressure: [0, 20000, 40000] # the finger: each set point on pressure_command, hold_s each
@@ -30,11 +31,11 @@ KINDS = ("observe", "perform", "pause", "pressure", "infer")
 INFER_MODES = ("each", "end", "never")
 ON_ERROR = ("stop", "continue")
 # keys each kind takes besides its own
-COMMON_KEYS = {"on_error", "timeout_s", "task", "experiment", "overrides", "targets", "max_iterations"}
+COMMON_KEYS = {"on_error", "timeout_s", "task", "experiment", "overrides", "targets", "max_iterations", "min_window_s"}
 KIND_KEYS = {
     "observe": set(),
     "perform": {"instruments", "tilt_reference_deg"},
-    "pause": {"observe"},
+    "pause": {"camera"},
     "pressure": {"hold_s"},
     "infer": {"experiments", "ignore_motion_features"},
 }
@@ -65,6 +66,7 @@ class Step:
         self.hold_s = options.get("hold_s", 0.0)
         self.observe = options.get("observe", True)
         self.max_iterations = options.get("max_iterations")
+        self.min_window_s = options.get("min_window_s", 3.0)
 
     @property
     def adds_experiment(self):
@@ -205,6 +207,7 @@ def _parse_step(i, raw, plan_task, plan_on_error, plan_timeout_s, plan_max_itera
         "overrides": _assignments(raw.get("overrides"), where, "overrides"),
         "targets": _assignments(raw.get("targets"), where, "targets"),
         "max_iterations": int(_number(raw.get("max_iterations", plan_max_iterations), where, "max_iterations", 0)),
+        "min_window_s": _number(raw.get("min_window_s", 3.0), where, "min_window_s", 0),
     }
     experiment = raw.get("experiment")
     if kind == "observe":
@@ -225,9 +228,10 @@ def _parse_step(i, raw, plan_task, plan_on_error, plan_timeout_s, plan_max_itera
         if not isinstance(value, str) or not value.strip():
             raise PlanError("%s (pause): no instruction: write '- pause: \"hang the doll at B\"' (what the person "
                             "does before calling ~continue)" % where)
-        obs = raw.get("observe", True)
+        obs = raw.get("camera", True)
         if not isinstance(obs, bool):
-            raise PlanError("%s (pause): 'observe' is %r: write true (record the camera after it) or false" % (where, obs))
+            raise PlanError("%s (pause): 'camera' is %r: write true (the camera's window after it) or false (it only "
+                            "waits)" % (where, obs))
         opts["observe"] = obs
     elif kind == "pressure":
         if not isinstance(value, list) or not value:

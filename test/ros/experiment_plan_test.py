@@ -61,6 +61,11 @@ class PlanParsing(unittest.TestCase):
         self.assertEqual((ladder.hold_s, ladder.task), (4.0, "finger"))
         self.assertEqual((inf.kind, inf.max_iterations, inf.adds_experiment), ("infer", 3, False))
 
+    def test_a_pause_without_the_camera_needs_no_task(self):
+        pause = parse_plan("steps: [{pause: 'open the valve', camera: false}]").steps[0]
+        self.assertEqual((pause.kind, pause.value, pause.adds_experiment), ("pause", "open the valve", False))
+        self.refused("steps: [{pause: x, camera: 'no'}]", "step 1 (pause)", "'camera' is 'no'")
+
     def test_a_bare_list_is_the_steps_and_the_object_id_defaults(self):
         plan = parse_plan("- {observe: rock, task: tumbler}", default_object_id="my_plan")
         self.assertEqual((plan.object_id, plan.steps[0].experiment), ("my_plan", "rock"))

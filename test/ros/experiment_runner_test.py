@@ -1,0 +1,75 @@
+#!/usr/bin/env python3
+"""experiment_runner on the tumbler twin (experiment_runner.test): the record it publishes on
+/experiment_runner/result once the plan is done, and the same record in its ~result_file.
+
+- step 1 (observe) recorded a measured window of the twin's rocking, and its inference ran;
+- step 2 (a hang 0.87 m off the object) was refused by the rig, the refusal named in the record with
+  the step, and the run went on (on_error: continue);
+- step 3 (a hang on the flat top) was performed, its pitch read, and the inference after it fitted the
+  object's two experiments (object_id) and states what they determine and the next experiment.
+"""
+import json
+import sys
+import time
+import unittest
+
+import rospy
+import rostest
+from std_msgs.msg import String
+
+
+class ExperimentRunnerOnTheTwin(unittest.TestCase):
+    def test_plan_runs_and_is_recorded(self):
+        wait_s = float(rospy.get_param("~wait_s", 560.0))
+        result_file = rospy.get_param("~result_file")
+        latest = {}
+
+        def on_result(msg):
+            latest["record"] = json.loads(msg.data)
+
+        rospy.Subscriber("/experiment_runner/result", String, on_result)
+        end = time.monotonic() + wait_s
+        while time.monotonic() < end and not latest.get("record", {}).get("finished"):
+            time.sleep(0.5)
+        record = latest.get("record")
+        self.assertIsNotNone(record, "nothing on /experiment_runner/result within %.0f s" % wait_s)
+        self.assertTrue(record["finished"], "the plan did not finish within %.0f s: %s" % (wait_s, record))
+        with open(result_file) as f:
+            self.assertEqual(json.load(f), record, "~result_file differs from ~result")
+
+        self.assertEqual(record["object_id"], "rostest_doll")
+        self.assertTrue(record["status"].startswith("completed"), record["status"])
+        steps = {s["step"]: s for s in record["steps"]}
+        self.assertEqual(sorted(steps), [1, 2, 3], record["steps"])
+
+        observe, far, hang = steps[1], steps[2], steps[3]
+        self.assertEqual(observe["status"], "done", observe)
+        self.assertTrue(any(w["measured"] for w in observe["windows"]), observe["windows"])
+        self.assertEqual(far["status"], "failed", far)
+        self.assertIn("step 2 (perform far)", far["message"])
+        self.assertIn("the rig cannot perform it", far["message"])
+        self.assertIn("hanging_point", far["message"])
+        self.assertEqual(hang["status"], "done", hang)
+        self.assertIn("target_pitch_deg=", hang["message"])
+        self.assertEqual(record["status"], "completed (failed steps: 2)")
+
+        inferences = record["inferences"]
+        self.assertEqual([i["after"] for i in inferences], [[1], [3]], inferences)
+        for i in inferences:
+            self.assertEqual(i["status"], "done", i)
+            r = i["result"]
+            self.assertGreater(r["mass_kg"], 0.0)
+            self.assertEqual(len(r["center_of_mass_m"]), 3)
+            self.assertEqual(len(r["inertia_kg_m2"]), 3)
+            self.assertGreater(r["points"], 100)
+        last = inferences[-1]["result"]
+        self.assertEqual(len(last["experiment_names"]), 2, last["experiment_names"])
+        self.assertIn("hang1", last["experiment_names"])
+        self.assertTrue(last["identifiability"], "the two-experiment result states no identifiability")
+        self.assertTrue(last["loop_decision"] or last["loop_continues"], last)
+        self.assertIn("hang1.target_pitch_deg=", " ".join(inferences[-1]["goal"]["targets"]))
+
+
+if __name__ == "__main__":
+    rospy.init_node("experiment_runner_test")
+    rostest.rosrun("topo_gaussian", "experiment_runner", ExperimentRunnerOnTheTwin, sys.argv)
