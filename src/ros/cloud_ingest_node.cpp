@@ -15,6 +15,7 @@
 #include "topo_gaussian/ros/ascii_text.h"
 #include "topo_gaussian/ros/conversions.h"
 #include "topo_gaussian/ros/param_reader.h"
+#include "topo_gaussian/ros/rig_simulator_node.h"  // toSurfaceCloud
 #include "topo_gaussian/ros/service_guard.h"
 
 namespace topo_gaussian::topo_ros {
@@ -73,6 +74,14 @@ CloudIngestParams loadCloudIngestParams(const ::ros::NodeHandle& pnh) {
     bad("max_open_fraction", "is " + numberText(fill.max_open_fraction, 6) + ", outside [0, 1]",
         "use the default 0.02");
   geometry::validateFillOptions(fill, pnh.getNamespace() + " parameters");  // the library's own checks too
+  // Depth views (`depth_points`, ~finish_views).
+  p.target_frame = reader.text("target_frame", p.target_frame);
+  if (p.target_frame.empty())
+    bad("target_frame", "is empty", "name the fixed frame the views are fused in, e.g. world or base_link");
+  p.fusion.voxel_m = reader.number("voxel_m", p.fusion.voxel_m, "m", Range::atLeast(0.0));
+  p.min_coverage = reader.number("min_coverage", p.min_coverage, "", Range::between(0.0, 1.0));
+  p.tf_timeout_s = reader.number("tf_timeout_s", p.tf_timeout_s, "s", Range::between(0.0, 10.0));
+  p.max_views = reader.integer("max_views", p.max_views, "", Range::between(1.0, 10000.0));
   return p;
 }
 
@@ -143,15 +152,23 @@ std::string describe(const geometry::IngestResult& r) {
 }
 
 CloudIngestNode::CloudIngestNode(const ::ros::NodeHandle& nh, const ::ros::NodeHandle& pnh)
-    : nh_(nh), pnh_(pnh), fill_nh_(nh), params_(loadCloudIngestParams(pnh)) {
+    : nh_(nh), pnh_(pnh), fill_nh_(nh), params_(loadCloudIngestParams(pnh)), tf_listener_(tf_buffer_) {
   fill_nh_.setCallbackQueue(&fill_queue_);
   volume_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("volume", 1, /*latch=*/true);
   contact_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("contact_samples", 1, /*latch=*/true);
   surface_sub_ = fill_nh_.subscribe("surface_cloud", 1, &CloudIngestNode::onSurfaceCloud, this);
   fill_srv_ = pnh_.advertiseService("fill_interior", &CloudIngestNode::onFillInterior, this);
+  status_pub_ = pnh_.advertise<std_msgs::String>("views_status", 1, /*latch=*/true);
+  fused_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("fused_surface", 1, /*latch=*/true);
+  depth_sub_ = fill_nh_.subscribe("depth_points", 4, &CloudIngestNode::onDepthPoints, this);
+  finish_srv_ = pnh_.advertiseService("finish_views", &CloudIngestNode::onFinishViews, this);
+  clear_srv_ = pnh_.advertiseService("clear_views", &CloudIngestNode::onClearViews, this);
   ROS_INFO("cloud_ingest: publishing %s and %s (latched, frame %s), listening on %s, service %s",
            volume_pub_.getTopic().c_str(), contact_pub_.getTopic().c_str(), params_.frame_id.c_str(),
            surface_sub_.getTopic().c_str(), fill_srv_.getService().c_str());
+  ROS_INFO("cloud_ingest: depth views on %s are fused in frame %s; %s fills them, %s forgets them",
+           depth_sub_.getTopic().c_str(), params_.target_frame.c_str(), finish_srv_.getService().c_str(),
+           clear_srv_.getService().c_str());
   fill_spinner_ = std::make_unique<::ros::AsyncSpinner>(1, &fill_queue_);
   fill_spinner_->start();
   if (params_.surface_file.empty()) {
@@ -166,6 +183,7 @@ CloudIngestNode::CloudIngestNode(const ::ros::NodeHandle& nh, const ::ros::NodeH
 CloudIngestNode::~CloudIngestNode() {
   startup_timer_.stop();
   surface_sub_.shutdown();
+  depth_sub_.shutdown();
   fill_queue_.disable();
   fill_spinner_->stop();  // waits for a fill in progress
   fill_queue_.clear();
@@ -245,7 +263,144 @@ bool CloudIngestNode::onFillInterior(topo_gaussian::FillInterior::Request& req,
   });  // errors travel in the response, never as a failed call
 }
 
-void CloudIngestNode::publish(const VolumeCloud& cloud, const std::string& frame, const ::ros::Time& stamp) {
+namespace {
+
+Eigen::Isometry3d toIsometry(const geometry_msgs::Transform& t) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::Quaterniond(t.rotation.w, t.rotation.x, t.rotation.y, t.rotation.z).normalized().toRotationMatrix();
+  T.translation() = Eigen::Vector3d(t.translation.x, t.translation.y, t.translation.z);
+  return T;
+}
+
+std::vector<geometry::DepthView> copies(const std::vector<std::shared_ptr<const geometry::DepthView>>& views) {
+  std::vector<geometry::DepthView> out;
+  out.reserve(views.size());
+  for (const auto& v : views) out.push_back(*v);
+  return out;
+}
+
+}  // namespace
+
+std::size_t CloudIngestNode::viewCount() const {
+  std::lock_guard<std::mutex> lock(views_mutex_);
+  return views_.size();
+}
+
+std::vector<std::shared_ptr<const geometry::DepthView>> CloudIngestNode::views(::ros::Time* newest) const {
+  std::lock_guard<std::mutex> lock(views_mutex_);
+  if (newest) *newest = newest_view_;
+  return views_;
+}
+
+void CloudIngestNode::onDepthPoints(const sensor_msgs::PointCloud2ConstPtr& msg) {
+  const std::string topic = depth_sub_.getTopic();
+  const std::string frame = msg->header.frame_id;
+  try {
+    if (frame.empty()) {
+      ROS_WARN("cloud_ingest: cloud on %s skipped: it has no header.frame_id, so its sensor pose is unknown. Fix: set "
+               "the depth camera's frame (e.g. camera_depth_optical_frame) and publish its tf to %s",
+               topic.c_str(), params_.target_frame.c_str());
+      return;
+    }
+    if (viewCount() >= std::size_t(params_.max_views)) {
+      ROS_WARN_THROTTLE(5.0,
+                        "cloud_ingest: cloud on %s skipped: %zu views kept, ~max_views is %ld. Fix: call %s (fill) or "
+                        "%s (start again), or raise ~max_views; publish one cloud per viewpoint",
+                        topic.c_str(), viewCount(), params_.max_views, finish_srv_.getService().c_str(),
+                        clear_srv_.getService().c_str());
+      return;
+    }
+    geometry_msgs::TransformStamped tf;
+    try {
+      tf = tf_buffer_.lookupTransform(params_.target_frame, frame, msg->header.stamp,
+                                      ::ros::Duration(params_.tf_timeout_s));
+    } catch (const tf2::TransformException& e) {
+      ROS_WARN("cloud_ingest: cloud on %s skipped (the views kept are unchanged): no transform %s <- %s at stamp "
+               "%.3f within %.2f s: %s. Fix: publish the tf from %s to the camera frame %s (robot_state_publisher, "
+               "a static_transform_publisher, or the arm's driver) at the clouds' stamps",
+               topic.c_str(), params_.target_frame.c_str(), frame.c_str(), msg->header.stamp.toSec(),
+               params_.tf_timeout_s, asciiText(e.what()).c_str(), params_.target_frame.c_str(), frame.c_str());
+      return;
+    }
+    auto view = std::make_shared<geometry::DepthView>();
+    view->world_from_sensor = toIsometry(tf.transform);
+    for (const auto& p : toSurfaceData(*msg, topic).points)
+      if (p.allFinite()) view->points.push_back(p);
+    if (view->points.empty()) {
+      ROS_WARN("cloud_ingest: cloud on %s (frame %s) skipped: no finite point (the camera saw nothing in range)",
+               topic.c_str(), frame.c_str());
+      return;
+    }
+    std::size_t count = 0;
+    {
+      std::lock_guard<std::mutex> lock(views_mutex_);
+      view->name = "view " + std::to_string(views_.size() + 1) + " (frame " + frame + ")";
+      views_.push_back(view);
+      newest_view_ = std::max(newest_view_, msg->header.stamp);
+      count = views_.size();
+    }
+    ::ros::Time stamp;
+    const geometry::FusedViews fused = geometry::fuseViews(copies(views(&stamp)), params_.fusion, topic);
+    const std::string text = view->name + " added (" + std::to_string(view->points.size()) + " points), " +
+                             std::to_string(count) + " views fused into " + std::to_string(fused.voxels) +
+                             " points (voxel " + numberText(fused.voxel_m, 3) + " m): " +
+                             fused.coverage.summary(params_.target_frame) +
+                             (fused.coverage.fraction >= params_.min_coverage
+                                  ? ". Enough to fill: call " + finish_srv_.getService()
+                                  : ". ~min_coverage is " + numberText(100.0 * params_.min_coverage, 3) +
+                                        " %: add views where the holes are");
+    std_msgs::String status;
+    status.data = asciiText(text);
+    status_pub_.publish(status);
+    fused_pub_.publish(toSurfaceCloud(fused.surface.points, fused.surface.normals, params_.target_frame, stamp));
+    ROS_INFO("cloud_ingest: %s", status.data.c_str());
+  } catch (const std::exception& e) {  // TopoError: a cloud without z, absurd coordinates, ...
+    ROS_WARN("cloud_ingest: cloud on %s (frame %s) not used: %s", topic.c_str(), frame.c_str(),
+             asciiText(e.what()).c_str());
+  }
+}
+
+bool CloudIngestNode::onFinishViews(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+  const std::string service = finish_srv_.getService();
+  res.success = false;
+  return guardService("cloud_ingest", service, res, [&] {
+    ::ros::Time stamp;
+    const auto kept = views(&stamp);
+    if (kept.empty())
+      throw TopoError(service, "no depth view has been added",
+                      "publish depth clouds on " + depth_sub_.getTopic() + " with their tf to " + params_.target_frame +
+                          " first");
+    const geometry::FusedViews fused = geometry::fuseViews(copies(kept), params_.fusion, depth_sub_.getTopic());
+    geometry::requireCoverage(fused.coverage, params_.min_coverage,
+                              service + " (" + std::to_string(kept.size()) + " views kept; ~min_coverage)",
+                              params_.target_frame);
+    const geometry::IngestResult r = geometry::ingestSurface(fused.surface, params_.options);
+    publish(r.cloud, params_.target_frame, stamp.isZero() ? ::ros::Time::now() : stamp);
+    res.message = describe(r) + "; " + fused.coverage.summary(params_.target_frame);
+    res.success = true;
+    ROS_INFO("cloud_ingest: %s: %s (published)", service.c_str(), asciiText(res.message).c_str());
+  });  // a refusal travels in the response; the views stay for more
+}
+
+bool CloudIngestNode::onClearViews(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+  std::size_t n = 0;
+  {
+    std::lock_guard<std::mutex> lock(views_mutex_);
+    n = views_.size();
+    views_.clear();
+    newest_view_ = ::ros::Time();
+  }
+  std_msgs::String status;
+  status.data = "no views (cleared " + std::to_string(n) + ")";
+  status_pub_.publish(status);
+  res.success = true;
+  res.message = "cleared " + std::to_string(n) + " view(s); the published volume stays";
+  ROS_INFO("cloud_ingest: %s: %s", clear_srv_.getService().c_str(), res.message.c_str());
+  return true;
+}
+
+void CloudIngestNode::publish(
+const VolumeCloud& cloud, const std::string& frame, const ::ros::Time& stamp) {
   // The contact samples first: a subscriber pairs them with the volume of the same stamp.
   contact_pub_.publish(toContactCloud(cloud.contact, frame, stamp));
   volume_pub_.publish(toPointCloud2(cloud, frame, stamp));
