@@ -76,7 +76,7 @@ class Step:
         return self.kind == "pause" and self.observe
 
     def label(self):
-        what = self.experiment or (self.value if isinstance(self.value, str) else "")
+        what = self.experiment or (self.value if self.kind in ("observe", "perform") and isinstance(self.value, str) else "")
         return "step %d (%s%s)" % (self.index, self.kind, (" " + what) if what else "")
 
     def __repr__(self):

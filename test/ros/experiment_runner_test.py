@@ -3,9 +3,10 @@
 /experiment_runner/result once the plan is done, and the same record in its ~result_file.
 
 - step 1 (observe) recorded a measured window of the twin's rocking, and its inference ran;
-- step 2 (a hang 0.87 m off the object) was refused by the rig, the refusal named in the record with
+- step 2 (a pause) waited for a person until this test called /experiment_runner/continue;
+- step 3 (a hang 0.82 m off the object) was refused by the rig, the refusal named in the record with
   the step, and the run went on (on_error: continue);
-- step 3 (a hang on the flat top) was performed, its pitch read, and the inference after it fitted the
+- step 4 (a hang on the flat top) was performed, its pitch read, and the inference after it fitted the
   object's two experiments (object_id) and states what they determine and the next experiment.
 """
 import json
@@ -16,6 +17,7 @@ import unittest
 import rospy
 import rostest
 from std_msgs.msg import String
+from std_srvs.srv import Trigger
 
 
 class ExperimentRunnerOnTheTwin(unittest.TestCase):
@@ -28,8 +30,18 @@ class ExperimentRunnerOnTheTwin(unittest.TestCase):
             latest["record"] = json.loads(msg.data)
 
         rospy.Subscriber("/experiment_runner/result", String, on_result)
+        rospy.wait_for_service("/experiment_runner/continue", 60.0)
+        proceed = rospy.ServiceProxy("/experiment_runner/continue", Trigger)
+        continued = []
         end = time.monotonic() + wait_s
         while time.monotonic() < end and not latest.get("record", {}).get("finished"):
+            if not continued:  # refused (success false) until the pause waits
+                try:
+                    answer = proceed()
+                    if answer.success:
+                        continued.append(answer.message)
+                except rospy.ServiceException:
+                    pass
             time.sleep(0.5)
         record = latest.get("record")
         self.assertIsNotNone(record, "nothing on /experiment_runner/result within %.0f s" % wait_s)
@@ -40,21 +52,24 @@ class ExperimentRunnerOnTheTwin(unittest.TestCase):
         self.assertEqual(record["object_id"], "rostest_doll")
         self.assertTrue(record["status"].startswith("completed"), record["status"])
         steps = {s["step"]: s for s in record["steps"]}
-        self.assertEqual(sorted(steps), [1, 2, 3], record["steps"])
+        self.assertEqual(sorted(steps), [1, 2, 3, 4], record["steps"])
 
-        observe, far, hang = steps[1], steps[2], steps[3]
+        observe, pause, far, hang = steps[1], steps[2], steps[3], steps[4]
+        self.assertEqual(len(continued), 1, "~continue never answered success")
+        self.assertIn("the test calls /experiment_runner/continue", continued[0])
+        self.assertEqual((pause["status"], pause["message"]), ("done", "~continue called"), pause)
         self.assertEqual(observe["status"], "done", observe)
         self.assertTrue(any(w["measured"] for w in observe["windows"]), observe["windows"])
         self.assertEqual(far["status"], "failed", far)
-        self.assertIn("step 2 (perform far)", far["message"])
+        self.assertIn("step 3 (perform far)", far["message"])
         self.assertIn("the rig cannot perform it", far["message"])
         self.assertIn("hanging_point", far["message"])
         self.assertEqual(hang["status"], "done", hang)
         self.assertIn("target_pitch_deg=", hang["message"])
-        self.assertEqual(record["status"], "completed (failed steps: 2)")
+        self.assertEqual(record["status"], "completed (failed steps: 3)")
 
         inferences = record["inferences"]
-        self.assertEqual([i["after"] for i in inferences], [[1], [3]], inferences)
+        self.assertEqual([i["after"] for i in inferences], [[1], [4]], inferences)
         for i in inferences:
             self.assertEqual(i["status"], "done", i)
             r = i["result"]
