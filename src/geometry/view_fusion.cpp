@@ -46,6 +46,14 @@ void checkPose(const DepthView& v, const std::string& source) {
 }  // namespace
 
 FusedViews fuseViews(const std::vector<DepthView>& views, const ViewFusionOptions& options, const std::string& source) {
+  std::vector<const DepthView*> pointers;
+  pointers.reserve(views.size());
+  for (const DepthView& v : views) pointers.push_back(&v);
+  return fuseViews(pointers, options, source);
+}
+
+FusedViews fuseViews(const std::vector<const DepthView*>& views, const ViewFusionOptions& options,
+                     const std::string& source) {
   FusedViews f;
   f.views = views.size();
   if (views.empty()) throw TopoError(source, "there are no views", "add depth clouds of the object first");
@@ -54,7 +62,8 @@ FusedViews fuseViews(const std::vector<DepthView>& views, const ViewFusionOption
                     "give a positive voxel edge in metres, or 0 for 1 % of the object's size");
   // Every finite point in the world frame, with the direction back to its sensor.
   std::vector<Eigen::Vector3d> world, to_sensor;
-  for (const DepthView& v : views) {
+  for (const DepthView* view : views) {
+    const DepthView& v = *view;
     checkPose(v, source);
     const Eigen::Vector3d origin = v.world_from_sensor.translation();
     for (const auto& p : v.points) {

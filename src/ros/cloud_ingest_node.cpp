@@ -272,10 +272,11 @@ Eigen::Isometry3d toIsometry(const geometry_msgs::Transform& t) {
   return T;
 }
 
-std::vector<geometry::DepthView> copies(const std::vector<std::shared_ptr<const geometry::DepthView>>& views) {
-  std::vector<geometry::DepthView> out;
+/// Pointers to the views of a snapshot (which keeps them alive while they are fused).
+std::vector<const geometry::DepthView*> pointers(const std::vector<std::shared_ptr<const geometry::DepthView>>& views) {
+  std::vector<const geometry::DepthView*> out;
   out.reserve(views.size());
-  for (const auto& v : views) out.push_back(*v);
+  for (const auto& v : views) out.push_back(v.get());
   return out;
 }
 
@@ -340,7 +341,8 @@ void CloudIngestNode::onDepthPoints(const sensor_msgs::PointCloud2ConstPtr& msg)
       count = views_.size();
     }
     ::ros::Time stamp;
-    const geometry::FusedViews fused = geometry::fuseViews(copies(views(&stamp)), params_.fusion, topic);
+    const auto kept = views(&stamp);
+    const geometry::FusedViews fused = geometry::fuseViews(pointers(kept), params_.fusion, topic);
     const std::string text = view->name + " added (" + std::to_string(view->points.size()) + " points), " +
                              std::to_string(count) + " views fused into " + std::to_string(fused.voxels) +
                              " points (voxel " + numberText(fused.voxel_m, 3) + " m): " +
@@ -370,7 +372,7 @@ bool CloudIngestNode::onFinishViews(std_srvs::Trigger::Request&, std_srvs::Trigg
       throw TopoError(service, "no depth view has been added",
                       "publish depth clouds on " + depth_sub_.getTopic() + " with their tf to " + params_.target_frame +
                           " first");
-    const geometry::FusedViews fused = geometry::fuseViews(copies(kept), params_.fusion, depth_sub_.getTopic());
+    const geometry::FusedViews fused = geometry::fuseViews(pointers(kept), params_.fusion, depth_sub_.getTopic());
     geometry::requireCoverage(fused.coverage, params_.min_coverage,
                               service + " (" + std::to_string(kept.size()) + " views kept; ~min_coverage)",
                               params_.target_frame);

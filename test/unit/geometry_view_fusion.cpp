@@ -149,7 +149,7 @@ TEST(ViewFusion, ObjectOnATableIsRefusedNamingItsUnderside) {
 }
 
 TEST(ViewFusion, BadInputIsNamed) {
-  EXPECT_THROW(geo::fuseViews({}, {}), TopoError);
+  EXPECT_THROW(geo::fuseViews(std::vector<geo::DepthView>{}, {}), TopoError);
   geo::DepthView v;
   v.name = "view 2 (frame cam)";
   v.points = {Eigen::Vector3d(std::nan(""), 0, 0)};

@@ -53,5 +53,8 @@ struct FusedViews {
 /// not a rigid transform, or a voxel grid beyond 2^21 cells per axis.
 FusedViews fuseViews(const std::vector<DepthView>& views, const ViewFusionOptions& options,
                      const std::string& source = "depth views");
+/// The same over views held elsewhere (none null), so a caller that keeps many clouds does not copy them.
+FusedViews fuseViews(const std::vector<const DepthView*>& views, const ViewFusionOptions& options,
+                     const std::string& source = "depth views");
 
 }  // namespace topo_gaussian::geometry
