@@ -125,17 +125,19 @@ class DepthRig {
     return pub_.getNumSubscribers() > 0;
   }
   /// One view of the sphere from kCentre + 0.4 m * dir: its tf (turntable <- depth_camera) at the
-  /// cloud's stamp first, then the cloud.
-  void publishView(const Eigen::Vector3d& dir, const std::string& frame = "depth_camera") {
+  /// cloud's stamp first, then the cloud; a cloud `cloud_age_s` older than its tf is stale.
+  void publishView(const Eigen::Vector3d& dir, const std::string& frame = "depth_camera", double cloud_age_s = 0.0,
+                   bool no_return = false) {
     const topo_test::DepthCamera cam;
-    const geo::DepthView v = topo_test::depthView(topo_test::sphereSolid(kCentre, kR), kCentre + 0.4 * dir.normalized(),
+    geo::DepthView v = topo_test::depthView(topo_test::sphereSolid(kCentre, kR), kCentre + 0.4 * dir.normalized(),
                                                   kCentre, cam, rng_);
     const ros::Time stamp = ros::Time::now();
     const Eigen::Isometry3d turntable_from_camera =
         Eigen::Isometry3d(Eigen::Translation3d(-kTurntable)) * v.world_from_sensor;
     tf_.sendTransform(transformMsg(turntable_from_camera, "turntable", "depth_camera", stamp));
     ros::Duration(0.05).sleep();
-    pub_.publish(cloudMsg(v, cam.width, cam.height, frame, stamp));
+    if (no_return) v.points.assign(v.points.size(), Eigen::Vector3d::Constant(std::nan("")));
+    pub_.publish(cloudMsg(v, cam.width, cam.height, frame, stamp - ros::Duration(cloud_age_s)));
   }
 
  private:
@@ -153,12 +155,14 @@ std_srvs::Trigger call(const std::string& name) {
   return srv;
 }
 
-TEST(CloudIngestViews, CloudsFromUnknownFramesAreSkippedAndTheNodeKeepsServing) {
+TEST(CloudIngestViews, UnknownFramesStaleStampsAndEmptyCloudsAreSkippedAndTheNodeServes) {
   ASSERT_TRUE(g_rig->connected()) << g_node << " does not subscribe /depth_points";
   const std::size_t volumes = g_listen->volumeCount();
   g_rig->publishView(Eigen::Vector3d::UnitX(), "no_such_frame");
   g_rig->publishView(Eigen::Vector3d::UnitX(), "");
-  ros::Duration(2.0).sleep();  // the node waits ~tf_timeout_s (0.5 s) for the unknown frame
+  g_rig->publishView(Eigen::Vector3d::UnitX(), "depth_camera", 30.0);  // beyond tf's 10 s of history
+  g_rig->publishView(Eigen::Vector3d::UnitX(), "depth_camera", 0.0, /*no_return=*/true);
+  ros::Duration(3.0).sleep();  // the node waits ~tf_timeout_s (0.5 s) for each missing transform
   const std_srvs::Trigger srv = call("finish_views");
   EXPECT_FALSE(srv.response.success);
   EXPECT_NE(srv.response.message.find("no depth view"), std::string::npos) << srv.response.message;
