@@ -8,6 +8,10 @@
   the step, and the run went on (on_error: continue);
 - step 4 (a hang on the flat top) was performed, its pitch read, and the inference after it fitted the
   object's two experiments (object_id) and states what they determine and the next experiment.
+Then the Python module on the same graph: topo_gaussian.infer's arrays (points, solid, density, a
+symmetric positive definite inertia), and bad input (an unknown task, an override without '=', a
+missing video, no action server) raised or refused naming it, the inference serving on after it.
+Test methods run in name order: the client's goals come after the plan's.
 """
 import json
 import sys
@@ -21,7 +25,7 @@ from std_srvs.srv import Trigger
 
 
 class ExperimentRunnerOnTheTwin(unittest.TestCase):
-    def test_plan_runs_and_is_recorded(self):
+    def test_a_plan_runs_and_is_recorded(self):
         wait_s = float(rospy.get_param("~wait_s", 560.0))
         result_file = rospy.get_param("~result_file")
         latest = {}
@@ -83,6 +87,46 @@ class ExperimentRunnerOnTheTwin(unittest.TestCase):
         self.assertTrue(last["identifiability"], "the two-experiment result states no identifiability")
         self.assertTrue(last["loop_decision"] or last["loop_continues"], last)
         self.assertIn("hang1.target_pitch_deg=", " ".join(inferences[-1]["goal"]["targets"]))
+
+    # then the Python client on the same graph (after the plan: a new goal would preempt the runner's):
+    # numpy arrays, and bad input named with the nodes serving on
+
+    def test_c_infer_returns_arrays_after_the_refusals(self):
+        import numpy as np
+        import topo_gaussian
+
+        # the node serves on after test_b's refused goal
+        r = topo_gaussian.infer("tumbler", targets={"period_s": 0.93, "max_tilt_deg": 10.0}, max_iterations=1,
+                                ignore_motion_features=True, timeout=300)
+        self.assertEqual(r.points.ndim, 2)
+        self.assertEqual(r.points.shape[1], 3)
+        self.assertGreater(len(r.points), 100)
+        self.assertEqual(r.solid.shape, (len(r.points),))
+        self.assertTrue(np.all((r.solid >= 0) & (r.solid <= 1)))
+        self.assertTrue(np.all(r.density > 0))
+        self.assertGreater(r.mass, 0)
+        self.assertEqual(r.inertia.shape, (3, 3))
+        np.testing.assert_allclose(r.inertia, r.inertia.T, atol=1e-12)
+        self.assertTrue(np.all(np.linalg.eigvalsh(r.inertia) > 0))
+        self.assertEqual(r.com.shape, (3,))
+        self.assertIn("period_s", r.features)
+
+    def test_b_bad_input_is_named(self):
+        import topo_gaussian
+
+        with self.assertRaises(topo_gaussian.TopoClientError) as cm:
+            topo_gaussian.infer("no_such_task", timeout=120)
+        self.assertIn("no_such_task", str(cm.exception))
+        self.assertIn("refused the goal", str(cm.exception))
+        rig = topo_gaussian.perform("bad", "hanging", overrides=["hanging_point"])
+        self.assertFalse(rig.accepted)
+        self.assertIn("is not KEY=VALUE", rig.message)
+        with self.assertRaises(topo_gaussian.TopoClientError) as cm:
+            topo_gaussian.track("/nonexistent/clip.mp4")
+        self.assertIn("/nonexistent/clip.mp4", str(cm.exception))
+        with self.assertRaises(topo_gaussian.TopoClientError) as cm:
+            topo_gaussian.infer("tumbler", action="/no_such_server/infer_interior", server_wait=1.0)
+        self.assertIn("no action server on /no_such_server/infer_interior", str(cm.exception))
 
 
 if __name__ == "__main__":
