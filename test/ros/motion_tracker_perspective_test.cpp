@@ -44,7 +44,7 @@ bool trueTilt(const tf2_ros::Buffer& tf, const ros::Time& stamp, double* deg) {
 
 /// Matches the window (times from its first frame) to the stamps seen: the first frame is the stamp
 /// whose match gives the smallest mean |error| (frames at the same spacing fit any start; the motion
-/// decides).
+/// decides), among those that match at least 90 % of the window's frames.
 Comparison compare(const topo_gaussian::MotionFeatures& f, const std::vector<ros::Time>& stamps,
                    const tf2_ros::Buffer& tf) {
   std::map<std::int64_t, double> truth;  // stamp [ns] -> true tilt
@@ -61,10 +61,7 @@ Comparison compare(const topo_gaussian::MotionFeatures& f, const std::vector<ros
     for (std::size_t i = 0; i < f.time_s.size(); ++i) {
       const std::int64_t want = s0 + std::llround(f.time_s[i] * 1e9);
       auto it = truth.lower_bound(want - tol);
-      if (it == truth.end() || it->first > want + tol) {
-        n = -1;
-        break;
-      }
+      if (it == truth.end() || it->first > want + tol) continue;  // a stamp not seen here, or without tf
       const double e = f.angle_deg[i] - it->second;
       sum_abs += std::abs(e);
       bias += std::abs(f.angle_deg[i]) - std::abs(it->second);
@@ -73,6 +70,7 @@ Comparison compare(const topo_gaussian::MotionFeatures& f, const std::vector<ros
       true_mx = std::max(true_mx, std::abs(it->second));
       ++n;
     }
+    if (n < 0.9 * f.time_s.size()) continue;  // most of the window must be matched
     if (n <= 0 || sum_abs / n >= best_abs) continue;
     best_abs = sum_abs / n;
     best.bias_deg = bias / n;
@@ -107,26 +105,35 @@ TEST(MotionTrackerPerspective, CloserTiltedCameraReadsTheTrueTilt) {
         }));
   // the twin simulates first (tens of seconds on a shared machine), then a 6 s window fills
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(400.0);
-  while (ros::WallTime::now() < deadline) {
+  std::map<std::string, topo_gaussian::MotionFeatures> windows;
+  while (ros::WallTime::now() < deadline && windows.size() < 2) {
     {
       std::lock_guard<std::mutex> l(mu);
-      if (latest.size() == 2) break;
+      if (latest.size() == 2) windows = latest;
     }
     ros::WallDuration(0.2).sleep();
   }
-  ros::WallDuration(0.5).sleep();  // the last frames' tf
-  std::lock_guard<std::mutex> l(mu);
-  ASSERT_EQ(latest.size(), 2u) << "no complete tilt window from both trackers";
-  const Comparison p = compare(latest["persp"], stamps, tf), o = compare(latest["flat"], stamps, tf);
+  ASSERT_EQ(windows.size(), 2u) << "no complete tilt window from both trackers";
+  ros::WallDuration(2.0).sleep();  // the stamps and tf of the windows' last frames arrive here too
+  std::vector<ros::Time> seen;
+  {
+    std::lock_guard<std::mutex> l(mu);
+    seen = stamps;
+  }
+  const auto& persp = windows["persp"];
+  const auto& flat = windows["flat"];
+  const Comparison p = compare(persp, seen, tf), o = compare(flat, seen, tf);
   std::printf(
       "[perspective] in the plane through the camera: tilt bias %+.4f deg, worst frame %.3f deg, max tilt %.3f deg "
       "(true %.3f), %d frames\n[perspective] image angles: tilt bias %+.4f deg, worst frame %.3f deg, max tilt %.3f "
       "deg (true %.3f), %d frames\n",
       p.bias_deg, p.worst_deg, p.max_tilt_deg, p.true_max_tilt_deg, p.frames, o.bias_deg, o.worst_deg, o.max_tilt_deg,
       o.true_max_tilt_deg, o.frames);
-  ASSERT_GE(p.frames, 150) << latest["persp"].message;
-  ASSERT_GE(o.frames, 150) << latest["flat"].message;
-  EXPECT_NE(latest["persp"].message.find("perspective"), std::string::npos) << latest["persp"].message;
+  std::printf("[perspective] %zu image stamps seen; windows of %zu and %zu frames\n", seen.size(),
+              persp.time_s.size(), flat.time_s.size());
+  ASSERT_GE(p.frames, 135) << persp.message;  // 90 % of a window of at least 150 frames
+  ASSERT_GE(o.frames, 135) << flat.message;
+  EXPECT_NE(persp.message.find("perspective"), std::string::npos) << persp.message;
   EXPECT_LT(std::abs(p.bias_deg), 0.05);
   EXPECT_GT(std::abs(o.bias_deg), 4 * std::abs(p.bias_deg));  // the camera's tilt matters here
 }
