@@ -252,3 +252,37 @@ def _parse_step(i, raw, plan_task, plan_on_error, plan_timeout_s, plan_max_itera
     if kind in ("observe", "pressure", "pause") and not opts["task"] and (kind != "pause" or opts["observe"]):
         raise PlanError("%s (%s): no task for its experiment: give 'task: tumbler' in the step or the plan" % (where, kind))
     return Step(i, kind, value, opts)
+
+
+class Experiment:
+    """What a step added to the next inference: its name ("" = unnamed), task, set-up overrides and
+    targets ("KEY=VALUE", without the name), the camera's window (a MotionFeatures message or None),
+    whether the rig read its pose (its targets are the readings) and the timer's relative resolution."""
+
+    def __init__(self, step, name, task, overrides, targets, window=None, pose_read=False, period_tolerance=0.0):
+        self.step, self.name, self.task = step, name, task
+        self.overrides, self.targets = list(overrides), list(targets)
+        self.window, self.pose_read, self.period_tolerance = window, pose_read, period_tolerance
+
+
+def goal_arguments(experiments):
+    """topo_gaussian.infer() keyword arguments for the experiments since the last inference: one
+    unnamed experiment is a plain task goal with its window; otherwise each goes by its name (an
+    unnamed one as stepN) with its overrides and targets prefixed "NAME.", and a single one brings its
+    window along (the node takes the latest tagged window of each of several)."""
+    if len(experiments) == 1 and not experiments[0].name:
+        e = experiments[0]
+        return dict(task=e.task, overrides=e.overrides, targets=e.targets, features=e.window)
+    names, overrides, targets = [], [], []
+    for e in experiments:
+        name = e.name or "step%d" % e.step.index
+        names.append("%s=%s" % (name, e.task))
+        overrides += ["%s.%s" % (name, o) for o in e.overrides]
+        targets += ["%s.%s" % (name, t) for t in e.targets]
+        if e.period_tolerance > 0:
+            overrides.append("%s.axle_period_tolerance=%.3g" % (name, e.period_tolerance))
+    kw = dict(experiments=names, overrides=overrides, targets=targets,
+              ignore_motion_features=all(e.pose_read for e in experiments))
+    if len(experiments) == 1 and experiments[0].window is not None:
+        kw["features"] = experiments[0].window
+    return kw

@@ -6,7 +6,7 @@ import os
 import sys
 import unittest
 
-from topo_gaussian.experiment_plan import PlanError, parse_plan
+from topo_gaussian.experiment_plan import Experiment, PlanError, goal_arguments, parse_plan
 
 PKG_DIR = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 
@@ -101,6 +101,25 @@ class PlanParsing(unittest.TestCase):
         self.refused("steps: [{observe: a, task: t}, {perform: a, task: hanging}]", "step 2",
                      "'a' is already step 1's")
         self.refused("steps: [observe: a\n  - x", "not valid YAML")
+
+    def test_goals_of_one_and_of_several_experiments(self):
+        plan = parse_plan(TUMBLER)
+        observe, hang, pause = plan.steps
+        window = object()
+        single = goal_arguments([Experiment(observe, "", "tumbler", ["measured_cycles=1"], [], window)])
+        self.assertEqual(single, dict(task="tumbler", overrides=["measured_cycles=1"], targets=[], features=window))
+        performed = Experiment(hang, "hang1", "hanging", hang.overrides, ["target_pitch_deg=12.5"], None, True, 0.002)
+        kw = goal_arguments([performed])
+        self.assertEqual(kw["experiments"], ["hang1=hanging"])
+        self.assertEqual(kw["overrides"], ["hang1.hanging_point=0,0.04,0.02", "hang1.axle_period_tolerance=0.002"])
+        self.assertEqual(kw["targets"], ["hang1.target_pitch_deg=12.5"])
+        self.assertTrue(kw["ignore_motion_features"])
+        # infer: end: all of them in one goal, the unnamed one as step1, the camera's windows from the node
+        joint = goal_arguments([Experiment(observe, "", "tumbler", [], [], window), performed,
+                                Experiment(pause, "hangB", "hanging", [], [], window)])
+        self.assertEqual(joint["experiments"], ["step1=tumbler", "hang1=hanging", "hangB=hanging"])
+        self.assertFalse(joint["ignore_motion_features"])
+        self.assertNotIn("features", joint)
 
     def test_the_shipped_plans_parse(self):
         folder = os.path.join(PKG_DIR, "config", "plans")
